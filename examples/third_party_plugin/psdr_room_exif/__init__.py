@@ -1,0 +1,41 @@
+"""psdr-room plugin: the vertical field of view from the photo's EXIF 35 mm-equivalent focal length."""
+
+import math
+from pathlib import Path
+
+import PIL.Image
+
+from psdr_room_core.artifacts import Camera, Image
+from psdr_room_core.hookspecs import hookimpl
+
+FOCAL_35MM = 0xA405  # EXIF FocalLengthIn35mmFilm, in the Exif sub-IFD
+FULL_FRAME_DIAGONAL_MM = math.hypot(36.0, 24.0)
+
+
+class ExifFov:
+    """Focal length from EXIF FocalLengthIn35mmFilm; ``fallback_vfov_deg`` when the tag is missing."""
+
+    def __init__(self, fallback_vfov_deg: float) -> None:
+        self.fallback_vfov_deg = fallback_vfov_deg
+
+    def external_files(self, photo: Path) -> list[Path]:
+        return [photo]  # the EXIF tags are read from the photo itself
+
+    def estimate(self, image: Image, photo: Path) -> Camera:
+        with PIL.Image.open(photo) as pil:
+            focal_35mm = pil.getexif().get_ifd(0x8769).get(FOCAL_35MM)
+        if not focal_35mm:
+            return Camera.from_vfov(image.width, image.height, self.fallback_vfov_deg, method="exif/fallback", confidence=0.0)
+        focal_px = float(focal_35mm) / FULL_FRAME_DIAGONAL_MM * math.hypot(image.width, image.height)
+        vfov = math.degrees(2 * math.atan(0.5 * image.height / focal_px))
+        return Camera.from_vfov(image.width, image.height, vfov, method="exif")
+
+
+@hookimpl
+def register_implementations(registry):
+    registry.add_implementation("fov", "exif", ExifFov)
+
+
+@hookimpl
+def conf_searchpath():
+    return "pkg://psdr_room_exif"  # holds fov/exif.yaml

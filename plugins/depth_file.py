@@ -1,0 +1,69 @@
+"""``depth=file``: depth read from a file beside the photo (a sensor's depth, or any estimate a user saved).
+
+Conventions: 16-bit PNG in units of 1/scale metres (NYU and SUN RGB-D ``scale=1000``, TUM ``5000``), the
+SUN RGB-D bit-rotated PNG (``encoding=sun``), float EXR or NPY. Encoding and scale come from the config,
+else from ``<photo stem>.depth.json`` (``{"encoding": "png16", "scale": 1000}``), else the defaults.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from psdr_room_core.artifacts import Camera, DepthMap, Image
+from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.hookspecs import hookimpl
+from psdr_room_core.plugins import Registry
+
+from .sidecar_depth import DEPTH_SUFFIXES, SidecarError, find_depth_sidecar, read_depth, read_depth_options
+
+
+class FileDepth:
+    """Depth from ``<photo stem>.depth.png|.exr|.npy`` (or ``path``), resized to the working image."""
+
+    def __init__(self, path: str | None = None, encoding: str = "auto", scale: float | None = None) -> None:
+        self.path = Path(path).expanduser() if path else None
+        self.encoding = encoding
+        self.scale = scale
+
+    def _locate(self, photo: Path) -> Path:
+        found = self.path or find_depth_sidecar(photo)
+        if found is None:
+            names = " or ".join(photo.stem + s for s in DEPTH_SUFFIXES)
+            raise PsdrRoomError(
+                f"{photo}: no depth file beside it ({names}); add one, set depth.file.path=FILE, "
+                "or choose another depth implementation (psdr-room-plugins lists them)"
+            )
+        return found
+
+    def external_files(self, photo: Path) -> list[Path]:
+        depth = self.path or find_depth_sidecar(photo)
+        return [] if depth is None else [depth, depth.with_suffix(".json")]
+
+    def estimate(self, image: Image, camera: Camera, photo: Path) -> DepthMap:
+        path = self._locate(photo)
+        try:
+            options = read_depth_options(path)
+            if self.encoding != "auto":
+                options["encoding"] = self.encoding
+            if self.scale is not None:
+                options["scale"] = float(self.scale)
+            depth, valid = read_depth(path, **options)
+        except SidecarError as exc:
+            raise PsdrRoomError(str(exc)) from None
+        if abs(depth.shape[1] / depth.shape[0] - image.width / image.height) > 0.01:
+            raise PsdrRoomError(
+                f"{path}: depth is {depth.shape[1]}x{depth.shape[0]} but the photo is {image.original_size[0]}x"
+                f"{image.original_size[1]}; the depth map must be aligned with the photo (same aspect ratio)"
+            )
+        size = (image.width, image.height)
+        depth = cv2.resize(depth, size, interpolation=cv2.INTER_NEAREST)
+        valid = cv2.resize(valid.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST).astype(bool)
+        return DepthMap(depth=depth, valid=valid, metric=path.suffix.lower() == ".png", source=str(path))
+
+
+@hookimpl
+def register_implementations(registry: Registry) -> None:
+    registry.add_implementation("depth", "file", FileDepth)

@@ -1,0 +1,52 @@
+"""``fov`` implementations: ``vanishing_points`` (offline estimate from the photo's lines) and ``fixed``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from psdr_room_core.artifacts import Camera, Image
+from psdr_room_core.hookspecs import hookimpl
+from psdr_room_core.plugins import Registry
+
+
+
+class VanishingPointsFov:
+    """Focal length from orthogonal vanishing points of the photo's line segments (fallback: a fixed FoV)."""
+
+    def __init__(self, **params: object) -> None:
+        from .vanishing_points import VanishingPointParams  # scipy is slow to import: only when selected
+
+        self.params = VanishingPointParams(**params)
+
+    def estimate(self, image: Image, photo: Path) -> Camera:
+        from .vanishing_points import estimate_camera
+
+        result = estimate_camera(image.rgb, self.params)
+        return Camera(
+            width=image.width,
+            height=image.height,
+            fx=result.focal_px,
+            fy=result.focal_px,
+            cx=result.cx,
+            cy=result.cy,
+            method=f"vanishing_points/{result.method}",
+            confidence=result.confidence,
+            extra={"vanishing_points": [list(map(float, v)) for v in result.vanishing_points],
+                   "segments": result.n_segments},
+        )
+
+
+class FixedFov:
+    """A fixed vertical field of view (square pixels, centred principal point)."""
+
+    def __init__(self, vfov_deg: float) -> None:
+        self.vfov_deg = float(vfov_deg)
+
+    def estimate(self, image: Image, photo: Path) -> Camera:
+        return Camera.from_vfov(image.width, image.height, self.vfov_deg, method="fixed")
+
+
+@hookimpl
+def register_implementations(registry: Registry) -> None:
+    registry.add_implementation("fov", "vanishing_points", VanishingPointsFov)
+    registry.add_implementation("fov", "fixed", FixedFov)

@@ -1,0 +1,69 @@
+"""``segmentation=file``: a panoptic segmentation drawn or corrected by a user, read from beside the photo.
+
+Formats: LabelMe polygons (``<photo stem>.labelme.json``: draw or fix masks in the LabelMe tool) or
+COCO panoptic (``<photo stem>.panoptic.png`` + ``.panoptic.json``, what the ``segment`` stage saves).
+Class names are mapped to the room categories (wall, floor, ceiling, window, door, lamp, object).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from psdr_room_core.artifacts import Image, Panoptic, Segment
+from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.hookspecs import hookimpl
+from psdr_room_core.plugins import Registry
+
+from .sidecar_depth import SidecarError
+from .sidecar_segmentation import find_segmentation_sidecar, panoptic_json_for, read_coco_panoptic, read_labelme
+
+
+class FileSegmentation:
+    """Segments from a LabelMe JSON or a COCO-panoptic PNG+JSON (``path``, or found beside the photo)."""
+
+    def __init__(self, path: str | None = None) -> None:
+        self.path = Path(path).expanduser() if path else None
+
+    def _locate(self, photo: Path) -> tuple[str, Path]:
+        if self.path is not None:
+            return ("labelme" if self.path.suffix.lower() == ".json" else "coco_panoptic", self.path)
+        found = find_segmentation_sidecar(photo)
+        if found is None:
+            raise PsdrRoomError(
+                f"{photo}: no segmentation beside it ({photo.stem}.labelme.json or {photo.stem}.panoptic.png); "
+                "draw one with LabelMe, set segmentation.file.path=FILE, or choose another segmentation implementation"
+            )
+        return found
+
+    def external_files(self, photo: Path) -> list[Path]:
+        if self.path is None and find_segmentation_sidecar(photo) is None:
+            return []
+        kind, path = self._locate(photo)
+        return [path] if kind == "labelme" else [path, panoptic_json_for(path)]
+
+    def segment(self, image: Image, photo: Path) -> Panoptic:
+        kind, path = self._locate(photo)
+        try:
+            if kind == "labelme":
+                ids, segments = read_labelme(path, (image.height, image.width))
+            else:
+                ids, segments = read_coco_panoptic(path, panoptic_json_for(path))
+        except SidecarError as exc:
+            raise PsdrRoomError(str(exc)) from None
+        if ids.shape != (image.height, image.width):
+            if abs(ids.shape[1] / ids.shape[0] - image.width / image.height) > 0.01:
+                raise PsdrRoomError(f"{path}: segmentation is {ids.shape[1]}x{ids.shape[0]}, not aligned with the photo")
+            ids = cv2.resize(ids, (image.width, image.height), interpolation=cv2.INTER_NEAREST)
+        present = set(np.unique(ids).tolist())
+        return Panoptic(
+            ids=ids.astype(np.int32),
+            segments=[Segment(id=int(s.id), category=s.category, label=s.label) for s in segments if s.id in present],
+        )
+
+
+@hookimpl
+def register_implementations(registry: Registry) -> None:
+    registry.add_implementation("segmentation", "file", FileSegmentation)

@@ -1,0 +1,436 @@
+"""Typed artifacts: what stages pass to each other, each saved as ordinary files a user can open and edit.
+
+Every artifact is a dataclass with a ``kind`` (its name in cache manifests), ``save(directory)`` writing
+standard formats (PNG, NPY, JSON, PLY, XML) and ``load(directory)`` reading them back. An artifact's
+identity in the cache is the digest of the files it saves, so two equal artifacts have equal digests.
+
+Coordinate conventions used throughout:
+
+* image pixels: x right, y down, origin at the top-left corner of the top-left pixel;
+* camera frame: OpenCV (x right, y down, z forward), in the units of the depth;
+* world frame: Y up, the floor is ``y = 0``, the camera centre is at ``(0, h, 0)``, and world +Z is the
+  optical axis projected on the floor.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, ClassVar, Protocol, runtime_checkable
+
+import cv2
+import numpy as np
+
+from .errors import PsdrRoomError
+
+CATEGORIES = ("wall", "floor", "ceiling", "window", "door", "lamp", "object")
+"""Room categories a segmentation is mapped to; the room stage uses wall/floor/ceiling."""
+
+ROOM_CATEGORIES = ("wall", "floor", "ceiling")
+
+
+@runtime_checkable
+class Artifact(Protocol):
+    """What every artifact type provides."""
+
+    kind: ClassVar[str]
+    marker: ClassVar[str]
+    """A file every saved artifact of this kind has: how a directory's kind is recognised."""
+
+    def save(self, directory: Path) -> None:
+        """Write the artifact's files into ``directory`` (which exists and is empty)."""
+
+    @classmethod
+    def load(cls, directory: Path) -> "Artifact":
+        """Read an artifact written by :meth:`save` (possibly edited by a user)."""
+
+
+def _write_json(path: Path, data: Any) -> None:
+    path.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")
+
+
+def _read_json(path: Path) -> Any:
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise PsdrRoomError(f"{path}: missing; the artifact directory is incomplete") from None
+    except json.JSONDecodeError as exc:
+        raise PsdrRoomError(f"{path}: invalid JSON ({exc.msg} at line {exc.lineno}); fix or regenerate it") from None
+
+
+def _read_npy(path: Path) -> np.ndarray:
+    try:
+        return np.load(path, allow_pickle=False)
+    except FileNotFoundError:
+        raise PsdrRoomError(f"{path}: missing; the artifact directory is incomplete") from None
+    except ValueError as exc:
+        raise PsdrRoomError(f"{path}: not a readable .npy array ({exc}); regenerate it") from None
+
+
+def _write_png(path: Path, array: np.ndarray) -> None:
+    """Write an RGB (HxWx3) or gray array; uint8/uint16 as is."""
+    if array.ndim == 3:
+        array = array[..., ::-1]
+    if not cv2.imwrite(str(path), np.ascontiguousarray(array)):
+        raise PsdrRoomError(f"{path}: could not be written; check the directory is writable")
+
+
+def _read_png(path: Path) -> np.ndarray:
+    data = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if data is None:
+        raise PsdrRoomError(f"{path}: missing or not a readable PNG; regenerate it")
+    return data[..., ::-1].copy() if data.ndim == 3 else data
+
+
+# --------------------------------------------------------------------------------------------- image
+@dataclass
+class Image:
+    """The input photo at working resolution: float32 HxWx3 sRGB in [0, 1]."""
+
+    kind: ClassVar[str] = "image"
+    marker: ClassVar[str] = "image.json"
+    rgb: np.ndarray
+    source: str = ""
+    """The photo's path as given by the user (a record, not an input)."""
+    original_size: tuple[int, int] = (0, 0)
+    """(width, height) of the photo before resizing, after EXIF orientation."""
+
+    @property
+    def height(self) -> int:
+        return int(self.rgb.shape[0])
+
+    @property
+    def width(self) -> int:
+        return int(self.rgb.shape[1])
+
+    def to_uint8(self) -> np.ndarray:
+        return np.clip(np.rint(self.rgb * 255.0), 0, 255).astype(np.uint8)
+
+    def save(self, directory: Path) -> None:
+        _write_png(directory / "image.png", np.clip(np.rint(self.rgb * 65535.0), 0, 65535).astype(np.uint16))
+        _write_json(directory / "image.json", {"source": self.source, "original_size": list(self.original_size)})
+
+    @classmethod
+    def load(cls, directory: Path) -> "Image":
+        data = _read_png(directory / "image.png")
+        scale = 65535.0 if data.dtype == np.uint16 else 255.0
+        meta = _read_json(directory / "image.json")
+        rgb = (data.astype(np.float32) / scale)[..., :3]
+        return cls(rgb=rgb, source=meta["source"], original_size=tuple(meta["original_size"]))
+
+
+# -------------------------------------------------------------------------------------------- camera
+@dataclass
+class Camera:
+    """Pinhole intrinsics in pixels of the working image, with the estimate's provenance."""
+
+    kind: ClassVar[str] = "camera"
+    marker: ClassVar[str] = "camera.json"
+    width: int
+    height: int
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    method: str = ""
+    """How the intrinsics were obtained (e.g. ``vanishing_points/orthogonal_triplet``, ``fixed``)."""
+    confidence: float = 1.0
+    extra: dict[str, Any] = field(default_factory=dict)
+    """Estimator details kept for inspection (vanishing points, segment counts, ...)."""
+
+    @classmethod
+    def from_vfov(cls, width: int, height: int, vfov_deg: float, **kwargs: Any) -> "Camera":
+        fy = 0.5 * height / math.tan(math.radians(vfov_deg) / 2.0)
+        return cls(width=width, height=height, fx=fy, fy=fy, cx=width / 2.0, cy=height / 2.0, **kwargs)
+
+    @property
+    def vfov_deg(self) -> float:
+        return math.degrees(2.0 * math.atan(0.5 * self.height / self.fy))
+
+    @property
+    def K(self) -> np.ndarray:
+        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
+
+    def save(self, directory: Path) -> None:
+        data = {k: v for k, v in asdict(self).items()}
+        data["vfov_deg"] = self.vfov_deg
+        _write_json(directory / "camera.json", data)
+
+    @classmethod
+    def load(cls, directory: Path) -> "Camera":
+        data = _read_json(directory / "camera.json")
+        data.pop("vfov_deg", None)
+        return cls(**data)
+
+
+# --------------------------------------------------------------------------------------------- depth
+@dataclass
+class DepthMap:
+    """Per-pixel z-depth (distance along the optical axis) at working resolution.
+
+    ``metric`` says whether the unit is metres (sensor depth) or an unknown scale (monocular estimates,
+    which the paper normalises to a unit range).
+    """
+
+    kind: ClassVar[str] = "depth"
+    marker: ClassVar[str] = "depth.json"
+    depth: np.ndarray
+    valid: np.ndarray
+    metric: bool = True
+    source: str = ""
+
+    def save(self, directory: Path) -> None:
+        np.save(directory / "depth.npy", self.depth.astype(np.float32))
+        _write_png(directory / "valid.png", self.valid.astype(np.uint8) * 255)
+        _write_json(directory / "depth.json", {"metric": self.metric, "source": self.source})
+
+    @classmethod
+    def load(cls, directory: Path) -> "DepthMap":
+        meta = _read_json(directory / "depth.json")
+        depth = _read_npy(directory / "depth.npy").astype(np.float32)
+        valid = _read_png(directory / "valid.png") > 0
+        return cls(depth=depth, valid=valid & np.isfinite(depth) & (depth > 0), **meta)
+
+
+# ------------------------------------------------------------------------------------------ panoptic
+@dataclass(frozen=True)
+class Segment:
+    """One segment of a panoptic segmentation."""
+
+    id: int
+    category: str
+    """One of :data:`CATEGORIES`."""
+    label: str
+    """The class name the segmenter or annotator gave (e.g. ``wardrobe``)."""
+
+
+@dataclass
+class Panoptic:
+    """Panoptic segmentation at working resolution: an int32 id map (0 = unlabelled) and its segments.
+
+    Saved as a COCO-panoptic PNG (id = R + 256 G + 256² B) and JSON, the same format the ``file``
+    segmentation implementation reads, so a corrected segmentation can be fed back in.
+    """
+
+    kind: ClassVar[str] = "panoptic"
+    marker: ClassVar[str] = "panoptic.json"
+    ids: np.ndarray
+    segments: list[Segment]
+
+    def mask(self, category: str) -> np.ndarray:
+        wanted = [s.id for s in self.segments if s.category == category]
+        return np.isin(self.ids, wanted)
+
+    def save(self, directory: Path) -> None:
+        ids = self.ids.astype(np.uint32)
+        rgb = np.stack([ids & 255, (ids >> 8) & 255, (ids >> 16) & 255], axis=-1).astype(np.uint8)
+        _write_png(directory / "panoptic.png", rgb)
+        names = sorted({s.category for s in self.segments} | set(CATEGORIES), key=CATEGORIES.index)
+        cat_id = {name: i + 1 for i, name in enumerate(names)}
+        _write_json(
+            directory / "panoptic.json",
+            {
+                "file_name": "panoptic.png",
+                "segments_info": [
+                    {"id": s.id, "category_id": cat_id[s.category], "label": s.label} for s in self.segments
+                ],
+                "categories": [{"id": i, "name": n} for n, i in cat_id.items()],
+            },
+        )
+
+    @classmethod
+    def load(cls, directory: Path) -> "Panoptic":
+        rgb = _read_png(directory / "panoptic.png").astype(np.int32)
+        ids = rgb[..., 0] + 256 * rgb[..., 1] + 65536 * rgb[..., 2]
+        meta = _read_json(directory / "panoptic.json")
+        names = {c["id"]: c["name"] for c in meta["categories"]}
+        segments = [
+            Segment(id=int(s["id"]), category=names[s["category_id"]], label=s.get("label", names[s["category_id"]]))
+            for s in meta["segments_info"]
+        ]
+        return cls(ids=ids.astype(np.int32), segments=segments)
+
+
+# --------------------------------------------------------------------------------------- point cloud
+PLY_FIELDS = [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("red", "u1"), ("green", "u1"), ("blue", "u1"),
+              ("segment", "<i4")]
+PLY_TYPES = {"<f4": "float", "u1": "uchar", "<i4": "int"}
+
+
+def ply_bytes(points: np.ndarray, colors: np.ndarray, segment: np.ndarray) -> bytes:
+    """Binary little-endian PLY with per-vertex colour and an integer ``segment`` property."""
+    data = np.empty(len(points), dtype=PLY_FIELDS)
+    data["x"], data["y"], data["z"] = points[:, 0], points[:, 1], points[:, 2]
+    data["red"], data["green"], data["blue"] = colors[:, 0], colors[:, 1], colors[:, 2]
+    data["segment"] = segment
+    header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(points)}"]
+    header += [f"property {PLY_TYPES[t]} {name}" for name, t in PLY_FIELDS] + ["end_header"]
+    return ("\n".join(header) + "\n").encode("ascii") + data.tobytes()
+
+
+def read_ply(path: Path) -> np.ndarray:
+    """Read a PLY written by :func:`ply_bytes` (structured array with :data:`PLY_FIELDS`)."""
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise PsdrRoomError(f"{path}: missing; the artifact directory is incomplete") from None
+    end = raw.find(b"end_header\n")
+    header = raw[:end].decode("ascii", "replace").splitlines()
+    expected = [f"property {PLY_TYPES[t]} {name}" for name, t in PLY_FIELDS]
+    if end < 0 or header[1:2] != ["format binary_little_endian 1.0"] or header[3:] != expected:
+        raise PsdrRoomError(f"{path}: not a psdr-room point cloud PLY (binary, x y z red green blue segment)")
+    count = int(header[2].split()[-1])
+    return np.frombuffer(raw[end + len(b"end_header\n"):], dtype=PLY_FIELDS, count=count)
+
+
+@dataclass
+class PointCloud:
+    """The segmented point cloud in the camera frame, with a segment id per point (see ``segments``)."""
+
+    kind: ClassVar[str] = "point_cloud"
+    marker: ClassVar[str] = "points.ply"
+    points: np.ndarray
+    colors: np.ndarray
+    segment: np.ndarray
+    segments: list[Segment]
+
+    def category_points(self, category: str) -> np.ndarray:
+        wanted = [s.id for s in self.segments if s.category == category]
+        return self.points[np.isin(self.segment, wanted)]
+
+    def save(self, directory: Path) -> None:
+        (directory / "points.ply").write_bytes(ply_bytes(self.points, self.colors, self.segment))
+        _write_json(directory / "segments.json", [asdict(s) for s in self.segments])
+
+    @classmethod
+    def load(cls, directory: Path) -> "PointCloud":
+        data = read_ply(directory / "points.ply")
+        segments = [Segment(**s) for s in _read_json(directory / "segments.json")]
+        points = np.stack([data["x"], data["y"], data["z"]], axis=1).astype(np.float32)
+        colors = np.stack([data["red"], data["green"], data["blue"]], axis=1)
+        return cls(points=points, colors=colors, segment=data["segment"].astype(np.int32), segments=segments)
+
+
+# -------------------------------------------------------------------------------------------- room box
+def rotation_y(angle: float) -> np.ndarray:
+    """Rotation by ``angle`` radians about +Y."""
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+@dataclass
+class RoomBox:
+    """The room as a box in the world frame, and the camera's pose in that frame.
+
+    World corner = ``center + R_y(yaw) @ (±hx, ±hy, ±hz)``; the floor is ``y = 0`` so ``center[1] ==
+    half_size[1]`` for a box standing on the floor.
+    """
+
+    kind: ClassVar[str] = "room_box"
+    marker: ClassVar[str] = "room_box.json"
+    camera_to_world: np.ndarray
+    center: np.ndarray
+    half_size: np.ndarray
+    yaw: float
+    ceiling_visible: bool = True
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def corners(self) -> np.ndarray:
+        """The 8 world-space corners, index bits (x, y, z) → sign (-, +)."""
+        signs = np.array([[(i >> 0) & 1, (i >> 1) & 1, (i >> 2) & 1] for i in range(8)]) * 2.0 - 1.0
+        return self.center + (signs * self.half_size) @ rotation_y(self.yaw).T
+
+    def save(self, directory: Path) -> None:
+        _write_json(
+            directory / "room_box.json",
+            {
+                "camera_to_world": np.asarray(self.camera_to_world).tolist(),
+                "center": np.asarray(self.center).tolist(),
+                "half_size": np.asarray(self.half_size).tolist(),
+                "yaw": float(self.yaw),
+                "ceiling_visible": bool(self.ceiling_visible),
+                "extra": self.extra,
+            },
+        )
+
+    @classmethod
+    def load(cls, directory: Path) -> "RoomBox":
+        d = _read_json(directory / "room_box.json")
+        return cls(
+            camera_to_world=np.array(d["camera_to_world"], dtype=np.float64),
+            center=np.array(d["center"], dtype=np.float64),
+            half_size=np.array(d["half_size"], dtype=np.float64),
+            yaw=float(d["yaw"]),
+            ceiling_visible=bool(d["ceiling_visible"]),
+            extra=d.get("extra", {}),
+        )
+
+
+# ---------------------------------------------------------------------------------- object placements
+@dataclass(frozen=True)
+class Placement:
+    """One retrieved object placed in the world: a mesh file and its 4x4 object-to-world matrix."""
+
+    segment_id: int
+    category: str
+    mesh: str
+    to_world: tuple[tuple[float, ...], ...]
+
+
+@dataclass
+class Placements:
+    """The objects of the scene (filled by the object stage)."""
+
+    kind: ClassVar[str] = "placements"
+    marker: ClassVar[str] = "placements.json"
+    objects: list[Placement]
+
+    def save(self, directory: Path) -> None:
+        _write_json(directory / "placements.json", [asdict(p) for p in self.objects])
+
+    @classmethod
+    def load(cls, directory: Path) -> "Placements":
+        items = _read_json(directory / "placements.json")
+        return cls(objects=[Placement(**{**p, "to_world": tuple(map(tuple, p["to_world"]))}) for p in items])
+
+
+# ------------------------------------------------------------------------------------------ scene files
+@dataclass
+class SceneFiles:
+    """An exported scene: a directory of files (``scene.xml`` for Mitsuba 3, meshes, point cloud)."""
+
+    kind: ClassVar[str] = "scene_files"
+    marker: ClassVar[str] = "scene.xml"
+    files: dict[str, bytes]
+    """Relative path → content."""
+
+    def save(self, directory: Path) -> None:
+        for rel, content in self.files.items():
+            target = directory / rel
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_bytes(content)
+
+    @classmethod
+    def load(cls, directory: Path) -> "SceneFiles":
+        return cls(files={p.relative_to(directory).as_posix(): p.read_bytes()
+                          for p in sorted(directory.rglob("*")) if p.is_file()})
+
+
+ARTIFACT_TYPES: dict[str, type] = {
+    t.kind: t for t in (Image, Camera, DepthMap, Panoptic, PointCloud, RoomBox, Placements, SceneFiles)
+}
+"""Artifact kind → class, for loading cached or user-supplied artifacts. Plugins may add their own."""
+
+def artifact_kind_of(directory: Path) -> str:
+    """Recognise a saved artifact directory (as published under a run's ``artifacts/``) by its files."""
+    if not directory.is_dir():
+        raise PsdrRoomError(f"{directory}: not a directory; inject.NAME= takes an artifact directory from a run's artifacts/")
+    for kind, cls in ARTIFACT_TYPES.items():
+        if (directory / cls.marker).is_file():
+            return kind
+    raise PsdrRoomError(
+        f"{directory}: not a saved artifact (none of {', '.join(sorted(c.marker for c in ARTIFACT_TYPES.values()))}); "
+        "use a directory from a run's artifacts/"
+    )

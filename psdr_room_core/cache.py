@@ -1,0 +1,181 @@
+"""Content-addressed stage cache: keys from what a stage computes on, entries committed atomically.
+
+A stage's key hashes its name, its function's and implementations' names and versions, its resolved
+config, and the digests of its inputs (artifacts, and files it reads such as the photo). An entry is a
+directory ``<root>/entries/<key[:2]>/<key>/`` with one sub-directory per output artifact and a
+``manifest.json`` naming each output's kind and content digest. Entries are written into
+``<root>/tmp/`` and renamed into place, so a reader sees a complete entry or none; a per-key file lock
+lets concurrent processes (a multirun, or two users on a shared cache) compute each entry once.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import hashlib
+import json
+import os
+import shutil
+import socket
+import time
+import uuid
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from .artifacts import ARTIFACT_TYPES, Artifact
+from .errors import PsdrRoomError
+
+SCHEMA = 1
+CACHE_MODES = ("off", "read", "readwrite")
+
+
+def canonical_json(value: Any) -> str:
+    """Deterministic JSON for hashing (sorted keys, no whitespace, tuples as lists)."""
+    return json.dumps(value, sort_keys=True, separators=(",", ":"), default=str)
+
+
+def digest_file(path: Path) -> str:
+    h = hashlib.sha256()
+    with path.open("rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def digest_dir(directory: Path) -> str:
+    """Digest of a directory's files: their relative paths and contents, in sorted order."""
+    h = hashlib.sha256()
+    for path in sorted(p for p in directory.rglob("*") if p.is_file()):
+        h.update(path.relative_to(directory).as_posix().encode() + b"\0")
+        h.update(digest_file(path).encode())
+    return h.hexdigest()
+
+
+def stage_key(
+    stage: str,
+    function: str,
+    function_version: str,
+    config: Mapping[str, Any],
+    implementations: Mapping[str, Mapping[str, Any]],
+    inputs: Mapping[str, str],
+    files: Mapping[str, str],
+) -> str:
+    """The cache key of one stage execution.
+
+    ``implementations`` maps capability → {name, version, params}; ``inputs`` maps input name → artifact
+    digest; ``files`` maps file role → content digest.
+    """
+    payload = {
+        "schema": SCHEMA,
+        "stage": stage,
+        "function": [function, function_version],
+        "config": config,
+        "implementations": implementations,
+        "inputs": inputs,
+        "files": files,
+    }
+    return hashlib.sha256(canonical_json(payload).encode()).hexdigest()
+
+
+@dataclass(frozen=True)
+class Entry:
+    """A committed cache entry."""
+
+    key: str
+    path: Path
+    manifest: dict[str, Any]
+
+    @property
+    def digests(self) -> dict[str, str]:
+        return {name: out["digest"] for name, out in self.manifest["outputs"].items()}
+
+    def load(self, name: str) -> Artifact:
+        kind = self.manifest["outputs"][name]["kind"]
+        return ARTIFACT_TYPES[kind].load(self.path / name)
+
+
+def save_artifacts(outputs: Mapping[str, Artifact], directory: Path) -> dict[str, dict[str, str]]:
+    """Save each output under ``directory/<name>/``; return {name: {kind, digest}}."""
+    described = {}
+    for name, artifact in outputs.items():
+        target = directory / name
+        target.mkdir(parents=True)
+        artifact.save(target)
+        described[name] = {"kind": artifact.kind, "digest": digest_dir(target)}
+    return described
+
+
+class Store:
+    """The on-disk cache (see module docstring)."""
+
+    def __init__(self, root: Path) -> None:
+        self.root = Path(root).expanduser()
+        try:
+            for sub in ("entries", "tmp", "locks"):
+                (self.root / sub).mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise PsdrRoomError(f"cache_dir={self.root}: cannot be created ({exc.strerror}); set cache_dir= to a writable directory") from None
+        self._remove_stale_tmp()
+
+    def _entry_path(self, key: str) -> Path:
+        return self.root / "entries" / key[:2] / key
+
+    def lookup(self, key: str) -> Entry | None:
+        path = self._entry_path(key)
+        try:
+            manifest = json.loads((path / "manifest.json").read_text())
+        except (FileNotFoundError, json.JSONDecodeError):
+            return None
+        return Entry(key=key, path=path, manifest=manifest)
+
+    @contextlib.contextmanager
+    def lock(self, key: str) -> Iterator[None]:
+        """Hold an exclusive lock for ``key`` (released by the OS if the process dies)."""
+        with open(self.root / "locks" / f"{key}.lock", "a") as fh:
+            fcntl.flock(fh, fcntl.LOCK_EX)
+            try:
+                yield
+            finally:
+                fcntl.flock(fh, fcntl.LOCK_UN)
+
+    def commit(self, key: str, stage: str, outputs: Mapping[str, Artifact], seconds: float) -> Entry:
+        """Write ``outputs`` as the entry for ``key``, atomically; return the committed entry."""
+        tmp = self.root / "tmp" / f"{key}@{socket.gethostname()}@{os.getpid()}@{uuid.uuid4().hex[:8]}"
+        tmp.mkdir(parents=True)
+        try:
+            described = save_artifacts(outputs, tmp)
+            manifest = {"schema": SCHEMA, "key": key, "stage": stage, "outputs": described,
+                        "seconds": seconds, "created": time.time()}
+            (tmp / "manifest.json").write_text(json.dumps(manifest, indent=2, sort_keys=True))
+            final = self._entry_path(key)
+            final.parent.mkdir(parents=True, exist_ok=True)
+            try:
+                os.rename(tmp, final)
+            except OSError:  # another process committed the same key first: theirs is equal, keep it
+                shutil.rmtree(tmp, ignore_errors=True)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+        entry = self.lookup(key)
+        assert entry is not None
+        return entry
+
+    def _remove_stale_tmp(self) -> None:
+        """Remove temp dirs left by processes on this host that no longer run (e.g. killed mid-stage)."""
+        host = socket.gethostname()
+        for path in (self.root / "tmp").iterdir():
+            parts = path.name.split("@")
+            if len(parts) == 4 and parts[1] == host and parts[2].isdigit() and not _pid_alive(int(parts[2])):
+                shutil.rmtree(path, ignore_errors=True)
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True

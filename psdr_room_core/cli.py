@@ -1,0 +1,148 @@
+"""Command line: ``psdr-room image=PATH [overrides...]`` (a Hydra app) and ``psdr-room-plugins``.
+
+Everything Hydra users expect works (``--multirun``, ``--cfg job``, ``hydra/launcher=joblib``). Before
+Hydra runs, the overrides are checked so that a typo gets one line naming the key and the valid choices,
+and plugin config directories (the ``conf_searchpath`` hook) are added to Hydra's search path.
+"""
+
+from __future__ import annotations
+
+import sys
+import traceback
+from pathlib import Path
+from typing import NoReturn
+
+import hydra
+from hydra import compose, initialize_config_module
+from hydra.core.hydra_config import HydraConfig
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.core.override_parser.types import Override
+from hydra.errors import OverrideParseException
+from omegaconf import DictConfig
+
+from .capabilities import CAPABILITIES, DESCRIPTIONS
+from .errors import PsdrRoomError
+from .plugins import PluginSystem, plugin_system
+from .run import execute, resolve_config
+
+CONFIG_MODULE = "psdr_room_conf"
+_VALUE_FLAGS = {"--cfg", "-c", "--package", "-p", "--config-path", "-cp", "--config-name", "-cn",
+                "--config-dir", "-cd", "--experimental-rerun", "--shell-completion", "-sc"}
+_INFO_FLAGS = {"--help", "-h", "--hydra-help", "--info", "-i", "--cfg", "-c", "--shell-completion", "-sc",
+               "--version"}
+
+
+def _fail(message: str, code: int = 2) -> NoReturn:
+    print(f"psdr-room: error: {message}", file=sys.stderr)
+    sys.exit(code)
+
+
+def searchpath_overrides(plugins: PluginSystem) -> list[str]:
+    """The Hydra override adding plugin config directories to the search path (none if no plugin has one)."""
+    paths = plugins.conf_searchpaths()
+    return [f"hydra.searchpath=[{','.join(paths)}]"] if paths else []
+
+
+def split_arguments(argv: list[str]) -> tuple[list[str], set[str]]:
+    """Separate config overrides from Hydra's own flags (and their values)."""
+    overrides, flags = [], set()
+    skip = False
+    for arg in argv:
+        if skip:
+            skip = False
+        elif arg.startswith("-"):
+            flags.add(arg.split("=")[0])
+            skip = arg in _VALUE_FLAGS
+        else:
+            overrides.append(arg)
+    return overrides, flags
+
+
+def compose_config(overrides: list[str], plugins: PluginSystem | None = None) -> DictConfig:
+    """Compose the config as the CLI would (for tests, benchmarks and the preflight check)."""
+    plugins = plugins or plugin_system()
+    with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
+        return compose(config_name="config", overrides=[*overrides, *searchpath_overrides(plugins)])
+
+
+def preflight(argv: list[str], plugins: PluginSystem) -> None:
+    """Check the overrides before Hydra runs; raise :class:`PsdrRoomError` with one line if one is wrong."""
+    overrides, flags = split_arguments(argv)
+    try:
+        parsed: list[Override] = OverridesParser.create().parse_overrides(overrides)
+    except OverrideParseException as exc:
+        raise PsdrRoomError(f"invalid override: {str(exc).splitlines()[0]}") from None
+    for override in parsed:
+        group = override.key_or_group
+        if group in CAPABILITIES and not override.is_delete():
+            for name in override.sweep_string_iterator() if override.is_sweep_override() else [override.value()]:
+                plugins.registry.implementation(group, str(name))
+    if flags & ({"--multirun", "-m"} | _INFO_FLAGS):
+        return  # sweeps are composed per job by Hydra; info flags need no image
+    try:
+        cfg = compose_config(overrides, plugins)
+    except PsdrRoomError:
+        raise
+    except Exception as exc:  # Hydra/OmegaConf composition errors are multi-line: keep the first lines
+        lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+        raise PsdrRoomError(f"invalid override: {' '.join(lines[:2])}") from None
+    photo = Path(str(resolve_config(cfg)["image"])).expanduser()
+    if not photo.is_file():
+        raise PsdrRoomError(f"{photo}: no such file; pass image=PATH to an existing photo")
+
+
+def main() -> None:
+    """Entry point of ``psdr-room``."""
+    argv = sys.argv[1:]
+    try:
+        plugins = plugin_system()
+        preflight(argv, plugins)
+    except PsdrRoomError as exc:
+        _fail(str(exc))
+    sys.argv = [sys.argv[0], *argv, *searchpath_overrides(plugins)]
+    _app()
+
+
+@hydra.main(version_base="1.3", config_path=f"pkg://{CONFIG_MODULE}", config_name="config")
+def _app(cfg: DictConfig) -> None:
+    run_dir = Path(HydraConfig.get().runtime.output_dir)
+    try:
+        execute(cfg, run_dir)
+    except PsdrRoomError as exc:
+        _fail(str(exc), exc.exit_code)
+    except KeyboardInterrupt:
+        _fail("interrupted; finished stages are cached, rerun the same command to resume", 130)
+    except Exception as exc:
+        log = run_dir / "error.log"
+        log.write_text(traceback.format_exc())
+        _fail(f"internal error: {type(exc).__name__}: {exc} (traceback in {log}; please report it)", 1)
+
+
+def plugins_main() -> None:
+    """Entry point of ``psdr-room-plugins``: every capability, its implementations, and where each came from."""
+    plugins = plugin_system()
+    defaults = compose_config([], plugins)
+    registry = plugins.registry
+    rows = [("capability", "implementation", "version", "default", "provided by")]
+    for capability in CAPABILITIES:
+        names = sorted(n for c, n in registry.implementations if c == capability)
+        default = defaults.get(capability, {}).get("impl") if capability in defaults else None
+        if not names:
+            rows.append((capability, "-", "-", "", "(none yet)"))
+        for name in names:
+            impl = registry.implementations[(capability, name)]
+            rows.append((capability, name, impl.version, "*" if name == default else "", str(impl.origin)))
+    widths = [max(len(r[i]) for r in rows) for i in range(4)]
+    for row in rows:
+        print("  ".join(cell.ljust(w) for cell, w in zip(row[:4], widths)) + "  " + row[4])
+    print("\ncapabilities:")
+    for capability in CAPABILITIES:
+        print(f"  {capability:<15} {DESCRIPTIONS[capability]}")
+    print("\nstages:")
+    for name, stage in sorted(registry.stages.items()):
+        uses = f" uses {', '.join(stage.uses)}" if stage.uses else ""
+        print(f"  {name:<15} v{stage.version}  {stage.origin}{uses}")
+    for (capability, name), origins in sorted(registry.conflicts.items()):
+        print(f"\nconflict: {capability}={name} is registered by " + " and ".join(str(o) for o in origins))
+    for plugin, why in sorted(registry.failures.items()):
+        print(f"\nleft out: plugin '{plugin}': {why}")

@@ -1,0 +1,19 @@
+"""The method's stages, one module per paper section, registered as the built-in ``core`` plugin."""
+
+from __future__ import annotations
+
+from ..hookspecs import hookimpl
+from ..plugins import Registry
+from . import export, preprocess, room
+
+
+@hookimpl
+def register_stages(registry: Registry) -> None:
+    """The stages of the paper's pipeline; ``conf/stage/*.yaml`` places them in the DAG."""
+    registry.add_stage("load_image", preprocess.load_image, reads_photo=True)
+    registry.add_stage("estimate_fov", preprocess.estimate_fov, uses=["fov"])
+    registry.add_stage("estimate_depth", preprocess.estimate_depth, uses=["depth"])
+    registry.add_stage("segment", preprocess.segment, uses=["segmentation"])
+    registry.add_stage("point_cloud", preprocess.point_cloud)
+    registry.add_stage("room_init", room.room_init)
+    registry.add_stage("export_scene", export.export_scene)

@@ -1,0 +1,128 @@
+"""Export: the reconstructed scene as Mitsuba 3 XML with separate, welded room meshes, plus the point cloud.
+
+The room box is written as one quad mesh per side (floor, ceiling, four walls) with normals facing into
+the room: separate meshes keep each side's parameters addressable, and welded quads give correct
+boundary gradients in differentiable renders (``RENDERING-NOTES.md``).
+"""
+
+from __future__ import annotations
+
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+from ..artifacts import Camera, PointCloud, RoomBox, SceneFiles, ply_bytes
+from ..dag import StageContext
+
+CV_TO_MITSUBA = np.diag([-1.0, -1.0, 1.0, 1.0])
+"""OpenCV camera axes (x right, y down, z forward) → Mitsuba's (x left, y up, z forward)."""
+
+ROOM_SIDES = {
+    # side name: (axis, sign) of the box face in the box's local frame
+    "floor": (1, -1),
+    "ceiling": (1, 1),
+    "wall_x_neg": (0, -1),
+    "wall_x_pos": (0, 1),
+    "wall_z_neg": (2, -1),
+    "wall_z_pos": (2, 1),
+}
+
+
+def room_quads(room: RoomBox) -> dict[str, np.ndarray]:
+    """World-space quads (4x3, counter-clockwise seen from inside the room) for each side of the box."""
+    corners = room.corners()
+    quads = {}
+    for name, (axis, sign) in ROOM_SIDES.items():
+        base = (1 << axis) if sign > 0 else 0
+        bit_u, bit_v = (1 << a for a in range(3) if a != axis)
+        quad = corners[[base, base | bit_u, base | bit_u | bit_v, base | bit_v]]
+        normal = np.cross(quad[1] - quad[0], quad[2] - quad[0])
+        if np.dot(normal, room.center - quad.mean(axis=0)) < 0:  # face the inside of the room
+            quad = quad[::-1]
+        quads[name] = quad
+    return quads
+
+
+def mesh_ply(vertices: np.ndarray, faces: np.ndarray) -> bytes:
+    """A binary PLY triangle mesh with positions only (welded: one vertex per corner)."""
+    header = (
+        "ply\nformat binary_little_endian 1.0\n"
+        f"element vertex {len(vertices)}\nproperty float x\nproperty float y\nproperty float z\n"
+        f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+    tris = np.empty(len(faces), dtype=[("n", "u1"), ("i", "<i4", (3,))])
+    tris["n"], tris["i"] = 3, faces
+    return header.encode("ascii") + vertices.astype("<f4").tobytes() + tris.tobytes()
+
+
+def _matrix(m: np.ndarray) -> str:
+    return " ".join(f"{float(x):.9g}" for x in np.asarray(m).reshape(-1))
+
+
+def scene_xml(camera: Camera, room: RoomBox, params: dict) -> str:
+    """Mitsuba 3 scene description for the camera and the room meshes written by :func:`export_scene`."""
+    to_world = np.asarray(room.camera_to_world) @ CV_TO_MITSUBA
+    offset_x = (camera.width / 2.0 - camera.cx) / camera.width
+    offset_y = (camera.height / 2.0 - camera.cy) / camera.height
+    albedo = params["room_albedo"]
+    lines = [
+        '<scene version="3.0.0">',
+        f'    <default name="spp" value="{int(params["spp"])}"/>',
+        '    <integrator type="path">',
+        f'        <integer name="max_depth" value="{int(params["max_depth"])}"/>',
+        "    </integrator>",
+        '    <sensor type="perspective" id="camera">',
+        '        <string name="fov_axis" value="y"/>',
+        f'        <float name="fov" value="{camera.vfov_deg:.9g}"/>',
+        f'        <float name="principal_point_offset_x" value="{offset_x:.9g}"/>',
+        f'        <float name="principal_point_offset_y" value="{offset_y:.9g}"/>',
+        '        <float name="near_clip" value="0.01"/>',
+        '        <float name="far_clip" value="1000"/>',
+        f'        <transform name="to_world"><matrix value="{_matrix(to_world)}"/></transform>',
+        '        <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>',
+        '        <film type="hdrfilm">',
+        f'            <integer name="width" value="{camera.width}"/>',
+        f'            <integer name="height" value="{camera.height}"/>',
+        '            <rfilter type="box"/>',
+        "        </film>",
+        "    </sensor>",
+    ]
+    for name in ROOM_SIDES:
+        rgb = " ".join(f"{a:.6g}" for a in albedo[name.split("_")[0]])
+        lines += [
+            f'    <shape type="ply" id={quoteattr(name)}>',
+            f'        <string name="filename" value="meshes/{name}.ply"/>',
+            f'        <bsdf type="diffuse"><rgb name="reflectance" value="{rgb}"/></bsdf>',
+            "    </shape>",
+        ]
+    # An initial light until the lighting stage places real ones: a panel just below the ceiling centre.
+    top = room.center + np.array([0.0, room.half_size[1] * 0.98, 0.0])
+    size = 0.25 * float(min(room.half_size[0], room.half_size[2]))
+    panel = np.array([[size, 0, 0, top[0]], [0, -1e-3, 0, top[1]], [0, 0, size, top[2]], [0, 0, 0, 1]])
+    rotate = np.array([[1, 0, 0, 0], [0, 0, 1, 0], [0, -1, 0, 0], [0, 0, 0, 1.0]])  # +z normal → -y (down)
+    lines += [
+        '    <shape type="rectangle" id="ceiling_light">',
+        f'        <transform name="to_world"><matrix value="{_matrix(panel @ rotate)}"/></transform>',
+        f'        <emitter type="area"><rgb name="radiance" value="{float(params["light_radiance"]):.6g}"/></emitter>',
+        "    </shape>",
+        "</scene>",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def export_scene(ctx: StageContext, camera: Camera, room: RoomBox, cloud: PointCloud) -> SceneFiles:
+    """Write ``scene.xml`` (Mitsuba 3: camera, room meshes, an initial light), the meshes, and the
+    segmented point cloud in world coordinates (``point_cloud.ply``).
+
+    Params: ``spp``, ``max_depth`` (path tracer defaults in the XML), ``room_albedo`` (per side kind),
+    ``light_radiance``.
+    """
+    files: dict[str, bytes] = {}
+    faces = np.array([[0, 1, 2], [0, 2, 3]])
+    for name, quad in room_quads(room).items():
+        files[f"meshes/{name}.ply"] = mesh_ply(quad, faces)
+    files["scene.xml"] = scene_xml(camera, room, ctx.params).encode()
+    c2w = np.asarray(room.camera_to_world)
+    world = cloud.points @ c2w[:3, :3].T + c2w[:3, 3]
+    files["point_cloud.ply"] = ply_bytes(world, cloud.colors, cloud.segment)
+    return SceneFiles(files=files)

@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# Prepare a machine for psdr-room: Debian libraries (as root), a virtualenv in .venv with pinned packages.
+# Idempotent and quick when nothing changed; sourced by scripts/demo.sh and scripts/test.sh.
+set -euo pipefail
+
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+VENV="$ROOT/.venv"
+PYTHON="${PYTHON:-python3}"
+# libllvm19: Dr.Jit's LLVM backend (1.5 crashes on Debian's default LLVM 14/15); libusb-1.0-0: open3d.
+DEB_PACKAGES=(libllvm19 libusb-1.0-0 libgl1 libgomp1)
+
+say() { printf 'psdr-room setup: %s\n' "$*" >&2; }
+
+missing=()
+for pkg in "${DEB_PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing+=("$pkg")
+done
+if ((${#missing[@]})); then
+    if [[ $(id -u) -eq 0 ]]; then
+        say "installing Debian packages: ${missing[*]}"
+        DEBIAN_FRONTEND=noninteractive apt-get update -qq
+        DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+    else
+        say "missing Debian packages: ${missing[*]}"
+        say "install them with: sudo apt-get install -y ${missing[*]}   (then rerun this command)"
+        exit 1
+    fi
+fi
+
+if ! "$PYTHON" -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))' 2>/dev/null; then
+    say "needs Python 3.11 (the pinned CPU torch wheel is built for it); set PYTHON=/path/to/python3.11"
+    exit 1
+fi
+
+if [[ ! -x "$VENV/bin/python" ]]; then
+    say "creating $VENV"
+    "$PYTHON" -m venv "$VENV"
+fi
+
+stamp="$VENV/.psdr-room-installed"
+want="$(cat "$ROOT/requirements.lock" "$ROOT/pyproject.toml" | sha256sum | cut -d' ' -f1)"
+if [[ "$(cat "$stamp" 2>/dev/null)" != "$want" ]]; then
+    say "installing pinned packages into $VENV (first time: a few minutes)"
+    "$VENV/bin/python" -m pip install -q --upgrade pip setuptools
+    "$VENV/bin/python" -m pip install -q -r "$ROOT/requirements.lock"
+    "$VENV/bin/python" -m pip install -q --no-deps --no-build-isolation -e "$ROOT"
+    echo "$want" > "$stamp"
+fi
+
+# Dr.Jit finds libLLVM by name; point it at LLVM 19 explicitly (the renderer plugin also checks this).
+if [[ -z "${DRJIT_LIBLLVM_PATH:-}" ]]; then
+    for lib in /usr/lib/*/libLLVM.so.19* /usr/lib/*/libLLVM-19.so /usr/lib/llvm-19/lib/libLLVM*.so*; do
+        if [[ -f "$lib" ]]; then export DRJIT_LIBLLVM_PATH="$lib"; break; fi
+    done
+fi
+export PATH="$VENV/bin:$PATH"

@@ -1,0 +1,28 @@
+"""Shared fixtures: paths to the bundled example and the shared real data, isolated caches."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED_DATA = REPO.parent / "shared" / "data"
+EXAMPLE = REPO / "examples" / "nyu_basement" / "photo.jpg"
+
+
+@pytest.fixture
+def cache_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A fresh cache directory, also exported for subprocesses (PSDR_ROOM_CACHE_DIR)."""
+    path = tmp_path / "cache"
+    monkeypatch.setenv("PSDR_ROOM_CACHE_DIR", str(path))
+    return path
+
+
+@pytest.fixture
+def cli_env(cache_dir: Path) -> dict[str, str]:
+    """Environment for running the CLI in a subprocess with the isolated cache."""
+    env = dict(os.environ)
+    env["PSDR_ROOM_CACHE_DIR"] = str(cache_dir)
+    return env

@@ -1,0 +1,173 @@
+"""The DAG runner and its cache: keys invalidate exactly the stages that changed, failures leave nothing."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+import toy_plugin
+from psdr_room_core.cache import Store
+from psdr_room_core.dag import Pipeline, RunRecord, Runner
+from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.hookspecs import hookimpl
+from psdr_room_core.plugins import Origin, load_plugins
+
+TOY = Origin("toy", "tests", "toy = toy_plugin")
+
+BASE: dict[str, Any] = {
+    "seed": 0,
+    "optimizer": {"impl": "toy", "toy": {"factor": 2.0}},
+    "a": {"_stage_": "toy_source", "_inputs_": {}, "_outputs_": ["a"], "start": 1.0},
+    "b": {"_stage_": "toy_scale", "_inputs_": {"x": "a"}, "_outputs_": ["b"]},
+    "c": {"_stage_": "toy_add", "_inputs_": {"x": "a", "y": "b"}, "_outputs_": {"total": "c"}},
+    "d": {"_stage_": "toy_source", "_inputs_": {}, "_outputs_": ["d"], "start": 5.0, "use_photo": True},
+}
+
+
+class Events:
+    """Records run-event hooks."""
+
+    def __init__(self) -> None:
+        self.errors: list[str] = []
+        self.started: list[str] = []
+
+    @hookimpl
+    def before_stage(self, stage: str, key: str, inputs: dict) -> None:
+        self.started.append(stage)
+
+    @hookimpl
+    def on_stage_error(self, stage: str, key: str, error: BaseException) -> None:
+        self.errors.append(stage)
+
+
+@pytest.fixture
+def photo(tmp_path: Path) -> Path:
+    path = tmp_path / "photo.bin"
+    path.write_bytes(b"x" * 10)
+    return path
+
+
+def run(cfg: dict, photo: Path, store: Store, tmp_path: Path, mode: str = "readwrite", events: Events | None = None,
+        **select: str) -> RunRecord:
+    extra = [(toy_plugin, TOY)] + ([(events, Origin("events", "tests", "events"))] if events else [])
+    plugins = load_plugins(extra=extra)
+    pipeline = Pipeline.from_config(cfg)
+    runner = Runner(plugins, cfg, photo, store, Store(tmp_path / "scratch"), mode)
+    return runner.run(pipeline.select(**select))
+
+
+def recomputed(record: RunRecord) -> set[str]:
+    return {r.name for r in record.stages if not r.cached}
+
+
+def test_rerun_is_fully_cached_and_same_digests(tmp_path: Path, photo: Path) -> None:
+    store = Store(tmp_path / "cache")
+    first = run(BASE, photo, store, tmp_path)
+    assert recomputed(first) == {"a", "b", "c", "d"}
+    assert first.artifacts["c"].value == 1.0 + 2.0
+    second = run(BASE, photo, store, tmp_path)
+    assert recomputed(second) == set()
+    assert second.digests == first.digests
+
+
+@pytest.mark.parametrize(
+    ("change", "expected"),
+    [
+        (lambda c: c["a"].update(start=3.0), {"a", "b", "c"}),          # a stage's config
+        (lambda c: c["optimizer"]["toy"].update(factor=3.0), {"b", "c"}),  # an implementation's params
+        (lambda c: c.update(seed=1), {"a", "b", "c", "d"}),             # the seed is in every key
+        (lambda c: c["b"].update(note="x"), {"b"}),                     # b's output is unchanged: c stays cached
+    ],
+)
+def test_config_change_invalidates_exactly_dependents(tmp_path: Path, photo: Path, change: Any, expected: set) -> None:
+    store = Store(tmp_path / "cache")
+    run(BASE, photo, store, tmp_path)
+    cfg = copy.deepcopy(BASE)
+    change(cfg)
+    assert recomputed(run(cfg, photo, store, tmp_path)) == expected
+
+
+def test_input_file_change_invalidates_the_stage_reading_it(tmp_path: Path, photo: Path) -> None:
+    store = Store(tmp_path / "cache")
+    run(BASE, photo, store, tmp_path)
+    photo.write_bytes(b"y" * 10)  # same size: only the content digest differs
+    record = run(BASE, photo, store, tmp_path)
+    # a and d read the photo; a's output is unchanged (it ignores the photo) so b and c stay cached
+    assert recomputed(record) == {"a", "d"}
+
+
+def test_implementation_version_change_invalidates_its_users(tmp_path: Path, photo: Path, monkeypatch) -> None:
+    store = Store(tmp_path / "cache")
+    run(BASE, photo, store, tmp_path)
+    monkeypatch.setitem(toy_plugin.VERSION, "toy", "2")
+    # b reruns; its output is the same number, so c (keyed by b's content digest) stays cached
+    assert recomputed(run(BASE, photo, store, tmp_path)) == {"b"}
+
+
+def test_failing_stage_leaves_no_entry(tmp_path: Path, photo: Path) -> None:
+    store = Store(tmp_path / "cache")
+    cfg = copy.deepcopy(BASE)
+    cfg["b"]["fail"] = True
+    events = Events()
+    with pytest.raises(RuntimeError, match="toy failure"):
+        run(cfg, photo, store, tmp_path, events=events)
+    assert events.errors == ["b"]
+    entries = {p.name for p in (store.root / "entries").glob("*/*")}
+    assert len(entries) == 2  # a and d (sources, run first) were committed; b failed, c never ran
+    assert not list((store.root / "tmp").iterdir())
+    # the fixed config resumes after the committed stages
+    cfg["b"]["fail"] = False
+    assert recomputed(run(cfg, photo, store, tmp_path)) == {"b", "c"}
+
+
+def test_selection_until_from_only(tmp_path: Path, photo: Path) -> None:
+    store = Store(tmp_path / "cache")
+    assert [r.name for r in run(BASE, photo, store, tmp_path, until="b").stages] == ["a", "b"]
+    record = run(BASE, photo, store, tmp_path, start="b")
+    assert [r.name for r in record.stages] == ["a", "b", "c"] and recomputed(record) == {"b", "c"}
+    record = run(BASE, photo, store, tmp_path, only="b")
+    assert [r.name for r in record.stages] == ["a", "b"] and recomputed(record) == {"b"}
+
+
+def test_cache_modes(tmp_path: Path, photo: Path) -> None:
+    store = Store(tmp_path / "cache")
+    run(BASE, photo, store, tmp_path, mode="off")
+    assert not list((store.root / "entries").iterdir())
+    run(BASE, photo, store, tmp_path)
+    before = sorted((store.root / "entries").glob("*/*"))
+    cfg = copy.deepcopy(BASE)
+    cfg["d"]["start"] = 6.0
+    record = run(cfg, photo, store, tmp_path, mode="read")
+    assert recomputed(record) == {"d"}
+    assert sorted((store.root / "entries").glob("*/*")) == before  # read mode commits nothing
+
+
+def test_pipeline_validation() -> None:
+    cfg = copy.deepcopy(BASE)
+    del cfg["a"]
+    with pytest.raises(PsdrRoomError, match="needs artifact 'a' but no stage produces it"):
+        Pipeline.from_config(cfg)
+    cfg = copy.deepcopy(BASE)
+    cfg["a2"] = dict(cfg["a"])
+    with pytest.raises(PsdrRoomError, match="produced by both stages 'a' and 'a2'"):
+        Pipeline.from_config(cfg)
+    cfg = copy.deepcopy(BASE)
+    cfg["a"]["_inputs_"] = {"x": "c"}
+    with pytest.raises(PsdrRoomError, match="form a cycle"):
+        Pipeline.from_config(cfg)
+
+
+def test_injected_artifact_replaces_its_producer(tmp_path: Path, photo: Path) -> None:
+    edited = tmp_path / "edited_a"
+    edited.mkdir()
+    toy_plugin.Number(10.0).save(edited)
+    cfg = copy.deepcopy(BASE)
+    del cfg["a"]
+    plugins = load_plugins(extra=[(toy_plugin, TOY)])
+    pipeline = Pipeline.from_config(cfg, provided=["a"])
+    runner = Runner(plugins, cfg, photo, Store(tmp_path / "cache"), Store(tmp_path / "scratch"), injected={"a": edited})
+    record = runner.run(pipeline.select())
+    assert record.artifacts["c"].value == 10.0 + 20.0

@@ -1,0 +1,136 @@
+"""End to end on the bundled example through the CLI: outputs, cached reruns, partial reruns, sweeps, faults."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+from conftest import EXAMPLE
+
+STAGES = ["load_image", "estimate_fov", "estimate_depth", "segment", "point_cloud", "room_init", "export_scene"]
+
+
+def psdr_room(*args: str, env: dict[str, str], check: bool = True) -> subprocess.CompletedProcess[str]:
+    result = subprocess.run([shutil.which("psdr-room") or "psdr-room", *args], env=env, capture_output=True,
+                            text=True, timeout=600)
+    if check:
+        assert result.returncode == 0, result.stderr
+    return result
+
+
+def metrics(run_dir: Path) -> dict:
+    return json.loads((run_dir / "metrics.json").read_text())
+
+
+def computed(run_dir: Path) -> set[str]:
+    return {name for name, s in metrics(run_dir)["stages"].items() if not s["cached"]}
+
+
+@pytest.fixture(scope="module")
+def first_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, str]]:
+    """One full run of the example with a fresh cache (shared by the tests below)."""
+    root = tmp_path_factory.mktemp("e2e")
+    env = {**os.environ, "PSDR_ROOM_CACHE_DIR": str(root / "cache")}
+    psdr_room(f"image={EXAMPLE}", f"hydra.run.dir={root / 'run1'}", env=env)
+    return root, env
+
+
+def test_outputs_of_a_run(first_run: tuple[Path, dict[str, str]]) -> None:
+    root, _ = first_run
+    run_dir = root / "run1"
+    m = metrics(run_dir)
+    assert list(m["stages"]) == STAGES and not any(s["cached"] for s in m["stages"].values())
+    assert 30 < m["vfov_deg"] < 60  # the Kinect's true vertical FoV is 49.6°
+    assert m["implementations"]["fov"]["name"] == "vanishing_points"
+    assert "psdr_room_plugins.fov" in m["implementations"]["fov"]["origin"]
+    assert (run_dir / ".hydra" / "config.yaml").is_file()
+    report = (run_dir / "report.html").read_text()
+    assert report.count("data:image/png;base64,") >= 4 and "room_init" in report
+    for name in ("image", "camera", "depth", "panoptic", "point_cloud", "room_box", "scene"):
+        assert (run_dir / "artifacts" / name).is_dir()
+
+
+def test_scene_loads_in_mitsuba(first_run: tuple[Path, dict[str, str]]) -> None:
+    root, _ = first_run
+    import mitsuba as mi
+
+    mi.set_variant("scalar_rgb")
+    scene = mi.load_file(str(root / "run1" / "scene" / "scene.xml"), spp=4)
+    assert len(scene.shapes()) == 7  # 6 room sides + the ceiling light
+    image = mi.render(scene, spp=4)
+    assert float(image.array.numpy().mean() if hasattr(image.array, "numpy") else 0) >= 0
+
+
+def test_rerun_is_cached_and_identical(first_run: tuple[Path, dict[str, str]]) -> None:
+    root, env = first_run
+    psdr_room(f"image={EXAMPLE}", f"hydra.run.dir={root / 'run2'}", env=env)
+    assert computed(root / "run2") == set()
+    assert metrics(root / "run2")["digests"] == metrics(root / "run1")["digests"]
+
+
+def test_changed_stage_param_reruns_it_and_what_follows(first_run: tuple[Path, dict[str, str]]) -> None:
+    root, env = first_run
+    psdr_room(f"image={EXAMPLE}", "room_init.ransac_threshold=0.03", f"hydra.run.dir={root / 'run3'}", env=env)
+    assert computed(root / "run3") == {"room_init", "export_scene"}
+
+
+def test_multirun_shares_the_cache(first_run: tuple[Path, dict[str, str]]) -> None:
+    root, env = first_run
+    psdr_room("--multirun", f"image={EXAMPLE}", "fov=vanishing_points,fixed", "fov.fixed.vfov_deg=60",
+              f"hydra.sweep.dir={root / 'sweep'}", env=env)
+    vp, fixed = metrics(root / "sweep" / "0"), metrics(root / "sweep" / "1")
+    assert vp["digests"] == metrics(root / "run1")["digests"]  # job 0 is the first run again: all cached
+    assert not any(s["cached"] is False for s in vp["stages"].values())
+    assert fixed["vfov_deg"] == pytest.approx(60.0)
+    assert fixed["stages"]["load_image"]["cached"] and not fixed["stages"]["estimate_fov"]["cached"]
+
+
+def test_joblib_launcher_runs_jobs_in_parallel_workers(first_run: tuple[Path, dict[str, str]]) -> None:
+    root, env = first_run
+    psdr_room("--multirun", "hydra/launcher=local_parallel", f"image={EXAMPLE}", "fov.fixed.vfov_deg=50,55",
+              "fov=fixed", "run.until=estimate_fov", f"hydra.sweep.dir={root / 'joblib'}", env=env)
+    assert [round(metrics(root / "joblib" / str(i))["vfov_deg"]) for i in range(2)] == [50, 55]
+
+
+def test_sigkill_mid_run_resumes_to_identical_artifacts(first_run: tuple[Path, dict[str, str]], tmp_path: Path) -> None:
+    root, _ = first_run
+    env = {**os.environ, "PSDR_ROOM_CACHE_DIR": str(tmp_path / "cache")}
+    process = subprocess.Popen([shutil.which("psdr-room") or "psdr-room", f"image={EXAMPLE}",
+                                f"hydra.run.dir={tmp_path / 'killed'}"], env=env,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    entries = tmp_path / "cache" / "entries"
+    deadline = time.time() + 300
+    while time.time() < deadline and len(list(entries.glob("*/*"))) < 4 and process.poll() is None:
+        time.sleep(0.02)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    finished = len(list(entries.glob("*/*")))
+    assert 0 < finished < len(STAGES), "the run should have been killed part-way"
+    psdr_room(f"image={EXAMPLE}", f"hydra.run.dir={tmp_path / 'resumed'}", env=env)
+    m = metrics(tmp_path / "resumed")
+    assert sum(s["cached"] for s in m["stages"].values()) == finished
+    assert m["digests"] == metrics(root / "run1")["digests"]
+    assert not list((tmp_path / "cache" / "tmp").iterdir())
+
+
+def test_two_runs_at_once_on_one_cache(first_run: tuple[Path, dict[str, str]], tmp_path: Path) -> None:
+    root, _ = first_run
+    env = {**os.environ, "PSDR_ROOM_CACHE_DIR": str(tmp_path / "cache")}
+    runs = [subprocess.Popen([shutil.which("psdr-room") or "psdr-room", f"image={EXAMPLE}",
+                              f"hydra.run.dir={tmp_path / f'run{i}'}"], env=env,
+                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True) for i in range(2)]
+    for process in runs:
+        assert process.wait(timeout=600) == 0, process.stderr.read() if process.stderr else ""
+    a, b = metrics(tmp_path / "run0"), metrics(tmp_path / "run1")
+    assert a["digests"] == b["digests"] == metrics(root / "run1")["digests"]
+    # each entry was computed once: the later process found it committed (or waited on its lock)
+    for stage in STAGES:
+        assert a["stages"][stage]["cached"] != b["stages"][stage]["cached"] or a["stages"][stage]["cached"]
+    assert len(list((tmp_path / "cache" / "entries").glob("*/*"))) == len(STAGES)

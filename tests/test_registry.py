@@ -1,0 +1,117 @@
+"""The plugin registry: entry points, provenance, conflicts, broken plugins, and a real third-party package."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import PIL.Image
+import pytest
+
+from conftest import EXAMPLE, REPO
+from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.hookspecs import hookimpl
+from psdr_room_core.plugins import Origin, load_plugins
+
+BUILTIN_IMPLEMENTATIONS = {("fov", "vanishing_points"), ("fov", "fixed"), ("depth", "file"), ("segmentation", "file")}
+
+
+def plugin(**hooks: object) -> SimpleNamespace:
+    """A plugin object whose attributes are the given hook functions (marked as hookimpls)."""
+    return SimpleNamespace(**{name: hookimpl(fn) for name, fn in hooks.items()})
+
+
+def test_builtins_come_through_entry_points() -> None:
+    system = load_plugins()
+    assert BUILTIN_IMPLEMENTATIONS <= set(system.registry.implementations)
+    origin = system.registry.implementations[("fov", "fixed")].origin
+    assert origin.plugin == "fov" and origin.distribution.startswith("psdr-room ")
+    assert {"load_image", "room_init", "export_scene"} <= set(system.registry.stages)
+    assert not system.registry.failures
+
+
+def test_unknown_implementation_lists_valid_names() -> None:
+    registry = load_plugins().registry
+    with pytest.raises(PsdrRoomError, match=r"unknown fov implementation 'nope'; valid names: fixed, vanishing_points"):
+        registry.implementation("fov", "nope")
+
+
+def test_conflicting_implementations_name_both_plugins() -> None:
+    def register(registry):  # noqa: ANN001
+        registry.add_implementation("fov", "fixed", object)
+
+    system = load_plugins(extra=[(plugin(register_implementations=register), Origin("rival", "rival-dist 1.0", "rival = rival"))])
+    with pytest.raises(PsdrRoomError) as info:
+        system.registry.implementation("fov", "fixed")
+    message = str(info.value)
+    assert "plugin 'fov'" in message and "plugin 'rival'" in message and "\n" not in message
+    # other implementations still work
+    assert system.registry.implementation("fov", "vanishing_points").name == "vanishing_points"
+
+
+def test_broken_plugins_are_left_out_with_a_reason(caplog: pytest.LogCaptureFixture) -> None:
+    def explode(registry):  # noqa: ANN001
+        registry.add_implementation("depth", "half_done", object)
+        raise RuntimeError("boom")
+
+    broken = [
+        (plugin(register_implementations=explode), Origin("exploding", "x 1", "exploding = x")),
+        (plugin(register_everything=lambda: None), Origin("misspelt", "y 1", "misspelt = y")),
+    ]
+    system = load_plugins(extra=broken)
+    assert "registration failed: RuntimeError: boom" in system.registry.failures["exploding"]
+    assert "unknown hook(s) register_everything" in system.registry.failures["misspelt"]
+    assert ("depth", "half_done") not in system.registry.implementations  # rolled back
+    assert BUILTIN_IMPLEMENTATIONS <= set(system.registry.implementations)
+    assert any("exploding" in r.getMessage() for r in caplog.records)
+    with pytest.raises(PsdrRoomError, match="left out: exploding: registration failed"):
+        system.registry.implementation("depth", "half_done")
+
+
+@pytest.fixture(scope="module")
+def third_party(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The example third-party plugin (examples/third_party_plugin) installed with pip into a target dir."""
+    source = tmp_path_factory.mktemp("src") / "plugin"
+    shutil.copytree(REPO / "examples" / "third_party_plugin", source)
+    target = tmp_path_factory.mktemp("site")
+    subprocess.run(
+        [sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation", "--target", str(target), str(source)],
+        check=True, capture_output=True,
+    )
+    return target
+
+
+def _env(cli_env: dict[str, str], site: Path) -> dict[str, str]:
+    return {**cli_env, "PYTHONPATH": str(site)}
+
+
+def test_third_party_plugin_is_listed(third_party: Path, cli_env: dict[str, str]) -> None:
+    out = subprocess.run([shutil.which("psdr-room-plugins") or "psdr-room-plugins"], env=_env(cli_env, third_party),
+                         capture_output=True, text=True, check=True).stdout
+    line = next(row for row in out.splitlines() if row.startswith("fov") and " exif " in row)
+    assert "plugin 'exif' (exif = psdr_room_exif, from psdr-room-exif 0.1.0)" in line
+
+
+def test_third_party_plugin_selected_from_the_cli(third_party: Path, cli_env: dict[str, str], tmp_path: Path) -> None:
+    photo_dir = tmp_path / "photo"
+    shutil.copytree(EXAMPLE.parent, photo_dir)
+    photo = photo_dir / EXAMPLE.name
+    with PIL.Image.open(EXAMPLE) as pil:  # a 35 mm-equivalent focal length of 28 mm in the EXIF
+        exif = pil.getexif()
+        exif.get_ifd(0x8769)[0xA405] = 28
+        pil.save(photo, exif=exif)
+    result = subprocess.run(
+        [shutil.which("psdr-room") or "psdr-room", f"image={photo}", "fov=exif", "run.until=estimate_fov",
+         f"hydra.run.dir={tmp_path / 'run'}"],
+        env=_env(cli_env, third_party), capture_output=True, text=True,
+    )
+    assert result.returncode == 0, result.stderr
+    metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
+    assert metrics["implementations"]["fov"]["name"] == "exif"
+    assert metrics["camera"]["method"] == "exif"
+    # 28 mm on a 43.27 mm diagonal, 4:3 frame: vertical FoV = 2 atan(0.5 * 0.6 * 43.27 / 28)
+    assert metrics["vfov_deg"] == pytest.approx(49.7, abs=0.2)

@@ -1,0 +1,75 @@
+"""A tiny plugin for engine tests: number artifacts, three stages, and an ``optimizer`` implementation."""
+
+from __future__ import annotations
+
+import json
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
+from typing import ClassVar
+
+from psdr_room_core.artifacts import ARTIFACT_TYPES
+from psdr_room_core.dag import StageContext
+from psdr_room_core.hookspecs import hookimpl
+from psdr_room_core.plugins import Registry
+
+CALLS: Counter[str] = Counter()
+VERSION = {"toy": "1"}
+
+
+@dataclass
+class Number:
+    kind: ClassVar[str] = "test_number"
+    marker: ClassVar[str] = "number.json"
+    value: float
+
+    def save(self, directory: Path) -> None:
+        (directory / "number.json").write_text(json.dumps({"value": self.value}))
+
+    @classmethod
+    def load(cls, directory: Path) -> "Number":
+        return cls(json.loads((directory / "number.json").read_text())["value"])
+
+
+ARTIFACT_TYPES[Number.kind] = Number
+
+
+class Multiplier:
+    """Multiplies by ``factor``."""
+
+    def __init__(self, factor: float = 2.0) -> None:
+        self.factor = factor
+
+    def apply(self, value: float) -> float:
+        return value * self.factor
+
+
+def source(ctx: StageContext) -> Number:
+    """A number from the config (``start``), plus the photo's size in bytes when ``use_photo``."""
+    CALLS[ctx.stage] += 1
+    extra = ctx.photo.stat().st_size if ctx.params.get("use_photo") else 0
+    return Number(float(ctx.params["start"]) + extra)
+
+
+def scale(ctx: StageContext, x: Number) -> Number:
+    CALLS[ctx.stage] += 1
+    if ctx.params.get("fail"):
+        raise RuntimeError("toy failure")
+    return Number(ctx.impl("optimizer").apply(x.value))
+
+
+def add(ctx: StageContext, x: Number, y: Number) -> dict[str, Number]:
+    CALLS[ctx.stage] += 1
+    return {"total": Number(x.value + y.value)}
+
+
+@hookimpl
+def register_implementations(registry: Registry) -> None:
+    registry.add_implementation("optimizer", "toy", Multiplier, version=VERSION["toy"])
+
+
+@hookimpl
+def register_stages(registry: Registry) -> None:
+    registry.add_stage("toy_source", source, reads_photo=True)
+    registry.add_stage("toy_scale", scale, uses=["optimizer"])
+    registry.add_stage("toy_add", add)
