@@ -29,15 +29,15 @@ import numpy as np
 # OpenCV reads OPENCV_IO_ENABLE_OPENEXR the first time it decodes an EXR, so setting it here works even
 # when cv2 was imported earlier, provided no EXR was decoded before. An explicit user value is kept.
 os.environ.setdefault("OPENCV_IO_ENABLE_OPENEXR", "1")
-import cv2  # noqa: E402
+import cv2
 
 __all__ = [
     "DEPTH_ENCODINGS",
     "DEPTH_SUFFIXES",
     "SidecarError",
+    "find_depth_sidecar",
     "read_depth",
     "read_depth_options",
-    "find_depth_sidecar",
 ]
 
 DEPTH_ENCODINGS = ("png16", "sun", "exr", "npy")
@@ -187,10 +187,14 @@ def _read_png16(path: Path, encoding: str) -> np.ndarray:
         if encoding == "sun"
         else "save depth as uint16 millimetres (depth.file.scale=1000) or with your own scale (TUM: 5000)"
     )
-    if img.ndim == 3 and img.shape[2] > 1 and img.dtype == np.uint16:
-        # some tools write gray as 3 identical channels: accept that, refuse real colour
-        if all(np.array_equal(img[..., 0], img[..., c]) for c in range(1, min(img.shape[2], 3))):
-            img = img[..., 0]
+    # some tools write gray as 3 identical channels: accept that, refuse real colour
+    if (
+        img.ndim == 3
+        and img.shape[2] > 1
+        and img.dtype == np.uint16
+        and all(np.array_equal(img[..., 0], img[..., c]) for c in range(1, min(img.shape[2], 3)))
+    ):
+        img = img[..., 0]
     if img.dtype != np.uint16 or img.ndim != 2:
         raise SidecarError(f"{path}: expected a 16-bit single-channel PNG, got {_describe_image(img)}; {fix}")
     return img
@@ -202,8 +206,10 @@ def _read_npy(path: Path) -> np.ndarray:
     except (OSError, ValueError, EOFError) as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise SidecarError(f"{path}: not a readable .npy array ({msg}); save it with numpy.save(path, depth.astype('float32'))") from None
-    if isinstance(arr, np.lib.npyio.NpzFile):  # pragma: no cover - np.load returns NpzFile only for .npz content
-        raise SidecarError(f"{path}: is an .npz archive; save a single array with numpy.save")
+    if not isinstance(arr, np.ndarray):  # an .npz archive under a .npy name
+        if hasattr(arr, "close"):
+            arr.close()
+        raise SidecarError(f"{path}: is an .npz archive, not a single array; save the depth with numpy.save")
     if arr.ndim == 3 and arr.shape[2] == 1:
         arr = arr[..., 0]
     if arr.ndim == 3 and arr.shape[0] == 1:

@@ -30,14 +30,16 @@ from PIL import Image
 from .sidecar_depth import SidecarError
 
 __all__ = [
+    "BACKGROUND_LABELS",
     "CATEGORIES",
     "Segment",
     "SidecarError",
     "category_of",
+    "find_segmentation_sidecar",
+    "panoptic_json_for",
     "read_coco_panoptic",
     "read_labelme",
     "write_coco_panoptic",
-    "find_segmentation_sidecar",
 ]
 
 CATEGORIES = ("wall", "floor", "ceiling", "window", "door", "lamp", "object")
@@ -114,8 +116,11 @@ _PHRASES = {
 }
 _SURFACES = ("wall", "floor", "ceiling", "window", "door")
 _MATERIALS = frozenset(
-    "brick stone tile tiled wood wooden panel paneling panelling concrete marble plaster painted paint "
-    "glass metal laminate vinyl parquet granite cement ceramic mosaic board drywall".split()
+    {
+        "brick", "stone", "tile", "tiled", "wood", "wooden", "panel", "paneling", "panelling", "concrete",
+        "marble", "plaster", "painted", "paint", "glass", "metal", "laminate", "vinyl", "parquet", "granite",
+        "cement", "ceramic", "mosaic", "board", "drywall",
+    }
 )
 _DROP_WORDS = frozenset({"other", "merged", "stuff", "the", "a"})
 
@@ -377,8 +382,8 @@ def _fill_polygon(mask: np.ndarray, xy: np.ndarray) -> None:
     h, w = mask.shape
     x0, y0 = xy[:, 0], xy[:, 1]
     x1, y1 = np.roll(x0, -1), np.roll(y0, -1)
-    r0 = max(int(math.floor(y0.min() - 0.5)), 0)
-    r1 = min(int(math.ceil(y0.max() + 0.5)), h)
+    r0 = max(math.floor(y0.min() - 0.5), 0)
+    r1 = min(math.ceil(y0.max() + 0.5), h)
     if r1 <= r0:
         return
     yc = np.arange(r0, r1, dtype=np.float64)[:, None] + 0.5
@@ -403,10 +408,10 @@ def _fill_polygon(mask: np.ndarray, xy: np.ndarray) -> None:
 def _points(shape: dict, k: int, json_path: Path) -> np.ndarray:
     pts = shape.get("points")
     try:
-        arr = np.asarray(pts, dtype=np.float64)
+        arr = np.asarray(pts, dtype=np.float64) if pts != [] else np.zeros((0, 2))
     except (TypeError, ValueError):
-        arr = np.zeros((0, 0))
-    if arr.ndim != 2 or (arr.size and arr.shape[1] != 2) or not np.all(np.isfinite(arr)):
+        arr = None
+    if arr is None or arr.ndim != 2 or arr.shape[1] != 2 or not np.all(np.isfinite(arr)):
         raise SidecarError(f"{json_path}: shape {k} ({shape.get('label')!r}) has malformed points; give a list of [x, y] pairs")
     return arr.reshape(-1, 2)
 
@@ -460,7 +465,7 @@ def read_labelme(json_path: Path, shape: tuple[int, int] | None = None) -> tuple
         if not isinstance(label, str) or not label.strip():
             raise SidecarError(f"{json_path}: shape {k} has no label; give it a class name such as wall, floor or chair")
         label = label.strip()
-        kind = (shp.get("shape_type") or "polygon").lower()
+        kind = str(shp.get("shape_type") or "polygon").lower()
         if kind in ("line", "linestrip", "point", "points") or label.lower() in BACKGROUND_LABELS:
             continue
         pts = _points(shp, k, json_path)
@@ -487,7 +492,7 @@ def read_labelme(json_path: Path, shape: tuple[int, int] | None = None) -> tuple
             if len(pts) != 2:
                 raise SidecarError(f"{where} has {len(pts)} points; a mask needs its 2 box corners — redraw it")
             small = _decode_mask(shp, k, json_path).astype(np.uint8)
-            x0, y0 = int(round(min(pts[:, 0]))), int(round(min(pts[:, 1])))
+            x0, y0 = round(float(pts[:, 0].min())), round(float(pts[:, 1].min()))
             full = np.zeros((file_h, file_w), dtype=np.uint8)
             h, w = small.shape
             ya, xa = max(y0, 0), max(x0, 0)
@@ -499,6 +504,8 @@ def read_labelme(json_path: Path, shape: tuple[int, int] | None = None) -> tuple
             raise SidecarError(f"{where}: unsupported shape_type {kind!r}; use polygon, rectangle, circle or mask")
 
         group = shp.get("group_id")
+        if isinstance(group, bool) or not isinstance(group, (int, str, type(None))):
+            raise SidecarError(f"{where}: group_id must be an integer or null, got {group!r}; fix it in the JSON")
         key = (label, group)
         if group is not None and key in groups:
             sid = groups[key]

@@ -80,6 +80,8 @@ class VanishingPointParams:
     """One Manhattan axis must lie within this angle of the image's vertical axis (limited pitch/roll)."""
     n_refine: int = 6
     """Best distinct frames refined by least squares."""
+    n_bootstrap: int = 200
+    """Segment resamplings used to measure how ambiguous the choice between refined frames is."""
     refine_rounds: int = 3
     """Inlier reassignment rounds of the refinement."""
     min_segments: int = 12
@@ -147,24 +149,27 @@ def estimate_camera(
     tau = params.inlier_px
     candidates = _vp_candidates(segs, rng, params)
     h_units = grey.shape[0] / segs.scale  # working image height in centred units
-    frames = _score_pair_frames(segs, candidates, h_units, params)
+    frames = _best_grid_frames(segs, candidates, h_units, params)
     if not frames:
         return fallback
-    refined = [_refine_frame(segs, f, rot, h_units, params) for f, rot, _ in frames]
-    scores = [_frame_score(segs, _frame_vps(f, rot)[None], tau)[0] for f, rot, _ in refined]
-    focal, rot, vfov_std = refined[int(np.argmax(scores))]
+    refined = [_refine_frame(segs, f, rot, h_units, params) for f, rot in frames]
+    contrib = np.stack([_segment_support(segs, _frame_vps(f, rot), tau) for f, rot, _ in refined])
+    best = int(np.argmax(contrib.sum(axis=1)))
+    focal, rot, fit_std = refined[best]
+    vfovs = np.array([_vfov_deg(f, h_units) for f, _, _ in refined])
+    ambiguity = _bootstrap_vfov_spread(contrib, vfovs, rng, params.n_bootstrap)
 
     vps = _frame_vps(focal, rot)
-    support = _vp_support(segs, vps, tau)
-    n_observed = int(np.sum(support >= params.min_vp_support))
+    n_observed = int(np.sum(_vp_support(segs, vps, tau) >= params.min_vp_support))
     if n_observed < 2:
         return fallback
-    explained = _frame_score(segs, vps[None], tau)[0] / segs.weight.sum()
+    vfov, vfov_std = vfovs[best], float(np.hypot(fit_std, ambiguity))
+    explained = contrib[best].sum() / segs.weight.sum()
     confidence = float(np.clip(explained, 0, 1) * n_observed / 3.0 * np.exp(-vfov_std / 5.0))
 
-    focal_px = focal * segs.scale / zoom
+    focal_px = height / (2.0 * np.tan(np.radians(vfov) / 2.0))
     return VanishingPointResult(
-        vfov_deg=_vfov_deg(focal_px, height),
+        vfov_deg=float(vfov),
         focal_px=float(focal_px),
         cx=(width - 1) / 2.0,
         cy=(height - 1) / 2.0,
@@ -309,10 +314,9 @@ def _support_weights(dist: np.ndarray, weight: np.ndarray, tau: float) -> np.nda
     return weight * np.clip(1.0 - (dist / tau) ** 2, 0.0, None)
 
 
-def _frame_score(segs: _Segments, vps: np.ndarray, tau: float) -> np.ndarray:
-    """Score of frames given as (T, 3, 3) VPs: each segment counts for its best VP."""
-    best = _vp_distances(segs, vps).min(axis=1)  # (T, N)
-    return _support_weights(best, segs.weight, tau).sum(axis=-1)
+def _segment_support(segs: _Segments, vps: np.ndarray, tau: float) -> np.ndarray:
+    """Per-segment support of frames given as (..., 3, 3) VPs: each segment counts for its best VP."""
+    return _support_weights(_vp_distances(segs, vps).min(axis=-2), segs.weight, tau)
 
 
 def _vp_support(segs: _Segments, vps: np.ndarray, tau: float) -> np.ndarray:
@@ -424,20 +428,21 @@ def _pair_frames(candidates: np.ndarray, focals: np.ndarray, params: VanishingPo
     return focals[f][upright], rot[upright]
 
 
-def _score_pair_frames(segs: _Segments, candidates: np.ndarray, h_units: float, params: VanishingPointParams):
-    """Best distinct frames as (focal, rotation, score), best first."""
+def _best_grid_frames(segs: _Segments, candidates: np.ndarray, h_units: float, params: VanishingPointParams):
+    """The ``n_refine`` best distinct (focal, rotation) frames over the focal grid, best first."""
     if len(candidates) < 2:
         return []
     focals, rots = _pair_frames(candidates, _focal_grid(h_units, params), params)
     if len(focals) == 0:
         return []
     rots = _polish_rotations(segs, focals, rots, params.inlier_px)
-    scores = _frame_score(segs, np.stack([_frame_vps(f, r) for f, r in zip(focals, rots)]), params.inlier_px)
-    chosen: list[tuple[float, np.ndarray, float]] = []
+    vps = np.stack([_frame_vps(f, r) for f, r in zip(focals, rots)])
+    scores = _segment_support(segs, vps, params.inlier_px).sum(axis=-1)
+    chosen: list[tuple[float, np.ndarray]] = []
     for k in np.argsort(-scores, kind="stable"):
-        if any(_same_frame(focals[k], rots[k], f, r, h_units) for f, r, _ in chosen):
+        if any(_same_frame(focals[k], rots[k], f, r, h_units) for f, r in chosen):
             continue
-        chosen.append((float(focals[k]), rots[k], float(scores[k])))
+        chosen.append((float(focals[k]), rots[k]))
         if len(chosen) == params.n_refine:
             break
     return chosen
@@ -493,6 +498,17 @@ def _vfov_std_deg(jac: np.ndarray, focal: float, h_units: float) -> float:
     t = h_units / (2.0 * focal)
     dvfov_dlogf = np.degrees(2.0 * t / (1.0 + t * t))
     return float(np.sqrt(max(var_log_f, 0.0)) * dvfov_dlogf)
+
+
+def _bootstrap_vfov_spread(contrib: np.ndarray, vfovs: np.ndarray, rng: np.random.Generator, n_boot: int) -> float:
+    """Std of the FoV of the winning frame when the segments are resampled with replacement.
+
+    ``contrib`` is the (frames, segments) support matrix; a large spread means that competing
+    frames with different focals explain the lines about equally well.
+    """
+    n = contrib.shape[1]
+    counts = rng.multinomial(n, np.full(n, 1.0 / n), size=n_boot)  # (B, N)
+    return float(np.std(vfovs[np.argmax(contrib @ counts.T, axis=0)]))
 
 
 # --------------------------------------------------------------------------- results

@@ -98,14 +98,13 @@ class Pipeline:
         order: list[StageNode] = []
         done: set[str] = set()
         pending = list(nodes)
-        while pending:
-            ready = [n for n in pending if all(self._available(a, done) for a in n.inputs.values())]
-            if not ready:
+        while pending:  # the first stage in config order whose inputs are ready, one at a time
+            node = next((n for n in pending if all(self._available(a, done) for a in n.inputs.values())), None)
+            if node is None:
                 raise PsdrRoomError(f"the stages {', '.join(n.name for n in pending)} form a cycle; fix their _inputs_")
-            for node in ready:
-                order.append(node)
-                done.add(node.name)
-                pending.remove(node)
+            order.append(node)
+            done.add(node.name)
+            pending.remove(node)
         return order
 
     def _available(self, artifact: str, done: set[str]) -> bool:

@@ -116,11 +116,11 @@ def test_failing_stage_leaves_no_entry(tmp_path: Path, photo: Path) -> None:
         run(cfg, photo, store, tmp_path, events=events)
     assert events.errors == ["b"]
     entries = {p.name for p in (store.root / "entries").glob("*/*")}
-    assert len(entries) == 2  # a and d (sources, run first) were committed; b failed, c never ran
+    assert len(entries) == 1  # a was committed; b failed; c and d (after b in config order) never ran
     assert not list((store.root / "tmp").iterdir())
     # the fixed config resumes after the committed stages
     cfg["b"]["fail"] = False
-    assert recomputed(run(cfg, photo, store, tmp_path)) == {"b", "c"}
+    assert recomputed(run(cfg, photo, store, tmp_path)) == {"b", "c", "d"}
 
 
 def test_selection_until_from_only(tmp_path: Path, photo: Path) -> None:
