@@ -39,6 +39,9 @@ def _figures(run: RunRecord, alpha: float) -> list[tuple[str, np.ndarray]]:
         figures.append(("depth", depth_colormap(art["depth"].depth, art["depth"].valid)))
     if "camera" in art and "room_box" in art:
         figures.append(("room box (room_init)", room_edges_overlay(rgb8, art["camera"], art["room_box"])))
+    for name, artifact in art.items():
+        if artifact.kind == "optimization_log":
+            figures += [(f"{name}: {title}", picture) for title, picture in artifact.images.items()]
     return figures
 
 
@@ -55,7 +58,7 @@ def render_report(run: RunRecord, alpha: float) -> str:
     camera = run.artifacts.get("camera")
     if camera is not None:
         facts.append(f"vertical FoV {camera.vfov_deg:.2f}° ({html.escape(camera.method)}, confidence {camera.confidence:.2f})")
-    room = run.artifacts.get("room_box")
+    room = run.artifacts.get("room_box_fit", run.artifacts.get("room_box"))
     if room is not None:
         size = " × ".join(f"{2 * h:.2f}" for h in room.half_size)
         facts.append(f"room box {size} (x × y × z), camera height {room.extra.get('camera_height', float('nan')):.2f}")

@@ -12,7 +12,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from psdr_room_core.artifacts import Image, Panoptic, Segment
+from psdr_room_core.artifacts import Image, Panoptic
 from psdr_room_core.errors import PsdrRoomError
 from psdr_room_core.hookspecs import hookimpl
 from psdr_room_core.plugins import Registry
@@ -58,10 +58,7 @@ class FileSegmentation:
                 raise PsdrRoomError(f"{path}: segmentation is {ids.shape[1]}x{ids.shape[0]}, not aligned with the photo")
             ids = cv2.resize(ids, (image.width, image.height), interpolation=cv2.INTER_NEAREST)
         present = set(np.unique(ids).tolist())
-        return Panoptic(
-            ids=ids.astype(np.int32),
-            segments=[Segment(id=int(s.id), category=s.category, label=s.label) for s in segments if s.id in present],
-        )
+        return Panoptic(ids=ids.astype(np.int32), segments=[s for s in segments if s.id in present])
 
 
 @hookimpl

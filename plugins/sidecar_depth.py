@@ -4,32 +4,22 @@ Encodings (``DEPTH_ENCODINGS``):
 
 - ``png16``: single-channel uint16 PNG, depth = value / scale (NYU: scale 1000 = millimetres; TUM: 5000).
 - ``sun``:   SUN RGB-D uint16 PNG, bits rotated right by 3, then / 1000 = metres.
-- ``exr``:   float OpenEXR (channel Z, depth, Y, R, ... in that order of preference), in the file's units.
+- ``exr``:   OpenEXR, read with Mitsuba's ``Bitmap`` (any compression); channel Z, depth, D, distance, Y,
+  R, ... in that order of preference, in the file's units.
 - ``npy``:   2-D float NumPy array, in the file's units.
 
 Zero, negative and non-finite values are invalid. Every problem raises :class:`SidecarError` with a
 one-line message that names the file and says how to fix it.
-
-EXR files with NONE, RLE, ZIPS or ZIP compression are decoded here (pure NumPy + zlib). Other codecs
-(PIZ, PXR24, B44, DWA, tiled or multi-part files) go through OpenCV when it was built with OpenEXR,
-else through Mitsuba's ``Bitmap`` when Mitsuba is installed.
 """
 
 from __future__ import annotations
 
 import json
 import math
-import os
-import struct
-import zlib
 from pathlib import Path
 
-import numpy as np
-
-# OpenCV reads OPENCV_IO_ENABLE_OPENEXR the first time it decodes an EXR, so setting it here works even
-# when cv2 was imported earlier, provided no EXR was decoded before. An explicit user value is kept.
-os.environ.setdefault("OPENCV_IO_ENABLE_OPENEXR", "1")
 import cv2
+import numpy as np
 
 __all__ = [
     "DEPTH_ENCODINGS",
@@ -225,37 +215,23 @@ def _read_npy(path: Path) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------------------- OpenEXR
-_EXR_MAGIC = 20000630
-_EXR_CODECS = ("NONE", "RLE", "ZIPS", "ZIP", "PIZ", "PXR24", "B44", "B44A", "DWAA", "DWAB", "HTJ2K256", "HTJ2K32")
-_EXR_LINES_PER_CHUNK = {0: 1, 1: 1, 2: 1, 3: 16}  # codecs decoded here
-_EXR_TYPES = {0: (np.dtype("<u4"), "UINT"), 1: (np.dtype("<f2"), "HALF"), 2: (np.dtype("<f4"), "FLOAT")}
 _DEPTH_CHANNELS = ("z", "depth", "d", "distance", "y", "r", "v", "gray", "grey", "l")
-
-
-class _Unsupported(Exception):
-    """The EXR is valid but uses a feature the built-in decoder lacks (message: which)."""
+"""EXR channel names that hold depth, preferred first; matched case-insensitively on the last part of
+layered names (``ViewLayer.Depth.Z`` -> ``z``)."""
 
 
 def _read_exr(path: Path) -> np.ndarray:
+    import mitsuba as mi  # imported here: slow to load and only EXR needs it; Bitmap needs no variant
+
     try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise SidecarError(f"{path}: cannot read the file ({exc.strerror or exc}); check its permissions") from None
-    try:
-        return _decode_exr(data, path)
-    except _Unsupported as exc:
-        reason = str(exc)
-    except (struct.error, zlib.error, IndexError, ValueError) as exc:
-        if isinstance(exc, SidecarError):
-            raise
-        raise SidecarError(f"{path}: damaged or not an OpenEXR file ({type(exc).__name__}); re-export the depth as EXR or .npy") from None
-    depth = _read_exr_fallback(path)
-    if depth is None:
-        raise SidecarError(
-            f"{path}: {reason}, which needs OpenCV built with OpenEXR or Mitsuba 3; "
-            f"re-save the EXR with ZIP or no compression (scanline), or save depth as .npy"
-        )
-    return depth
+        bitmap = mi.Bitmap(str(path), mi.Bitmap.FileFormat.OpenEXR)
+    except RuntimeError:
+        raise SidecarError(f"{path}: damaged or not an OpenEXR file; re-export the depth as float EXR or .npy") from None
+    names = [field.name for field in bitmap.struct_()]
+    data = np.array(bitmap)
+    if data.ndim == 3:
+        data = data[..., _pick_channel(names, path)]
+    return data.astype(np.float32)
 
 
 def _pick_channel(names: list[str], path: Path) -> int:
@@ -266,145 +242,3 @@ def _pick_channel(names: list[str], path: Path) -> int:
         if wanted in keys:
             return keys.index(wanted)
     raise SidecarError(f"{path}: cannot tell which EXR channel holds depth (channels: {', '.join(names)}); name it Z or depth, or save a single channel")
-
-
-def _decode_exr(data: bytes, path: Path) -> np.ndarray:
-    magic, version = struct.unpack_from("<ii", data, 0)
-    if magic != _EXR_MAGIC:
-        raise SidecarError(f"{path}: not an OpenEXR file (bad magic number); export depth as float EXR or .npy")
-    if version & 0x800:
-        raise SidecarError(f"{path}: deep EXR images are not depth maps; export a flat float EXR or .npy")
-    if version & 0x200:
-        raise _Unsupported("tiled EXR")
-    if version & 0x1000:
-        raise _Unsupported("multi-part EXR")
-
-    pos = 8
-    header: dict[str, tuple[str, bytes]] = {}
-    while True:
-        end = data.index(b"\0", pos)
-        name = data[pos:end].decode("latin-1")
-        pos = end + 1
-        if not name:
-            break
-        end = data.index(b"\0", pos)
-        typ = data[pos:end].decode("latin-1")
-        pos = end + 1
-        (size,) = struct.unpack_from("<i", data, pos)
-        pos += 4
-        header[name] = (typ, data[pos : pos + size])
-        pos += size
-    for key in ("channels", "compression", "dataWindow"):
-        if key not in header:
-            raise SidecarError(f"{path}: EXR header lacks '{key}'; re-export the depth as EXR or .npy")
-
-    channels = []  # (name, dtype, type name)
-    raw = header["channels"][1]
-    cpos = 0
-    while cpos < len(raw) and raw[cpos] != 0:
-        end = raw.index(b"\0", cpos)
-        cname = raw[cpos:end].decode("latin-1")
-        ptype, _linear, xs, ys = struct.unpack_from("<iB3xii", raw, end + 1)
-        cpos = end + 1 + 16
-        if ptype not in _EXR_TYPES:
-            raise SidecarError(f"{path}: EXR channel {cname!r} has unknown pixel type {ptype}; re-export as float EXR or .npy")
-        if xs != 1 or ys != 1:
-            raise _Unsupported(f"subsampled channel {cname!r}")
-        channels.append((cname, *_EXR_TYPES[ptype]))
-    if not channels:
-        raise SidecarError(f"{path}: EXR has no channels; re-export the depth as EXR or .npy")
-    pick = _pick_channel([c[0] for c in channels], path)
-
-    codec = header["compression"][1][0]
-    if codec not in _EXR_LINES_PER_CHUNK:
-        name = _EXR_CODECS[codec] if codec < len(_EXR_CODECS) else f"#{codec}"
-        raise _Unsupported(f"{name} compression")
-    lines = _EXR_LINES_PER_CHUNK[codec]
-    xmin, ymin, xmax, ymax = struct.unpack("<iiii", header["dataWindow"][1])
-    width, height = xmax - xmin + 1, ymax - ymin + 1
-    if width <= 0 or height <= 0:
-        raise SidecarError(f"{path}: EXR data window is empty; re-export the depth as EXR or .npy")
-
-    n_chunks = -(-height // lines)
-    offsets = np.frombuffer(data, dtype="<u8", count=n_chunks, offset=pos)
-    bytes_per_line = sum(c[1].itemsize for c in channels) * width
-    ch_start = sum(c[1].itemsize for c in channels[:pick]) * width
-    ch_dtype = channels[pick][1]
-    out = np.zeros((height, width), dtype=np.float32)
-    for off in offsets:
-        y, size = struct.unpack_from("<ii", data, int(off))
-        payload = data[int(off) + 8 : int(off) + 8 + size]
-        row = y - ymin
-        n = min(lines, height - row)
-        if row < 0 or n <= 0:
-            raise SidecarError(f"{path}: EXR chunk at line {y} lies outside the data window; re-export the file")
-        expected = bytes_per_line * n
-        if size < expected:
-            if codec == 1:
-                payload = _exr_unpredict(_exr_rle(payload, expected))
-            elif codec in (2, 3):
-                payload = _exr_unpredict(np.frombuffer(zlib.decompress(payload), dtype=np.uint8))
-            else:
-                raise _Unsupported("compressed NONE chunk")
-        block = np.frombuffer(payload, dtype=np.uint8)
-        if block.size != expected:
-            raise SidecarError(f"{path}: EXR chunk at line {y} has {block.size} bytes, expected {expected}; re-export the file")
-        block = block.reshape(n, bytes_per_line)[:, ch_start : ch_start + ch_dtype.itemsize * width]
-        out[row : row + n] = np.ascontiguousarray(block).view(ch_dtype).reshape(n, width)
-    return out
-
-
-def _exr_unpredict(t: np.ndarray) -> bytes:
-    """Undo the ZIP/RLE byte predictor and the even/odd byte split of OpenEXR."""
-    if t.size == 0:
-        return b""
-    d = t.astype(np.int64)
-    d[1:] -= 128
-    t = (np.cumsum(d) & 0xFF).astype(np.uint8)
-    out = np.empty_like(t)
-    half = (t.size + 1) // 2
-    out[0::2] = t[:half]
-    out[1::2] = t[half:]
-    return out.tobytes()
-
-
-def _exr_rle(src: bytes, expected: int) -> np.ndarray:
-    out = bytearray()
-    i = 0
-    while i < len(src):
-        count = struct.unpack_from("b", src, i)[0]
-        i += 1
-        if count < 0:
-            out += src[i : i - count]
-            i -= count
-        else:
-            out += src[i : i + 1] * (count + 1)
-            i += 1
-    if len(out) != expected:
-        raise ValueError("bad RLE data")
-    return np.frombuffer(bytes(out), dtype=np.uint8)
-
-
-def _read_exr_fallback(path: Path) -> np.ndarray | None:
-    """Decode an EXR the built-in decoder cannot (PIZ, DWA, tiled ...) with OpenCV or Mitsuba, if available."""
-    try:
-        img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-    except cv2.error:
-        img = None
-    if img is not None:
-        if img.ndim == 3:
-            img = img[..., 2] if img.shape[2] >= 3 else img[..., 0]  # BGR(A): take R
-        return img.astype(np.float32)
-    try:
-        import mitsuba as mi  # optional; Bitmap needs no variant
-    except Exception:  # noqa: BLE001 - any import failure means "not available"
-        return None
-    try:
-        bmp = mi.Bitmap(str(path))
-        names = [field.name for field in bmp.struct_()]
-        arr = np.array(bmp)
-    except Exception:  # noqa: BLE001
-        return None
-    if arr.ndim == 3:
-        arr = arr[..., _pick_channel(names, path)] if arr.shape[2] > 1 else arr[..., 0]
-    return arr.astype(np.float32)

@@ -1,14 +1,16 @@
-"""Readers (and a writer) for user-supplied segmentation files ("sidecars" next to a photo).
+"""Readers for user-supplied segmentation files ("sidecars" next to a photo).
 
 Two formats:
 
 - COCO panoptic: an RGB PNG whose pixel id is ``R + 256*G + 256**2*B`` (0 = unlabelled) plus a JSON with
-  ``segments_info`` and ``categories`` (one annotation, or a whole COCO file with ``annotations``).
+  ``segments_info`` and ``categories`` (one annotation, or a whole COCO file with ``annotations``). What
+  :func:`psdr_room_core.artifacts.write_coco_panoptic` writes is one such annotation.
 - LabelMe: a JSON of polygons / rectangles / circles / masks, rasterised in file order.
 
-Class names are mapped to the room categories in :data:`CATEGORIES` by :func:`category_of`. The id map
-returned is int32 HxW; each :class:`Segment` names its id, category and original label. Problems raise
-:class:`SidecarError` with a one-line message naming the file and the fix.
+Class names are mapped to the room categories :data:`~psdr_room_core.artifacts.CATEGORIES` by
+:func:`category_of`. The id map returned is int32 HxW; each core :class:`~psdr_room_core.artifacts.Segment`
+names its id, category and original label. Problems raise :class:`SidecarError` with a one-line message
+naming the file and the fix.
 """
 
 from __future__ import annotations
@@ -19,7 +21,6 @@ import io
 import json
 import math
 import re
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -27,40 +28,22 @@ import cv2
 import numpy as np
 from PIL import Image
 
+from psdr_room_core.artifacts import Segment, panoptic_ids
+
 from .sidecar_depth import SidecarError
 
 __all__ = [
     "BACKGROUND_LABELS",
-    "CATEGORIES",
-    "Segment",
     "SidecarError",
     "category_of",
     "find_segmentation_sidecar",
     "panoptic_json_for",
     "read_coco_panoptic",
     "read_labelme",
-    "write_coco_panoptic",
 ]
-
-CATEGORIES = ("wall", "floor", "ceiling", "window", "door", "lamp", "object")
 
 BACKGROUND_LABELS = frozenset({"_background_", "background", "unlabeled", "unlabelled", "void", "ignore", "none"})
 """LabelMe labels that mean "no segment" (their pixels are set to 0)."""
-
-
-@dataclass(frozen=True)
-class Segment:
-    """One segment: its value in the id map (> 0), room category and the class name from the file."""
-
-    id: int
-    category: str
-    label: str
-
-    def __post_init__(self) -> None:
-        if isinstance(self.id, bool) or not isinstance(self.id, (int, np.integer)) or self.id <= 0:
-            raise ValueError(f"Segment id must be a positive integer, got {self.id!r}")
-        if self.category not in CATEGORIES:
-            raise ValueError(f"Segment category must be one of {', '.join(CATEGORIES)}, got {self.category!r}")
 
 
 # ------------------------------------------------------------------------------------- categories
@@ -155,7 +138,7 @@ def _category_one(name: str) -> str:
 
 
 def category_of(label: str) -> str:
-    """Map a class name (COCO-panoptic, ADE20K, NYU-40, free text) to one of :data:`CATEGORIES`.
+    """Map a class name (COCO-panoptic, ADE20K, NYU-40, free text) to one of the core ``CATEGORIES``.
 
     Case-insensitive; tolerant of ``-other-merged``/``-stuff`` suffixes, ``_`` and plurals. Rugs and
     carpets count as floor (they lie flat on it), blinds as window, light fixtures as lamp.
@@ -215,8 +198,7 @@ def _read_panoptic_png(png: Path) -> np.ndarray:
     except (OSError, ValueError, Image.DecompressionBombError) as exc:
         raise SidecarError(f"{png}: not a readable image ({exc}); save the id map as an RGB PNG (id = R + 256*G + 256^2*B)") from None
     if mode in ("RGB", "RGBA"):
-        rgb = arr[..., :3].astype(np.int32)
-        return rgb[..., 0] + 256 * rgb[..., 1] + 65536 * rgb[..., 2]
+        return panoptic_ids(arr)
     if mode in ("L", "P", "I;16", "I;16B", "I;16L", "I"):  # ids stored directly (e.g. LabelMe's label.png)
         ids = arr.astype(np.int64)
         if ids.min() < 0 or ids.max() > np.iinfo(np.int32).max:
@@ -320,60 +302,6 @@ def read_coco_panoptic(png: Path, json_path: Path) -> tuple[np.ndarray, list[Seg
             f"{png}: pixel id(s) {listed} are not in {json_path.name}; list them in segments_info or paint them black (id 0)"
         )
     return ids.astype(np.int32, copy=False), segments
-
-
-def write_coco_panoptic(png: Path, json_path: Path, ids: np.ndarray, segments: list[Segment]) -> None:
-    """Write an id map and its segments as COCO panoptic (RGB PNG + single-annotation JSON).
-
-    Categories are the names in :data:`CATEGORIES` (ids 1..7); each segment keeps its label as ``label``.
-    :func:`read_coco_panoptic` reads the result back exactly.
-    """
-    png, json_path = Path(png), Path(json_path)
-    ids = np.asarray(ids)
-    if ids.ndim != 2 or not np.issubdtype(ids.dtype, np.integer):
-        raise SidecarError(f"{png}: the id map must be a 2-D integer array, got {ids.dtype} {ids.shape}; pass an int32 HxW array")
-    if ids.size and (ids.min() < 0 or ids.max() >= 1 << 24):
-        raise SidecarError(f"{png}: ids must lie in 0..16777215 to fit an RGB PNG; renumber the segments")
-    by_id: dict[int, Segment] = {}
-    for seg in segments:
-        if seg.id in by_id:
-            raise SidecarError(f"{json_path}: segment id {seg.id} appears twice; give each segment a unique id")
-        by_id[int(seg.id)] = seg
-    present = set(np.unique(ids).tolist()) - {0}
-    if present - set(by_id):
-        raise SidecarError(f"{png}: id map holds ids without a segment ({sorted(present - set(by_id))[:5]}); add segments or zero those pixels")
-    if set(by_id) - present:
-        raise SidecarError(f"{json_path}: segment(s) {sorted(set(by_id) - present)[:5]} have no pixels; drop them before writing")
-
-    u = ids.astype(np.uint32)
-    rgb = np.stack([u & 255, (u >> 8) & 255, (u >> 16) & 255], axis=-1).astype(np.uint8)
-    cat_id = {name: i + 1 for i, name in enumerate(CATEGORIES)}
-    infos = []
-    for seg in segments:
-        ys, xs = np.nonzero(ids == seg.id)
-        x0, y0 = int(xs.min()), int(ys.min())
-        infos.append(
-            {
-                "id": int(seg.id),
-                "category_id": cat_id[seg.category],
-                "label": seg.label,
-                "iscrowd": 0,
-                "area": int(xs.size),
-                "bbox": [x0, y0, int(xs.max()) - x0 + 1, int(ys.max()) - y0 + 1],
-            }
-        )
-    doc = {
-        "file_name": png.name,
-        "image_id": png.stem,
-        "height": int(ids.shape[0]),
-        "width": int(ids.shape[1]),
-        "segments_info": infos,
-        "categories": [{"id": i, "name": n, "isthing": int(n in ("object", "lamp"))} for n, i in cat_id.items()],
-    }
-    png.parent.mkdir(parents=True, exist_ok=True)
-    json_path.parent.mkdir(parents=True, exist_ok=True)
-    Image.fromarray(rgb, "RGB").save(png)
-    json_path.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
 
 
 # ------------------------------------------------------------------------------------------ LabelMe

@@ -157,13 +157,13 @@ def estimate_camera(
     best = int(np.argmax(contrib.sum(axis=1)))
     focal, rot, fit_std = refined[best]
     vfovs = np.array([_vfov_deg(f, h_units) for f, _, _ in refined])
-    ambiguity = _bootstrap_vfov_spread(contrib, vfovs, rng, params.n_bootstrap)
+    bagged, ambiguity = _bootstrap_vfov(contrib, vfovs, rng, params.n_bootstrap)
 
     vps = _frame_vps(focal, rot)
     n_observed = int(np.sum(_vp_support(segs, vps, tau) >= params.min_vp_support))
     if n_observed < 2:
         return fallback
-    vfov, vfov_std = vfovs[best], float(np.hypot(fit_std, ambiguity))
+    vfov, vfov_std = _shrink_to_prior(bagged, float(np.hypot(fit_std, ambiguity)), params)
     explained = contrib[best].sum() / segs.weight.sum()
     confidence = float(np.clip(explained, 0, 1) * n_observed / 3.0 * np.exp(-vfov_std / 5.0))
 
@@ -500,15 +500,25 @@ def _vfov_std_deg(jac: np.ndarray, focal: float, h_units: float) -> float:
     return float(np.sqrt(max(var_log_f, 0.0)) * dvfov_dlogf)
 
 
-def _bootstrap_vfov_spread(contrib: np.ndarray, vfovs: np.ndarray, rng: np.random.Generator, n_boot: int) -> float:
-    """Std of the FoV of the winning frame when the segments are resampled with replacement.
+def _bootstrap_vfov(contrib: np.ndarray, vfovs: np.ndarray, rng: np.random.Generator, n_boot: int) -> tuple[float, float]:
+    """Median and robust std of the winning frame's FoV when segments are resampled with replacement.
 
-    ``contrib`` is the (frames, segments) support matrix; a large spread means that competing
-    frames with different focals explain the lines about equally well.
+    ``contrib`` is the (frames, segments) support matrix. The median is a bagged, lower-variance
+    choice than the single best frame; a large spread means that competing frames with
+    different focals explain the lines about equally well.
     """
     n = contrib.shape[1]
     counts = rng.multinomial(n, np.full(n, 1.0 / n), size=n_boot)  # (B, N)
-    return float(np.std(vfovs[np.argmax(contrib @ counts.T, axis=0)]))
+    won = vfovs[np.argmax(contrib @ counts.T, axis=0)]
+    lo, median, hi = np.percentile(won, [15.87, 50.0, 84.13])
+    return float(median), float(hi - lo) / 2.0
+
+
+def _shrink_to_prior(vfov: float, std: float, params: VanishingPointParams) -> tuple[float, float]:
+    """Gaussian posterior (mean, std) of the FoV given a measurement and the prior around the fallback."""
+    w_data, w_prior = 1.0 / max(std, 1e-6) ** 2, 1.0 / params.prior_sigma_deg**2
+    mean = (w_data * vfov + w_prior * params.fallback_vfov_deg) / (w_data + w_prior)
+    return mean, (w_data + w_prior) ** -0.5
 
 
 # --------------------------------------------------------------------------- results

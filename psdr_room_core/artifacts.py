@@ -200,18 +200,76 @@ class Segment:
     """One segment of a panoptic segmentation."""
 
     id: int
+    """Its value in the id map (> 0)."""
     category: str
     """One of :data:`CATEGORIES`."""
     label: str
     """The class name the segmenter or annotator gave (e.g. ``wardrobe``)."""
+
+    def __post_init__(self) -> None:
+        if isinstance(self.id, bool) or not isinstance(self.id, (int, np.integer)) or self.id <= 0:
+            raise ValueError(f"Segment id must be a positive integer, got {self.id!r}")
+        if self.category not in CATEGORIES:
+            raise ValueError(f"Segment category must be one of {', '.join(CATEGORIES)}, got {self.category!r}")
+
+
+def panoptic_ids(rgb: np.ndarray) -> np.ndarray:
+    """The int32 id map of a COCO-panoptic RGB image (HxWx3): ``id = R + 256 G + 256² B``, 0 = unlabelled."""
+    rgb = rgb.astype(np.int32)
+    return rgb[..., 0] + 256 * rgb[..., 1] + 65536 * rgb[..., 2]
+
+
+def write_coco_panoptic(png: Path, json_path: Path, ids: np.ndarray, segments: list[Segment]) -> None:
+    """Write an id map and its segments as COCO panoptic: an RGB PNG (see :func:`panoptic_ids`) and a
+    single-annotation JSON (``file_name``, ``segments_info``, ``categories``).
+
+    The categories are :data:`CATEGORIES` with ids 1..7; each segment keeps its label as ``label``. Every
+    id in the map must have exactly one segment and every segment pixels, so that :meth:`Panoptic.load`
+    and the ``segmentation=file`` reader read the files back unchanged.
+    """
+    ids = np.asarray(ids)
+    if ids.ndim != 2 or not np.issubdtype(ids.dtype, np.integer):
+        raise PsdrRoomError(f"{png}: the id map must be a 2-D integer array, got {ids.dtype} {ids.shape}; pass an int32 HxW array")
+    if ids.size and (ids.min() < 0 or ids.max() >= 1 << 24):
+        raise PsdrRoomError(f"{png}: ids must lie in 0..16777215 to fit an RGB PNG; renumber the segments")
+    listed: set[int] = set()
+    for s in segments:
+        if s.id in listed:
+            raise PsdrRoomError(f"{json_path}: segment id {s.id} appears twice; give each segment a unique id")
+        listed.add(int(s.id))
+    present = set(np.unique(ids).tolist()) - {0}
+    if present - listed:
+        raise PsdrRoomError(f"{png}: id map holds ids without a segment ({sorted(present - listed)[:5]}); add segments or zero those pixels")
+    if listed - present:
+        raise PsdrRoomError(f"{json_path}: segment(s) {sorted(listed - present)[:5]} have no pixels; drop them before writing")
+
+    u = ids.astype(np.uint32)
+    _write_png(png, np.stack([u & 255, (u >> 8) & 255, (u >> 16) & 255], axis=-1).astype(np.uint8))
+    cat_id = {name: i + 1 for i, name in enumerate(CATEGORIES)}
+    infos = []
+    for s in segments:
+        ys, xs = np.nonzero(ids == s.id)
+        x0, y0 = int(xs.min()), int(ys.min())
+        bbox = [x0, y0, int(xs.max()) - x0 + 1, int(ys.max()) - y0 + 1]
+        infos.append({"id": int(s.id), "category_id": cat_id[s.category], "label": s.label, "iscrowd": 0,
+                      "area": int(xs.size), "bbox": bbox})
+    _write_json(json_path, {
+        "file_name": png.name,
+        "image_id": png.stem,
+        "height": int(ids.shape[0]),
+        "width": int(ids.shape[1]),
+        "segments_info": infos,
+        "categories": [{"id": i, "name": n, "isthing": int(n in ("object", "lamp"))} for n, i in cat_id.items()],
+    })
 
 
 @dataclass
 class Panoptic:
     """Panoptic segmentation at working resolution: an int32 id map (0 = unlabelled) and its segments.
 
-    Saved as a COCO-panoptic PNG (id = R + 256 G + 256² B) and JSON, the same format the ``file``
-    segmentation implementation reads, so a corrected segmentation can be fed back in.
+    Saved with :func:`write_coco_panoptic` as ``panoptic.png`` + ``panoptic.json``, the format the ``file``
+    segmentation implementation reads, so a corrected segmentation can be fed back in (as
+    ``<photo stem>.panoptic.png`` + ``.panoptic.json``).
     """
 
     kind: ClassVar[str] = "panoptic"
@@ -224,33 +282,25 @@ class Panoptic:
         return np.isin(self.ids, wanted)
 
     def save(self, directory: Path) -> None:
-        ids = self.ids.astype(np.uint32)
-        rgb = np.stack([ids & 255, (ids >> 8) & 255, (ids >> 16) & 255], axis=-1).astype(np.uint8)
-        _write_png(directory / "panoptic.png", rgb)
-        names = sorted({s.category for s in self.segments} | set(CATEGORIES), key=CATEGORIES.index)
-        cat_id = {name: i + 1 for i, name in enumerate(names)}
-        _write_json(
-            directory / "panoptic.json",
-            {
-                "file_name": "panoptic.png",
-                "segments_info": [
-                    {"id": s.id, "category_id": cat_id[s.category], "label": s.label} for s in self.segments
-                ],
-                "categories": [{"id": i, "name": n} for n, i in cat_id.items()],
-            },
-        )
+        write_coco_panoptic(directory / "panoptic.png", directory / "panoptic.json", self.ids, self.segments)
 
     @classmethod
     def load(cls, directory: Path) -> "Panoptic":
-        rgb = _read_png(directory / "panoptic.png").astype(np.int32)
-        ids = rgb[..., 0] + 256 * rgb[..., 1] + 65536 * rgb[..., 2]
+        """Read what :meth:`save` wrote; (edited) files from elsewhere go through ``segmentation=file``."""
+        rgb = _read_png(directory / "panoptic.png")
+        if rgb.ndim != 3:
+            raise PsdrRoomError(f"{directory / 'panoptic.png'}: not an RGB PNG (id = R + 256 G + 256² B); regenerate it")
         meta = _read_json(directory / "panoptic.json")
-        names = {c["id"]: c["name"] for c in meta["categories"]}
-        segments = [
-            Segment(id=int(s["id"]), category=names[s["category_id"]], label=s.get("label", names[s["category_id"]]))
-            for s in meta["segments_info"]
-        ]
-        return cls(ids=ids.astype(np.int32), segments=segments)
+        try:
+            names = {c["id"]: c["name"] for c in meta["categories"]}
+            segments = [Segment(int(s["id"]), names[s["category_id"]], s.get("label") or names[s["category_id"]])
+                        for s in meta["segments_info"]]
+        except (KeyError, TypeError, ValueError) as exc:
+            raise PsdrRoomError(
+                f"{directory / 'panoptic.json'}: not as psdr-room writes it ({type(exc).__name__}: {exc}); "
+                "regenerate it, or feed an edited segmentation in with segmentation=file"
+            ) from None
+        return cls(ids=panoptic_ids(rgb), segments=segments)
 
 
 # --------------------------------------------------------------------------------------- point cloud
@@ -418,8 +468,34 @@ class SceneFiles:
                           for p in sorted(directory.rglob("*")) if p.is_file()})
 
 
+# --------------------------------------------------------------------------------------- optimisation
+@dataclass
+class OptimizationLog:
+    """What an optimisation stage did: per-iteration loss terms and timings, pictures, and a summary."""
+
+    kind: ClassVar[str] = "optimization_log"
+    marker: ClassVar[str] = "log.json"
+    history: list[dict[str, float]]
+    images: dict[str, np.ndarray]
+    """Name → RGB uint8 picture (before/after overlays, loss curves)."""
+    summary: dict[str, Any] = field(default_factory=dict)
+
+    def save(self, directory: Path) -> None:
+        _write_json(directory / "log.json", {"history": self.history, "summary": self.summary,
+                                             "images": sorted(self.images)})
+        for name, picture in self.images.items():
+            _write_png(directory / f"{name}.png", picture)
+
+    @classmethod
+    def load(cls, directory: Path) -> "OptimizationLog":
+        data = _read_json(directory / "log.json")
+        images = {name: _read_png(directory / f"{name}.png") for name in data["images"]}
+        return cls(history=data["history"], images=images, summary=data["summary"])
+
+
 ARTIFACT_TYPES: dict[str, type] = {
-    t.kind: t for t in (Image, Camera, DepthMap, Panoptic, PointCloud, RoomBox, Placements, SceneFiles)
+    t.kind: t
+    for t in (Image, Camera, DepthMap, Panoptic, PointCloud, RoomBox, Placements, SceneFiles, OptimizationLog)
 }
 """Artifact kind → class, for loading cached or user-supplied artifacts. Plugins may add their own."""
 

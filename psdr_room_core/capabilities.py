@@ -8,11 +8,16 @@ content is part of the cache key.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import TYPE_CHECKING, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 if TYPE_CHECKING:
+    import numpy as np
+    import torch
+
     from .artifacts import Camera, DepthMap, Image, Panoptic
+    from .geometry import TriangleMesh
 
 CAPABILITIES: tuple[str, ...] = (
     "fov",
@@ -64,3 +69,42 @@ class Segmenter(Protocol):
     """``segmentation``: a panoptic segmentation at the working image's resolution."""
 
     def segment(self, image: Image, photo: Path) -> Panoptic: ...
+
+
+@runtime_checkable
+class Optimizer(Protocol):
+    """``optimizer``: gradient descent over named torch tensors with per-tensor learning rates."""
+
+    def minimize(
+        self,
+        params: dict[str, torch.Tensor],
+        learning_rates: dict[str, float],
+        loss: Callable[[int], tuple[torch.Tensor, dict[str, float]]],
+        iterations: int,
+        progress: Callable[[Iterable[int]], Iterable[int]] = iter,
+    ) -> list[dict[str, float]]: ...
+
+
+@runtime_checkable
+class GeometryRenderer(Protocol):
+    """Anti-aliased per-part coverage and depth of a fixed camera's view of meshes that move."""
+
+    n_parts: int
+
+    def render(self, vertices: dict[str, torch.Tensor], iteration: int = 0) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """(masks [P,H,W] in [0,1], z-depth [H,W] (0 where empty), alpha [H,W]), differentiable with respect to
+        the vertex tensors (N×3 world positions per mesh) including through visibility."""
+        ...
+
+
+@runtime_checkable
+class Renderer(Protocol):
+    """``renderer``: a physically based differentiable renderer."""
+
+    def geometry(
+        self,
+        camera: Camera,
+        camera_to_world: np.ndarray,
+        meshes: dict[str, TriangleMesh],
+        parts: dict[str, int],
+    ) -> GeometryRenderer: ...

@@ -65,7 +65,7 @@ class RoomInitParams:
     """Room height = this x the top of the room points when no ceiling is visible (paper §4.2)."""
     extent_percentile: float = 98.0
     """Robust 'maximum' of point coordinates (ceiling height, top of points, box sides without a wall)."""
-    behind_margin: float = 0.3
+    behind_margin: float = 0.15
     """Minimum camera clearance of box sides that no wall bounds (e.g. the unseen back wall). Photos are
     typically taken 0.5-1 m in front of the back wall with a median point distance of 2.5-3.5 m."""
     seed: int = 0

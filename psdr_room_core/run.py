@@ -83,7 +83,10 @@ def metrics(record: RunRecord) -> dict[str, Any]:
                 scale = camera.height / float(intrinsics["height"])
                 true_vfov = math.degrees(2 * math.atan(0.5 * camera.height / (float(intrinsics["fy"]) * scale)))
                 out["camera"]["vfov_error_deg"] = camera.vfov_deg - true_vfov
-    room = record.artifacts.get("room_box")
+    for name, artifact in record.artifacts.items():
+        if artifact.kind == "optimization_log":
+            out[name] = artifact.summary
+    room = record.artifacts.get("room_box_fit", record.artifacts.get("room_box"))
     if room is not None:
         out["room_box"] = {"size": [2 * float(h) for h in room.half_size], "yaw_deg": math.degrees(float(room.yaw)),
                            "camera_height": room.extra.get("camera_height"), "ceiling_visible": room.ceiling_visible}

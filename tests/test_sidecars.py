@@ -5,13 +5,14 @@ from __future__ import annotations
 import base64
 import io
 import json
-import struct
-import zlib
 from pathlib import Path
 
+import mitsuba as mi
 import numpy as np
 import pytest
 from PIL import Image
+from psdr_room_core.artifacts import CATEGORIES, Panoptic, Segment, write_coco_panoptic
+from psdr_room_core.errors import PsdrRoomError
 from psdr_room_plugins.sidecar_depth import (
     DEPTH_ENCODINGS,
     SidecarError,
@@ -20,13 +21,11 @@ from psdr_room_plugins.sidecar_depth import (
     read_depth_options,
 )
 from psdr_room_plugins.sidecar_segmentation import (
-    CATEGORIES,
-    Segment,
     category_of,
     find_segmentation_sidecar,
+    panoptic_json_for,
     read_coco_panoptic,
     read_labelme,
-    write_coco_panoptic,
 )
 
 REPO = Path(__file__).resolve().parents[1]
@@ -104,69 +103,11 @@ def test_npy_depth(tmp_path: Path):
     assert np.all(depth[valid] == 2.5) and np.all(depth[~valid] == 0)
 
 
-# ------------------------------------------------------------------ a tiny scanline OpenEXR writer
-def _exr_compress(raw: bytes, codec: int) -> bytes:
-    t = np.frombuffer(raw, dtype=np.uint8)
-    t = np.concatenate([t[0::2], t[1::2]]).astype(np.int16)
-    p = t.copy()
-    p[1:] = (t[1:] - t[:-1] + 128) & 0xFF
-    p = p.astype(np.uint8).tobytes()
-    if codec in (2, 3):
-        return zlib.compress(p)
-    out, i = bytearray(), 0  # RLE: runs of >= 3 equal bytes, literals otherwise
-    while i < len(p):
-        j = i
-        while j < len(p) and j - i < 128 and p[j] == p[i]:
-            j += 1
-        if j - i >= 3:
-            out += struct.pack("b", j - i - 1) + p[i : i + 1]
-            i = j
-            continue
-        j = i
-        while j < len(p) and j - i < 127 and not (j + 2 < len(p) and p[j] == p[j + 1] == p[j + 2]):
-            j += 1
-        j = max(j, i + 1)
-        out += struct.pack("b", -(j - i)) + p[i:j]
-        i = j
-    return bytes(out)
-
-
-def write_exr(path: Path, channels: dict[str, np.ndarray], codec: int = 0) -> None:
-    """Write a scanline EXR (codec 0 NONE, 1 RLE, 2 ZIPS, 3 ZIP); float32 or float16 channels."""
-    names = sorted(channels)
-    h, w = channels[names[0]].shape
-
-    def attr(name: str, typ: str, value: bytes) -> bytes:
-        return name.encode() + b"\0" + typ.encode() + b"\0" + struct.pack("<i", len(value)) + value
-
-    ptype = {np.dtype(np.float16): 1, np.dtype(np.float32): 2}
-    chlist = b"".join(n.encode() + b"\0" + struct.pack("<iB3xii", ptype[channels[n].dtype], 0, 1, 1) for n in names) + b"\0"
-    box = struct.pack("<4i", 0, 0, w - 1, h - 1)
-    header = (
-        attr("channels", "chlist", chlist)
-        + attr("compression", "compression", bytes([codec]))
-        + attr("dataWindow", "box2i", box)
-        + attr("displayWindow", "box2i", box)
-        + attr("lineOrder", "lineOrder", b"\0")
-        + attr("pixelAspectRatio", "float", struct.pack("<f", 1.0))
-        + attr("screenWindowCenter", "v2f", struct.pack("<2f", 0.0, 0.0))
-        + attr("screenWindowWidth", "float", struct.pack("<f", 1.0))
-        + b"\0"
-    )
-    lines = 16 if codec == 3 else 1
-    chunks = []
-    for y in range(0, h, lines):
-        raw = b"".join(channels[n][yy].astype(channels[n].dtype.newbyteorder("<")).tobytes() for yy in range(y, min(y + lines, h)) for n in names)
-        if codec:
-            packed = _exr_compress(raw, codec)
-            raw = packed if len(packed) < len(raw) else raw
-        chunks.append(struct.pack("<ii", y, len(raw)) + raw)
-    start = 8 + len(header) + 8 * len(chunks)
-    offsets, pos = [], start
-    for c in chunks:
-        offsets.append(pos)
-        pos += len(c)
-    path.write_bytes(struct.pack("<ii", 20000630, 2) + header + struct.pack(f"<{len(chunks)}Q", *offsets) + b"".join(chunks))
+# ------------------------------------------------------------------------------------------ OpenEXR
+def write_exr(path: Path, channels: dict[str, np.ndarray]) -> None:
+    """Write named float channels to an OpenEXR file (which stores them sorted by name)."""
+    data = np.ascontiguousarray(np.stack(list(channels.values()), axis=-1))
+    mi.Bitmap(data, mi.Bitmap.PixelFormat.MultiChannel, list(channels)).write(str(path))
 
 
 def _depth_field(h: int = 37, w: int = 53) -> np.ndarray:
@@ -177,13 +118,12 @@ def _depth_field(h: int = 37, w: int = 53) -> np.ndarray:
     return d
 
 
-@pytest.mark.parametrize("codec", [0, 1, 2, 3])
 @pytest.mark.parametrize("dtype", [np.float32, np.float16])
-def test_exr_codecs(tmp_path: Path, codec: int, dtype):
-    ref = _depth_field()
-    write_exr(tmp_path / "d.exr", {"Z": ref.astype(dtype)}, codec)
+def test_exr_depth(tmp_path: Path, dtype):
+    ref = _depth_field().astype(dtype)
+    write_exr(tmp_path / "d.exr", {"Z": ref})
     depth, valid = read_depth(tmp_path / "d.exr")
-    expect = ref.astype(dtype).astype(np.float32)
+    expect = ref.astype(np.float32)
     ok = np.isfinite(expect) & (expect > 0)
     np.testing.assert_array_equal(valid, ok)
     np.testing.assert_array_equal(depth[ok], expect[ok])
@@ -192,21 +132,12 @@ def test_exr_codecs(tmp_path: Path, codec: int, dtype):
 def test_exr_picks_depth_channel(tmp_path: Path):
     ref = _depth_field()
     other = np.full_like(ref, 7.0)
-    write_exr(tmp_path / "d.exr", {"R": other, "G": other, "B": other, "ViewLayer.Depth.Z": ref}, codec=3)
+    write_exr(tmp_path / "d.exr", {"R": other, "G": other, "B": other, "ViewLayer.Depth.Z": ref})
     depth, valid = read_depth(tmp_path / "d.exr")
     np.testing.assert_array_equal(depth[valid], ref[valid])
     write_exr(tmp_path / "rgb.exr", {"R": ref, "G": other, "B": other})
     depth, valid = read_depth(tmp_path / "rgb.exr")
     np.testing.assert_array_equal(depth[valid], ref[valid])
-
-
-def test_exr_other_codecs_via_fallback(tmp_path: Path):
-    mi = pytest.importorskip("mitsuba")
-    ref = (np.random.default_rng(0).random((40, 60)) * 5 + 0.5).astype(np.float32)
-    mi.Bitmap(ref).write(str(tmp_path / "piz.exr"))  # Mitsuba writes PIZ-compressed EXR
-    depth, valid = read_depth(tmp_path / "piz.exr")
-    assert valid.all()
-    np.testing.assert_array_equal(depth, ref)
 
 
 # ----------------------------------------------------------------------------------- depth errors
@@ -272,26 +203,13 @@ def test_depth_error_bad_arguments(tmp_path: Path):
     one_line_error(e, png, "scale must be a positive number")
 
 
-def test_depth_error_exr_channels_and_codec(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
+def test_depth_error_exr_channels(tmp_path: Path):
     ref = _depth_field()
     path = tmp_path / "two.exr"
     write_exr(path, {"foo": ref, "bar": ref})
     with pytest.raises(SidecarError) as e:
         read_depth(path)
     one_line_error(e, path, "cannot tell which EXR channel", "bar, foo")
-    # an unsupported codec with no OpenCV-EXR/Mitsuba fallback: say what to do
-    import psdr_room_plugins.sidecar_depth as sd
-
-    monkeypatch.setattr(sd, "_read_exr_fallback", lambda p: None)
-    write_exr(tmp_path / "z.exr", {"Z": ref})
-    path = tmp_path / "piz.exr"
-    data = bytearray((tmp_path / "z.exr").read_bytes())
-    key = b"compression\0compression\0\x01\0\0\0"
-    data[data.index(key) + len(key)] = 4  # claim PIZ
-    path.write_bytes(bytes(data))
-    with pytest.raises(SidecarError) as e:
-        read_depth(path)
-    one_line_error(e, path, "PIZ compression", "ZIP")
 
 
 def test_depth_options_errors(tmp_path: Path):
@@ -364,16 +282,23 @@ def _random_ids(h: int = 30, w: int = 40) -> tuple[np.ndarray, list[Segment]]:
 
 
 def test_panoptic_round_trip(tmp_path: Path):
+    """A saved Panoptic artifact loads back, and read as <stem>.panoptic.png/.json by segmentation=file."""
     ids, segments = _random_ids()
-    png, js = tmp_path / "x.panoptic.png", tmp_path / "x.panoptic.json"
-    write_coco_panoptic(png, js, ids, segments)
-    ids2, segments2 = read_coco_panoptic(png, js)
+    Panoptic(ids=ids, segments=segments).save(tmp_path)
+    loaded = Panoptic.load(tmp_path)
+    np.testing.assert_array_equal(loaded.ids, ids)
+    assert loaded.segments == segments
+    doc = json.loads((tmp_path / "panoptic.json").read_text())
+    assert [c["name"] for c in doc["categories"]] == list(CATEGORIES)
+    assert sum(s["area"] for s in doc["segments_info"]) == int((ids > 0).sum())
+    for name in ("panoptic.png", "panoptic.json"):
+        (tmp_path / name).rename(tmp_path / f"photo.{name}")
+    kind, png = find_segmentation_sidecar(tmp_path / "photo.jpg")
+    assert kind == "coco_panoptic"
+    ids2, segments2 = read_coco_panoptic(png, panoptic_json_for(png))
     assert ids2.dtype == np.int32
     np.testing.assert_array_equal(ids2, ids)
     assert segments2 == segments
-    doc = json.loads(js.read_text())
-    assert [c["name"] for c in doc["categories"]] == list(CATEGORIES)
-    assert sum(s["area"] for s in doc["segments_info"]) == int((ids > 0).sum())
 
 
 def test_panoptic_full_coco_file(tmp_path: Path):
@@ -433,7 +358,7 @@ def test_panoptic_errors(tmp_path: Path):
         read_coco_panoptic(png, js)
     one_line_error(e, js, "category_id 77")
 
-    with pytest.raises(SidecarError) as e:
+    with pytest.raises(PsdrRoomError) as e:
         write_coco_panoptic(png, js, ids, segments[1:])
     one_line_error(e, png, "without a segment")
 

@@ -16,4 +16,5 @@ def register_stages(registry: Registry) -> None:
     registry.add_stage("segment", preprocess.segment, uses=["segmentation"])
     registry.add_stage("point_cloud", preprocess.point_cloud)
     registry.add_stage("room_init", room.room_init)
+    registry.add_stage("room_fit", room.room_fit, uses=["renderer", "optimizer"])
     registry.add_stage("export_scene", export.export_scene)

@@ -28,19 +28,25 @@ ROOM_SIDES = {
 }
 
 
-def room_quads(room: RoomBox) -> dict[str, np.ndarray]:
-    """World-space quads (4x3, counter-clockwise seen from inside the room) for each side of the box."""
+def room_quad_indices(room: RoomBox) -> dict[str, np.ndarray]:
+    """Corner indices (into ``room.corners()``) of each side's quad, counter-clockwise seen from inside."""
     corners = room.corners()
-    quads = {}
+    indices = {}
     for name, (axis, sign) in ROOM_SIDES.items():
         base = (1 << axis) if sign > 0 else 0
         bit_u, bit_v = (1 << a for a in range(3) if a != axis)
-        quad = corners[[base, base | bit_u, base | bit_u | bit_v, base | bit_v]]
-        normal = np.cross(quad[1] - quad[0], quad[2] - quad[0])
-        if np.dot(normal, room.center - quad.mean(axis=0)) < 0:  # face the inside of the room
+        quad = np.array([base, base | bit_u, base | bit_u | bit_v, base | bit_v])
+        normal = np.cross(corners[quad[1]] - corners[quad[0]], corners[quad[2]] - corners[quad[0]])
+        if np.dot(normal, room.center - corners[quad].mean(axis=0)) < 0:  # face the inside of the room
             quad = quad[::-1]
-        quads[name] = quad
-    return quads
+        indices[name] = quad
+    return indices
+
+
+def room_quads(room: RoomBox) -> dict[str, np.ndarray]:
+    """World-space quads (4x3, counter-clockwise seen from inside the room) for each side of the box."""
+    corners = room.corners()
+    return {name: corners[index] for name, index in room_quad_indices(room).items()}
 
 
 def mesh_ply(vertices: np.ndarray, faces: np.ndarray) -> bytes:

@@ -1,20 +1,30 @@
-"""Room stage (paper §4.2): a room box initialised from the segmented point cloud.
+"""Room stage (paper §4.2): a room box initialised from the segmented point cloud, then refined by
+differentiable rendering of its wall/floor/ceiling masks and depth.
 
 Initialisation fits the floor plane by RANSAC, takes the height from the highest ceiling point (or 1.2×
 the highest point when no ceiling is visible), and aligns the box's yaw and extent with RANSAC wall
-planes (:mod:`psdr_room_core.room_box`).
+planes (:mod:`psdr_room_core.room_box`). Refinement minimises eq. 2 (:func:`room_fit`).
 """
 
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
+import cv2
 import numpy as np
 
-from ..artifacts import ROOM_CATEGORIES, PointCloud, RoomBox
+from ..artifacts import ROOM_CATEGORIES, Camera, DepthMap, Image, OptimizationLog, Panoptic, PointCloud, RoomBox
 from ..dag import StageContext
 from ..errors import PsdrRoomError
+from ..geometry import quad_mesh
 from ..room_box import RoomInitParams, init_room_box
+from ..visualize import plot_curves, room_edges_overlay, segment_overlay
+from .export import room_quad_indices, room_quads
+
+if TYPE_CHECKING:
+    import torch
 
 
 def room_init(ctx: StageContext, cloud: PointCloud) -> RoomBox:
@@ -40,4 +50,141 @@ def room_init(ctx: StageContext, cloud: PointCloud) -> RoomBox:
             "floor_plane_camera": np.asarray(fit.floor_plane).tolist(),
             "wall_planes_camera": [np.asarray(p).tolist() for p in fit.wall_planes],
         },
+    )
+
+
+ROOM_PARTS = {"wall": 0, "floor": 1, "ceiling": 2}
+"""Rendered part index of each room surface (the four walls share one mask, as in eq. 2)."""
+MASK_CATEGORIES = {"wall": ("wall", "door", "window"), "floor": ("floor",), "ceiling": ("ceiling",)}
+"""Target categories of each part's mask: doors and windows are openings in a wall's plane."""
+DEPTH_CATEGORIES = ("wall", "floor", "ceiling")
+"""Categories whose depth is the box's depth (not what is seen through a door or window)."""
+
+
+@dataclass(frozen=True)
+class RoomTargets:
+    """The target maps of eq. 2 at render resolution (area-filtered, so edges are fractional)."""
+
+    masks: np.ndarray
+    """[3,h,w] coverage of wall / floor / ceiling in the segmentation."""
+    visible: np.ndarray
+    """[h,w] fraction of the pixel where the photo shows a room surface: the IoU is computed there only,
+    since objects hide parts of the box's sides (the target masks are smaller than the rendered sides)."""
+    depth: np.ndarray
+    """[h,w] mean depth of the room-surface pixels with valid depth."""
+    depth_weight: np.ndarray
+    """[h,w] fraction of the pixel with such depth."""
+
+
+def room_targets(panoptic: Panoptic, depth: DepthMap, size: tuple[int, int]) -> RoomTargets:
+    """Downsample the segmentation and depth to the render size ``(width, height)``."""
+    def area(x: np.ndarray) -> np.ndarray:
+        return cv2.resize(x.astype(np.float32), size, interpolation=cv2.INTER_AREA)
+
+    masks = np.stack([area(np.isin(panoptic.ids, [s.id for s in panoptic.segments if s.category in cats]))
+                      for cats in MASK_CATEGORIES.values()])
+    surface = np.zeros(panoptic.ids.shape, bool)
+    for category in DEPTH_CATEGORIES:
+        surface |= panoptic.mask(category)
+    surface &= depth.valid
+    weight = area(surface)
+    mean_depth = np.where(weight > 0, area(np.where(surface, depth.depth, 0.0)) / np.maximum(weight, 1e-6), 0.0)
+    return RoomTargets(masks=masks, visible=np.clip(masks.sum(0), 0, 1), depth=mean_depth.astype(np.float32),
+                       depth_weight=weight)
+
+
+def scaled_camera(camera: Camera, width: int) -> Camera:
+    """The camera for a render ``width`` pixels wide (same field of view)."""
+    s = width / camera.width
+    height = max(1, round(camera.height * s))
+    return Camera(width=width, height=height, fx=camera.fx * s, fy=camera.fy * height / camera.height,
+                  cx=camera.cx * s, cy=camera.cy * height / camera.height, method=camera.method)
+
+
+def box_vertices(room: RoomBox, theta: dict[str, torch.Tensor], scale: float) -> dict[str, torch.Tensor]:
+    """World quads of the box moved by ``theta`` (yaw offset, translation in units of ``scale``, log-scale)."""
+    import torch
+
+    signs = torch.tensor([[(i >> 0) & 1, (i >> 1) & 1, (i >> 2) & 1] for i in range(8)], dtype=torch.float32) * 2 - 1
+    half = torch.as_tensor(room.half_size, dtype=torch.float32) * torch.exp(theta["log_scale"])
+    yaw = float(room.yaw) + theta["yaw"]
+    c, s = torch.cos(yaw), torch.sin(yaw)
+    zero, one = torch.zeros_like(c), torch.ones_like(c)
+    rotation = torch.stack([torch.stack([c, zero, s]), torch.stack([zero, one, zero]), torch.stack([-s, zero, c])])
+    center = torch.as_tensor(room.center, dtype=torch.float32) + scale * theta["translation"]
+    corners = center + (signs * half) @ rotation.T
+    return {name: corners[torch.as_tensor(index.copy())] for name, index in room_quad_indices(room).items()}
+
+
+def soft_iou(rendered: torch.Tensor, target: torch.Tensor, visible: torch.Tensor) -> torch.Tensor:
+    """IoU of fractional masks over the visible region: Σ v·r·t / Σ v·(r + t − r·t)."""
+    intersection = (visible * rendered * target).sum()
+    union = (visible * (rendered + target - rendered * target)).sum()
+    return intersection / union.clamp_min(1e-6)
+
+
+def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, panoptic: Panoptic,
+             image: Image) -> dict[str, Any]:
+    """Refine the room box by differentiable rendering (§4.2, eq. 2).
+
+    Minimises ``L_box = −Σ_i IoU(M_i^r, M_i^t) + w_depth · L1(D^r, D^t)`` over the box's yaw, translation and
+    per-axis scale, i ∈ {wall, floor, ceiling}, with anti-aliased masks and depth from the ``renderer`` whose
+    boundary terms carry gradients through the box's silhouette edges, and the ``optimizer`` (Adam, per-
+    parameter learning rates). Depths are normalised by the target's 98th percentile. Params:
+    ``iterations``, ``render_width``, ``depth_weight``, ``learning_rates`` {yaw, translation, log_scale}.
+    """
+    import torch  # imported here: a cached run never pays for it
+
+    params = ctx.params
+    cam = scaled_camera(camera, int(params["render_width"]))
+    targets = room_targets(panoptic, depth, (cam.width, cam.height))
+    if targets.visible.sum() < 1.0:
+        raise PsdrRoomError("room_fit: the segmentation shows no wall, floor or ceiling; label them to fit the room")
+    meshes = {name: quad_mesh(quad) for name, quad in room_quads(room).items()}
+    parts = {name: ROOM_PARTS["wall" if name.startswith("wall") else name] for name in meshes}
+    renderer = ctx.impl("renderer").geometry(cam, np.asarray(room.camera_to_world), meshes, parts)
+    scale = float(np.mean(room.half_size))
+    theta = {"yaw": torch.zeros((), requires_grad=True), "translation": torch.zeros(3, requires_grad=True),
+             "log_scale": torch.zeros(3, requires_grad=True)}
+    t_masks, visible = torch.from_numpy(targets.masks), torch.from_numpy(targets.visible)
+    t_depth, d_weight = torch.from_numpy(targets.depth), torch.from_numpy(targets.depth_weight)
+    valid = targets.depth[targets.depth_weight > 0]
+    depth_scale = float(np.percentile(valid, 98)) if valid.size else 1.0
+    weight_sum = d_weight.sum().clamp_min(1e-6)
+
+    def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
+        masks, rendered_depth, _ = renderer.render(box_vertices(room, theta, scale), iteration)
+        ious = [soft_iou(masks[k], t_masks[k], visible) for k in range(len(ROOM_PARTS))]
+        l1 = (d_weight * (rendered_depth - t_depth).abs()).sum() / weight_sum / depth_scale
+        terms = {f"iou_{name}": float(ious[k]) for name, k in ROOM_PARTS.items()} | {"depth_l1": float(l1)}
+        return -torch.stack(ious).sum() + float(params["depth_weight"]) * l1, terms
+
+    history = ctx.impl("optimizer").minimize(theta, dict(params["learning_rates"]), loss, int(params["iterations"]),
+                                             lambda it: ctx.progress(it, total=int(params["iterations"])))
+    with torch.no_grad():
+        fitted = RoomBox(
+            camera_to_world=np.asarray(room.camera_to_world),
+            center=np.asarray(room.center) + scale * theta["translation"].numpy().astype(np.float64),
+            half_size=np.asarray(room.half_size) * np.exp(theta["log_scale"].numpy().astype(np.float64)),
+            yaw=float(room.yaw) + float(theta["yaw"]),
+            ceiling_visible=room.ceiling_visible,
+            extra={**room.extra, "room_fit": {k: float(v) for k, v in history[-1].items()}},
+        )
+    return {"room": fitted, "log": _fit_log(history, image, camera, panoptic, room, fitted)}
+
+
+def _fit_log(history: list[dict[str, float]], image: Image, camera: Camera, panoptic: Panoptic, before: RoomBox,
+             after: RoomBox) -> OptimizationLog:
+    """Loss curves, before/after overlays (Fig. 3 of the paper) and timings of a room fit."""
+    base = segment_overlay(image.to_uint8(), panoptic, alpha=0.35)
+    seconds = [h["seconds"] for h in history]
+    curves = {k: [h[k] for h in history] for k in history[0] if k != "seconds"}
+    return OptimizationLog(
+        history=history,
+        images={"before": room_edges_overlay(base, camera, before), "after": room_edges_overlay(base, camera, after),
+                "loss": plot_curves(curves, title="room_fit")},
+        summary={"iterations": len(history), "first_iteration_seconds": seconds[0],
+                 "steady_iteration_seconds": float(np.median(seconds[1:])) if len(seconds) > 1 else seconds[0],
+                 "initial": {k: v for k, v in history[0].items() if k != "seconds"},
+                 "final": {k: v for k, v in history[-1].items() if k != "seconds"}},
     )

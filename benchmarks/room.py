@@ -1,0 +1,94 @@
+"""Room-stage benchmark on synthetic rooms with exact answers (issue: renderer + room stage).
+
+For each scene (default: 10 ``random`` seeds, plus one of each hard case), runs the pipeline up to
+``room_fit`` with the default implementations (the FoV is estimated, not given) and prints the FoV error,
+the room box 3D IoU after ``room_init`` and after ``room_fit``, the per-iteration time of ``room_fit``
+(first iteration, with JIT compilation, apart from the steady state), and the total stage time.
+
+    python benchmarks/room.py [--scenes 10] [--data DIR] [--no-hard] [--renderer-timing]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import statistics
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from psdr_room_core.cli import compose_config
+from psdr_room_core.room_box import box_iou_3d
+from psdr_room_core.run import execute
+from psdr_room_plugins.synth import write_scene
+from psdr_room_plugins.synth.scene import HARD_CASES, generate
+
+
+def iou(truth: dict, box: object) -> float:
+    gt = truth["room"]
+    return box_iou_3d(np.array(gt["center"]), np.array(gt["half_size"]), gt["yaw"],
+                      np.asarray(box.center), np.asarray(box.half_size), float(box.yaw))
+
+
+def evaluate(scene: Path, run_dir: Path, overrides: list[str]) -> dict:
+    """Run one scene up to room_fit; return its row of the table."""
+    truth = json.loads((scene / "ground_truth.json").read_text())
+    record = execute(compose_config([f"image={scene / 'photo.png'}", "run.until=room_fit", *overrides]), run_dir)
+    camera, log = record.artifacts["camera"], record.artifacts["room_fit_log"]
+    return {
+        "scene": scene.name,
+        "fov_error": camera.vfov_deg - truth["vfov_deg"],
+        "iou_init": iou(truth, record.artifacts["room_box"]),
+        "iou_fit": iou(truth, record.artifacts["room_box_fit"]),
+        "first_it": log.summary["first_iteration_seconds"],
+        "it": log.summary["steady_iteration_seconds"],
+        "stages": sum(r.seconds for r in record.stages),
+    }
+
+
+def print_table(rows: list[dict], title: str) -> None:
+    print(f"\n{title}")
+    print(f"{'scene':<28}{'FoV err':>9}{'IoU init':>10}{'IoU fit':>9}{'1st it (s)':>12}{'it (s)':>8}{'stages (s)':>12}")
+    for r in rows:
+        print(f"{r['scene']:<28}{r['fov_error']:>+9.2f}{r['iou_init']:>10.3f}{r['iou_fit']:>9.3f}"
+              f"{r['first_it']:>12.2f}{r['it']:>8.3f}{r['stages']:>12.1f}")
+    if len(rows) > 1:
+        mean = {k: statistics.fmean(r[k] for r in rows) for k in ("iou_init", "iou_fit", "it", "stages")}
+        fov = statistics.median(abs(r["fov_error"]) for r in rows)
+        print(f"{'mean (FoV: median |err|)':<28}{fov:>9.2f}{mean['iou_init']:>10.3f}{mean['iou_fit']:>9.3f}"
+              f"{'':>12}{mean['it']:>8.3f}{mean['stages']:>12.1f}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--scenes", type=int, default=10, help="random scenes, seeds 0..N-1")
+    parser.add_argument("--data", type=Path, help="keep the rendered scenes here (reused when present)")
+    parser.add_argument("--no-hard", action="store_true", help="skip the hard cases")
+    parser.add_argument("--width", type=int, default=320)
+    parser.add_argument("--spp", type=int, default=64)
+    parser.add_argument("overrides", nargs="*", help="config overrides for every run, e.g. room_fit.iterations=50")
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        data = args.data or Path(tmp) / "scenes"
+        cases = [("random", s) for s in range(args.scenes)] + ([] if args.no_hard else [(c, 0) for c in HARD_CASES])
+        rows: dict[str, list[dict]] = {"random": [], "hard": []}
+        for case, seed in cases:
+            scene = data / f"scene_{case}_{seed:04d}"
+            if not (scene / "ground_truth.json").is_file():
+                width = args.width
+                write_scene(generate(seed, case, width, round(width * 3 / 4)), scene, args.spp)
+            row = evaluate(scene, Path(tmp) / "runs" / scene.name, [f"cache_dir={Path(tmp) / 'cache'}", *args.overrides])
+            rows["random" if case == "random" else "hard"].append(row)
+            print(f"  {scene.name}: IoU {row['iou_init']:.3f} -> {row['iou_fit']:.3f}", flush=True)
+    print_table(rows["random"], f"{args.scenes} random synthetic rooms ({args.width}x{round(args.width * 3 / 4)} photos)")
+    if rows["hard"]:
+        print_table(rows["hard"], "hard cases")
+    if rows["random"] and not math.isnan(rows["random"][0]["iou_fit"]):
+        better = sum(r["iou_fit"] > r["iou_init"] for r in rows["random"])
+        print(f"\nroom_fit improved the IoU on {better}/{len(rows['random'])} random scenes")
+
+
+if __name__ == "__main__":
+    main()
