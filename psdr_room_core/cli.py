@@ -79,6 +79,10 @@ def preflight(argv: list[str], plugins: PluginSystem) -> None:
                 plugins.registry.implementation(group, str(name))
     if flags & ({"--multirun", "-m"} | _INFO_FLAGS):
         return  # sweeps are composed per job by Hydra; info flags need no image
+    image = [o for o in parsed if o.key_or_group == "image"]
+    if image and all(o.key_or_group == "image" or o.key_or_group.startswith("hydra.") for o in parsed):
+        _check_photo(str(image[0].value()))  # only the photo can be wrong: skip a second composition
+        return
     try:
         cfg = compose_config(overrides, plugins)
     except PsdrRoomError:
@@ -86,9 +90,12 @@ def preflight(argv: list[str], plugins: PluginSystem) -> None:
     except Exception as exc:  # Hydra/OmegaConf composition errors are multi-line: keep the first lines
         lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
         raise PsdrRoomError(f"invalid override: {' '.join(lines[:2])}") from None
-    photo = Path(str(resolve_config(cfg)["image"])).expanduser()
-    if not photo.is_file():
-        raise PsdrRoomError(f"{photo}: no such file; pass image=PATH to an existing photo")
+    _check_photo(str(resolve_config(cfg)["image"]))
+
+
+def _check_photo(path: str) -> None:
+    if not Path(path).expanduser().is_file():
+        raise PsdrRoomError(f"{path}: no such file; pass image=PATH to an existing photo")
 
 
 def main() -> None:

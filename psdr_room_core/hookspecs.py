@@ -10,6 +10,7 @@ The built-in plugins in ``psdr_room_plugins`` are found the same way. Hooks are 
 ``register_implementations`` and ``register_stages`` once when plugins are loaded; ``conf_searchpath``
 when Hydra composes the configuration; then for each run ``before_run``, for every stage
 ``before_stage`` followed by ``after_stage`` or ``on_stage_error``, and finally ``after_run``.
+``model_registries`` is called whenever the registry of downloadable model files is read.
 """
 
 from __future__ import annotations
@@ -52,6 +53,18 @@ def register_stages(registry: Registry) -> None:
 def conf_searchpath() -> str | None:
     """Return a Hydra search-path entry (``pkg://my_package.conf`` or ``file:///abs/dir``) holding this
     plugin's config files, e.g. ``depth/my_depth.yaml`` selecting and configuring its implementation."""
+
+
+@hookspec
+def model_registries() -> list[str | Path]:
+    """Return the paths of model-registry JSON files listing the weight files this plugin's
+    implementations use (same format as ``psdr_room_core/models.json``; absolute paths, e.g.
+    ``Path(__file__).with_name("models.json")``).
+
+    Called whenever the model registry is read: by ``psdr-room-models list|download|verify`` and by
+    implementations that look a model up by name. Entries are added after the built-in ones; a name that
+    is already taken is reported and left out.
+    """
 
 
 @hookspec

@@ -99,26 +99,24 @@ def depth_colormap(depth: np.ndarray, valid: np.ndarray) -> np.ndarray:
     return colored
 
 
-def plot_curves(curves: dict[str, list[float]], size: tuple[int, int] = (480, 260), title: str = "") -> np.ndarray:
-    """A line plot (RGB uint8) of several curves against the iteration, each scaled to the shared y-range."""
+def plot_curves(curves: dict[str, list[float]], size: tuple[int, int] = (520, 260), title: str = "") -> np.ndarray:
+    """A line plot (RGB uint8) of curves against the iteration, each scaled to its own range; the legend
+    gives each curve's first and last value."""
     width, height = size
-    left, right, top, bottom = 50, 110, 24, 28
+    left, right, top, bottom = 12, 190, 24, 24
     plot = np.full((height, width, 3), 255, np.uint8)
-    values = np.concatenate([np.asarray(v, dtype=np.float64) for v in curves.values()]) if curves else np.zeros(1)
-    lo, hi = float(np.nanmin(values)), float(np.nanmax(values))
-    hi = hi if hi > lo else lo + 1.0
     n = max(max((len(v) for v in curves.values()), default=1) - 1, 1)
     cv2.rectangle(plot, (left, top), (width - right, height - bottom), (160, 160, 160), 1)
-    for value, y in ((hi, top), (lo, height - bottom)):
-        cv2.putText(plot, f"{value:.3g}", (4, y + 4), cv2.FONT_HERSHEY_SIMPLEX, 0.35, (0, 0, 0), 1, cv2.LINE_AA)
-    cv2.putText(plot, f"iteration 0..{n}", (left, height - 8), cv2.FONT_HERSHEY_SIMPLEX, 0.35, (0, 0, 0), 1, cv2.LINE_AA)
+    cv2.putText(plot, f"iterations 0-{n}", (left, height - 8), cv2.FONT_HERSHEY_SIMPLEX, 0.38, (0, 0, 0), 1, cv2.LINE_AA)
     cv2.putText(plot, title, (left, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
     palette = list(CATEGORY_COLORS.values())
     for k, (name, curve) in enumerate(curves.items()):
+        values = np.asarray(curve, dtype=np.float64)
+        lo, hi = float(values.min()), float(values.max())
         color = tuple(int(c * 0.8) for c in palette[k % len(palette)])
-        xs = left + np.arange(len(curve)) / n * (width - right - left)
-        ys = height - bottom - (np.asarray(curve) - lo) / (hi - lo) * (height - bottom - top)
-        points = np.stack([xs, ys], axis=1).round().astype(np.int32)
-        cv2.polylines(plot, [points], False, color, 1, cv2.LINE_AA)
-        cv2.putText(plot, name, (width - right + 6, top + 14 * (k + 1)), cv2.FONT_HERSHEY_SIMPLEX, 0.38, color, 1, cv2.LINE_AA)
+        xs = left + np.arange(len(values)) / n * (width - right - left)
+        ys = height - bottom - (values - lo) / max(hi - lo, 1e-12) * (height - bottom - top)
+        cv2.polylines(plot, [np.stack([xs, ys], 1).round().astype(np.int32)], False, color, 1, cv2.LINE_AA)
+        label = f"{name} {values[0]:.3g} > {values[-1]:.3g}"
+        cv2.putText(plot, label, (width - right + 6, top + 16 * (k + 1)), cv2.FONT_HERSHEY_SIMPLEX, 0.36, color, 1, cv2.LINE_AA)
     return plot

@@ -14,6 +14,9 @@ import numpy as np
 ROOM_MIN = np.array([-2.5, 0.0, -2.0])
 ROOM_MAX = np.array([2.5, 3.0, 2.0])
 LIGHT = np.array([0.5, 2.8, 0.5])
+FACE_ALBEDO = [  # left wall, right wall, floor, ceiling, back wall, front wall
+    (0.7, 0.65, 0.5), (0.55, 0.65, 0.7), (0.5, 0.4, 0.3), (0.85, 0.85, 0.82), (0.7, 0.7, 0.6), (0.6, 0.55, 0.65)
+]
 
 # (min corner, max corner, yaw in degrees about the box centre, RGB albedo)
 BOXES = [
@@ -50,7 +53,9 @@ def render_box_room(
     return np.clip(image, 0.0, 1.0).astype(np.float32)
 
 
-def _camera_rays(vfov_deg: float, width: int, height: int, yaw: float, pitch: float, roll: float) -> np.ndarray:
+def _camera_rays(
+    vfov_deg: float, width: int, height: int, yaw: float, pitch: float, roll: float
+) -> np.ndarray:
     """(H, W, 3) world ray directions through pixel centres."""
     focal = height / (2.0 * np.tan(np.radians(vfov_deg) / 2.0))
     u, v = np.meshgrid(np.arange(width) - (width - 1) / 2.0, np.arange(height) - (height - 1) / 2.0)
@@ -61,16 +66,19 @@ def _camera_rays(vfov_deg: float, width: int, height: int, yaw: float, pitch: fl
 
 
 def _rot_x(deg: float) -> np.ndarray:
+    """Rotation about the x axis."""
     c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
     return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
 
 
 def _rot_y(deg: float) -> np.ndarray:
+    """Rotation about the y (up) axis."""
     c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
     return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
 
 
 def _rot_z(deg: float) -> np.ndarray:
+    """Rotation about the z axis."""
     c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
     return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
 
@@ -90,7 +98,7 @@ def _shade(origin: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     return albedo * (0.25 + 0.9 * lambert * 4.0 / (1.0 + dist**2))
 
 
-def _hit_room(origin: np.ndarray, dirs: np.ndarray):
+def _hit_room(origin: np.ndarray, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Exit distance, inward normal and textured albedo of the room's six faces."""
     safe = np.where(np.abs(dirs) < 1e-12, 1e-12, dirs)
     t_faces = np.where(dirs > 0, (ROOM_MAX - origin) / safe, (ROOM_MIN - origin) / safe)  # (N, 3)
@@ -110,8 +118,7 @@ def _hit_room(origin: np.ndarray, dirs: np.ndarray):
 def _face_texture(face: int, p: np.ndarray) -> np.ndarray:
     """Albedo of room face ``face`` (0/1: left/right wall, 2/3: floor/ceiling, 4/5: back/front wall)."""
     x, y, z = p[:, 0], p[:, 1], p[:, 2]
-    base = [(0.7, 0.65, 0.5), (0.55, 0.65, 0.7), (0.5, 0.4, 0.3), (0.85, 0.85, 0.82), (0.7, 0.7, 0.6), (0.6, 0.55, 0.65)]
-    out = np.tile(np.array(base[face]), (len(p), 1))
+    out = np.tile(np.array(FACE_ALBEDO[face]), (len(p), 1))
     if face == 2:  # planks 0.2 m wide along x, joints every 1 m, staggered
         plank = np.floor(z / 0.2)
         shift = (plank * 0.37) % 1.0
@@ -142,7 +149,9 @@ def _face_texture(face: int, p: np.ndarray) -> np.ndarray:
     return out
 
 
-def _hit_box(origin: np.ndarray, dirs: np.ndarray, lo: np.ndarray, hi: np.ndarray, yaw: float):
+def _hit_box(
+    origin: np.ndarray, dirs: np.ndarray, lo: np.ndarray, hi: np.ndarray, yaw: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Entry distance (inf on a miss) and outward normal of a box turned by ``yaw`` about y."""
     centre = (lo + hi) / 2.0
     rot = _rot_y(yaw)
@@ -164,7 +173,8 @@ def _hit_box(origin: np.ndarray, dirs: np.ndarray, lo: np.ndarray, hi: np.ndarra
 def _blur(image: np.ndarray) -> np.ndarray:
     """Separable [1, 2, 1] / 4 blur with edge replication."""
     for axis in (0, 1):
-        padded = np.concatenate([np.take(image, [0], axis=axis), image, np.take(image, [-1], axis=axis)], axis=axis)
+        first, last = np.take(image, [0], axis=axis), np.take(image, [-1], axis=axis)
+        padded = np.concatenate([first, image, last], axis=axis)
         n = image.shape[axis]
         image = (np.take(padded, range(0, n), axis=axis) + 2 * np.take(padded, range(1, n + 1), axis=axis)
                  + np.take(padded, range(2, n + 2), axis=axis)) / 4.0

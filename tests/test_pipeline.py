@@ -15,15 +15,31 @@ import pytest
 
 from conftest import EXAMPLE
 
-STAGES = ["load_image", "estimate_fov", "estimate_depth", "segment", "point_cloud", "room_init", "export_scene"]
+STAGES = ["load_image", "estimate_fov", "estimate_depth", "segment", "point_cloud", "room_init", "room_fit",
+          "export_scene"]
+SMALL = ["room_fit.iterations=8", "room_fit.render_width=64"]
+"""A short room fit: these tests are about the engine; tests/test_room_fit.py checks the fit itself."""
 
 
 def psdr_room(*args: str, env: dict[str, str], check: bool = True) -> subprocess.CompletedProcess[str]:
-    result = subprocess.run([shutil.which("psdr-room") or "psdr-room", *args], env=env, capture_output=True,
+    result = subprocess.run([shutil.which("psdr-room") or "psdr-room", *args, *SMALL], env=env, capture_output=True,
                             text=True, timeout=600)
     if check:
         assert result.returncode == 0, result.stderr
     return result
+
+
+EXACT = ["image", "camera", "depth", "panoptic", "point_cloud", "room_box"]
+"""Artifacts whose digests are reproducible across processes. Dr.Jit's parallel reductions make the
+optimised room box differ in the last digits between processes (RENDERING-NOTES.md): compared with a tolerance."""
+
+
+def assert_same_results(run_a: Path, run_b: Path) -> None:
+    a, b = metrics(run_a)["digests"], metrics(run_b)["digests"]
+    assert {k: a[k] for k in EXACT} == {k: b[k] for k in EXACT}
+    box_a, box_b = (json.loads((r / "artifacts" / "room_box_fit" / "room_box.json").read_text()) for r in (run_a, run_b))
+    for key in ("center", "half_size", "yaw"):
+        assert np.allclose(box_a[key], box_b[key], rtol=1e-3, atol=1e-3), key
 
 
 def metrics(run_dir: Path) -> dict:
@@ -53,8 +69,8 @@ def test_outputs_of_a_run(first_run: tuple[Path, dict[str, str]]) -> None:
     assert "psdr_room_plugins.fov" in m["implementations"]["fov"]["origin"]
     assert (run_dir / ".hydra" / "config.yaml").is_file()
     report = (run_dir / "report.html").read_text()
-    assert report.count("data:image/png;base64,") >= 4 and "room_init" in report
-    for name in ("image", "camera", "depth", "panoptic", "point_cloud", "room_box", "scene"):
+    assert report.count("data:image/png;base64,") >= 7 and "room_fit_log: after" in report
+    for name in ("image", "camera", "depth", "panoptic", "point_cloud", "room_box", "room_box_fit", "room_fit_log", "scene"):
         assert (run_dir / "artifacts" / name).is_dir()
 
 
@@ -80,7 +96,7 @@ def test_rerun_is_cached_and_identical(first_run: tuple[Path, dict[str, str]]) -
 def test_changed_stage_param_reruns_it_and_what_follows(first_run: tuple[Path, dict[str, str]]) -> None:
     root, env = first_run
     psdr_room(f"image={EXAMPLE}", "room_init.ransac_threshold=0.03", f"hydra.run.dir={root / 'run3'}", env=env)
-    assert computed(root / "run3") == {"room_init", "export_scene"}
+    assert computed(root / "run3") == {"room_init", "room_fit", "export_scene"}
 
 
 def test_multirun_shares_the_cache(first_run: tuple[Path, dict[str, str]]) -> None:
@@ -106,7 +122,7 @@ def test_sigkill_mid_run_resumes_to_identical_artifacts(first_run: tuple[Path, d
     root, _ = first_run
     env = {**os.environ, "PSDR_ROOM_CACHE_DIR": str(tmp_path / "cache")}
     process = subprocess.Popen([shutil.which("psdr-room") or "psdr-room", f"image={EXAMPLE}",
-                                f"hydra.run.dir={tmp_path / 'killed'}"], env=env,
+                                f"hydra.run.dir={tmp_path / 'killed'}", *SMALL], env=env,
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     entries = tmp_path / "cache" / "entries"
     deadline = time.time() + 300
@@ -119,7 +135,7 @@ def test_sigkill_mid_run_resumes_to_identical_artifacts(first_run: tuple[Path, d
     psdr_room(f"image={EXAMPLE}", f"hydra.run.dir={tmp_path / 'resumed'}", env=env)
     m = metrics(tmp_path / "resumed")
     assert sum(s["cached"] for s in m["stages"].values()) == finished
-    assert m["digests"] == metrics(root / "run1")["digests"]
+    assert_same_results(tmp_path / "resumed", root / "run1")
     assert not list((tmp_path / "cache" / "tmp").iterdir())
 
 
@@ -127,12 +143,13 @@ def test_two_runs_at_once_on_one_cache(first_run: tuple[Path, dict[str, str]], t
     root, _ = first_run
     env = {**os.environ, "PSDR_ROOM_CACHE_DIR": str(tmp_path / "cache")}
     runs = [subprocess.Popen([shutil.which("psdr-room") or "psdr-room", f"image={EXAMPLE}",
-                              f"hydra.run.dir={tmp_path / f'run{i}'}"], env=env,
+                              f"hydra.run.dir={tmp_path / f'run{i}'}", *SMALL], env=env,
                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True) for i in range(2)]
     for process in runs:
         assert process.wait(timeout=600) == 0, process.stderr.read() if process.stderr else ""
     a, b = metrics(tmp_path / "run0"), metrics(tmp_path / "run1")
-    assert a["digests"] == b["digests"] == metrics(root / "run1")["digests"]
+    assert a["digests"] == b["digests"]  # one process computed each entry, the other used it
+    assert_same_results(tmp_path / "run0", root / "run1")
     # each entry was computed once: the later process found it committed (or waited on its lock)
     for stage in STAGES:
         assert a["stages"][stage]["cached"] != b["stages"][stage]["cached"] or a["stages"][stage]["cached"]

@@ -153,10 +153,11 @@ def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, 
     weight_sum = d_weight.sum().clamp_min(1e-6)
 
     def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
-        masks, rendered_depth, _ = renderer.render(box_vertices(room, theta, scale), iteration)
+        masks, weighted_depth, alpha = renderer.render(box_vertices(room, theta, scale), iteration)
+        rendered_depth = weighted_depth / alpha.clamp_min(1e-3)  # coverage-weighted → depth of covered pixels
         ious = [soft_iou(masks[k], t_masks[k], visible) for k in range(len(ROOM_PARTS))]
         l1 = (d_weight * (rendered_depth - t_depth).abs()).sum() / weight_sum / depth_scale
-        terms = {f"iou_{name}": float(ious[k]) for name, k in ROOM_PARTS.items()} | {"depth_l1": float(l1)}
+        terms = {f"iou_{name}": ious[k].item() for name, k in ROOM_PARTS.items()} | {"depth_l1": l1.item()}
         return -torch.stack(ious).sum() + float(params["depth_weight"]) * l1, terms
 
     history = ctx.impl("optimizer").minimize(theta, dict(params["learning_rates"]), loss, int(params["iterations"]),

@@ -1,0 +1,27 @@
+"""``renderer=mitsuba``: Mitsuba 3 + Dr.Jit differentiable rendering of masks, depth and RGB (paper §3.1).
+
+Importing this package is cheap: Mitsuba and Dr.Jit are imported when a renderer is first used. It does
+point ``DRJIT_LIBLLVM_PATH`` at a libLLVM >= 16 right away (when one exists and the variable is unset), so
+that any later ``import drjit`` in the process, by this plugin or another, gets a working LLVM backend.
+"""
+
+from __future__ import annotations
+
+from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.hookspecs import hookimpl
+from psdr_room_core.plugins import Registry
+
+from .llvm import ensure_llvm
+from .session import MitsubaGeometryRenderer, MitsubaRenderer
+
+__all__ = ["MitsubaRenderer", "MitsubaGeometryRenderer"]
+
+try:
+    ensure_llvm()
+except PsdrRoomError:  # reported when the renderer is used, not when plugins load
+    pass
+
+
+@hookimpl
+def register_implementations(registry: Registry) -> None:
+    registry.add_implementation("renderer", "mitsuba", MitsubaRenderer)

@@ -1,0 +1,563 @@
+"""The ``renderer=mitsuba`` implementation: scenes for masks/depth and RGB, differentiable through torch.
+
+:class:`MitsubaRenderer` is the capability object (cheap to construct; Mitsuba and Dr.Jit are imported on
+first use). :meth:`MitsubaRenderer.geometry` builds a :class:`MitsubaGeometryRenderer` for one camera and a
+set of named meshes, whose :meth:`~MitsubaGeometryRenderer.render` returns per-part coverage, z-depth and
+alpha, and :meth:`~MitsubaGeometryRenderer.render_rgb` a path-traced image, both as torch tensors
+differentiable with respect to the vertex tensors (and, for RGB, per-shape albedo and emitter radiance).
+
+Torch ↔ Dr.Jit: a ``torch.autograd.Function`` copies the inputs into the Mitsuba scene, renders the primal
+image with the iteration's seed and, in ``backward``, sets the *same* inputs again with gradients enabled
+and calls the integrators' ``render_backward`` with the image gradients. Re-setting the inputs in backward
+makes the gradient right even when other renders (of other vertex positions) happened in between, which
+``mi.render`` + ``dr.wrap`` would not be (its backward reads whatever the scene holds then).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from psdr_room_core.artifacts import Camera
+from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.geometry import TriangleMesh
+
+from .llvm import resolve_variant
+
+if TYPE_CHECKING:
+    import torch
+
+CV_TO_MITSUBA = np.diag([-1.0, -1.0, 1.0, 1.0])
+"""OpenCV camera axes (x right, y down, z forward) → Mitsuba's (x left, y up, z forward)."""
+
+DEFAULT_ALBEDO = (0.5, 0.5, 0.5)
+
+
+@dataclass(frozen=True)
+class _Shape:
+    name: str
+    vertices: np.ndarray
+    """Welded vertices (float32, N'×3) as first set in the scene."""
+    faces: np.ndarray
+    """Faces into the welded vertices (uint32, M×3)."""
+    first: np.ndarray
+    """For each welded vertex, the index of the caller's vertex it is taken from (N' indices into N)."""
+    n_input: int
+    """Vertex count of the caller's mesh (the row count its vertex tensors must have)."""
+
+
+def weld_map(mesh: TriangleMesh, tolerance: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+    """(first, faces): indices of the vertices kept when welding ``mesh`` (the first of each group of
+    coincident vertices, as :func:`psdr_room_core.geometry.weld`), and the faces renumbered onto them with
+    degenerate ones dropped. Split vertices would double boundary gradients (``RENDERING-NOTES.md``)."""
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    faces = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
+    extent = float(np.ptp(vertices, axis=0).max()) if len(vertices) else 0.0
+    keys = np.round(vertices / (tolerance * (extent or 1.0))).astype(np.int64)
+    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    welded = inverse.reshape(-1)[faces]
+    keep = (welded[:, 0] != welded[:, 1]) & (welded[:, 1] != welded[:, 2]) & (welded[:, 0] != welded[:, 2])
+    return first, welded[keep]
+
+
+def _rgb(value: Any, what: str) -> tuple[float, float, float]:
+    arr = np.asarray(value.detach().cpu() if hasattr(value, "detach") else value, dtype=np.float64).reshape(-1)
+    if arr.size == 1:
+        arr = np.repeat(arr, 3)
+    if arr.size != 3 or not np.all(np.isfinite(arr)):
+        raise PsdrRoomError(f"{what}: expected an RGB triple of finite numbers, got {value!r}")
+    return float(arr[0]), float(arr[1]), float(arr[2])
+
+
+class MitsubaRenderer:
+    """Mitsuba 3 differentiable renderer (projective sampling for geometry, path tracing for RGB)."""
+
+    def __init__(
+        self,
+        variant: str = "auto",
+        spp: int = 4,
+        spp_boundary: int = 16,
+        rgb_spp: int = 16,
+        max_depth: int = 3,
+        rgb_sppi: int = 0,
+        rgb_guiding: str = "none",
+        seed: int = 0,
+        threads: int = 0,
+    ) -> None:
+        """Parameters (``renderer.mitsuba.*``):
+
+        variant: ``auto`` (``cuda_ad_rgb`` when a CUDA device works, else ``llvm_ad_rgb``), ``llvm_ad_rgb``,
+            ``cuda_ad_rgb`` or ``scalar_rgb`` (RGB forward renders only, no gradients).
+        spp: samples per pixel of mask/depth renders (primal and interior derivative).
+        spp_boundary: samples per pixel for the primarily visible silhouette (boundary) derivative.
+        rgb_spp: samples per pixel of RGB renders.
+        max_depth: path length of RGB renders (2: direct light only, 3: one indirect bounce, ...).
+        rgb_sppi: samples per pixel for *indirect* visibility (moving shadows) in RGB renders with moving
+            geometry; 0 drops those gradients and is 10-100x faster (``RENDERING-NOTES.md``).
+        rgb_guiding: how ``rgb_sppi`` samples find indirect silhouettes: ``none`` (uniform, cheap to set up),
+            ``grid`` or ``octree`` (Mitsuba's guiding structures, rebuilt every iteration: seconds).
+        seed: base seed; each render uses a seed derived from it and the iteration number.
+        threads: Dr.Jit worker threads (0: leave Dr.Jit's default, one per core).
+        """
+        for name, value, low in (("spp", spp, 1), ("spp_boundary", spp_boundary, 1), ("rgb_spp", rgb_spp, 1),
+                                 ("max_depth", max_depth, 1), ("rgb_sppi", rgb_sppi, 0), ("threads", threads, 0)):
+            if int(value) != value or int(value) < low:
+                raise PsdrRoomError(f"renderer.mitsuba.{name}={value!r} must be an integer >= {low}")
+        self.requested_variant = str(variant)
+        self.spp = int(spp)
+        self.spp_boundary = int(spp_boundary)
+        self.rgb_spp = int(rgb_spp)
+        self.max_depth = int(max_depth)
+        self.rgb_sppi = int(rgb_sppi)
+        if rgb_guiding not in ("none", "grid", "octree"):
+            raise PsdrRoomError(f"renderer.mitsuba.rgb_guiding={rgb_guiding!r} must be one of none, grid, octree")
+        self.rgb_guiding = str(rgb_guiding)
+        self.seed = int(seed)
+        self.threads = int(threads)
+        self._variant: str | None = None
+
+    # ---------------------------------------------------------------------------------------- set-up
+    @property
+    def variant(self) -> str:
+        """The Mitsuba variant in use (resolved on first access)."""
+        if self._variant is None:
+            self._variant = resolve_variant(self.requested_variant)
+        return self._variant
+
+    def activate(self) -> Any:
+        """Select this renderer's variant (Mitsuba's variant is process-global), register the integrator,
+        and return the ``mitsuba`` module."""
+        variant = self.variant
+        import drjit as dr
+        import mitsuba as mi
+
+        if mi.variant() != variant:
+            mi.set_variant(variant)
+        if variant != "scalar_rgb":
+            from . import integrator
+
+            integrator.register()
+        if self.threads:
+            dr.set_thread_count(self.threads)
+        return mi
+
+    @property
+    def device(self) -> str:
+        """torch device of the returned tensors."""
+        return "cuda" if self.variant.startswith("cuda") else "cpu"
+
+    def geometry(
+        self,
+        camera: Camera,
+        camera_to_world: np.ndarray,
+        meshes: Mapping[str, TriangleMesh],
+        parts: Mapping[str, int],
+        resolution_scale: float = 1.0,
+        albedo: Mapping[str, Any] | None = None,
+        emitters: Mapping[str, tuple[TriangleMesh, Any]] | None = None,
+    ) -> "MitsubaGeometryRenderer":
+        """A renderer of ``meshes`` (name → world-space mesh) seen by ``camera`` at ``camera_to_world``
+        (4×4, OpenCV camera axes), at ``resolution_scale`` × the camera's resolution.
+
+        ``parts`` maps shape names to part indices 0..P-1 (several shapes may share one; a shape without an
+        entry occludes but belongs to no mask). ``albedo`` (shape → RGB, default 0.5 grey) and ``emitters``
+        (name → (quad mesh, RGB radiance); emitting on the side its triangles face counter-clockwise) are
+        used only by :meth:`MitsubaGeometryRenderer.render_rgb`.
+        """
+        return MitsubaGeometryRenderer(self, camera, camera_to_world, meshes, parts, resolution_scale,
+                                       albedo or {}, emitters or {})
+
+
+class MitsubaGeometryRenderer:
+    """One camera, named welded meshes: per-part masks, z-depth and alpha; RGB on demand."""
+
+    def __init__(
+        self,
+        renderer: MitsubaRenderer,
+        camera: Camera,
+        camera_to_world: np.ndarray,
+        meshes: Mapping[str, TriangleMesh],
+        parts: Mapping[str, int],
+        resolution_scale: float,
+        albedo: Mapping[str, Any],
+        emitters: Mapping[str, tuple[TriangleMesh, Any]],
+    ) -> None:
+        self.renderer = renderer
+        if not meshes:
+            raise PsdrRoomError("renderer.geometry: no meshes given; pass at least one named mesh")
+        unknown = sorted(set(parts) - set(meshes))
+        if unknown:
+            raise PsdrRoomError(f"renderer.geometry: parts name shapes that are not in meshes: {', '.join(unknown)}")
+        values = sorted(set(int(p) for p in parts.values()))
+        if values and (values[0] < 0):
+            raise PsdrRoomError(f"renderer.geometry: part indices must be >= 0, got {values[0]}")
+        self.n_parts = (values[-1] + 1) if values else 0
+        self.parts = {name: int(parts[name]) if name in parts else -1 for name in meshes}
+        for name in list(albedo) + list(emitters):
+            if name not in meshes and name not in emitters:
+                raise PsdrRoomError(f"renderer.geometry: albedo given for '{name}', which is not a mesh")
+        clash = sorted(set(emitters) & set(meshes))
+        if clash:
+            raise PsdrRoomError(f"renderer.geometry: emitter names clash with mesh names: {', '.join(clash)}")
+
+        # Camera at the working resolution.
+        scale = float(resolution_scale)
+        if not (scale > 0 and math.isfinite(scale)):
+            raise PsdrRoomError(f"renderer.geometry: resolution_scale={resolution_scale!r} must be > 0")
+        if abs(camera.fx / camera.fy - 1.0) > 1e-3:
+            raise PsdrRoomError(
+                f"renderer=mitsuba needs square pixels, but the camera has fx={camera.fx:.6g}, fy={camera.fy:.6g}; "
+                "resample the image to square pixels"
+            )
+        self.width = max(1, int(round(camera.width * scale)))
+        self.height = max(1, int(round(camera.height * scale)))
+        self.camera = camera
+        c2w = np.asarray(camera_to_world, dtype=np.float64)
+        if c2w.shape != (4, 4) or not np.all(np.isfinite(c2w)):
+            raise PsdrRoomError(f"renderer.geometry: camera_to_world must be a finite 4x4 matrix, got {c2w.shape}")
+        self.camera_to_world = c2w
+        self.camera_origin = tuple(float(x) for x in c2w[:3, 3])
+        axis = c2w[:3, 2] / np.linalg.norm(c2w[:3, 2])
+        self.camera_axis = tuple(float(x) for x in axis)
+
+        # Welded shapes (index maps kept so the caller's vertex tensors can be used as they are).
+        self.shapes: dict[str, _Shape] = {}
+        for name, mesh in meshes.items():
+            vertices = np.asarray(mesh.vertices, dtype=np.float64)
+            if vertices.ndim != 2 or vertices.shape[1] != 3 or not np.all(np.isfinite(vertices)):
+                raise PsdrRoomError(f"renderer.geometry: mesh '{name}' needs finite N×3 vertices")
+            first, faces = weld_map(mesh)
+            if len(faces) == 0:
+                raise PsdrRoomError(f"renderer.geometry: mesh '{name}' has no non-degenerate triangle")
+            self.shapes[name] = _Shape(name, vertices[first].astype(np.float32), faces.astype(np.uint32),
+                                       first.astype(np.int64), len(vertices))
+        self.albedo = {name: _rgb(albedo.get(name, DEFAULT_ALBEDO), f"albedo of '{name}'") for name in meshes}
+        self.emitters = {}
+        for name, (mesh, radiance) in emitters.items():
+            first, faces = weld_map(mesh)
+            self.emitters[name] = (_Shape(name, np.asarray(mesh.vertices, np.float32)[first], faces.astype(np.uint32),
+                                          first, len(mesh.vertices)), _rgb(radiance, f"radiance of '{name}'"))
+
+        # Channel plan: P part masks, then depth and alpha, three per pass.
+        self._channels: list[float | str] = [float(p) for p in range(self.n_parts)] + ["depth", "alpha"]
+        self._geometry: _MitsubaScene | None = None
+        self._rgb: _MitsubaScene | None = None
+
+    # -------------------------------------------------------------------------------------- helpers
+    @property
+    def device(self) -> str:
+        return self.renderer.device
+
+    def _seed(self, iteration: int) -> int:
+        """A 31-bit seed for (base seed, iteration); the gradient pass uses a decorrelated one."""
+        return int((self.renderer.seed * 0x9E3779B1 + int(iteration) * 2 + 1) & 0x7FFFFFFF)
+
+    def _inputs(self, vertices: Mapping[str, "torch.Tensor"] | None) -> list[tuple[str, "torch.Tensor"]]:
+        import torch
+
+        out = []
+        for name, tensor in (vertices or {}).items():
+            if name not in self.shapes:
+                known = ", ".join(self.shapes)
+                raise PsdrRoomError(f"renderer.render: unknown shape '{name}' in vertices; known: {known}")
+            shape = self.shapes[name]
+            if not isinstance(tensor, torch.Tensor) or tuple(tensor.shape) != (shape.n_input, 3):
+                got = tuple(tensor.shape) if hasattr(tensor, "shape") else type(tensor).__name__
+                raise PsdrRoomError(
+                    f"renderer.render: vertices['{name}'] must be a torch tensor of shape ({shape.n_input}, 3), got {got}"
+                )
+            welded = tensor[torch.as_tensor(shape.first, device=tensor.device)]
+            out.append((f"{name}.vertex_positions", welded))
+        return out
+
+    def _geometry_scene(self) -> "_MitsubaScene":
+        if self._geometry is None:
+            if self.renderer.variant == "scalar_rgb":
+                raise PsdrRoomError(
+                    "renderer.mitsuba.variant=scalar_rgb renders RGB only, without gradients; use variant=auto or "
+                    "llvm_ad_rgb for masks and depth"
+                )
+            self._geometry = _MitsubaScene.build(self, rgb=False)
+        return self._geometry
+
+    def _rgb_scene(self) -> "_MitsubaScene":
+        if self._rgb is None:
+            self._rgb = _MitsubaScene.build(self, rgb=True)
+        return self._rgb
+
+    # ---------------------------------------------------------------------------------------- renders
+    def render(self, vertices: Mapping[str, "torch.Tensor"] | None = None,
+               iteration: int = 0) -> tuple["torch.Tensor", "torch.Tensor", "torch.Tensor"]:
+        """(masks [P,H,W], depth [H,W], alpha [H,W]) as float32 torch tensors.
+
+        ``vertices`` maps shape names to N×3 world positions (the mesh's vertex order) replacing the
+        meshes' own; shapes left out keep their current positions. Masks are anti-aliased coverage in
+        [0, 1] of each part; depth is the coverage-weighted z-depth along the optical axis (0 where nothing
+        is hit: divide by alpha for the depth of covered pixels); alpha is the coverage of any shape.
+        Gradients flow to every vertex tensor that requires grad, through visibility (silhouettes, sampled
+        with ``spp_boundary`` per pixel) and through depth (interior). The seed depends on ``iteration``.
+        """
+        import torch
+
+        scene = self._geometry_scene()
+        inputs = self._inputs(vertices)
+        keys = [k for k, _ in inputs]
+        images = _RenderFunction.apply(scene, keys, self._seed(iteration), *[t for _, t in inputs])
+        flat = torch.cat([img.permute(2, 0, 1) for img in images], dim=0)  # [3*passes, H, W]
+        p = self.n_parts
+        return flat[:p], flat[p], flat[p + 1]
+
+    def render_rgb(
+        self,
+        vertices: Mapping[str, "torch.Tensor"] | None = None,
+        albedo: Mapping[str, "torch.Tensor"] | None = None,
+        radiance: Mapping[str, "torch.Tensor"] | None = None,
+        iteration: int = 0,
+    ) -> "torch.Tensor":
+        """Path-traced linear RGB [H,W,3] (``max_depth``, ``rgb_spp``) with the shapes' diffuse albedo and the
+        emitters given to :meth:`MitsubaRenderer.geometry`.
+
+        ``albedo`` (shape → RGB tensor [3]) and ``radiance`` (emitter → RGB tensor [3]) override the
+        values given at construction, differentiably. When any vertex tensor requires grad the
+        projective ``prb_projective`` integrator is used (visibility gradients; moving shadows only with
+        ``rgb_sppi`` > 0), otherwise ``prb``.
+        """
+        import torch
+
+        scene = self._rgb_scene()
+        inputs = self._inputs(vertices)
+        for name, value in (albedo or {}).items():
+            if name not in self.shapes:
+                raise PsdrRoomError(f"renderer.render_rgb: albedo for unknown shape '{name}'")
+            inputs.append((scene.albedo_keys[name], _as_rgb_tensor(value, f"albedo['{name}']")))
+        for name, value in (radiance or {}).items():
+            if name not in self.emitters:
+                raise PsdrRoomError(f"renderer.render_rgb: radiance for unknown emitter '{name}'")
+            inputs.append((scene.radiance_keys[name], _as_rgb_tensor(value, f"radiance['{name}']")))
+        moving = any(t.requires_grad for k, t in inputs if k.endswith(".vertex_positions"))
+        keys = [k for k, _ in inputs]
+        (image,) = _RenderFunction.apply(scene.with_mode("projective" if moving else "plain"), keys,
+                                         self._seed(iteration), *[t for _, t in inputs])
+        return image if image.dtype == torch.float32 else image.float()
+
+
+def _as_rgb_tensor(value: Any, what: str) -> "torch.Tensor":
+    import torch
+
+    tensor = value if isinstance(value, torch.Tensor) else torch.tensor(_rgb(value, what), dtype=torch.float32)
+    if tensor.numel() == 1:
+        tensor = tensor.reshape(1).expand(3)
+    if tensor.numel() != 3:
+        raise PsdrRoomError(f"renderer.render_rgb: {what} must have 3 values, got shape {tuple(tensor.shape)}")
+    return tensor.reshape(3)
+
+
+class _MitsubaScene:
+    """A loaded Mitsuba scene, its parameters and the integrator pass(es) that render it."""
+
+    def __init__(self, owner: MitsubaGeometryRenderer, mi: Any, scene: Any, passes: list[Any],
+                 projective: list[Any] | None = None) -> None:
+        self.owner = owner
+        self.mi = mi
+        self.scene = scene
+        self.params = mi.traverse(scene)
+        self.passes = passes
+        self._plain = passes
+        self._projective = projective or passes
+        self.albedo_keys: dict[str, str] = {}
+        self.radiance_keys: dict[str, str] = {}
+        self.current: dict[str, np.ndarray] = {}
+
+    def with_mode(self, mode: str) -> "_MitsubaScene":
+        self.passes = self._projective if mode == "projective" else self._plain
+        return self
+
+    @classmethod
+    def build(cls, owner: MitsubaGeometryRenderer, rgb: bool) -> "_MitsubaScene":
+        r = owner.renderer
+        mi = r.activate()
+        cam = owner.camera
+        to_world = owner.camera_to_world @ CV_TO_MITSUBA
+        spp = r.rgb_spp if rgb else r.spp
+        sensor = {
+            "type": "perspective",
+            "fov_axis": "y",
+            "fov": cam.vfov_deg,
+            "principal_point_offset_x": (cam.width / 2.0 - cam.cx) / cam.width,
+            "principal_point_offset_y": (cam.height / 2.0 - cam.cy) / cam.height,
+            "near_clip": 1e-3,
+            "far_clip": 1e4,
+            "to_world": mi.ScalarTransform4f(to_world.tolist()),
+            "sampler": {"type": "independent", "sample_count": spp},
+            "film": {
+                "type": "hdrfilm",
+                "width": owner.width,
+                "height": owner.height,
+                "pixel_format": "rgb",
+                "rfilter": {"type": "box"},
+                "sample_border": True,
+            },
+        }
+        desc: dict[str, Any] = {"type": "scene", "sensor": sensor}
+        for name, shape in owner.shapes.items():
+            desc[name] = _mesh(mi, name, shape, bsdf=_diffuse(mi, owner.albedo[name]))
+        if rgb:
+            for name, (shape, radiance) in owner.emitters.items():
+                emitter = mi.load_dict({"type": "area", "radiance": {"type": "rgb", "value": list(radiance)}})
+                desc[name] = _mesh(mi, name, shape, bsdf=_diffuse(mi, (0.0, 0.0, 0.0)), emitter=emitter)
+        try:
+            scene = mi.load_dict(desc, optimize=False)  # keep shapes apart: their parameter keys must persist
+        except Exception as exc:
+            raise PsdrRoomError(f"renderer=mitsuba could not build the scene: {type(exc).__name__}: {exc}") from None
+
+        if rgb:
+            plain = [mi.load_dict({"type": "prb", "max_depth": r.max_depth})]
+            projective = [mi.load_dict({"type": "prb_projective", "max_depth": r.max_depth, "sppc": r.rgb_spp,
+                                        "sppp": r.spp_boundary, "sppi": r.rgb_sppi,
+                                        "guiding": r.rgb_guiding})]
+            out = cls(owner, mi, scene, plain, projective)
+            for name in owner.shapes:
+                out.albedo_keys[name] = _find_key(out.params, name + ".bsdf.", "reflectance.value")
+            for name in owner.emitters:
+                out.radiance_keys[name] = _find_key(out.params, name + ".emitter.", "radiance.value")
+        else:
+            from .integrator import ALPHA, DEPTH, NAME, UNUSED
+
+            import drjit as dr
+
+            ids = {s.id(): int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(s))[0]) for s in scene.shapes()}
+            table = [-1.0] * (max(ids.values()) + 1)
+            for name, part in owner.parts.items():
+                table[ids[name]] = float(part)
+            codes = [c if isinstance(c, float) else (DEPTH if c == "depth" else ALPHA) for c in owner._channels]
+            codes += [UNUSED] * (-len(codes) % 3)
+            passes = []
+            for k in range(0, len(codes), 3):
+                integrator = mi.load_dict({"type": NAME, "sppc": r.spp, "sppp": r.spp_boundary, "sppi": 0})
+                integrator.configure(table, tuple(codes[k:k + 3]), owner.camera_origin, owner.camera_axis)
+                passes.append(integrator)
+            out = cls(owner, mi, scene, passes)
+        for name, shape in owner.shapes.items():
+            out.current[f"{name}.vertex_positions"] = shape.vertices.reshape(-1)
+        return out
+
+    # ------------------------------------------------------------------------------- torch bridge
+    def set_inputs(self, keys: Sequence[str], arrays: Sequence[np.ndarray], attach: Sequence[bool] = ()) -> list[Any]:
+        """Write flat float32 arrays into the scene parameters (with gradients enabled where ``attach``);
+        returns the Dr.Jit variables written."""
+        mi = self.mi
+        import drjit as dr
+
+        written = []
+        attach = list(attach) or [False] * len(keys)
+        for key, array, grad in zip(keys, arrays, attach):
+            flat = np.ascontiguousarray(array, dtype=np.float32).reshape(-1)
+            if key.endswith(".vertex_positions"):
+                value = mi.Float(flat)
+            else:
+                value = dr.unravel(mi.Color3f, mi.Float(flat))
+            if grad:
+                dr.enable_grad(value)
+            self.params[key] = value
+            written.append(value)
+        self.params.update()
+        return written
+
+    def detach_all(self, keys: Sequence[str]) -> None:
+        import drjit as dr
+
+        for key in keys:
+            value = self.params[key]
+            if dr.grad_enabled(value):
+                self.params[key] = dr.detach(value)
+        self.params.update()
+
+
+def _make_function() -> Any:
+    import torch
+
+    class RenderFunction(torch.autograd.Function):
+        """Primal render of every pass; backward = ``render_backward`` of every pass on the same inputs."""
+
+        @staticmethod
+        def forward(ctx: Any, scene: _MitsubaScene, keys: list[str], seed: int, *tensors: torch.Tensor):
+            arrays = [t.detach().to("cpu", torch.float32).numpy().copy() for t in tensors]
+            scene.owner.renderer.activate()
+            scene.set_inputs(keys, arrays)
+            passes = list(scene.passes)
+            outputs = []
+            device = tensors[0].device if tensors else torch.device(scene.owner.device)
+            for integrator in passes:
+                image = integrator.render(scene.scene, sensor=0, seed=seed, spp=0)
+                outputs.append(torch.from_numpy(np.array(image, dtype=np.float32)).to(device))
+            ctx.scene, ctx.keys, ctx.seed, ctx.arrays, ctx.passes = scene, keys, seed, arrays, passes
+            ctx.shapes = [tuple(t.shape) for t in tensors]
+            return tuple(outputs)
+
+        @staticmethod
+        def backward(ctx: Any, *grad_outputs: torch.Tensor):
+            import drjit as dr
+
+            scene: _MitsubaScene = ctx.scene
+            mi = scene.owner.renderer.activate()
+            needs = list(ctx.needs_input_grad[3:])
+            grads: list[torch.Tensor | None] = [None] * len(ctx.keys)
+            if any(needs):
+                values = scene.set_inputs(ctx.keys, ctx.arrays, needs)
+                seed_grad = int(mi.sample_tea_32(ctx.seed, 1)[0]) & 0x7FFFFFFF
+                for integrator, grad in zip(ctx.passes, grad_outputs):
+                    if grad is None:
+                        continue
+                    grad_in = mi.TensorXf(np.ascontiguousarray(grad.detach().to("cpu", torch.float32).numpy()))
+                    integrator.render_backward(scene.scene, scene.params, grad_in, sensor=0, seed=seed_grad, spp=0)
+                for i, (value, need) in enumerate(zip(values, needs)):
+                    if need:
+                        g = np.array(dr.ravel(dr.grad(value)), dtype=np.float32).reshape(ctx.shapes[i])
+                        grads[i] = torch.from_numpy(g).to(grad_outputs[0].device)
+                scene.detach_all(ctx.keys)
+            return (None, None, None, *grads)
+
+    return RenderFunction
+
+
+class _LazyFunction:
+    _fn: Any = None
+
+    def apply(self, *args: Any) -> Any:
+        if self._fn is None:
+            type(self)._fn = _make_function()
+        return self._fn.apply(*args)
+
+
+_RenderFunction = _LazyFunction()
+
+
+def _find_key(params: Any, prefix: str, suffix: str) -> str:
+    for key in params.keys():
+        if key.startswith(prefix) and key.endswith(suffix):
+            return key
+    raise PsdrRoomError(f"renderer=mitsuba: no scene parameter {prefix}*{suffix} (Mitsuba version mismatch?)")
+
+
+def _diffuse(mi: Any, rgb: tuple[float, float, float]) -> Any:
+    return mi.load_dict({"type": "twosided", "bsdf": {"type": "diffuse",
+                                                      "reflectance": {"type": "rgb", "value": list(rgb)}}})
+
+
+def _mesh(mi: Any, name: str, shape: _Shape, bsdf: Any, emitter: Any = None) -> Any:
+    """A position-only Mitsuba mesh (face normals) built from arrays."""
+    props = mi.Properties()
+    props["bsdf"] = bsdf
+    if emitter is not None:
+        props["emitter"] = emitter
+    mesh = mi.Mesh(name, len(shape.vertices), len(shape.faces), props=props, has_vertex_normals=False,
+                   has_vertex_texcoords=False)
+    params = mi.traverse(mesh)
+    params["vertex_positions"] = mi.Float(np.ascontiguousarray(shape.vertices, dtype=np.float32).reshape(-1))
+    params["faces"] = mi.UInt32(np.ascontiguousarray(shape.faces, dtype=np.uint32).reshape(-1))
+    params.update()
+    return mesh

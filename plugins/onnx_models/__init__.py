@@ -1,0 +1,27 @@
+"""Neural preprocess implementations run with onnxruntime: ``depth=onnx`` and ``segmentation=onnx`` (§4.1).
+
+The weights are files a user downloads once (``psdr-room-models download NAME``; the registry is
+``psdr_room_core/models.json``); which file, the models directory and onnxruntime's thread count come
+from ``conf/depth/onnx.yaml`` and ``conf/segmentation/onnx.yaml``. Sessions are created on first use, and
+the model file is part of the stage's cache key. Pre- and post-processing per model family are in
+:mod:`.depth` and :mod:`.segmentation`; what they share (file lookup, session, input layout) in
+:mod:`.network`.
+
+There is no ``fov=onnx``: the paper's PerspectiveFields has no published ONNX export and its camera
+parameters come from per-pixel fields through the project's own optimisation code, so there is no single
+graph with a fixed signature to support; ``fov=vanishing_points`` stays the estimator.
+"""
+
+from __future__ import annotations
+
+from psdr_room_core.hookspecs import hookimpl
+from psdr_room_core.plugins import Registry
+
+from .depth import OnnxDepth
+from .segmentation import OnnxSegmentation
+
+
+@hookimpl
+def register_implementations(registry: Registry) -> None:
+    registry.add_implementation("depth", "onnx", OnnxDepth)
+    registry.add_implementation("segmentation", "onnx", OnnxSegmentation)

@@ -1,0 +1,65 @@
+"""Tests of the vanishing-point FoV estimator on synthetic box-room renders."""
+
+from __future__ import annotations
+
+import math
+import sys
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+TESTS_DIR = Path(__file__).resolve().parent
+for path in (TESTS_DIR.parent, TESTS_DIR):
+    if str(path) not in sys.path:
+        sys.path.insert(0, str(path))
+
+from boxroom import render_box_room  # noqa: E402
+from plugins.vanishing_points import VanishingPointParams, estimate_camera  # noqa: E402
+
+# (vertical FoV, yaw, pitch, roll) in degrees
+VIEWS = [(45.0, 20.0, -5.0, 2.0), (60.0, -25.0, 5.0, -3.0), (75.0, 40.0, -10.0, 1.0)]
+
+
+@lru_cache(maxsize=None)
+def _render(vfov: float, yaw: float, pitch: float, roll: float) -> np.ndarray:
+    return render_box_room(vfov, width=320, height=240, yaw_deg=yaw, pitch_deg=pitch, roll_deg=roll)
+
+
+@pytest.mark.parametrize("vfov, yaw, pitch, roll", VIEWS)
+def test_recovers_vertical_fov(vfov: float, yaw: float, pitch: float, roll: float) -> None:
+    result = estimate_camera(_render(vfov, yaw, pitch, roll))
+    assert result.method != "fallback"
+    assert abs(result.vfov_deg - vfov) < 2.0
+    assert result.focal_px == pytest.approx(240 / (2 * math.tan(math.radians(result.vfov_deg) / 2)))
+    assert (result.cx, result.cy) == (159.5, 119.5)
+    assert 0.0 < result.confidence <= 1.0
+    assert len(result.vanishing_points) == 3
+
+
+def test_ignores_uniform_white_border() -> None:
+    vfov, yaw, pitch, roll = VIEWS[1]
+    framed = np.ones((240 + 16, 320 + 16, 3), dtype=np.float32)
+    framed[8:-8, 8:-8] = _render(vfov, yaw, pitch, roll)
+    result = estimate_camera(framed)
+    # same scene, but the focal now refers to a 256 px tall image
+    expected = math.degrees(2 * math.atan(256 / 240 * math.tan(math.radians(vfov) / 2)))
+    assert abs(result.vfov_deg - expected) < 2.0
+
+
+def test_featureless_image_falls_back() -> None:
+    params = VanishingPointParams(fallback_vfov_deg=52.0)
+    rng = np.random.default_rng(1)
+    flat = np.clip(0.5 + rng.normal(0.0, 0.01, (240, 320, 3)), 0.0, 1.0).astype(np.float32)
+    result = estimate_camera(flat, params)
+    assert result.method == "fallback"
+    assert result.vfov_deg == 52.0
+    assert result.confidence == 0.0
+    assert result.vanishing_points == []
+
+
+def test_deterministic_for_a_seed() -> None:
+    image = _render(*VIEWS[0])
+    params = VanishingPointParams(seed=3)
+    assert estimate_camera(image, params) == estimate_camera(image, params)
