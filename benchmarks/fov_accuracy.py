@@ -14,18 +14,15 @@ import argparse
 import csv
 import math
 import statistics
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 from PIL import Image
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
-if str(REPO_ROOT) not in sys.path:
-    sys.path.insert(0, str(REPO_ROOT))
+from psdr_room_plugins.vanishing_points import VanishingPointParams, estimate_camera
 
-from plugins.vanishing_points import VanishingPointParams, estimate_camera  # noqa: E402
+REPO_ROOT = Path(__file__).resolve().parents[1]
 
 DEFAULT_PHOTOS = REPO_ROOT.parent / "shared/data/photos"
 

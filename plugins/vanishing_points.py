@@ -31,7 +31,6 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 
 @dataclass(frozen=True)
@@ -460,6 +459,8 @@ def _refine_frames(
     slightly damped Gauss-Newton steps on the soft-L1 robustified endpoint offsets (IRLS) plus
     the Gaussian FoV prior. Returns refined focals, rotations and the FoV std (deg) of each frame.
     """
+    from scipy.spatial.transform import Rotation  # imported on use: cached runs skip scipy
+
     log_f = np.log(focals)
     log_lo, log_hi = np.log(_focal_for_vfov(np.array([params.max_vfov_deg, params.min_vfov_deg]), h_units))
     soft_scale = params.inlier_px / params.line_noise_px
@@ -490,6 +491,8 @@ def _offsets_and_jacobian(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Signed offsets (in noise units) of segments to their assigned VPs, and their numeric
     Jacobian w.r.t. (log f, small rotation applied on the left): shapes (T, N) and (T, N, 4)."""
+    from scipy.spatial.transform import Rotation  # imported on use: cached runs skip scipy
+
     eps = 1e-6
     log_fs = log_f[None] + eps * np.array([0.0, 1.0, 0.0, 0.0, 0.0])[:, None]  # (5, T)
     tweaks = Rotation.from_rotvec(eps * np.vstack([np.zeros((2, 3)), np.eye(3)])).as_matrix()  # (5, 3, 3)

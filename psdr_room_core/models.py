@@ -332,8 +332,8 @@ def download(name: str, models_dir: Path, registry: Mapping[str, ModelEntry] | N
 
     The file is streamed into a temporary file beside its final name, its size and checksum are checked
     (when published), and it is renamed into place; on any failure the temporary file is removed and a
-    :class:`PsdrRoomError` with one line says why and how to get the file by hand. A file that is already
-    installed with the right checksum is kept unless ``force``.
+    :class:`PsdrRoomError` with one line says why and how to get the file by hand. A file already there
+    is kept unless ``force`` when its checksum matches, or when none is published (``unverified``).
     """
     registry = load_registry() if registry is None else registry
     entry = lookup(name, registry)
@@ -354,10 +354,14 @@ def download(name: str, models_dir: Path, registry: Mapping[str, ModelEntry] | N
     tmp = Path(tmp_name)
     done = False
     try:
-        with os.fdopen(fd, "wb") as out:
-            digest, size = _fetch(entry, host, models_dir, out, progress=progress, timeout=timeout)
-            out.flush()
-            os.fsync(out.fileno())
+        try:
+            with os.fdopen(fd, "wb") as out:
+                digest, size = _fetch(entry, host, models_dir, out, progress=progress, timeout=timeout)
+                out.flush()
+                os.fsync(out.fileno())
+        except OSError as exc:  # network errors are PsdrRoomErrors by now: this is the disk
+            raise PsdrRoomError(f"{models_dir}: cannot write {entry.file} ({exc.strerror or exc}); free some "
+                                "space or choose another directory with --models-dir") from None
         if entry.size is not None and size != entry.size:
             raise PsdrRoomError(f"{entry.url}: downloaded {size} bytes, expected {entry.size}; nothing was saved "
                                 f"in {models_dir}; try again, or get {entry.file} by hand ({entry.source})")

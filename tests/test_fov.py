@@ -3,20 +3,13 @@
 from __future__ import annotations
 
 import math
-import sys
 from functools import lru_cache
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-TESTS_DIR = Path(__file__).resolve().parent
-for path in (TESTS_DIR.parent, TESTS_DIR):
-    if str(path) not in sys.path:
-        sys.path.insert(0, str(path))
-
-from boxroom import render_box_room  # noqa: E402
-from plugins.vanishing_points import VanishingPointParams, estimate_camera  # noqa: E402
+from boxroom import render_box_room
+from psdr_room_plugins.vanishing_points import VanishingPointParams, estimate_camera
 
 # (vertical FoV, yaw, pitch, roll) in degrees
 VIEWS = [(45.0, 20.0, -5.0, 2.0), (60.0, -25.0, 5.0, -3.0), (75.0, 40.0, -10.0, 1.0)]

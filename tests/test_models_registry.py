@@ -144,7 +144,7 @@ def test_download_from_a_local_server(tmp_path: Path, server: str) -> None:
     registry = models.load_registry([registry_file(tmp_path / "r.json", entry(url=f"{server}/weights.bin"))])
     target = models.download("tiny", tmp_path / "models", registry, progress=False)
     assert target == tmp_path / "models" / "tiny.onnx" and target.read_bytes() == CONTENT
-    assert leftovers(tmp_path / "models") == ["tiny.onnx"]  # no temporary file left
+    assert leftovers(tmp_path / "models") == [models.HASH_CACHE, "tiny.onnx"]  # no temporary file left
     assert models.check_file(registry["tiny"], tmp_path / "models").state == "installed"
     (tmp_path / "served" / "weights.bin").unlink()  # installed and verified: not fetched again
     assert models.download("tiny", tmp_path / "models", registry, progress=False) == target
@@ -198,6 +198,16 @@ def test_offline_download_fails_in_one_line_leaving_nothing(tmp_path: Path) -> N
     with pytest.raises(PsdrRoomError):
         models.download("tiny", models_dir, registry, progress=False, timeout=5)
     assert leftovers(models_dir) == []
+
+
+def test_require_names_the_file_and_the_command(tmp_path: Path) -> None:
+    registry = models.load_registry([models.BUILTIN_REGISTRY])
+    with pytest.raises(PsdrRoomError) as excinfo:
+        models.require(registry["clip_vit_b32_image"], tmp_path)
+    msg = str(excinfo.value)
+    assert str(tmp_path / "clip_vit_b32_image.onnx") in msg and "psdr-room-models download clip_vit_b32_image" in msg
+    (tmp_path / "clip_vit_b32_image.onnx").write_bytes(b"x")
+    assert models.require(registry["clip_vit_b32_image"], tmp_path) == tmp_path / "clip_vit_b32_image.onnx"
 
 
 def test_download_without_url_explains_the_export(tmp_path: Path) -> None:
