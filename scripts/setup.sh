@@ -40,10 +40,18 @@ fi
 stamp="$VENV/.psdr-room-installed"
 want="$(cat "$ROOT/requirements.lock" "$ROOT/pyproject.toml" | sha256sum | cut -d' ' -f1)"
 if [[ "$(cat "$stamp" 2>/dev/null)" != "$want" ]]; then
-    say "installing pinned packages into $VENV (first time: a few minutes)"
-    "$VENV/bin/python" -m pip install -q --upgrade pip setuptools
-    "$VENV/bin/python" -m pip install -q -r "$ROOT/requirements.lock"
-    "$VENV/bin/python" -m pip install -q --no-deps --no-build-isolation -e "$ROOT"
+    say "installing pinned packages into $VENV (first time: a few minutes; log in $VENV/pip.log)"
+    pip_quiet() {  # pip's own output goes to the log; shown only when it fails
+        if ! "$VENV/bin/python" -m pip "$@" >>"$VENV/pip.log" 2>&1; then
+            tail -n 30 "$VENV/pip.log" >&2
+            say "pip $* failed (full log: $VENV/pip.log)"
+            exit 1
+        fi
+    }
+    : > "$VENV/pip.log"
+    pip_quiet install --upgrade pip setuptools
+    pip_quiet install -r "$ROOT/requirements.lock"
+    pip_quiet install --no-deps --no-build-isolation -e "$ROOT"
     echo "$want" > "$stamp"
 fi
 

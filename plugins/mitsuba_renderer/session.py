@@ -85,6 +85,7 @@ class MitsubaRenderer:
         max_depth: int = 3,
         rgb_sppi: int = 0,
         rgb_guiding: str = "none",
+        rgb_geometry_gradients: bool = False,
         seed: int = 0,
         threads: int = 0,
     ) -> None:
@@ -100,6 +101,8 @@ class MitsubaRenderer:
             geometry; 0 drops those gradients and is 10-100x faster (``RENDERING-NOTES.md``).
         rgb_guiding: how ``rgb_sppi`` samples find indirect silhouettes: ``none`` (uniform, cheap to set up),
             ``grid`` or ``octree`` (Mitsuba's guiding structures, rebuilt every iteration: seconds).
+        rgb_geometry_gradients: allow vertex gradients through :meth:`MitsubaGeometryRenderer.render_rgb`
+            (``prb_projective``), knowing they are biased for flat-shaded meshes.
         seed: base seed; each render uses a seed derived from it and the iteration number.
         threads: Dr.Jit worker threads (0: leave Dr.Jit's default, one per core).
         """
@@ -116,6 +119,7 @@ class MitsubaRenderer:
         if rgb_guiding not in ("none", "grid", "octree"):
             raise PsdrRoomError(f"renderer.mitsuba.rgb_guiding={rgb_guiding!r} must be one of none, grid, octree")
         self.rgb_guiding = str(rgb_guiding)
+        self.rgb_geometry_gradients = bool(rgb_geometry_gradients)
         self.seed = int(seed)
         self.threads = int(threads)
         self._variant: str | None = None
@@ -322,9 +326,12 @@ class MitsubaGeometryRenderer:
         emitters given to :meth:`MitsubaRenderer.geometry`.
 
         ``albedo`` (shape → RGB tensor [3]) and ``radiance`` (emitter → RGB tensor [3]) override the
-        values given at construction, differentiably. When any vertex tensor requires grad the
-        projective ``prb_projective`` integrator is used (visibility gradients; moving shadows only with
-        ``rgb_sppi`` > 0), otherwise ``prb``.
+        values given at construction, differentiably (``prb``: exact for fixed geometry). ``vertices``
+        move the shapes; their gradients are refused unless ``rgb_geometry_gradients`` is set, because
+        Mitsuba 3.9.1's ``prb_projective`` gets them wrong for flat-shaded (position-only) meshes: it
+        samples silhouettes only, not the shading jump at a box's creases, and drops moving shadows unless
+        ``rgb_sppi`` > 0 (measured 0.2-0.45x of central finite differences on a lit box). Fit geometry
+        with :meth:`render`'s masks and depth, as the paper does.
         """
         import torch
 
@@ -339,6 +346,12 @@ class MitsubaGeometryRenderer:
                 raise PsdrRoomError(f"renderer.render_rgb: radiance for unknown emitter '{name}'")
             inputs.append((scene.radiance_keys[name], _as_rgb_tensor(value, f"radiance['{name}']")))
         moving = any(t.requires_grad for k, t in inputs if k.endswith(".vertex_positions"))
+        if moving and not self.renderer.rgb_geometry_gradients:
+            raise PsdrRoomError(
+                "renderer.render_rgb: vertex gradients through RGB renders are biased for flat-shaded meshes "
+                "(creases and shadows are not sampled); fit geometry with render() masks/depth, pass detached "
+                "vertices, or set renderer.mitsuba.rgb_geometry_gradients=true to accept the bias"
+            )
         keys = [k for k, _ in inputs]
         (image,) = _RenderFunction.apply(scene.with_mode("projective" if moving else "plain"), keys,
                                          self._seed(iteration), *[t for _, t in inputs])
