@@ -1,6 +1,6 @@
 """``psdr_geometry``: a projective-sampling integrator whose "radiance" is per-part coverage and z-depth.
 
-Each render fills the three RGB channels of the film with three *channels* chosen per integrator instance:
+Each render fills any number of *channels* (the film's RGB, then AOVs), chosen per integrator instance:
 a part's coverage (1 where a shape of that part is the first hit, else 0), the z-depth of the first hit
 (distance along the camera's optical axis, 0 where nothing is hit), or alpha (1 on any hit). The values are
 constant per shape (coverage, alpha) or follow the surface along a fixed camera ray (depth), so:
@@ -14,8 +14,8 @@ constant per shape (coverage, alpha) or follow the surface along a fixed camera 
 
 Which part a hit belongs to is looked up from the shape pointer: in the JIT variants a shape pointer is
 its registry index, and ``part_of_shape`` (an opaque float array indexed by it) maps it to a part index
-(-1: no part). The per-pass channel selection ``channels`` (3 floats) is opaque as well, so all passes
-and all scenes share one compiled kernel.
+(-1: no part). The channel codes are opaque as well, so scenes with the same channel count share one
+compiled kernel.
 """
 
 from __future__ import annotations
@@ -49,37 +49,46 @@ def _make_class() -> type:
             self.guiding = "none"
             self.sample_border_warning = False
             self.part_of_shape = mi.Float(-1.0)
-            self.channels = mi.Vector3f(UNUSED)
+            self.codes = [mi.Float(UNUSED)] * 3
             self.camera_origin = mi.Point3f(0.0)
             self.camera_axis = mi.Vector3f(0.0, 0.0, 1.0)
 
-        def configure(self, part_of_shape: list[float], channels: tuple[float, float, float],
+        def configure(self, part_of_shape: list[float], channels: list[float],
                       camera_origin: tuple[float, float, float], camera_axis: tuple[float, float, float]) -> None:
-            """Set the shape → part table (indexed by shape registry id), the 3 channel codes, and the camera."""
+            """Set the shape → part table (indexed by shape registry id), the channel codes (a part index,
+            :data:`DEPTH` or :data:`ALPHA` each; at least 3, padded with :data:`UNUSED`), and the camera."""
             self.part_of_shape = mi.Float([float(p) for p in part_of_shape])
             dr.make_opaque(self.part_of_shape)
-            self.channels = mi.Vector3f(*(dr.opaque(mi.Float, float(c)) for c in channels))
+            codes = [float(c) for c in channels] + [UNUSED] * max(0, 3 - len(channels))
+            self.codes = [dr.opaque(mi.Float, c) for c in codes]
             self.camera_origin = mi.Point3f(*(dr.opaque(mi.Float, float(c)) for c in camera_origin))
             self.camera_axis = mi.Vector3f(*(dr.opaque(mi.Float, float(c)) for c in camera_axis))
 
         def aov_names(self) -> list[str]:
-            return []
+            """Channels beyond the first three travel as AOVs (film layout R, G, B, weight, AOVs...)."""
+            return [f"channel_{k}" for k in range(3, len(self.codes))]
+
+        def sample_rays(self, scene, sensor, sampler):
+            """The camera's rays with a scalar (Float) weight: ``render_ad`` multiplies each AOV by the ray
+            weight, and a Spectrum weight would turn the AOVs into colours. A pinhole camera's weight is
+            the same in every channel (1)."""
+            ray, weight, pos = super().sample_rays(scene, sensor, sampler)
+            return ray, mi.Float(weight[0]), pos
 
         # ------------------------------------------------------------------------------------------- values
-        def _value(self, shape: mi.ShapePtr, p: mi.Point3f, valid: mi.Bool) -> mi.Spectrum:
-            """The 3 channel values of a hit on ``shape`` at ``p`` (0 where ``valid`` is false)."""
+        def _values(self, shape: mi.ShapePtr, p: mi.Point3f, valid: mi.Bool) -> list[mi.Float]:
+            """Every channel's value for a hit on ``shape`` at ``p`` (0 where ``valid`` is false)."""
             shape_id = dr.reinterpret_array(mi.UInt32, shape)
             part = dr.gather(mi.Float, self.part_of_shape, shape_id, valid)
             part = dr.select(valid, part, -10.0)
             z = dr.dot(p - self.camera_origin, self.camera_axis)
             out = []
-            for c in range(3):
-                code = self.channels[c]
+            for code in self.codes:
                 v = dr.select(code == part, 1.0, 0.0)
                 v = dr.select(code == DEPTH, z, v)
                 v = dr.select(code == ALPHA, 1.0, v)
                 out.append(dr.select(valid, v, 0.0))
-            return mi.Spectrum(out[0], out[1], out[2])
+            return out
 
         def sample(self, mode: dr.ADMode, scene: mi.Scene, sampler: mi.Sampler, ray: mi.Ray3f, depth: mi.UInt32,
                    δL, state_in, active: mi.Bool, project: bool = False, si_shade=None, **kwargs):
@@ -91,23 +100,28 @@ def _make_class() -> type:
                     si = scene.ray_intersect(ray, ray_flags=mi.RayFlags.All, coherent=True, active=active)
             valid = active & si.is_valid()
             with dr.resume_grad(when=not primal):
-                L = self._value(si.shape, si.p, valid)
-            return L, valid, [], ([] if project else None)
+                values = self._values(si.shape, si.p, valid)
+            L = mi.Spectrum(values[0], values[1], values[2])
+            return L, valid, values[3:], ([] if project else None)
 
         def sample_radiance_difference(self, scene, ss, curr_depth, sampler, wavelengths, active):
+            """Foreground minus background value of every channel across the silhouette point (a list)."""
             if curr_depth != 0:
                 raise RuntimeError(f"{NAME}: only primarily visible silhouettes are sampled (got depth {curr_depth})")
             # Background: continue the camera ray just past the silhouette edge.
             ray_bg = ss.spawn_ray(wavelengths)
             si_bg = scene.ray_intersect(ray_bg, ray_flags=mi.RayFlags.All, coherent=False, active=active)
-            value_bg = self._value(si_bg.shape, si_bg.p, active & si_bg.is_valid())
+            background = self._values(si_bg.shape, si_bg.p, active & si_bg.is_valid())
             # Foreground: the silhouette point itself, on ss.shape.
-            value_fg = self._value(ss.shape, ss.p, active)
-            diff = value_fg - value_bg
-            return diff, active & (dr.max(dr.abs(diff)) > 0)
+            foreground = self._values(ss.shape, ss.p, active)
+            diff = [f - b for f, b in zip(foreground, background)]
+            nonzero = mi.Bool(False)
+            for d in diff:
+                nonzero |= d != 0
+            return diff, active & nonzero
 
         def render_primarily_visible_silhouette(self, scene, sensor, sampler, spp):
-            """As :class:`PSIntegrator`'s, except for the visibility test of the silhouette point.
+            """As :class:`PSIntegrator`'s, but for any number of channels and with another visibility test.
 
             Upstream tests visibility with a ray whose origin is pushed *outwards* across the silhouette
             edge. Where two separate meshes meet at a concave crease (a room's wall and floor quads), that
@@ -134,22 +148,22 @@ def _make_class() -> type:
                 it.p = ss.p
                 ds, _ = sensor.sample_direction(it, mi.Point2f(0), visible)
                 visible &= ds.pdf != 0
-                wavelengths, weight = sensor.sample_wavelengths(dr.zeros(mi.SurfaceInteraction3f), 0, visible)
-                ΔL, active = self.sample_radiance_difference(scene, ss, 0, sampler, wavelengths, visible)
-                ΔL *= weight
+                wavelengths, _ = sensor.sample_wavelengths(dr.zeros(mi.SurfaceInteraction3f), 0, visible)
+                diff, active = self.sample_radiance_difference(scene, ss, 0, sampler, wavelengths, visible)
 
             si = dr.zeros(mi.SurfaceInteraction3f)
             si.p = ss.p
             si.prim_index = ss.prim_index
             si.uv = ss.uv
             motion = dr.dot(ss.shape.differential_motion(dr.detach(si), active), ss.n)
-            derivative = ΔL * motion * dr.rcp(ss.pdf) * J
+            scale = motion * dr.rcp(ss.pdf) * J * dr.rcp(mi.ScalarFloat(spp))
 
             film.prepare(self.aov_names())
             block = film.create_block(normalize=True)
             block.set_coalesce(block.coalesce() and spp >= 4)
-            block.put(pos=ds.uv, wavelengths=wavelengths, value=derivative * dr.rcp(mi.ScalarFloat(spp)),
-                      weight=0, alpha=1, active=active)
+            values = [d * scale for d in diff]
+            # Raw channel layout of an RGB film without alpha: R, G, B, weight, AOVs...
+            block.put(ds.uv, values[:3] + [mi.Float(0.0)] + values[3:], active)
             film.put_block(block)
             return film.develop()
 

@@ -26,7 +26,7 @@ from psdr_room_core.artifacts import Camera
 from psdr_room_core.errors import PsdrRoomError
 from psdr_room_core.geometry import TriangleMesh
 
-from .llvm import resolve_variant
+from .llvm import VARIANTS, resolve_variant
 
 if TYPE_CHECKING:
     import torch
@@ -110,6 +110,8 @@ class MitsubaRenderer:
                                  ("max_depth", max_depth, 1), ("rgb_sppi", rgb_sppi, 0), ("threads", threads, 0)):
             if int(value) != value or int(value) < low:
                 raise PsdrRoomError(f"renderer.mitsuba.{name}={value!r} must be an integer >= {low}")
+        if variant not in VARIANTS:
+            raise PsdrRoomError(f"renderer.mitsuba.variant={variant!r} is not supported; use one of {', '.join(VARIANTS)}")
         self.requested_variant = str(variant)
         self.spp = int(spp)
         self.spp_boundary = int(spp_boundary)
@@ -201,12 +203,15 @@ class MitsubaGeometryRenderer:
             raise PsdrRoomError(f"renderer.geometry: part indices must be >= 0, got {values[0]}")
         self.n_parts = (values[-1] + 1) if values else 0
         self.parts = {name: int(parts[name]) if name in parts else -1 for name in meshes}
-        for name in list(albedo) + list(emitters):
-            if name not in meshes and name not in emitters:
+        for name in albedo:
+            if name not in meshes:
                 raise PsdrRoomError(f"renderer.geometry: albedo given for '{name}', which is not a mesh")
         clash = sorted(set(emitters) & set(meshes))
         if clash:
             raise PsdrRoomError(f"renderer.geometry: emitter names clash with mesh names: {', '.join(clash)}")
+        reserved = sorted((set(meshes) | set(emitters)) & {"type", "sensor", "integrator"})
+        if reserved:
+            raise PsdrRoomError(f"renderer.geometry: shape name(s) {', '.join(reserved)} are reserved; rename them")
 
         # Camera at the working resolution.
         scale = float(resolution_scale)
@@ -246,7 +251,7 @@ class MitsubaGeometryRenderer:
             self.emitters[name] = (_Shape(name, np.asarray(mesh.vertices, np.float32)[first], faces.astype(np.uint32),
                                           first, len(mesh.vertices)), _rgb(radiance, f"radiance of '{name}'"))
 
-        # Channel plan: P part masks, then depth and alpha, three per pass.
+        # Channels of the geometry render: P part masks, then depth and alpha (one pass: RGB + AOVs).
         self._channels: list[float | str] = [float(p) for p in range(self.n_parts)] + ["depth", "alpha"]
         self._geometry: _MitsubaScene | None = None
         self._rgb: _MitsubaScene | None = None
@@ -299,11 +304,13 @@ class MitsubaGeometryRenderer:
         """(masks [P,H,W], depth [H,W], alpha [H,W]) as float32 torch tensors.
 
         ``vertices`` maps shape names to N×3 world positions (the mesh's vertex order) replacing the
-        meshes' own; shapes left out keep their current positions. Masks are anti-aliased coverage in
+        meshes' own; shapes left out keep the positions last given to this method (initially the meshes'). Masks are anti-aliased coverage in
         [0, 1] of each part; depth is the coverage-weighted z-depth along the optical axis (0 where nothing
         is hit: divide by alpha for the depth of covered pixels); alpha is the coverage of any shape.
         Gradients flow to every vertex tensor that requires grad, through visibility (silhouettes, sampled
         with ``spp_boundary`` per pixel) and through depth (interior). The seed depends on ``iteration``.
+        ``backward`` re-renders the derivative with the vertices of this call (other renders may come in
+        between), but shapes *not* passed here are taken where they are at ``backward`` time.
         """
         import torch
 
@@ -311,7 +318,7 @@ class MitsubaGeometryRenderer:
         inputs = self._inputs(vertices)
         keys = [k for k, _ in inputs]
         images = _RenderFunction.apply(scene, keys, self._seed(iteration), *[t for _, t in inputs])
-        flat = torch.cat([img.permute(2, 0, 1) for img in images], dim=0)  # [3*passes, H, W]
+        flat = torch.cat([img.permute(2, 0, 1) for img in images], dim=0)  # [P + 2 (or 3), H, W]
         p = self.n_parts
         return flat[:p], flat[p], flat[p + 1]
 
@@ -345,6 +352,11 @@ class MitsubaGeometryRenderer:
             if name not in self.emitters:
                 raise PsdrRoomError(f"renderer.render_rgb: radiance for unknown emitter '{name}'")
             inputs.append((scene.radiance_keys[name], _as_rgb_tensor(value, f"radiance['{name}']")))
+        if self.renderer.variant == "scalar_rgb" and any(t.requires_grad for _, t in inputs):
+            raise PsdrRoomError(
+                "renderer.mitsuba.variant=scalar_rgb has no gradients; use variant=auto or llvm_ad_rgb, or pass "
+                "tensors that do not require grad"
+            )
         moving = any(t.requires_grad for k, t in inputs if k.endswith(".vertex_positions"))
         if moving and not self.renderer.rgb_geometry_gradients:
             raise PsdrRoomError(
@@ -383,7 +395,6 @@ class _MitsubaScene:
         self._projective = projective or passes
         self.albedo_keys: dict[str, str] = {}
         self.radiance_keys: dict[str, str] = {}
-        self.current: dict[str, np.ndarray] = {}
 
     def with_mode(self, mode: str) -> "_MitsubaScene":
         self.passes = self._projective if mode == "projective" else self._plain
@@ -428,17 +439,19 @@ class _MitsubaScene:
             raise PsdrRoomError(f"renderer=mitsuba could not build the scene: {type(exc).__name__}: {exc}") from None
 
         if rgb:
-            plain = [mi.load_dict({"type": "prb", "max_depth": r.max_depth})]
-            projective = [mi.load_dict({"type": "prb_projective", "max_depth": r.max_depth, "sppc": r.rgb_spp,
-                                        "sppp": r.spp_boundary, "sppi": r.rgb_sppi,
-                                        "guiding": r.rgb_guiding})]
-            out = cls(owner, mi, scene, plain, projective)
+            if r.variant == "scalar_rgb":  # no AD: Mitsuba's C++ path tracer
+                out = cls(owner, mi, scene, [mi.load_dict({"type": "path", "max_depth": r.max_depth})])
+            else:
+                plain = [mi.load_dict({"type": "prb", "max_depth": r.max_depth})]
+                projective = [mi.load_dict({"type": "prb_projective", "max_depth": r.max_depth, "sppc": r.rgb_spp,
+                                            "sppp": r.spp_boundary, "sppi": r.rgb_sppi, "guiding": r.rgb_guiding})]
+                out = cls(owner, mi, scene, plain, projective)
             for name in owner.shapes:
                 out.albedo_keys[name] = _find_key(out.params, name + ".bsdf.", "reflectance.value")
             for name in owner.emitters:
                 out.radiance_keys[name] = _find_key(out.params, name + ".emitter.", "radiance.value")
         else:
-            from .integrator import ALPHA, DEPTH, NAME, UNUSED
+            from .integrator import ALPHA, DEPTH, NAME
 
             import drjit as dr
 
@@ -447,15 +460,9 @@ class _MitsubaScene:
             for name, part in owner.parts.items():
                 table[ids[name]] = float(part)
             codes = [c if isinstance(c, float) else (DEPTH if c == "depth" else ALPHA) for c in owner._channels]
-            codes += [UNUSED] * (-len(codes) % 3)
-            passes = []
-            for k in range(0, len(codes), 3):
-                integrator = mi.load_dict({"type": NAME, "sppc": r.spp, "sppp": r.spp_boundary, "sppi": 0})
-                integrator.configure(table, tuple(codes[k:k + 3]), owner.camera_origin, owner.camera_axis)
-                passes.append(integrator)
-            out = cls(owner, mi, scene, passes)
-        for name, shape in owner.shapes.items():
-            out.current[f"{name}.vertex_positions"] = shape.vertices.reshape(-1)
+            integrator = mi.load_dict({"type": NAME, "sppc": r.spp, "sppp": r.spp_boundary, "sppi": 0})
+            integrator.configure(table, codes, owner.camera_origin, owner.camera_axis)
+            out = cls(owner, mi, scene, [integrator])
         return out
 
     # ------------------------------------------------------------------------------- torch bridge
@@ -470,7 +477,9 @@ class _MitsubaScene:
         for key, array, grad in zip(keys, arrays, attach):
             flat = np.ascontiguousarray(array, dtype=np.float32).reshape(-1)
             if key.endswith(".vertex_positions"):
-                value = mi.Float(flat)
+                value = type(self.params[key])(flat)
+            elif mi.variant().startswith("scalar"):
+                value = mi.Color3f(*(float(x) for x in flat))
             else:
                 value = dr.unravel(mi.Color3f, mi.Float(flat))
             if grad:
@@ -509,6 +518,7 @@ def _make_function() -> Any:
                 outputs.append(torch.from_numpy(np.array(image, dtype=np.float32)).to(device))
             ctx.scene, ctx.keys, ctx.seed, ctx.arrays, ctx.passes = scene, keys, seed, arrays, passes
             ctx.shapes = [tuple(t.shape) for t in tensors]
+            ctx.types = [(t.dtype, t.device) for t in tensors]
             return tuple(outputs)
 
         @staticmethod
@@ -530,7 +540,8 @@ def _make_function() -> Any:
                 for i, (value, need) in enumerate(zip(values, needs)):
                     if need:
                         g = np.array(dr.ravel(dr.grad(value)), dtype=np.float32).reshape(ctx.shapes[i])
-                        grads[i] = torch.from_numpy(g).to(grad_outputs[0].device)
+                        dtype, device = ctx.types[i]
+                        grads[i] = torch.from_numpy(g).to(device=device, dtype=dtype)
                 scene.detach_all(ctx.keys)
             return (None, None, None, *grads)
 
@@ -570,7 +581,9 @@ def _mesh(mi: Any, name: str, shape: _Shape, bsdf: Any, emitter: Any = None) -> 
     mesh = mi.Mesh(name, len(shape.vertices), len(shape.faces), props=props, has_vertex_normals=False,
                    has_vertex_texcoords=False)
     params = mi.traverse(mesh)
-    params["vertex_positions"] = mi.Float(np.ascontiguousarray(shape.vertices, dtype=np.float32).reshape(-1))
-    params["faces"] = mi.UInt32(np.ascontiguousarray(shape.faces, dtype=np.uint32).reshape(-1))
+    # The parameters' own types: mi.Float / mi.UInt32 in JIT variants, dynamic arrays in scalar ones.
+    params["vertex_positions"] = type(params["vertex_positions"])(
+        np.ascontiguousarray(shape.vertices, dtype=np.float32).reshape(-1))
+    params["faces"] = type(params["faces"])(np.ascontiguousarray(shape.faces, dtype=np.uint32).reshape(-1))
     params.update()
     return mesh

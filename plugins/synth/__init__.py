@@ -3,7 +3,7 @@
 Each scene directory holds what the ``file`` implementations read beside a photo, plus the answers:
 
     photo.png                      path-traced with Mitsuba 3 (global illumination, area lights)
-    photo.depth.png/.depth.json    z-depth, uint16 millimetres (scale 1000)
+    photo.depth.png/.depth.json    z-depth, uint16 millimetres (scale 1000): exact, or estimator-like (--depth-noise)
     photo.panoptic.png/.json       COCO panoptic: floor, ceiling, one segment per wall, objects, lights
     ground_truth.json              intrinsics, vfov, camera pose, room box, objects (boxes), lights, seed, case
 """
@@ -24,10 +24,27 @@ from .render import render_photo
 from .scene import HARD_CASES, SyntheticRoom, generate
 
 
-def write_scene(room: SyntheticRoom, directory: Path, spp: int = 64) -> Path:
-    """Render ``room`` and write its photo, sidecars and ground truth into ``directory``; return the photo."""
+def estimated_depth(depth: np.ndarray, noise: float, seed: int) -> np.ndarray:
+    """Depth as an estimator gives it: smoothed across edges and with a smooth multiplicative error of
+    relative standard deviation ``noise`` (mean 1, so the scale stays right); ``noise=0`` is the exact depth."""
+    if noise <= 0:
+        return depth
+    rng = np.random.default_rng(seed)
+    height, width = depth.shape
+    field = cv2.resize(rng.normal(size=(4, 5)).astype(np.float32), (width, height), interpolation=cv2.INTER_CUBIC)
+    field = (field - field.mean()) / max(float(field.std()), 1e-6)
+    blurred = cv2.GaussianBlur(depth, (0, 0), sigmaX=width / 160)
+    return (blurred * (1.0 + noise * field)).astype(np.float32)
+
+
+def write_scene(room: SyntheticRoom, directory: Path, spp: int = 64, depth_noise: float = 0.0) -> Path:
+    """Render ``room`` and write its photo, sidecars and ground truth into ``directory``; return the photo.
+
+    ``depth_noise`` > 0 writes an estimator-like depth sidecar (:func:`estimated_depth`) instead of the exact one.
+    """
     directory.mkdir(parents=True, exist_ok=True)
     depth, ids, segments = raycast(room)
+    depth = estimated_depth(depth, depth_noise, room.seed)
     photo = directory / "photo.png"
     cv2.imwrite(str(photo), render_photo(room, spp=spp)[..., ::-1])
     cv2.imwrite(str(directory / "photo.depth.png"), np.clip(np.rint(depth * 1000.0), 0, 65535).astype(np.uint16))
@@ -54,8 +71,10 @@ def main() -> None:
     parser.add_argument("--width", type=int, default=320)
     parser.add_argument("--height", type=int, default=240)
     parser.add_argument("--spp", type=int, default=64)
+    parser.add_argument("--depth-noise", type=float, default=0.0,
+                        help="relative error of an estimator-like depth sidecar (0: exact depth)")
     args = parser.parse_args()
     for seed in parse_seeds(args.seeds):
         room = generate(seed, args.case, args.width, args.height)
-        photo = write_scene(room, args.out / f"scene_{args.case}_{seed:04d}", args.spp)
+        photo = write_scene(room, args.out / f"scene_{args.case}_{seed:04d}", args.spp, args.depth_noise)
         print(f"{photo}  vfov {room.vfov_deg:.1f}°  {len(room.furniture)} objects")

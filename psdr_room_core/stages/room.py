@@ -101,8 +101,16 @@ def scaled_camera(camera: Camera, width: int) -> Camera:
                   cx=camera.cx * s, cy=camera.cy * height / camera.height, method=camera.method)
 
 
-def box_vertices(room: RoomBox, theta: dict[str, torch.Tensor], scale: float) -> dict[str, torch.Tensor]:
-    """World quads of the box moved by ``theta`` (yaw offset, translation in units of ``scale``, log-scale)."""
+def box_vertices(room: RoomBox, theta: dict[str, torch.Tensor], scale: float, keep_floor: bool) -> dict[str, torch.Tensor]:
+    """World quads of the box moved by ``theta``: yaw offset, translation in units of ``scale``, per-axis
+    log-scale, and a tilt of the whole box about the camera centre (the floor normal from ``room_init``
+    may be off by a few degrees; tilting about the camera keeps the camera's height above the floor).
+
+    With ``keep_floor`` the box's bottom stays on the floor plane (y = 0) found by ``room_init``: the height
+    scales upward and the vertical translation is unused. Masks are unchanged by scaling the whole room about
+    the camera; a fixed floor (the camera's height above it comes from many depth points) removes that
+    ambiguity, which the depth term alone pins down only weakly.
+    """
     import torch
 
     signs = torch.tensor([[(i >> 0) & 1, (i >> 1) & 1, (i >> 2) & 1] for i in range(8)], dtype=torch.float32) * 2 - 1
@@ -112,8 +120,22 @@ def box_vertices(room: RoomBox, theta: dict[str, torch.Tensor], scale: float) ->
     zero, one = torch.zeros_like(c), torch.ones_like(c)
     rotation = torch.stack([torch.stack([c, zero, s]), torch.stack([zero, one, zero]), torch.stack([-s, zero, c])])
     center = torch.as_tensor(room.center, dtype=torch.float32) + scale * theta["translation"]
-    corners = center + (signs * half) @ rotation.T
+    if keep_floor:
+        center = torch.stack([center[0], half[1], center[2]])
+    pivot = torch.as_tensor(np.asarray(room.camera_to_world)[:3, 3], dtype=torch.float32)
+    corners = pivot + (center + (signs * half) @ rotation.T - pivot) @ tilt_rotation(theta["tilt"]).T
     return {name: corners[torch.as_tensor(index.copy())] for name, index in room_quad_indices(room).items()}
+
+
+def tilt_rotation(tilt: torch.Tensor) -> torch.Tensor:
+    """Rotation about world X then Z by the two ``tilt`` angles (radians): corrects the floor normal."""
+    import torch
+
+    (cx, cz), (sx, sz) = torch.cos(tilt), torch.sin(tilt)
+    zero, one = torch.zeros_like(cx), torch.ones_like(cx)
+    rx = torch.stack([torch.stack([one, zero, zero]), torch.stack([zero, cx, -sx]), torch.stack([zero, sx, cx])])
+    rz = torch.stack([torch.stack([cz, -sz, zero]), torch.stack([sz, cz, zero]), torch.stack([zero, zero, one])])
+    return rz @ rx
 
 
 def soft_iou(rendered: torch.Tensor, target: torch.Tensor, visible: torch.Tensor) -> torch.Tensor:
@@ -131,7 +153,8 @@ def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, 
     per-axis scale, i ∈ {wall, floor, ceiling}, with anti-aliased masks and depth from the ``renderer`` whose
     boundary terms carry gradients through the box's silhouette edges, and the ``optimizer`` (Adam, per-
     parameter learning rates). Depths are normalised by the target's 98th percentile. Params:
-    ``iterations``, ``render_width``, ``depth_weight``, ``learning_rates`` {yaw, translation, log_scale}.
+    ``iterations``, ``render_width``, ``depth_weight``, ``keep_floor`` (see :func:`box_vertices`),
+    ``learning_rates`` {yaw, translation, log_scale, tilt}.
     """
     import torch  # imported here: a cached run never pays for it
 
@@ -145,15 +168,16 @@ def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, 
     renderer = ctx.impl("renderer").geometry(cam, np.asarray(room.camera_to_world), meshes, parts)
     scale = float(np.mean(room.half_size))
     theta = {"yaw": torch.zeros((), requires_grad=True), "translation": torch.zeros(3, requires_grad=True),
-             "log_scale": torch.zeros(3, requires_grad=True)}
+             "log_scale": torch.zeros(3, requires_grad=True), "tilt": torch.zeros(2, requires_grad=True)}
     t_masks, visible = torch.from_numpy(targets.masks), torch.from_numpy(targets.visible)
     t_depth, d_weight = torch.from_numpy(targets.depth), torch.from_numpy(targets.depth_weight)
     valid = targets.depth[targets.depth_weight > 0]
     depth_scale = float(np.percentile(valid, 98)) if valid.size else 1.0
     weight_sum = d_weight.sum().clamp_min(1e-6)
+    keep_floor = bool(params["keep_floor"])
 
     def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
-        masks, weighted_depth, alpha = renderer.render(box_vertices(room, theta, scale), iteration)
+        masks, weighted_depth, alpha = renderer.render(box_vertices(room, theta, scale, keep_floor), iteration)
         rendered_depth = weighted_depth / alpha.clamp_min(1e-3)  # coverage-weighted → depth of covered pixels
         ious = [soft_iou(masks[k], t_masks[k], visible) for k in range(len(ROOM_PARTS))]
         l1 = (d_weight * (rendered_depth - t_depth).abs()).sum() / weight_sum / depth_scale
@@ -163,10 +187,17 @@ def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, 
     history = ctx.impl("optimizer").minimize(theta, dict(params["learning_rates"]), loss, int(params["iterations"]),
                                              lambda it: ctx.progress(it, total=int(params["iterations"])))
     with torch.no_grad():
+        half_size = np.asarray(room.half_size) * np.exp(theta["log_scale"].numpy().astype(np.float64))
+        center = np.asarray(room.center) + scale * theta["translation"].numpy().astype(np.float64)
+        if keep_floor:
+            center[1] = half_size[1]
+        # the box stays upright in its frame; the tilt moves the camera instead: about itself, by R⁻¹
+        camera_to_world = np.asarray(room.camera_to_world, dtype=np.float64).copy()
+        camera_to_world[:3, :3] = tilt_rotation(theta["tilt"]).numpy().astype(np.float64).T @ camera_to_world[:3, :3]
         fitted = RoomBox(
-            camera_to_world=np.asarray(room.camera_to_world),
-            center=np.asarray(room.center) + scale * theta["translation"].numpy().astype(np.float64),
-            half_size=np.asarray(room.half_size) * np.exp(theta["log_scale"].numpy().astype(np.float64)),
+            camera_to_world=camera_to_world,
+            center=center,
+            half_size=half_size,
             yaw=float(room.yaw) + float(theta["yaw"]),
             ceiling_visible=room.ceiling_visible,
             extra={**room.extra, "room_fit": {k: float(v) for k, v in history[-1].items()}},
