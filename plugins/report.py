@@ -58,6 +58,8 @@ def render_report(run: RunRecord, alpha: float) -> str:
     camera = run.artifacts.get("camera")
     if camera is not None:
         facts.append(f"vertical FoV {camera.vfov_deg:.2f}° ({html.escape(camera.method)}, confidence {camera.confidence:.2f})")
+        if "camera_fit" in run.artifacts:
+            facts.append(f"vertical FoV after room_fit {run.artifacts['camera_fit'].vfov_deg:.2f}°")
     room = run.artifacts.get("room_box_fit", run.artifacts.get("room_box"))
     if room is not None:
         size = " × ".join(f"{2 * h:.2f}" for h in room.half_size)

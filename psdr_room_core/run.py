@@ -76,6 +76,8 @@ def metrics(record: RunRecord) -> dict[str, Any]:
         out["camera"] = {"vfov_deg": camera.vfov_deg, "fx": camera.fx, "fy": camera.fy,
                          "method": camera.method, "confidence": camera.confidence}
         out["vfov_deg"] = camera.vfov_deg
+        if "camera_fit" in record.artifacts:
+            out["camera"]["vfov_fit_deg"] = record.artifacts["camera_fit"].vfov_deg
         truth = record.photo.parent / "ground_truth.json"
         if truth.is_file():
             intrinsics = json.loads(truth.read_text()).get("intrinsics", {})

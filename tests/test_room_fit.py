@@ -18,7 +18,8 @@ from psdr_room_plugins.synth.raycast import raycast
 from psdr_room_plugins.synth.scene import generate
 
 PARAMS = {"iterations": 80, "render_width": 96, "depth_weight": 1.0, "keep_floor": True,
-          "learning_rates": {"yaw": 0.01, "translation": 0.01, "log_scale": 0.01, "tilt": 0.003}}
+          "learning_rates": {"yaw": 0.01, "translation": 0.01, "log_scale": 0.01, "tilt": 0.003,
+                            "log_focal": 0.003}}
 
 
 def truth_inputs(seed: int) -> tuple[RoomBox, Camera, DepthMap, Panoptic, Image]:

@@ -127,6 +127,19 @@ def box_vertices(room: RoomBox, theta: dict[str, torch.Tensor], scale: float, ke
     return {name: corners[torch.as_tensor(index.copy())] for name, index in room_quad_indices(room).items()}
 
 
+def with_focal_scale(corners: torch.Tensor, camera_to_world: np.ndarray, log_focal: torch.Tensor) -> torch.Tensor:
+    """Scale camera-frame x and y of world points by exp(``log_focal``): rendering them with focal f is
+    rendering the unscaled points with focal f·exp(log_focal) (u = f·x/z + c), so the field of view is
+    refined without rebuilding the renderer."""
+    import torch
+
+    rotation = torch.as_tensor(camera_to_world[:3, :3], dtype=torch.float32)
+    origin = torch.as_tensor(camera_to_world[:3, 3], dtype=torch.float32)
+    factor = torch.exp(log_focal)
+    local = (corners - origin) @ rotation * torch.stack([factor, factor, torch.ones_like(factor)])
+    return origin + local @ rotation.T
+
+
 def tilt_rotation(tilt: torch.Tensor) -> torch.Tensor:
     """Rotation about world X then Z by the two ``tilt`` angles (radians): corrects the floor normal."""
     import torch
@@ -147,14 +160,16 @@ def soft_iou(rendered: torch.Tensor, target: torch.Tensor, visible: torch.Tensor
 
 def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, panoptic: Panoptic,
              image: Image) -> dict[str, Any]:
-    """Refine the room box by differentiable rendering (§4.2, eq. 2).
+    """Refine the room box (and the camera's focal length) by differentiable rendering (§4.2, eq. 2).
 
     Minimises ``L_box = −Σ_i IoU(M_i^r, M_i^t) + w_depth · L1(D^r, D^t)`` over the box's yaw, translation and
     per-axis scale, i ∈ {wall, floor, ceiling}, with anti-aliased masks and depth from the ``renderer`` whose
     boundary terms carry gradients through the box's silhouette edges, and the ``optimizer`` (Adam, per-
     parameter learning rates). Depths are normalised by the target's 98th percentile. Params:
     ``iterations``, ``render_width``, ``depth_weight``, ``keep_floor`` (see :func:`box_vertices`),
-    ``learning_rates`` {yaw, translation, log_scale, tilt}.
+    ``learning_rates`` {yaw, translation, log_scale, tilt, log_focal}. Beyond the paper, the camera's
+    focal length is refined too (``log_focal``; learning rate 0 keeps the estimated FoV): masks and depth
+    together constrain it, and a FoV error otherwise bends the box.
     """
     import torch  # imported here: a cached run never pays for it
 
@@ -168,7 +183,9 @@ def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, 
     renderer = ctx.impl("renderer").geometry(cam, np.asarray(room.camera_to_world), meshes, parts)
     scale = float(np.mean(room.half_size))
     theta = {"yaw": torch.zeros((), requires_grad=True), "translation": torch.zeros(3, requires_grad=True),
-             "log_scale": torch.zeros(3, requires_grad=True), "tilt": torch.zeros(2, requires_grad=True)}
+             "log_scale": torch.zeros(3, requires_grad=True), "tilt": torch.zeros(2, requires_grad=True),
+             "log_focal": torch.zeros((), requires_grad=True)}
+    camera_to_world = np.asarray(room.camera_to_world, dtype=np.float64)
     t_masks, visible = torch.from_numpy(targets.masks), torch.from_numpy(targets.visible)
     t_depth, d_weight = torch.from_numpy(targets.depth), torch.from_numpy(targets.depth_weight)
     valid = targets.depth[targets.depth_weight > 0]
@@ -177,7 +194,9 @@ def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, 
     keep_floor = bool(params["keep_floor"])
 
     def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
-        masks, weighted_depth, alpha = renderer.render(box_vertices(room, theta, scale, keep_floor), iteration)
+        quads = box_vertices(room, theta, scale, keep_floor)
+        vertices = {name: with_focal_scale(q, camera_to_world, theta["log_focal"]) for name, q in quads.items()}
+        masks, weighted_depth, alpha = renderer.render(vertices, iteration)
         rendered_depth = weighted_depth / alpha.clamp_min(1e-3)  # coverage-weighted → depth of covered pixels
         ious = [soft_iou(masks[k], t_masks[k], visible) for k in range(len(ROOM_PARTS))]
         l1 = (d_weight * (rendered_depth - t_depth).abs()).sum() / weight_sum / depth_scale
@@ -192,28 +211,32 @@ def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, 
         if keep_floor:
             center[1] = half_size[1]
         # the box stays upright in its frame; the tilt moves the camera instead: about itself, by R⁻¹
-        camera_to_world = np.asarray(room.camera_to_world, dtype=np.float64).copy()
-        camera_to_world[:3, :3] = tilt_rotation(theta["tilt"]).numpy().astype(np.float64).T @ camera_to_world[:3, :3]
+        tilted = camera_to_world.copy()
+        tilted[:3, :3] = tilt_rotation(theta["tilt"]).numpy().astype(np.float64).T @ camera_to_world[:3, :3]
+        focal = float(torch.exp(theta["log_focal"]))
+        fitted_camera = dataclasses.replace(camera, fx=camera.fx * focal, fy=camera.fy * focal,
+                                            method=f"{camera.method}+room_fit")
         fitted = RoomBox(
-            camera_to_world=camera_to_world,
+            camera_to_world=tilted,
             center=center,
             half_size=half_size,
             yaw=float(room.yaw) + float(theta["yaw"]),
             ceiling_visible=room.ceiling_visible,
             extra={**room.extra, "room_fit": {k: float(v) for k, v in history[-1].items()}},
         )
-    return {"room": fitted, "log": _fit_log(history, image, camera, panoptic, room, fitted)}
+    return {"room": fitted, "camera": fitted_camera,
+            "log": _fit_log(history, image, (camera, room), (fitted_camera, fitted), panoptic)}
 
 
-def _fit_log(history: list[dict[str, float]], image: Image, camera: Camera, panoptic: Panoptic, before: RoomBox,
-             after: RoomBox) -> OptimizationLog:
+def _fit_log(history: list[dict[str, float]], image: Image, before: tuple[Camera, RoomBox],
+             after: tuple[Camera, RoomBox], panoptic: Panoptic) -> OptimizationLog:
     """Loss curves, before/after overlays (Fig. 3 of the paper) and timings of a room fit."""
     base = segment_overlay(image.to_uint8(), panoptic, alpha=0.35)
     seconds = [h["seconds"] for h in history]
     curves = {k: [h[k] for h in history] for k in history[0] if k != "seconds"}
     return OptimizationLog(
         history=history,
-        images={"before": room_edges_overlay(base, camera, before), "after": room_edges_overlay(base, camera, after),
+        images={"before": room_edges_overlay(base, *before), "after": room_edges_overlay(base, *after),
                 "loss": plot_curves(curves, title="room_fit")},
         summary={"iterations": len(history), "first_iteration_seconds": seconds[0],
                  "steady_iteration_seconds": float(np.median(seconds[1:])) if len(seconds) > 1 else seconds[0],
