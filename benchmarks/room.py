@@ -20,23 +20,20 @@ from pathlib import Path
 
 import numpy as np
 
-from psdr_room_core.artifacts import RoomBox, rotation_y
+from psdr_room_core.artifacts import RoomBox
 from psdr_room_core.cli import compose_config
-from psdr_room_core.room_box import box_iou_3d
 from psdr_room_core.run import execute
+from psdr_room_core.stages.room import room_iou
 from psdr_room_plugins.synth import write_scene
 from psdr_room_plugins.synth.scene import HARD_CASES, generate
 
 
 def iou(truth: dict, box: RoomBox) -> float:
-    """3D IoU with the true box, compared in the true world frame: the estimate is mapped through the camera
-    (its frame is the camera's floor-based frame as estimated; a wrong floor normal would otherwise go unseen)."""
+    """3D IoU with the true box, compared in the true camera's frame (see ``room_iou``)."""
     gt = truth["room"]
-    to_truth = np.asarray(truth["camera_to_world"]) @ np.linalg.inv(np.asarray(box.camera_to_world))
-    center = to_truth[:3, :3] @ np.asarray(box.center) + to_truth[:3, 3]
-    x_axis = to_truth[:3, :3] @ rotation_y(float(box.yaw)) @ np.array([1.0, 0.0, 0.0])
-    yaw = float(np.arctan2(-x_axis[2], x_axis[0]))
-    return box_iou_3d(np.array(gt["center"]), np.array(gt["half_size"]), gt["yaw"], center, np.asarray(box.half_size), yaw)
+    reference = RoomBox(camera_to_world=np.asarray(truth["camera_to_world"]), center=np.array(gt["center"]),
+                        half_size=np.array(gt["half_size"]), yaw=gt["yaw"])
+    return room_iou(reference, box)
 
 
 def evaluate(scene: Path, run_dir: Path, overrides: list[str], true_fov: bool = False) -> dict:

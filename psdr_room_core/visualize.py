@@ -23,20 +23,24 @@ BOX_EDGES = [(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).cou
 
 
 def segment_overlay(rgb8: np.ndarray, panoptic: Panoptic, alpha: float = 0.45) -> np.ndarray:
-    """Blend each segment's category colour over the image and outline every segment."""
+    """Blend each segment's category colour over the image, outline every segment and name the large ones."""
+    ids = panoptic.ids
+    lookup = np.zeros((int(ids.max()) + 1, 3), np.float32)
+    for segment in panoptic.segments:
+        lookup[segment.id] = CATEGORY_COLORS[segment.category]
+    labelled = ids > 0
     out = rgb8.astype(np.float32)
-    colors = np.zeros_like(out)
-    labelled = panoptic.ids > 0
-    for segment in panoptic.segments:
-        colors[panoptic.ids == segment.id] = CATEGORY_COLORS[segment.category]
-    out[labelled] = (1.0 - alpha) * out[labelled] + alpha * colors[labelled]
+    out[labelled] = (1.0 - alpha) * out[labelled] + alpha * lookup[ids[labelled]]
     out = out.astype(np.uint8)
-    edges = cv2.morphologyEx(panoptic.ids.astype(np.float32), cv2.MORPH_GRADIENT, np.ones((3, 3), np.uint8)) > 0
+    edges = cv2.morphologyEx(ids.astype(np.float32), cv2.MORPH_GRADIENT, np.ones((3, 3), np.uint8)) > 0
     out[edges] = (20, 20, 20)
+    ys, xs = np.indices(ids.shape)
+    count = np.bincount(ids.ravel(), minlength=len(lookup))
+    cx = np.bincount(ids.ravel(), weights=xs.ravel(), minlength=len(lookup)) / np.maximum(count, 1)
+    cy = np.bincount(ids.ravel(), weights=ys.ravel(), minlength=len(lookup)) / np.maximum(count, 1)
     for segment in panoptic.segments:
-        ys, xs = np.nonzero(panoptic.ids == segment.id)
-        if len(xs) > 200:
-            cv2.putText(out, segment.label[:14], (int(np.median(xs)) - 20, int(np.median(ys))),
+        if count[segment.id] > 200:
+            cv2.putText(out, segment.label[:14], (int(cx[segment.id]) - 20, int(cy[segment.id])),
                         cv2.FONT_HERSHEY_SIMPLEX, 0.4, (255, 255, 255), 1, cv2.LINE_AA)
     return out
 

@@ -15,11 +15,12 @@ from typing import TYPE_CHECKING, Any
 import cv2
 import numpy as np
 
-from ..artifacts import ROOM_CATEGORIES, Camera, DepthMap, Image, OptimizationLog, Panoptic, PointCloud, RoomBox
+from ..artifacts import (ROOM_CATEGORIES, Camera, DepthMap, Image, OptimizationLog, Panoptic, PointCloud, RoomBox,
+                         rotation_y)
 from ..dag import StageContext
 from ..errors import PsdrRoomError
 from ..geometry import quad_mesh
-from ..room_box import RoomInitParams, init_room_box
+from ..room_box import RoomInitParams, box_iou_3d, init_room_box
 from ..visualize import plot_curves, room_edges_overlay, segment_overlay
 from .export import room_quad_indices, room_quads
 
@@ -243,3 +244,14 @@ def _fit_log(history: list[dict[str, float]], image: Image, before: tuple[Camera
                  "initial": {k: v for k, v in history[0].items() if k != "seconds"},
                  "final": {k: v for k, v in history[-1].items() if k != "seconds"}},
     )
+
+
+def room_iou(reference: RoomBox, estimate: RoomBox) -> float:
+    """3D IoU of two room boxes compared through the camera: ``estimate`` is mapped into ``reference``'s
+    world frame (each box's frame is its own camera's floor-based frame, which room_fit's tilt may change)."""
+    to_reference = np.asarray(reference.camera_to_world) @ np.linalg.inv(np.asarray(estimate.camera_to_world))
+    center = to_reference[:3, :3] @ np.asarray(estimate.center) + to_reference[:3, 3]
+    x_axis = to_reference[:3, :3] @ rotation_y(float(estimate.yaw)) @ np.array([1.0, 0.0, 0.0])
+    yaw = float(np.arctan2(-x_axis[2], x_axis[0]))
+    return box_iou_3d(np.asarray(reference.center), np.asarray(reference.half_size), float(reference.yaw),
+                      center, np.asarray(estimate.half_size), yaw)
