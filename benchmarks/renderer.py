@@ -108,7 +108,7 @@ def main() -> None:
             print(f"{size:>8}  {label:<36} first {first:7.2f} s   then {steady:6.3f} s/it", flush=True)
 
     print()
-    print(f"| size | what | first call (JIT) s | s/iter (fwd+bwd) |")
+    print("| size | what | first call (JIT) s | s/iter (fwd+bwd) |")
     print("| --- | --- | --- | --- |")
     for size, label, first, steady in rows:
         print(f"| {size} | {label} | {first:.2f} | {steady:.3f} |")

@@ -6,7 +6,6 @@ correct any of them and feed the artifact back in (``inject.<artifact>=DIR``), a
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import cv2
 import numpy as np
