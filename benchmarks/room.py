@@ -75,7 +75,7 @@ def main() -> None:
     parser.add_argument("--scenes", type=int, default=10, help="random scenes, seeds 0..N-1")
     parser.add_argument("--data", type=Path, help="keep the rendered scenes here (reused when present)")
     parser.add_argument("--no-hard", action="store_true", help="skip the hard cases")
-    parser.add_argument("--width", type=int, default=320)
+    parser.add_argument("--width", type=int, default=640, help="photo width (height = 3/4); real photos are at least 640")
     parser.add_argument("--spp", type=int, default=64)
     parser.add_argument("--depth-noise", type=float, default=0.05,
                         help="relative error of the depth given to the pipeline, as from a depth estimator (0: exact)")
