@@ -154,3 +154,16 @@ def test_two_runs_at_once_on_one_cache(first_run: tuple[Path, dict[str, str]], t
     for stage in STAGES:
         assert a["stages"][stage]["cached"] != b["stages"][stage]["cached"] or a["stages"][stage]["cached"]
     assert len(list((tmp_path / "cache" / "entries").glob("*/*"))) == len(STAGES)
+
+
+@pytest.mark.slow
+def test_demo_with_default_settings(tmp_path: Path) -> None:
+    """The README's demo as it runs (full room_fit): the fit improves the masks' agreement."""
+    env = {**os.environ, "PSDR_ROOM_CACHE_DIR": str(tmp_path / "cache")}
+    result = subprocess.run([shutil.which("psdr-room") or "psdr-room", f"image={EXAMPLE}", f"hydra.run.dir={tmp_path / 'run'}"],
+                            env=env, capture_output=True, text=True, timeout=900)
+    assert result.returncode == 0, result.stderr
+    log = metrics(tmp_path / "run")["room_fit_log"]
+    assert log["iterations"] == 100
+    assert log["final"]["loss"] < log["initial"]["loss"]
+    assert log["final"]["iou_wall"] > 0.9 and log["final"]["iou_ceiling"] > log["initial"]["iou_ceiling"]
