@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Prepare a machine for psdr-room: Debian libraries (as root), a virtualenv in .venv with pinned packages.
-# Idempotent and quick when nothing changed; sourced by scripts/demo.sh and scripts/test.sh.
+# Idempotent and quick when nothing changed; run (not sourced) by scripts/demo.sh and scripts/test.sh.
+# `source scripts/env.sh` then puts the tools on your shell's PATH.
 set -euo pipefail
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -54,11 +55,3 @@ if [[ "$(cat "$stamp" 2>/dev/null)" != "$want" ]]; then
     pip_quiet install --no-deps --no-build-isolation -e "$ROOT"
     echo "$want" > "$stamp"
 fi
-
-# Dr.Jit finds libLLVM by name; point it at LLVM 19 explicitly (the renderer plugin also checks this).
-if [[ -z "${DRJIT_LIBLLVM_PATH:-}" ]]; then
-    for lib in /usr/lib/*/libLLVM.so.19* /usr/lib/*/libLLVM-19.so /usr/lib/llvm-19/lib/libLLVM*.so*; do
-        if [[ -f "$lib" ]]; then export DRJIT_LIBLLVM_PATH="$lib"; break; fi
-    done
-fi
-export PATH="$VENV/bin:$PATH"
