@@ -12,7 +12,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from psdr_room_core.artifacts import Camera, DepthMap, Image
+from psdr_room_core.artifacts import Camera, DepthMap, Image, Panoptic
 from psdr_room_core.errors import PsdrRoomError
 from psdr_room_core.hookspecs import hookimpl
 from psdr_room_core.plugins import Registry
@@ -42,7 +42,13 @@ class FileDepth:
         depth = self.path or find_depth_sidecar(photo)
         return [] if depth is None else [depth, depth.with_suffix(".json")]
 
-    def estimate(self, image: Image, camera: Camera, photo: Path) -> DepthMap:
+    def unavailable(self, photo: Path) -> str | None:
+        if self.path is not None:
+            return None if self.path.is_file() else f"{self.path} does not exist"
+        found = find_depth_sidecar(photo)
+        return None if found is not None else f"no {' / '.join(photo.stem + s for s in DEPTH_SUFFIXES)} beside the photo"
+
+    def estimate(self, image: Image, camera: Camera, panoptic: Panoptic, photo: Path) -> DepthMap:
         path = self._locate(photo)
         try:
             options = read_depth_options(path)

@@ -69,7 +69,8 @@ def render_report(run: RunRecord, alpha: float) -> str:
         for title, img in _figures(run, alpha)
     )
     impls = "".join(
-        f"<li>{html.escape(c)} = <b>{html.escape(d['name'])}</b> v{html.escape(d['version'])} — {html.escape(d['origin'])}</li>"
+        f"<li>{html.escape(c)} = <b>{html.escape(d['name'])}</b> v{html.escape(d['version'])} — {html.escape(d['origin'])}"
+        + (f"<br><small>selected by {html.escape(d['selected_by'])}</small>" if "selected_by" in d else "") + "</li>"
         for c, d in run.implementations.items()
     )
     return f"""<!doctype html>

@@ -12,7 +12,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from psdr_room_core.artifacts import Image, Panoptic
+from psdr_room_core.artifacts import Camera, Detections, Image, Panoptic
 from psdr_room_core.errors import PsdrRoomError
 from psdr_room_core.hookspecs import hookimpl
 from psdr_room_core.plugins import Registry
@@ -44,7 +44,13 @@ class FileSegmentation:
         kind, path = self._locate(photo)
         return [path] if kind == "labelme" else [path, panoptic_json_for(path)]
 
-    def segment(self, image: Image, photo: Path) -> Panoptic:
+    def unavailable(self, photo: Path) -> str | None:
+        if self.path is not None:
+            return None if self.path.is_file() else f"{self.path} does not exist"
+        found = find_segmentation_sidecar(photo)
+        return None if found is not None else f"no {photo.stem}.labelme.json or {photo.stem}.panoptic.png beside the photo"
+
+    def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic:
         kind, path = self._locate(photo)
         try:
             if kind == "labelme":

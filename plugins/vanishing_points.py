@@ -179,6 +179,13 @@ def estimate_camera(
 # --------------------------------------------------------------------------- line segments
 
 
+def line_segments(rgb: np.ndarray, params: VanishingPointParams = VanishingPointParams()) -> np.ndarray:
+    """(N, 4) line segments ``x1, y1, x2, y2`` of ``rgb`` in its own pixels, as the estimate uses them."""
+    grey, zoom = _working_grey(rgb, params.max_side)
+    return _detect_segments(grey, params) / zoom
+
+
+
 def _working_grey(rgb: np.ndarray, max_side: int) -> tuple[np.ndarray, float]:
     """uint8 grey image resized so its long side is at most ``max_side``; returns (grey, zoom)."""
     rgb8 = (np.clip(rgb[..., :3], 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)

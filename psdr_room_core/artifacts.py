@@ -194,6 +194,55 @@ class DepthMap:
         return cls(depth=depth, valid=valid & np.isfinite(depth) & (depth > 0), **meta)
 
 
+# -------------------------------------------------------------------------------------------- detections
+@dataclass(frozen=True)
+class Detection:
+    """One object box: a prompt for the segmenter (from a detector, or from the user's boxes file)."""
+
+    label: str
+    """The detector's or user's class name (e.g. COCO ``couch``); a weak prior only."""
+    category: str
+    """One of :data:`CATEGORIES` (usually ``object``; ``lamp``, ``window``, ``door`` where known)."""
+    box: tuple[float, float, float, float]
+    """``(x0, y0, x1, y1)`` in working-image pixels (see the module's conventions)."""
+    score: float = 1.0
+    """Detector confidence in [0, 1]; 1 for user boxes."""
+
+    def __post_init__(self) -> None:
+        if self.category not in CATEGORIES:
+            raise ValueError(f"Detection category must be one of {', '.join(CATEGORIES)}, got {self.category!r}")
+        x0, y0, x1, y1 = self.box
+        if not (x1 > x0 and y1 > y0):
+            raise ValueError(f"Detection box must have x1 > x0 and y1 > y0, got {self.box!r}")
+
+
+@dataclass
+class Detections:
+    """Object boxes in the working image, highest score first."""
+
+    kind: ClassVar[str] = "detections"
+    marker: ClassVar[str] = "detections.json"
+    items: list[Detection]
+    source: str = ""
+    """What produced them (``nanodet_onnx``, a boxes file's path, ...)."""
+
+    def save(self, directory: Path) -> None:
+        _write_json(directory / "detections.json", {"source": self.source, "items": [
+            {"label": d.label, "category": d.category, "box": [float(v) for v in d.box], "score": float(d.score)}
+            for d in self.items]})
+
+    @classmethod
+    def load(cls, directory: Path) -> "Detections":
+        data = _read_json(directory / "detections.json")
+        try:
+            items = [Detection(label=str(d["label"]), category=str(d["category"]), box=tuple(map(float, d["box"])),
+                               score=float(d["score"])) for d in data["items"]]
+        except (KeyError, TypeError, ValueError) as exc:
+            raise PsdrRoomError(f"{directory / 'detections.json'}: not as psdr-room writes it ({exc}); "
+                                "fix the entry or regenerate it") from None
+        return cls(items=items, source=str(data.get("source", "")))
+
+
 # ------------------------------------------------------------------------------------------ panoptic
 @dataclass(frozen=True)
 class Segment:
@@ -495,7 +544,7 @@ class OptimizationLog:
 
 ARTIFACT_TYPES: dict[str, type] = {
     t.kind: t
-    for t in (Image, Camera, DepthMap, Panoptic, PointCloud, RoomBox, Placements, SceneFiles, OptimizationLog)
+    for t in (Image, Camera, DepthMap, Detections, Panoptic, PointCloud, RoomBox, Placements, SceneFiles, OptimizationLog)
 }
 """Artifact kind → class, for loading cached or user-supplied artifacts. Plugins may add their own."""
 

@@ -16,13 +16,14 @@ if TYPE_CHECKING:
     import numpy as np
     import torch
 
-    from .artifacts import Camera, DepthMap, Image, Panoptic
+    from .artifacts import Camera, DepthMap, Detections, Image, Panoptic
     from .geometry import TriangleMesh
 
 CAPABILITIES: tuple[str, ...] = (
     "fov",
-    "depth",
+    "detector",
     "segmentation",
+    "depth",
     "retrieval",
     "renderer",
     "material_graph",
@@ -33,8 +34,9 @@ CAPABILITIES: tuple[str, ...] = (
 
 DESCRIPTIONS: dict[str, str] = {
     "fov": "camera intrinsics (vertical field of view) from the photo (§4.1)",
-    "depth": "per-pixel depth (§4.1)",
+    "detector": "object boxes that prompt the segmentation (offline stand-in for §4.1's panoptic objects)",
     "segmentation": "panoptic segmentation with wall/floor/ceiling/object categories (§4.1)",
+    "depth": "per-pixel depth (§4.1)",
     "retrieval": "object and material retrieval from a database (§4.3, §4.4)",
     "renderer": "differentiable renderer for masks, depth and RGB (§3.1)",
     "material_graph": "differentiable procedural material node graphs (§3.2, §4.4)",
@@ -58,17 +60,44 @@ class FovEstimator(Protocol):
 
 
 @runtime_checkable
-class DepthEstimator(Protocol):
-    """``depth``: z-depth at the working image's resolution (metric or normalised, see ``DepthMap``)."""
+class Availability(Protocol):
+    """Optional: whether an implementation can run for a photo, consulted by ``<capability>=auto``.
 
-    def estimate(self, image: Image, camera: Camera, photo: Path) -> DepthMap: ...
+    ``auto`` tries the implementations in its ``order`` and selects the first whose ``unavailable`` returns
+    None; the reasons the others gave are logged and recorded in the run.
+    """
+
+    def unavailable(self, photo: Path) -> str | None:
+        """None when usable for ``photo``, else a short reason (``weights not installed: <path>``)."""
+        ...
+
+
+@runtime_checkable
+class Detector(Protocol):
+    """``detector``: object boxes in the working image, used as prompts by box-driven segmenters."""
+
+    def detect(self, image: Image, photo: Path) -> Detections: ...
 
 
 @runtime_checkable
 class Segmenter(Protocol):
-    """``segmentation``: a panoptic segmentation at the working image's resolution."""
+    """``segmentation``: a panoptic segmentation at the working image's resolution.
 
-    def segment(self, image: Image, photo: Path) -> Panoptic: ...
+    ``camera`` carries the vanishing points when ``fov`` found them (``camera.extra``); ``detections``
+    are box prompts (segmenters that find objects themselves may ignore them).
+    """
+
+    def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic: ...
+
+
+@runtime_checkable
+class DepthEstimator(Protocol):
+    """``depth``: z-depth at the working image's resolution (metric or normalised, see ``DepthMap``).
+
+    ``panoptic`` lets geometric estimators use the segmentation (networks ignore it).
+    """
+
+    def estimate(self, image: Image, camera: Camera, panoptic: Panoptic, photo: Path) -> DepthMap: ...
 
 
 @runtime_checkable

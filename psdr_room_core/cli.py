@@ -21,6 +21,7 @@ from hydra.errors import OverrideParseException
 from omegaconf import DictConfig
 
 from .capabilities import CAPABILITIES, DESCRIPTIONS
+from .dag import AUTO
 from .errors import PsdrRoomError
 from .plugins import PluginSystem, plugin_system
 from .run import execute, resolve_config
@@ -136,6 +137,9 @@ def plugins_main() -> None:
         default = defaults.get(capability, {}).get("impl") if capability in defaults else None
         if not names:
             rows.append((capability, "-", "-", "", "(none yet)"))
+        if default == AUTO:
+            order = ", ".join(defaults[capability].get(AUTO, {}).get("order") or [])
+            rows.append((capability, AUTO, "-", "*", f"(engine) the first usable of: {order}"))
         for name in names:
             impl = registry.implementations[(capability, name)]
             rows.append((capability, name, impl.version, "*" if name == default else "", str(impl.origin)))

@@ -15,6 +15,7 @@ progress display: the :class:`Runner` does those, and announces each step throug
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
@@ -26,7 +27,13 @@ from tqdm import tqdm
 from .artifacts import ARTIFACT_TYPES, Artifact, artifact_kind_of
 from .cache import Entry, Store, digest_dir, digest_file, stage_key
 from .errors import PsdrRoomError
+from .capabilities import Availability
 from .plugins import PluginSystem, StageDef
+
+AUTO = "auto"
+"""The implementation name that selects the first usable one of ``<capability>.auto.order``."""
+
+log = logging.getLogger("psdr_room")
 
 RESERVED = ("_stage_", "_inputs_", "_outputs_")
 
@@ -247,22 +254,59 @@ class Runner:
             record.artifacts[name] = ARTIFACT_TYPES[kind].load(directory)
             record.digests[name] = digest_dir(directory)
 
-    def _implementations(self, stage: StageDef) -> tuple[dict[str, Any], dict[str, dict[str, Any]]]:
-        """Instantiate the selected implementation of each capability the stage uses."""
-        instances, described = {}, {}
+    def _implementations(self, stage: StageDef) -> tuple[dict[str, Any], dict[str, dict[str, Any]], dict[str, str]]:
+        """Instantiate the selected implementation of each capability the stage uses.
+
+        Returns the instances, their descriptions (part of the cache key) and, for capabilities set to
+        ``auto``, how the choice was made (for the run record, not the key: only the choice matters).
+        """
+        instances, described, selected_by = {}, {}, {}
         for capability in stage.uses:
             node = self.cfg.get(capability)
             if not isinstance(node, Mapping) or "impl" not in node:
                 raise PsdrRoomError(f"stage '{stage.name}' needs the '{capability}' config group; add {capability}=NAME")
             name = str(node["impl"])
+            if name == AUTO:
+                name, instances[capability], skipped = self._first_available(capability, node)
+                selected_by[capability] = "auto" + "".join(f"; not {n}: {why}" for n, why in skipped.items())
+                log.info("%s=auto selected %s (%s)", capability, name, selected_by[capability])
+            else:
+                instances[capability] = self._construct(capability, name, node)
             impl = self.plugins.registry.implementation(capability, name)
-            params = dict(node.get(name) or {})
+            described[capability] = {"name": name, "version": impl.version, "params": dict(node.get(name) or {})}
+        return instances, described, selected_by
+
+    def _construct(self, capability: str, name: str, node: Mapping[str, Any]) -> Any:
+        impl = self.plugins.registry.implementation(capability, name)
+        params = dict(node.get(name) or {})
+        try:
+            return impl.factory(**params)
+        except TypeError as exc:
+            raise PsdrRoomError(f"{capability}.{name}: invalid parameters ({exc}); see conf/{capability}/{name}.yaml") from None
+
+    def _first_available(self, capability: str, node: Mapping[str, Any]) -> tuple[str, Any, dict[str, str]]:
+        """``<capability>=auto``: the first implementation of ``auto.order`` usable for this photo.
+
+        An implementation is usable unless its ``unavailable(photo)`` (see ``capabilities.Availability``)
+        gives a reason; the skipped ones and their reasons are returned for the log and the run record.
+        """
+        order = list((node.get(AUTO) or {}).get("order") or [])
+        if not order:
+            raise PsdrRoomError(f"{capability}=auto needs a non-empty {capability}.auto.order list; see conf/{capability}/auto.yaml")
+        skipped: dict[str, str] = {}
+        for name in order:
             try:
-                instances[capability] = impl.factory(**params)
-            except TypeError as exc:
-                raise PsdrRoomError(f"{capability}.{name}: invalid parameters ({exc}); see conf/{capability}/{name}.yaml") from None
-            described[capability] = {"name": name, "version": impl.version, "params": params}
-        return instances, described
+                instance = self._construct(capability, name, node)
+                reason = instance.unavailable(self.photo) if isinstance(instance, Availability) else None
+            except PsdrRoomError as exc:
+                reason = str(exc)
+            if reason is None:
+                return name, instance, skipped
+            skipped[name] = reason
+        raise PsdrRoomError(
+            f"{capability}=auto: none of {', '.join(order)} is usable for {self.photo} "
+            f"({'; '.join(f'{n}: {r}' for n, r in skipped.items())}); choose one with {capability}=NAME"
+        )
 
     def _external_files(self, stage: StageDef, instances: Mapping[str, Any]) -> dict[str, str]:
         files: dict[str, Path] = {}
@@ -276,7 +320,7 @@ class Runner:
     def _run_stage(self, node: StageNode, forced: bool, record: RunRecord) -> None:
         stage = self.plugins.registry.stage(node.function)
         inputs = {param: record.artifacts[artifact] for param, artifact in node.inputs.items()}
-        instances, described = self._implementations(stage)
+        instances, described, selected_by = self._implementations(stage)
         key = stage_key(
             stage=node.name,
             function=stage.name,
@@ -289,6 +333,8 @@ class Runner:
         for capability, d in described.items():
             impl = self.plugins.registry.implementation(capability, d["name"])
             record.implementations[capability] = {"name": d["name"], "version": impl.version, "origin": str(impl.origin)}
+            if capability in selected_by:
+                record.implementations[capability]["selected_by"] = selected_by[capability]
         start = time.perf_counter()
         entry = self._lookup(key, forced)
         cached = entry is not None

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -10,6 +11,12 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 SHARED_DATA = REPO.parent / "shared" / "data"
 EXAMPLE = REPO / "examples" / "nyu_basement" / "photo.jpg"
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """An empty models directory for the whole session (subprocesses too), so that ``auto`` selections never
+    depend on weights the developer has installed."""
+    os.environ["PSDR_ROOM_MODELS_DIR"] = tempfile.mkdtemp(prefix="psdr-room-models-")
 
 
 @pytest.fixture

@@ -171,3 +171,26 @@ def test_injected_artifact_replaces_its_producer(tmp_path: Path, photo: Path) ->
     runner = Runner(plugins, cfg, photo, Store(tmp_path / "cache"), Store(tmp_path / "scratch"), injected={"a": edited})
     record = runner.run(pipeline.select())
     assert record.artifacts["c"].value == 10.0 + 20.0
+
+
+AUTO = {**BASE, "optimizer": {"impl": "auto", "auto": {"order": ["toy_sidecar", "toy"]}, "toy_sidecar": {},
+                              "toy": {"factor": 2.0}}}
+
+
+def test_auto_selects_the_first_usable_implementation_and_keys_the_choice(tmp_path: Path, photo: Path) -> None:
+    store = Store(tmp_path / "cache")
+    first = run(AUTO, photo, store, tmp_path)
+    assert first.implementations["optimizer"]["name"] == "toy"
+    assert "not toy_sidecar: no .factor file" in first.implementations["optimizer"]["selected_by"]
+    assert first.artifacts["b"].value == 2.0
+    photo.with_suffix(".factor").write_text("3")  # now the sidecar implementation is usable: b is recomputed
+    second = run(AUTO, photo, store, tmp_path)
+    assert second.implementations["optimizer"]["name"] == "toy_sidecar" and second.artifacts["b"].value == 3.0
+    assert recomputed(second) == {"b", "c"}
+    assert recomputed(run(AUTO, photo, store, tmp_path)) == set()
+
+
+def test_auto_with_nothing_usable_names_the_candidates(tmp_path: Path, photo: Path) -> None:
+    cfg = {**AUTO, "optimizer": {**AUTO["optimizer"], "auto": {"order": ["toy_sidecar"]}}}
+    with pytest.raises(PsdrRoomError, match="none of toy_sidecar is usable.*no .factor file"):
+        run(cfg, photo, Store(tmp_path / "cache"), tmp_path)

@@ -19,7 +19,7 @@ import onnx
 import onnxruntime as ort
 import pytest
 from onnx import TensorProto, helper, numpy_helper
-from psdr_room_core.artifacts import Camera, DepthMap, Image, Panoptic
+from psdr_room_core.artifacts import Camera, DepthMap, Detections, Image, Panoptic
 from psdr_room_core.errors import PsdrRoomError
 from psdr_room_plugins.onnx_models import ade20k
 from psdr_room_plugins.onnx_models.depth import OnnxDepth, disparity_to_depth
@@ -27,6 +27,9 @@ from psdr_room_plugins.onnx_models.network import INPUTS, network_size, to_netwo
 from psdr_room_plugins.onnx_models.segmentation import OnnxSegmentation, class_map, panoptic_from_classes
 
 PHOTO = Path("photo.jpg")  # only named in external_files / errors; the implementations never read it
+NO_PANOPTIC = Panoptic(ids=np.zeros((1, 1), np.int32), segments=[])  # the networks ignore these inputs
+NO_CAMERA = Camera.from_vfov(1, 1, 50.0)
+NO_DETECTIONS = Detections(items=[])
 
 
 # ============================================================================ graph builders (onnx.helper)
@@ -253,7 +256,7 @@ def test_depth_end_to_end_on_a_non_square_odd_photo(tmp_path: Path, family: str,
     image = ramp_photo()
     impl = OnnxDepth(model=None, path=str(path), family=family, intra_op_threads=1)
     assert impl.external_files(PHOTO) == [path]  # the weights are part of the cache key
-    depth = impl.estimate(image, camera_for(image), PHOTO)
+    depth = impl.estimate(image, camera_for(image), NO_PANOPTIC, PHOTO)
     assert isinstance(depth, DepthMap) and not depth.metric and depth.source.startswith("onnx:")
     assert depth.depth.shape == (23, 37) and depth.depth.dtype == np.float32 and depth.valid.shape == (23, 37)
     expected, expected_valid = expected_ramp_depth(image)
@@ -275,14 +278,14 @@ def test_depth_wrong_signature_is_one_line_naming_the_file(tmp_path: Path) -> No
     image = ramp_photo()
     seg = segformer_model(tmp_path / "looks_like_segformer.onnx")
     with pytest.raises(PsdrRoomError) as excinfo:
-        OnnxDepth(model=None, path=str(seg), family="depth_anything_v2").estimate(image, camera_for(image), PHOTO)
+        OnnxDepth(model=None, path=str(seg), family="depth_anything_v2").estimate(image, camera_for(image), NO_PANOPTIC, PHOTO)
     one_line(excinfo, seg, "signature", "depth_anything_v2", "logits[")
     two_inputs = tmp_path / "two_inputs.onnx"
     _save(two_inputs, [helper.make_node("Add", ["pixel_values", "other"], ["predicted_depth"])],
           [_image_input(), helper.make_tensor_value_info("other", TensorProto.FLOAT, ["N", 3, "H", "W"])],
           [helper.make_tensor_value_info("predicted_depth", TensorProto.FLOAT, ["N", 3, "H", "W"])], [])
     with pytest.raises(PsdrRoomError) as excinfo:
-        OnnxDepth(model=None, path=str(two_inputs), family="dpt").estimate(image, camera_for(image), PHOTO)
+        OnnxDepth(model=None, path=str(two_inputs), family="dpt").estimate(image, camera_for(image), NO_PANOPTIC, PHOTO)
     one_line(excinfo, two_inputs, "one float image input")
 
 
@@ -292,16 +295,16 @@ def test_missing_and_corrupt_registry_models(tmp_path: Path) -> None:
     path = tmp_path / "depth_anything_v2_small.onnx"
     assert impl.external_files(PHOTO) == [path]
     with pytest.raises(PsdrRoomError) as excinfo:
-        impl.estimate(image, camera_for(image), PHOTO)
+        impl.estimate(image, camera_for(image), NO_PANOPTIC, PHOTO)
     one_line(excinfo, path, "not found", "psdr-room-models download depth_anything_v2_small")
     path.write_bytes(b"\x08\x07<!DOCTYPE html> this is a captive portal, not a network" * 50)
     with pytest.raises(PsdrRoomError) as excinfo:
-        OnnxDepth(model="depth_anything_v2_small", models_dir=str(tmp_path)).estimate(image, camera_for(image), PHOTO)
+        OnnxDepth(model="depth_anything_v2_small", models_dir=str(tmp_path)).estimate(image, camera_for(image), NO_PANOPTIC, PHOTO)
     one_line(excinfo, path, "not a loadable ONNX model", "psdr-room-models download depth_anything_v2_small")
     real = red_disparity_model(tmp_path / "real.onnx", "depth_anything_v2").read_bytes()
     path.write_bytes(real[: len(real) // 2])  # an interrupted copy
     with pytest.raises(PsdrRoomError) as excinfo:
-        OnnxDepth(model="depth_anything_v2_small", models_dir=str(tmp_path)).estimate(image, camera_for(image), PHOTO)
+        OnnxDepth(model="depth_anything_v2_small", models_dir=str(tmp_path)).estimate(image, camera_for(image), NO_PANOPTIC, PHOTO)
     one_line(excinfo, path, "not a loadable ONNX model")
 
 
@@ -312,7 +315,7 @@ def test_configuration_errors() -> None:
     with pytest.raises(PsdrRoomError, match="'segformer_b0_ade20k' is a segmentation model"):
         OnnxDepth(model="segformer_b0_ade20k").external_files(PHOTO)
     with pytest.raises(PsdrRoomError, match="set depth.onnx.family"):
-        OnnxDepth(model=None, path="/x/model.onnx").estimate(image, camera_for(image), PHOTO)
+        OnnxDepth(model=None, path="/x/model.onnx").estimate(image, camera_for(image), NO_PANOPTIC, PHOTO)
     with pytest.raises(PsdrRoomError, match="family 'segformer_ade20k' is not a depth family"):
         OnnxDepth(model=None, path="/x/model.onnx", family="segformer_ade20k").external_files(PHOTO)
 
@@ -391,7 +394,7 @@ def test_segformer_end_to_end(tmp_path: Path, static) -> None:
     image = colour_photo()
     impl = OnnxSegmentation(model=None, path=str(path), family="segformer_ade20k", input_size=256, intra_op_threads=1)
     assert impl.external_files(PHOTO) == [path]
-    _check_colour_segmentation(impl.segment(image, PHOTO), image, tmp_path)
+    _check_colour_segmentation(impl.segment(image, NO_CAMERA, NO_DETECTIONS, PHOTO), image, tmp_path)
 
 
 @pytest.mark.parametrize("pixel_mask", [True, False])
@@ -399,29 +402,29 @@ def test_mask2former_end_to_end(tmp_path: Path, pixel_mask: bool) -> None:
     path = mask_classification_model(tmp_path / "mask2former.onnx", pixel_mask=pixel_mask)
     image = colour_photo()
     impl = OnnxSegmentation(model=None, path=str(path), family="mask2former_ade20k", input_size=128)
-    _check_colour_segmentation(impl.segment(image, PHOTO), image, tmp_path)
+    _check_colour_segmentation(impl.segment(image, NO_CAMERA, NO_DETECTIONS, PHOTO), image, tmp_path)
 
 
 def test_segmentation_wrong_class_count_is_one_line(tmp_path: Path) -> None:
     image = colour_photo()
     coco = segformer_model(tmp_path / "segformer_cityscapes.onnx", n_classes=19)
     with pytest.raises(PsdrRoomError) as excinfo:
-        OnnxSegmentation(model=None, path=str(coco), family="segformer_ade20k").segment(image, PHOTO)
+        OnnxSegmentation(model=None, path=str(coco), family="segformer_ade20k").segment(image, NO_CAMERA, NO_DETECTIONS, PHOTO)
     one_line(excinfo, coco, "150 ADE20K classes")
     panoptic133 = mask_classification_model(tmp_path / "mask2former_coco.onnx", n_classes=133)
     with pytest.raises(PsdrRoomError) as excinfo:
-        OnnxSegmentation(model=None, path=str(panoptic133), family="mask2former_ade20k").segment(image, PHOTO)
+        OnnxSegmentation(model=None, path=str(panoptic133), family="mask2former_ade20k").segment(image, NO_CAMERA, NO_DETECTIONS, PHOTO)
     one_line(excinfo, panoptic133, "'no object'")
     depth = red_disparity_model(tmp_path / "depth.onnx", "dpt")
     with pytest.raises(PsdrRoomError) as excinfo:
-        OnnxSegmentation(model=None, path=str(depth), family="mask2former_ade20k").segment(image, PHOTO)
+        OnnxSegmentation(model=None, path=str(depth), family="mask2former_ade20k").segment(image, NO_CAMERA, NO_DETECTIONS, PHOTO)
     one_line(excinfo, depth, "class_queries_logits")
 
 
 def test_segmentation_missing_registry_model(tmp_path: Path) -> None:
     impl = OnnxSegmentation(models_dir=str(tmp_path))  # the config's default model
     with pytest.raises(PsdrRoomError) as excinfo:
-        impl.segment(colour_photo(), PHOTO)
+        impl.segment(colour_photo(), NO_CAMERA, NO_DETECTIONS, PHOTO)
     one_line(excinfo, tmp_path / "segformer_b0_ade20k.onnx", "psdr-room-models download segformer_b0_ade20k")
 
 

@@ -15,8 +15,8 @@ import pytest
 
 from conftest import EXAMPLE
 
-STAGES = ["load_image", "estimate_fov", "estimate_depth", "segment", "point_cloud", "room_init", "room_fit",
-          "export_scene"]
+STAGES = ["load_image", "estimate_fov", "detect", "segment", "estimate_depth", "point_cloud", "room_init",
+          "room_fit", "export_scene"]
 SMALL = ["room_fit.iterations=8", "room_fit.render_width=64"]
 """A short room fit: these tests are about the engine; tests/test_room_fit.py checks the fit itself."""
 
@@ -107,7 +107,7 @@ def test_multirun_shares_the_cache(first_run: tuple[Path, dict[str, str]]) -> No
     assert vp["implementations"]["fov"]["name"] == "vanishing_points" and fixed["camera"]["method"] == "fixed"
     assert fixed["vfov_deg"] == pytest.approx(60.0)
     for job in (vp, fixed):  # stages upstream of the FoV were computed by the first run: shared cache
-        assert job["stages"]["load_image"]["cached"] and job["stages"]["segment"]["cached"]
+        assert job["stages"]["load_image"]["cached"] and job["stages"]["detect"]["cached"]
     assert not fixed["stages"]["estimate_fov"]["cached"]
 
 

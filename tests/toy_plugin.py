@@ -40,8 +40,21 @@ class Multiplier:
     def __init__(self, factor: float = 2.0) -> None:
         self.factor = factor
 
-    def apply(self, value: float) -> float:
+    def apply(self, value: float, photo: Path) -> float:
         return value * self.factor
+
+
+class SidecarMultiplier:
+    """Multiplies by the number in ``<photo>.factor``; unavailable without that file (for ``auto``)."""
+
+    def external_files(self, photo: Path) -> list[Path]:
+        return [photo.with_suffix(".factor")]
+
+    def unavailable(self, photo: Path) -> str | None:
+        return None if photo.with_suffix(".factor").is_file() else "no .factor file"
+
+    def apply(self, value: float, photo: Path) -> float:
+        return value * float(photo.with_suffix(".factor").read_text())
 
 
 def source(ctx: StageContext) -> Number:
@@ -55,7 +68,7 @@ def scale(ctx: StageContext, x: Number) -> Number:
     CALLS[ctx.stage] += 1
     if ctx.params.get("fail"):
         raise RuntimeError("toy failure")
-    return Number(ctx.impl("optimizer").apply(x.value))
+    return Number(ctx.impl("optimizer").apply(x.value, ctx.photo))
 
 
 def add(ctx: StageContext, x: Number, y: Number) -> dict[str, Number]:
@@ -66,6 +79,7 @@ def add(ctx: StageContext, x: Number, y: Number) -> dict[str, Number]:
 @hookimpl
 def register_implementations(registry: Registry) -> None:
     registry.add_implementation("optimizer", "toy", Multiplier, version=VERSION["toy"])
+    registry.add_implementation("optimizer", "toy_sidecar", SidecarMultiplier)
 
 
 @hookimpl

@@ -21,9 +21,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from psdr_room_core.artifacts import Camera, DepthMap, Image
+from psdr_room_core.artifacts import Camera, DepthMap, Image, Panoptic
 
-from .network import INPUTS, ModelFile, OnnxNetwork, network_size, resolve_model, to_network
+from .network import INPUTS, ModelFile, OnnxNetwork, missing_reason, network_size, resolve_model, to_network
 
 FAMILIES = ("depth_anything_v2", "dpt", "midas")
 
@@ -66,7 +66,10 @@ class OnnxDepth:
     def external_files(self, photo: Path) -> list[Path]:
         return [self.network.model.path]
 
-    def estimate(self, image: Image, camera: Camera, photo: Path) -> DepthMap:
+    def unavailable(self, photo: Path) -> str | None:
+        return missing_reason(resolve_model("depth", FAMILIES, **self._params))
+
+    def estimate(self, image: Image, camera: Camera, panoptic: Panoptic, photo: Path) -> DepthMap:
         net = self.network
         spec = INPUTS[net.model.family]
         net.image_input()

@@ -131,6 +131,11 @@ def resolve_model(capability: str, families: Sequence[str], *, model: str | None
     return ModelFile(path=file, family=chosen, name=name, fix=fix)
 
 
+def missing_reason(model: ModelFile) -> str | None:
+    """Why ``model`` cannot be used (its file is absent, with the fix), or None when the file is there."""
+    return None if model.path.is_file() else f"weights not installed ({model.path}); {model.fix}"
+
+
 # ----------------------------------------------------------------------------------------- session
 @dataclass(frozen=True)
 class Port:

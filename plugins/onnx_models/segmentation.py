@@ -23,10 +23,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from psdr_room_core.artifacts import Image, Panoptic, Segment
+from psdr_room_core.artifacts import Camera, Detections, Image, Panoptic, Segment
 
 from . import ade20k
-from .network import INPUTS, OnnxNetwork, Port, network_size, resize_channels, resolve_model, to_network
+from .network import (INPUTS, OnnxNetwork, Port, missing_reason, network_size, resize_channels, resolve_model,
+                      to_network)
 
 FAMILIES = ("segformer_ade20k", "mask2former_ade20k")
 N_CLASSES = len(ade20k.ADE20K_150)
@@ -93,7 +94,10 @@ class OnnxSegmentation:
     def external_files(self, photo: Path) -> list[Path]:
         return [self.network.model.path]
 
-    def segment(self, image: Image, photo: Path) -> Panoptic:
+    def unavailable(self, photo: Path) -> str | None:
+        return missing_reason(resolve_model("segmentation", FAMILIES, **self._params))
+
+    def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic:
         net = self.network
         spec = INPUTS[net.model.family]
         net.image_input()

@@ -12,9 +12,10 @@ def register_stages(registry: Registry) -> None:
     """The stages of the paper's pipeline; ``conf/stage/*.yaml`` places them in the DAG."""
     registry.add_stage("load_image", preprocess.load_image, reads_photo=True)
     registry.add_stage("estimate_fov", preprocess.estimate_fov, uses=["fov"])
-    registry.add_stage("estimate_depth", preprocess.estimate_depth, uses=["depth"])
-    registry.add_stage("segment", preprocess.segment, uses=["segmentation"])
+    registry.add_stage("detect", preprocess.detect, uses=["detector"])
+    registry.add_stage("segment", preprocess.segment, uses=["segmentation"], version="2")
+    registry.add_stage("estimate_depth", preprocess.estimate_depth, uses=["depth"], version="2")
     registry.add_stage("point_cloud", preprocess.point_cloud)
     registry.add_stage("room_init", room.room_init)
-    registry.add_stage("room_fit", room.room_fit, uses=["renderer", "optimizer"])
+    registry.add_stage("room_fit", room.room_fit, uses=["renderer", "optimizer"], version="2")
     registry.add_stage("export_scene", export.export_scene)

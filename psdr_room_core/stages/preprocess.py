@@ -10,7 +10,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ..artifacts import ROOM_CATEGORIES, Camera, DepthMap, Image, Panoptic, PointCloud
+from ..artifacts import ROOM_CATEGORIES, Camera, DepthMap, Detections, Image, Panoptic, PointCloud
 from ..dag import StageContext
 from ..errors import PsdrRoomError
 from ..photo import read_photo, resize_to_working
@@ -33,22 +33,27 @@ def estimate_fov(ctx: StageContext, image: Image) -> Camera:
     return ctx.impl("fov").estimate(image, ctx.photo)
 
 
-def estimate_depth(ctx: StageContext, image: Image, camera: Camera) -> DepthMap:
-    """Estimate depth at the working resolution with the ``depth`` capability."""
-    depth = ctx.impl("depth").estimate(image, camera, ctx.photo)
-    if depth.depth.shape != (image.height, image.width):
-        raise PsdrRoomError(f"depth implementation returned {depth.depth.shape}, expected {(image.height, image.width)}")
-    return depth
+def detect(ctx: StageContext, image: Image) -> Detections:
+    """Find object boxes (prompts for box-driven segmentation) with the ``detector`` capability."""
+    return ctx.impl("detector").detect(image, ctx.photo)
 
 
-def segment(ctx: StageContext, image: Image) -> Panoptic:
-    """Segment the photo with the ``segmentation`` capability."""
-    panoptic = ctx.impl("segmentation").segment(image, ctx.photo)
+def segment(ctx: StageContext, image: Image, camera: Camera, detections: Detections) -> Panoptic:
+    """Segment the photo with the ``segmentation`` capability (given the camera and the box prompts)."""
+    panoptic = ctx.impl("segmentation").segment(image, camera, detections, ctx.photo)
     if panoptic.ids.shape != (image.height, image.width):
         raise PsdrRoomError(
             f"segmentation implementation returned {panoptic.ids.shape}, expected {(image.height, image.width)}"
         )
     return panoptic
+
+
+def estimate_depth(ctx: StageContext, image: Image, camera: Camera, panoptic: Panoptic) -> DepthMap:
+    """Estimate depth at the working resolution with the ``depth`` capability (given the segmentation)."""
+    depth = ctx.impl("depth").estimate(image, camera, panoptic, ctx.photo)
+    if depth.depth.shape != (image.height, image.width):
+        raise PsdrRoomError(f"depth implementation returned {depth.depth.shape}, expected {(image.height, image.width)}")
+    return depth
 
 
 def backproject(depth: np.ndarray, camera: Camera) -> np.ndarray:

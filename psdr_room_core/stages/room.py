@@ -95,11 +95,12 @@ def room_targets(panoptic: Panoptic, depth: DepthMap, size: tuple[int, int]) -> 
 
 
 def scaled_camera(camera: Camera, width: int) -> Camera:
-    """The camera for a render ``width`` pixels wide (same field of view)."""
+    """The camera for a render ``width`` pixels wide: the same intrinsics scaled uniformly (square pixels
+    stay square; the rounded height changes the vertical field of view by under half a pixel)."""
     s = width / camera.width
     height = max(1, round(camera.height * s))
-    return Camera(width=width, height=height, fx=camera.fx * s, fy=camera.fy * height / camera.height,
-                  cx=camera.cx * s, cy=camera.cy * height / camera.height, method=camera.method)
+    return Camera(width=width, height=height, fx=camera.fx * s, fy=camera.fy * s, cx=camera.cx * s, cy=camera.cy * s,
+                  method=camera.method)
 
 
 def box_vertices(room: RoomBox, theta: dict[str, torch.Tensor], scale: float, keep_floor: bool) -> dict[str, torch.Tensor]:

@@ -1,0 +1,34 @@
+"""Offline room layout (no learned model): ``segmentation=layout`` and ``depth=layout``.
+
+A box room is fitted in the Manhattan frame of the photo's vanishing points, scored against a line-segment
+orientation map (Lee et al. 2009; hypotheses in the spirit of Hedau et al. 2009) and, for depth, against
+the segmentation's wall/floor/ceiling labels. Objects come from box prompts (``detector``) refined with
+GrabCut, and get depth from where their mask meets the floor.
+"""
+
+from __future__ import annotations
+
+from psdr_room_core.hookspecs import hookimpl
+from psdr_room_core.plugins import Registry
+
+
+def _segmentation(**params: object) -> object:
+    from .segmentation import LayoutSegmentation  # scipy (via the VP code) is slow to import: only when used
+
+    return LayoutSegmentation(**params)
+
+
+def _depth(**params: object) -> object:
+    from .depth import LayoutDepth
+
+    return LayoutDepth(**params)
+
+
+@hookimpl
+def register_implementations(registry: Registry) -> None:
+    registry.add_implementation(
+        "segmentation", "layout", _segmentation,
+        description="walls/floor/ceiling of a box layout fitted to the photo's lines; objects by GrabCut in detector boxes")
+    registry.add_implementation(
+        "depth", "layout", _depth,
+        description="depth of a box room fitted to the segmentation, objects standing on its floor (camera height assumed)")

@@ -1,0 +1,142 @@
+"""Fit a box room to a photo: Manhattan frame, line-segment orientation map, optional label evidence."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from psdr_room_core.artifacts import Camera, Detections, Image, Panoptic
+
+from ..vanishing_points import VanishingPointParams, estimate_camera, line_segments
+from . import box
+from .manhattan import ManhattanFrame, frame_from_vanishing_points
+from .orientation import orientation_map, segment_families
+
+
+@dataclass(frozen=True)
+class LayoutParams:
+    """Knobs of the box-layout fit (shared by ``segmentation=layout`` and ``depth=layout``)."""
+
+    grid_side: int = 160
+    """Hypotheses are scored on a grid with this long side."""
+    family_tolerance_deg: float = 4.0
+    """A segment belongs to a vanishing point when it points at it within this angle."""
+    sweep_fraction: float = 0.12
+    """Segments are swept this fraction of the image diagonal towards/away from the other vanishing points."""
+    clutter_weight: float = 0.25
+    """Weight of orientation evidence inside object boxes (furniture lines say little about the room)."""
+    label_weight: float = 1.0
+    floor_band: float = 0.08
+    """Rows at the bottom of the photo (this fraction of its height) below the horizon that are likely floor ..."""
+    floor_prior: float = 0.5
+    """... with this orientation evidence per pixel; box bottoms (objects stand on the floor) get it too."""
+    """Weight of agreement with a given segmentation's wall/floor/ceiling labels (depth=layout)."""
+    n_random: int = 3000
+    """Random hypotheses scored before the local search."""
+    n_starts: int = 8
+    """Best random hypotheses refined by pattern search."""
+    search_range: box.SearchRange = field(default_factory=box.SearchRange)
+    """Where hypotheses are sampled."""
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class Layout:
+    """A fitted box room seen from the camera."""
+
+    frame: ManhattanFrame
+    box: np.ndarray
+    """(x0, x1, ceiling, z0, z1) in camera heights (see :mod:`.box`)."""
+    score: float
+
+    def trace(self, camera: Camera, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+        """Surface labels (H, W) int8 and z-depth in camera heights (H, W) on a ``width`` x ``height`` grid."""
+        rays = self.frame.rays(camera, width, height).reshape(-1, 3)
+        labels, t = box.trace(rays, self.box[None])
+        return labels[0].reshape(height, width), t[0].reshape(height, width)
+
+
+def manhattan_frame(image: Image, camera: Camera) -> ManhattanFrame:
+    """The room frame from the camera's vanishing points, estimated from the photo when ``fov`` gave none."""
+    vps = camera.extra.get("vanishing_points") or []
+    if len(vps) < 2:
+        vps = estimate_camera(image.rgb).vanishing_points
+    return frame_from_vanishing_points(camera, vps)
+
+
+def _grid_shape(image: Image, side: int) -> tuple[int, int]:
+    zoom = side / max(image.width, image.height)
+    return max(8, round(image.height * zoom)), max(8, round(image.width * zoom))
+
+
+def _clutter_weights(detections: Detections, image: Image, shape: tuple[int, int], weight: float) -> np.ndarray:
+    weights = np.ones(shape, dtype=np.float32)
+    sy, sx = shape[0] / image.height, shape[1] / image.width
+    for d in detections.items:
+        x0, y0, x1, y1 = d.box
+        weights[int(y0 * sy):int(np.ceil(y1 * sy)), int(x0 * sx):int(np.ceil(x1 * sx))] = weight
+    return weights
+
+
+def _floor_prior(rays: np.ndarray, detections: Detections | None, image: Image, band: float) -> np.ndarray:
+    """(H, W) 1 where the floor is likely: the bottom ``band`` of rows and the bottom edges of object boxes,
+    where below the horizon."""
+    height, width = rays.shape[:2]
+    prior = np.zeros((height, width), dtype=np.float32)
+    prior[height - max(1, round(band * height)):] = 1.0
+    sy, sx = height / image.height, width / image.width
+    for d in (detections.items if detections is not None else []):
+        x0, _, x1, y1 = d.box
+        row = min(height - 1, int(y1 * sy))
+        prior[max(0, row - 1):row + 1, int(x0 * sx):int(np.ceil(x1 * sx))] = 1.0
+    return prior * (rays[..., 1] < 0)
+
+
+def _room_labels(panoptic: Panoptic, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray, int]:
+    """Per grid pixel: 0 none / 1 wall / 2 floor / 3 ceiling, the wall segment index, the number of walls."""
+    ids = cv2.resize(panoptic.ids, (shape[1], shape[0]), interpolation=cv2.INTER_NEAREST).ravel()
+    room = np.zeros(ids.shape, dtype=np.int64)
+    wall_index = np.zeros(ids.shape, dtype=np.int64)
+    walls = [s for s in panoptic.segments if s.category == "wall"]
+    for i, s in enumerate(walls):
+        room[ids == s.id] = 1
+        wall_index[ids == s.id] = i
+    for s in panoptic.segments:
+        if s.category in ("floor", "ceiling"):
+            room[ids == s.id] = 2 if s.category == "floor" else 3
+    return room, wall_index, len(walls)
+
+
+def fit_layout(image: Image, camera: Camera, params: LayoutParams, detections: Detections | None = None,
+               panoptic: Panoptic | None = None) -> Layout:
+    """The box room that best explains the photo's line orientations (and ``panoptic``'s room labels)."""
+    frame = manhattan_frame(image, camera)
+    shape = _grid_shape(image, params.grid_side)
+    zoom = np.diag([shape[1] / image.width, shape[0] / image.height, 1.0])
+    segments = line_segments(image.rgb, VanishingPointParams()) * np.tile(np.diag(zoom)[:2], 2)
+    vps = frame.vanishing_points @ zoom.T
+    families = segment_families(segments, vps, params.family_tolerance_deg)
+    reach = params.sweep_fraction * float(np.hypot(*shape))
+    evidence = orientation_map(segments, families, vps, shape, reach)
+    if detections is not None:
+        evidence *= _clutter_weights(detections, image, shape, params.clutter_weight)[None]
+    rays = frame.rays(camera, shape[1], shape[0])
+    evidence[1] = np.maximum(evidence[1], params.floor_prior * _floor_prior(rays, detections, image, params.floor_band))
+    evidence = evidence.reshape(3, -1)
+    rays = rays.reshape(-1, 3)
+    labelled = panoptic is not None and any(s.category in ("wall", "floor", "ceiling") for s in panoptic.segments)
+    if labelled:
+        room, wall_index, n_walls = _room_labels(panoptic, shape)
+
+    def score(boxes: np.ndarray) -> np.ndarray:
+        labels, _ = box.trace(rays, boxes)
+        total = box.orientation_score(labels, evidence)
+        if labelled:
+            total = total + params.label_weight * box.label_score(labels, room, wall_index, n_walls)
+        return total
+
+    best, best_score = box.search(score, params.search_range, np.random.default_rng(params.seed),
+                                  params.n_random, params.n_starts)
+    return Layout(frame=frame, box=best, score=best_score)

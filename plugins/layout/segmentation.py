@@ -1,0 +1,55 @@
+"""``segmentation=layout``: walls, floor and ceiling from a fitted box layout, objects from box prompts."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from psdr_room_core.artifacts import Camera, Detections, Image, Panoptic, Segment
+
+from . import box
+from .fit import LayoutParams, fit_layout
+from .objects import GrabCutParams, object_masks
+
+log = logging.getLogger("psdr_room")
+
+SURFACE_CATEGORY = {box.WALL_X0: "wall", box.WALL_X1: "wall", box.WALL_Z0: "wall", box.WALL_Z1: "wall",
+                    box.FLOOR: "floor", box.CEILING: "ceiling"}
+
+
+def layout_params(search: dict[str, Any] | None, **params: Any) -> LayoutParams:
+    """LayoutParams from config values (``search`` holds the SearchRange fields)."""
+    return LayoutParams(search_range=box.SearchRange(**(search or {})), **params)
+
+
+class LayoutSegmentation:
+    """Box-layout room surfaces (one segment per visible wall) with GrabCut object masks on top."""
+
+    def __init__(self, grabcut: dict[str, Any] | None = None, min_surface_fraction: float = 0.002,
+                 search: dict[str, Any] | None = None, **layout: Any) -> None:
+        self.layout = layout_params(search, **layout)
+        self.grabcut = GrabCutParams(**(grabcut or {}))
+        self.min_surface_fraction = float(min_surface_fraction)
+
+    def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic:
+        fitted = fit_layout(image, camera, self.layout, detections=detections)
+        labels, _ = fitted.trace(camera, image.width, image.height)
+        ids = np.zeros(labels.shape, dtype=np.int32)
+        segments: list[Segment] = []
+        for surface in range(6):
+            mask = labels == surface
+            if mask.mean() >= self.min_surface_fraction:
+                segments.append(Segment(len(segments) + 1, SURFACE_CATEGORY[surface], box.SURFACES[surface]))
+                ids[mask] = segments[-1].id
+        masks = object_masks(image.to_uint8(), detections.items, self.grabcut)
+        for detection, mask in masks:
+            segments.append(Segment(len(segments) + 1, detection.category, detection.label))
+            ids[mask] = segments[-1].id
+        present = set(np.unique(ids).tolist())
+        kept = [s for s in segments if s.id in present]
+        log.info("layout: box %s (score %.3f), %d/%d boxes segmented", np.round(fitted.box, 2).tolist(),
+                 fitted.score, len(masks), len(detections.items))
+        return Panoptic(ids=ids, segments=kept)

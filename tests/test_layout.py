@@ -1,0 +1,181 @@
+"""segmentation=layout and depth=layout on a synthetic box room with a known camera, and GrabCut prompts."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from psdr_room_core.artifacts import Camera, Detection, Detections, Image, Panoptic, Segment
+from psdr_room_plugins.layout import box
+from psdr_room_plugins.layout.depth import LayoutDepth, object_depth
+from psdr_room_plugins.layout.manhattan import ManhattanFrame, frame_from_vanishing_points
+from psdr_room_plugins.layout.objects import GrabCutParams, grabcut_mask
+from psdr_room_plugins.layout.segmentation import LayoutSegmentation
+
+PHOTO = Path("room.png")  # named in logs only
+TRUE_BOX = np.array([-2.0, 1.6, 0.7, -3.0, 3.2])  # camera heights (see psdr_room_plugins.layout.box)
+CATEGORY = {box.FLOOR: "floor", box.CEILING: "ceiling"}
+
+
+def _rotation(yaw_deg: float, pitch_deg: float) -> np.ndarray:
+    """Frame axes (columns) in camera coordinates for a camera turned by yaw and looking down by pitch."""
+    y, p = math.radians(yaw_deg), math.radians(pitch_deg)
+    yaw = np.array([[math.cos(y), 0, math.sin(y)], [0, 1, 0], [-math.sin(y), 0, math.cos(y)]])
+    pitch = np.array([[1, 0, 0], [0, math.cos(p), -math.sin(p)], [0, math.sin(p), math.cos(p)]])
+    return pitch @ np.diag([-1.0, -1.0, 1.0]) @ yaw
+
+
+def _camera(rotation: np.ndarray, width: int = 320, height: int = 240) -> Camera:
+    camera = Camera.from_vfov(width, height, 55.0)
+    vps = (camera.K @ rotation).T
+    return Camera.from_vfov(width, height, 55.0, extra={"vanishing_points": (vps / np.linalg.norm(vps, axis=1, keepdims=True)).tolist()})
+
+
+def _render(camera: Camera, frame: ManhattanFrame) -> tuple[Image, np.ndarray, np.ndarray]:
+    """A box room with a distinct grey per surface and a grid of dark lines on every surface (tiles, panels)."""
+    rays = frame.rays(camera, camera.width, camera.height)
+    labels, t = box.trace(rays.reshape(-1, 3), TRUE_BOX[None])
+    labels, t = labels[0].reshape(camera.height, camera.width), t[0].reshape(camera.height, camera.width)
+    points = rays * t[..., None]
+    shade = np.array([0.55, 0.65, 0.35, 0.85, 0.6, 0.7])[labels]
+    in_plane = [(1, 2), (1, 2), (0, 2), (0, 2), (0, 1), (0, 1)]  # frame axes spanning each surface
+    line = np.zeros(labels.shape, dtype=bool)
+    for surface, axes in enumerate(in_plane):
+        on = labels == surface
+        for a in axes:
+            phase = np.abs(((points[..., a] * 2.0) + 0.5) % 1.0 - 0.5)  # a line every half camera height
+            line |= on & (phase < 0.03 * t / 2.0 + 0.01)
+    rgb = np.repeat(np.where(line, 0.15, shade)[..., None], 3, axis=2).astype(np.float32)
+    rgb += np.random.default_rng(0).normal(0, 0.01, rgb.shape).astype(np.float32)
+    return Image(rgb=np.clip(rgb, 0, 1), source=str(PHOTO), original_size=(camera.width, camera.height)), labels, t
+
+
+@pytest.fixture(scope="module")
+def room() -> tuple[Camera, Image, np.ndarray, np.ndarray]:
+    rotation = _rotation(yaw_deg=28.0, pitch_deg=6.0)
+    camera = _camera(rotation)
+    frame = frame_from_vanishing_points(camera, camera.extra["vanishing_points"])
+    image, labels, t = _render(camera, frame)
+    return camera, image, labels, t
+
+
+def test_frame_from_vanishing_points_recovers_gravity_and_walls() -> None:
+    rotation = _rotation(yaw_deg=28.0, pitch_deg=6.0)
+    camera = _camera(rotation)
+    shuffled = np.array(camera.extra["vanishing_points"])[[2, 0, 1]] * [[1], [-1], [1]]  # order and sign free
+    frame = frame_from_vanishing_points(camera, shuffled)
+    assert frame.observed
+    assert np.allclose(frame.rotation[:, 1], rotation[:, 1], atol=1e-6)  # up is up
+    assert np.allclose(np.abs(frame.rotation.T @ rotation), np.eye(3), atol=1e-6)  # same axes
+    assert np.linalg.det(frame.rotation) == pytest.approx(1.0)
+    upright = frame_from_vanishing_points(camera, [])
+    assert not upright.observed and np.allclose(upright.rotation[:, 1], [0, -1, 0])
+
+
+def test_trace_labels_and_depth() -> None:
+    rays = np.array([[0.0, -1.0, 1.0], [0.0, 1.0, 1.0], [1.0, 0.0, 1.0], [-1.0, 0.0, 0.2], [0.0, 0.0, -1.0]])
+    labels, t = box.trace(rays, TRUE_BOX[None])
+    assert labels[0].tolist() == [box.FLOOR, box.CEILING, box.WALL_X1, box.WALL_X0, box.WALL_Z0]
+    assert t[0] == pytest.approx([1.0, 0.7, 1.6, 2.0, 3.0])
+
+
+def _category_iou(panoptic: Panoptic, labels: np.ndarray) -> dict[str, float]:
+    ious = {}
+    for surface_ids, name in (((box.FLOOR,), "floor"), ((box.CEILING,), "ceiling"), (box.WALLS, "wall")):
+        truth = np.isin(labels, surface_ids)
+        found = panoptic.mask(name)
+        ious[name] = float((truth & found).sum() / max((truth | found).sum(), 1))
+    return ious
+
+
+def test_layout_segmentation_recovers_the_room(room: tuple) -> None:
+    camera, image, labels, _ = room
+    panoptic = LayoutSegmentation(n_random=1500).segment(image, camera, Detections(items=[]), PHOTO)
+    ious = _category_iou(panoptic, labels)
+    assert min(ious.values()) > 0.9, ious
+    walls = [s for s in panoptic.segments if s.category == "wall"]
+    assert len(walls) == len({box.SURFACES[s] for s in np.unique(labels) if s in box.WALLS})  # one per visible wall
+
+
+def test_layout_depth_from_true_labels_is_the_room_depth(room: tuple) -> None:
+    camera, image, labels, t = room
+    segments = [Segment(int(s) + 1, CATEGORY.get(int(s), "wall"), box.SURFACES[int(s)]) for s in np.unique(labels)]
+    panoptic = Panoptic(ids=labels.astype(np.int32) + 1, segments=segments)
+    depth = LayoutDepth(camera_height_m=1.5, n_random=1500).estimate(image, camera, panoptic, PHOTO)
+    assert depth.valid.all() and not depth.metric
+    relative = np.abs(depth.depth / (1.5 * t) - 1.0)
+    assert np.median(relative) < 0.02 and np.mean(relative < 0.05) > 0.9
+
+
+def test_object_stands_on_the_floor(room: tuple) -> None:
+    camera, _, labels, t = room
+    frame = frame_from_vanishing_points(camera, camera.extra["vanishing_points"])
+    rays = frame.rays(camera, camera.width, camera.height)
+    mask = np.zeros(labels.shape, dtype=bool)
+    mask[120:200, 140:170] = True  # bottom row 199 lies on the floor
+    assert labels[199, 155] == box.FLOOR
+    depth = object_depth(mask, rays, t)
+    assert depth[199, 155] == pytest.approx(t[199, 155], rel=1e-4)  # touches the floor where it stands
+    assert np.all(depth[mask] <= t[mask] + 1e-6) and np.all(depth[~mask] == 0)
+    column = rays[120:200, 154] * depth[120:200, 154, None]  # frame coordinates up the contact column
+    assert np.ptp(column[:, [0, 2]], axis=0).max() < 5e-3  # upright: on a vertical plane, nearly one line ...
+    assert column[-1, 1] == pytest.approx(-1.0, abs=1e-3) and column[0, 1] > -0.8  # ... rising from the floor
+    wall = np.zeros(labels.shape, dtype=bool)
+    wall[10:30, 140:170] = True  # above the horizon: no floor contact, just in front of the wall
+    assert np.allclose(object_depth(wall, rays, t)[wall], 0.98 * t[wall])
+
+
+def test_grabcut_cuts_the_object_out_of_its_box() -> None:
+    rng = np.random.default_rng(1)
+    height, width = 200, 260
+    yy, xx = np.mgrid[:height, :width]
+    rgb = np.stack([0.3 + 0.3 * xx / width, 0.5 + 0.1 * yy / height, 0.4 * np.ones_like(xx, float)], axis=-1)
+    truth = ((xx - 130) / 60.0) ** 2 + ((yy - 100) / 45.0) ** 2 < 1.0
+    rgb[truth] = [0.8, 0.2, 0.25]
+    rgb8 = np.clip((rgb + rng.normal(0, 0.03, rgb.shape)) * 255, 0, 255).astype(np.uint8)
+    mask = grabcut_mask(rgb8, (62.0, 48.0, 198.0, 152.0), GrabCutParams())
+    assert mask is not None
+    assert (mask & truth).sum() / (mask | truth).sum() > 0.9
+    flat = np.full_like(rgb8, 128)
+    assert grabcut_mask(flat, (62.0, 48.0, 198.0, 152.0), GrabCutParams(min_fill=0.9)) is None
+
+
+def test_box_prompts_become_object_segments(room: tuple) -> None:
+    camera, image, labels, _ = room
+    rgb = image.rgb.copy()
+    yy, xx = np.mgrid[:camera.height, :camera.width]
+    sofa = ((xx - 160) / 40.0) ** 2 + ((yy - 170) / 25.0) ** 2 < 1.0
+    rgb[sofa] = [0.8, 0.3, 0.2]
+    prompts = Detections(items=[Detection("couch", "object", (112.0, 140.0, 208.0, 200.0), 0.8)])
+    panoptic = LayoutSegmentation(n_random=1500).segment(Image(rgb=rgb, source="room.png", original_size=(320, 240)),
+                                                         camera, prompts, PHOTO)
+    couch = [s for s in panoptic.segments if s.label == "couch"]
+    assert len(couch) == 1 and couch[0].category == "object"
+    mask = panoptic.ids == couch[0].id
+    assert (mask & sofa).sum() / (mask | sofa).sum() > 0.85
+    assert _category_iou(panoptic, np.where(sofa, -1, labels))["floor"] > 0.85
+
+
+def test_boxes_yaml_replaces_the_detector(tmp_path: Path) -> None:
+    """With detector=auto a boxes file beside the photo is used instead of NanoDet (cached by its content)."""
+    from psdr_room_core.cli import compose_config
+    from psdr_room_core.plugins import plugin_system
+    from psdr_room_core.run import execute
+
+    photo = tmp_path / "room.png"
+    camera = _camera(_rotation(28.0, 6.0))
+    image, _, _ = _render(camera, frame_from_vanishing_points(camera, camera.extra["vanishing_points"]))
+    cv2.imwrite(str(photo), image.to_uint8()[..., ::-1])
+    plugins = plugin_system()
+    overrides = [f"image={photo}", f"cache_dir={tmp_path / 'cache'}", "run.until=detect", "report.enabled=false"]
+    record = execute(compose_config(overrides, plugins), tmp_path / "run1", plugins)
+    assert record.implementations["detector"]["name"] == "nanodet_onnx"
+    photo.with_suffix(".boxes.yaml").write_text("boxes:\n  - {label: sofa, category: object, box: [100, 120, 220, 200]}\n")
+    record = execute(compose_config(overrides, plugins), tmp_path / "run2", plugins)
+    assert record.implementations["detector"]["name"] == "boxes_file"
+    assert "not" not in record.implementations["detector"]["selected_by"]
+    assert [d.label for d in record.artifacts["detections"].items] == ["sofa"]
