@@ -39,6 +39,8 @@ def _figures(run: RunRecord, alpha: float) -> list[tuple[str, np.ndarray]]:
         figures.append(("depth", depth_colormap(art["depth"].depth, art["depth"].valid)))
     if "camera" in art and "room_box" in art:
         figures.append(("room box (room_init)", room_edges_overlay(rgb8, art["camera"], art["room_box"])))
+    if getattr(art.get("object_candidates"), "sheet", None) is not None:
+        figures.append(("retrieval: object crop, then the top-k models (score)", art["object_candidates"].sheet))
     for name, artifact in art.items():
         if artifact.kind == "optimization_log":
             figures += [(f"{name}: {title}", picture) for title, picture in artifact.images.items()]

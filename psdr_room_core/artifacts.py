@@ -149,6 +149,13 @@ class Camera:
     def vfov_deg(self) -> float:
         return math.degrees(2.0 * math.atan(0.5 * self.height / self.fy))
 
+    def resized(self, width: int) -> "Camera":
+        """The camera for an image ``width`` pixels wide: the intrinsics scaled uniformly (square pixels stay
+        square; the rounded height changes the vertical field of view by under half a pixel)."""
+        s = width / self.width
+        return Camera(width=width, height=max(1, round(self.height * s)), fx=self.fx * s, fy=self.fy * s,
+                      cx=self.cx * s, cy=self.cy * s, method=self.method)
+
     @property
     def K(self) -> np.ndarray:
         return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
@@ -467,32 +474,174 @@ class RoomBox:
         )
 
 
+# ---------------------------------------------------------------------------------- object candidates
+@dataclass(frozen=True)
+class Candidate:
+    """A database model ranked for an object segment."""
+
+    model_id: str
+    score: float
+    """Retrieval similarity (higher is better; its scale depends on the retrieval implementation)."""
+
+
+@dataclass
+class ObjectCandidates:
+    """Top-k database models per object segment (the paper's "user picks among top-k")."""
+
+    kind: ClassVar[str] = "object_candidates"
+    marker: ClassVar[str] = "candidates.json"
+    ranked: dict[int, list[Candidate]]
+    """Segment id → candidates, best first."""
+    labels: dict[int, str]
+    """Segment id → its label."""
+    source: str = ""
+    """The retrieval implementation and database that ranked them."""
+    sheet: np.ndarray | None = None
+    """RGB uint8 picture: per object, its crop then the candidates' thumbnails with their scores."""
+
+    def save(self, directory: Path) -> None:
+        if self.sheet is not None:
+            _write_png(directory / "candidates.png", self.sheet)
+        _write_json(directory / "candidates.json", {"source": self.source, "objects": [
+            {"segment_id": sid, "label": self.labels.get(sid, ""),
+             "candidates": [{"model_id": c.model_id, "score": float(c.score)} for c in ranked]}
+            for sid, ranked in sorted(self.ranked.items())]})
+
+    @classmethod
+    def load(cls, directory: Path) -> "ObjectCandidates":
+        data = _read_json(directory / "candidates.json")
+        try:
+            ranked = {int(o["segment_id"]): [Candidate(str(c["model_id"]), float(c["score"])) for c in o["candidates"]]
+                      for o in data["objects"]}
+            labels = {int(o["segment_id"]): str(o.get("label", "")) for o in data["objects"]}
+        except (KeyError, TypeError, ValueError) as exc:
+            raise PsdrRoomError(f"{directory / 'candidates.json'}: not as psdr-room writes it ({exc}); fix or regenerate it") from None
+        sheet = _read_png(directory / "candidates.png") if (directory / "candidates.png").is_file() else None
+        return cls(ranked=ranked, labels=labels, source=str(data.get("source", "")), sheet=sheet)
+
+
 # ---------------------------------------------------------------------------------- object placements
 @dataclass(frozen=True)
+class ObjectMesh:
+    """A database mesh in its canonical frame (Y up, bottom at y = 0, centred on x = z = 0, front +Z), metres."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    face_group: np.ndarray
+    """(M,) index into ``groups`` per face: the material parts."""
+    groups: tuple[str, ...]
+    colors: np.ndarray
+    """(G, 3) sRGB base colour per group."""
+
+    def write_obj(self, obj: Path) -> None:
+        """An OBJ (+ MTL beside it) with one ``usemtl`` block per group."""
+        mtl = obj.with_suffix(".mtl")
+        lines = [f"mtllib {mtl.name}"] + [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in self.vertices]
+        for g, name in enumerate(self.groups):
+            lines.append(f"usemtl {name}")
+            lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in self.faces[self.face_group == g]]
+        obj.write_text("\n".join(lines) + "\n")
+        mtl.write_text("".join(f"newmtl {name}\nKd {r:.4f} {g:.4f} {b:.4f}\n"
+                               for name, (r, g, b) in zip(self.groups, self.colors)))
+
+    @classmethod
+    def read_obj(cls, obj: Path) -> "ObjectMesh":
+        """Read what :meth:`write_obj` wrote (triangles, ``usemtl`` groups, ``Kd`` colours)."""
+        vertices, faces, face_group, groups = [], [], [], []
+        try:
+            for line in obj.read_text().splitlines():
+                head, _, rest = line.partition(" ")
+                if head == "v":
+                    vertices.append([float(v) for v in rest.split()[:3]])
+                elif head == "usemtl":
+                    groups.append(rest.strip())
+                elif head == "f":
+                    faces.append([int(v.split("/")[0]) - 1 for v in rest.split()])
+                    face_group.append(max(len(groups) - 1, 0))
+            colors = dict.fromkeys(groups, (0.5, 0.5, 0.5))
+            name = None
+            mtl = obj.with_suffix(".mtl")
+            for line in (mtl.read_text().splitlines() if mtl.is_file() else []):
+                head, _, rest = line.partition(" ")
+                if head == "newmtl":
+                    name = rest.strip()
+                elif head == "Kd" and name in colors:
+                    colors[name] = tuple(float(v) for v in rest.split()[:3])
+        except FileNotFoundError:
+            raise PsdrRoomError(f"{obj}: missing; the artifact directory is incomplete") from None
+        except ValueError as exc:
+            raise PsdrRoomError(f"{obj}: not a triangle OBJ as psdr-room writes it ({exc}); fix or regenerate it") from None
+        groups = groups or ["default"]
+        return cls(vertices=np.asarray(vertices, np.float64).reshape(-1, 3), faces=np.asarray(faces, np.int64).reshape(-1, 3),
+                   face_group=np.asarray(face_group, np.int64), groups=tuple(groups),
+                   colors=np.asarray([colors.get(g, (0.5, 0.5, 0.5)) for g in groups], np.float64))
+
+
+SUPPORTS = ("floor", "parent", "wall", "free")
+"""How an object is held: on the floor, on top of another object, on a wall, or not at all."""
+
+
+@dataclass(frozen=True)
 class Placement:
-    """One retrieved object placed in the world: a mesh file and its 4x4 object-to-world matrix."""
+    """One retrieved object placed in the world: ``to_world = T(position) R_y(yaw) S(scale)``."""
 
     segment_id: int
-    category: str
-    mesh: str
-    to_world: tuple[tuple[float, ...], ...]
+    label: str
+    model_id: str
+    mesh: ObjectMesh
+    position: tuple[float, float, float]
+    """World position of the mesh's origin (the centre of its bottom)."""
+    yaw: float
+    scale: float
+    support: str = "free"
+    """One of :data:`SUPPORTS`."""
+    anchor: int | None = None
+    """The parent's segment id (``parent``) or the room box side (``wall``: 0..3 = -x, +x, -z, +z)."""
+
+    @property
+    def to_world(self) -> np.ndarray:
+        matrix = np.eye(4)
+        matrix[:3, :3] = rotation_y(self.yaw) * self.scale
+        matrix[:3, 3] = self.position
+        return matrix
+
+    def world_vertices(self) -> np.ndarray:
+        return self.mesh.vertices @ self.to_world[:3, :3].T + np.asarray(self.position)
 
 
 @dataclass
 class Placements:
-    """The objects of the scene (filled by the object stage)."""
+    """The scene's objects: retrieved meshes (``meshes/<segment>.obj``) and their poses (``placements.json``)."""
 
     kind: ClassVar[str] = "placements"
     marker: ClassVar[str] = "placements.json"
     objects: list[Placement]
+    extra: dict[str, Any] = field(default_factory=dict)
 
     def save(self, directory: Path) -> None:
-        _write_json(directory / "placements.json", [asdict(p) for p in self.objects])
+        (directory / "meshes").mkdir()
+        items = []
+        for p in self.objects:
+            p.mesh.write_obj(directory / "meshes" / f"{p.segment_id}.obj")
+            items.append({"segment_id": p.segment_id, "label": p.label, "model_id": p.model_id,
+                          "mesh": f"meshes/{p.segment_id}.obj", "position": [float(v) for v in p.position],
+                          "yaw": float(p.yaw), "scale": float(p.scale), "support": p.support, "anchor": p.anchor,
+                          "to_world": p.to_world.tolist()})
+        _write_json(directory / "placements.json", {"objects": items, "extra": self.extra})
 
     @classmethod
     def load(cls, directory: Path) -> "Placements":
-        items = _read_json(directory / "placements.json")
-        return cls(objects=[Placement(**{**p, "to_world": tuple(map(tuple, p["to_world"]))}) for p in items])
+        data = _read_json(directory / "placements.json")
+        try:
+            objects = [Placement(segment_id=int(o["segment_id"]), label=str(o["label"]), model_id=str(o["model_id"]),
+                                 mesh=ObjectMesh.read_obj(directory / o["mesh"]),
+                                 position=tuple(float(v) for v in o["position"]), yaw=float(o["yaw"]),
+                                 scale=float(o["scale"]), support=str(o["support"]),
+                                 anchor=None if o.get("anchor") is None else int(o["anchor"]))
+                       for o in data["objects"]]
+        except (KeyError, TypeError, ValueError) as exc:
+            raise PsdrRoomError(f"{directory / 'placements.json'}: not as psdr-room writes it ({exc}); fix or regenerate it") from None
+        return cls(objects=objects, extra=dict(data.get("extra") or {}))
 
 
 # ------------------------------------------------------------------------------------------ scene files
@@ -544,7 +693,7 @@ class OptimizationLog:
 
 ARTIFACT_TYPES: dict[str, type] = {
     t.kind: t
-    for t in (Image, Camera, DepthMap, Detections, Panoptic, PointCloud, RoomBox, Placements, SceneFiles, OptimizationLog)
+    for t in (Image, Camera, DepthMap, Detections, Panoptic, PointCloud, RoomBox, ObjectCandidates, Placements, SceneFiles, OptimizationLog)
 }
 """Artifact kind → class, for loading cached or user-supplied artifacts. Plugins may add their own."""
 

@@ -16,7 +16,8 @@ if TYPE_CHECKING:
     import numpy as np
     import torch
 
-    from .artifacts import Camera, DepthMap, Detections, Image, Panoptic
+    from .artifacts import Camera, Candidate, DepthMap, Detections, Image, ObjectMesh, Panoptic
+    from .objects import ObjectQuery
     from .geometry import TriangleMesh
 
 CAPABILITIES: tuple[str, ...] = (
@@ -101,6 +102,28 @@ class DepthEstimator(Protocol):
 
 
 @runtime_checkable
+class ObjectRetriever(Protocol):
+    """``retrieval`` for objects: ranks the models of its object database for a segmented object (§4.3)
+    and hands out their meshes (the database is the capability's data side)."""
+
+    def rank(self, query: ObjectQuery, camera: Camera, camera_to_world: np.ndarray, k: int) -> list[Candidate]:
+        """The ``k`` best models for ``query`` seen by ``camera`` at ``camera_to_world``, best first."""
+        ...
+
+    def mesh(self, model_id: str) -> ObjectMesh:
+        """A model's mesh in the canonical frame (see ``artifacts.ObjectMesh``)."""
+        ...
+
+    def describe(self) -> str:
+        """One line naming the method and database (recorded in the candidates artifact)."""
+        ...
+
+    def thumbnail(self, model_id: str) -> np.ndarray:
+        """A uint8 RGB picture of the model (for reports)."""
+        ...
+
+
+@runtime_checkable
 class Optimizer(Protocol):
     """``optimizer``: gradient descent over named torch tensors with per-tensor learning rates."""
 
@@ -137,3 +160,48 @@ class Renderer(Protocol):
         meshes: dict[str, TriangleMesh],
         parts: dict[str, int],
     ) -> GeometryRenderer: ...
+
+
+@runtime_checkable
+class ProceduralMaterial(Protocol):
+    """One procedural material: a node graph whose continuous parameters are optimised (§3.2, §4.4).
+
+    Maps are torch tensors [C, H, W] that tile seamlessly: ``base_color`` [3] sRGB in [0, 1], ``roughness``,
+    ``metallic``, ``height`` [1] in [0, 1], ``normal`` [3] unit tangent-space normals (OpenGL: +y up).
+    """
+
+    name: str
+    tile_size: float
+    """Metres one repeat of the maps covers in a room (the starting texture scale)."""
+
+    def parameters(self, requires_grad: bool = True) -> dict[str, torch.Tensor]:
+        """Fresh unconstrained tensors (``node.param``) at the graph's values; the nodes see them through a
+        bounded reparameterisation, so any optimiser step keeps them valid. Discrete ones are not included."""
+        ...
+
+    def evaluate(self, size: int | tuple[int, int], params: dict[str, torch.Tensor] | None = None
+                 ) -> dict[str, torch.Tensor]:
+        """The output maps at ``size`` (side or (H, W)), differentiable with respect to ``params``."""
+        ...
+
+
+@runtime_checkable
+class MaterialGraph(Protocol):
+    """``material_graph``: the library of differentiable procedural materials (§3.2, §4.4)."""
+
+    def names(self) -> list[str]: ...
+
+    def material(self, name: str) -> ProceduralMaterial: ...
+
+
+@runtime_checkable
+class TextureDescriptor(Protocol):
+    """``texture``: a texture descriptor of image crops for the Gram-matrix loss of Eq. 4 (§3.2).
+
+    ``describe`` maps sRGB crops [3, H, W] (or batches [N, 3, H, W]) in [0, 1] to vectors [D] ([N, D]) whose
+    length does not depend on the crop size, differentiably; ``distance`` is the loss between descriptors.
+    """
+
+    def describe(self, images: torch.Tensor) -> torch.Tensor: ...
+
+    def distance(self, a: torch.Tensor, b: torch.Tensor) -> torch.Tensor: ...

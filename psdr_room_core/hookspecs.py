@@ -10,7 +10,8 @@ The built-in plugins in ``psdr_room_plugins`` are found the same way. Hooks are 
 ``register_implementations`` and ``register_stages`` once when plugins are loaded; ``conf_searchpath``
 when Hydra composes the configuration; then for each run ``before_run``, for every stage
 ``before_stage`` followed by ``after_stage`` or ``on_stage_error``, and finally ``after_run``.
-``model_registries`` is called whenever the registry of downloadable model files is read.
+``model_registries`` is called whenever the registry of downloadable model files is read;
+``material_graphs`` and ``material_nodes`` when the procedural material library is built.
 """
 
 from __future__ import annotations
@@ -64,6 +65,25 @@ def model_registries() -> list[str | Path]:
     Called whenever the model registry is read: by ``psdr-room-models list|download|verify`` and by
     implementations that look a model up by name. Entries are added after the built-in ones; a name that
     is already taken is reported and left out.
+    """
+
+
+@hookspec
+def material_graphs() -> list[str | Path]:
+    """Return directories of procedural material graph files (``*.yaml``/``*.json``, the format of
+    ``psdr_room_plugins/material_graph/graph.py``) that ``material_graph=torch_graph`` adds to its library.
+
+    Called when the library is built. A material name (file stem) that is already taken is reported and
+    left out.
+    """
+
+
+@hookspec
+def material_nodes() -> list[Any]:
+    """Return node types (``psdr_room_plugins.material_graph.NodeType``) that material graphs may use.
+
+    Called when the ``torch_graph`` library is built; a node type name that is already taken is reported
+    and left out.
     """
 
 

@@ -16,8 +16,8 @@ import pytest
 from conftest import EXAMPLE
 
 STAGES = ["load_image", "estimate_fov", "detect", "segment", "estimate_depth", "point_cloud", "room_init",
-          "room_fit", "export_scene"]
-SMALL = ["room_fit.iterations=8", "room_fit.render_width=64"]
+          "room_fit", "retrieve_objects", "place_objects", "fit_objects", "export_scene"]
+SMALL = ["room_fit.iterations=8", "room_fit.render_width=64", "fit_objects.iterations=4", "fit_objects.render_width=64"]
 """A short room fit: these tests are about the engine; tests/test_room_fit.py checks the fit itself."""
 
 
@@ -80,8 +80,12 @@ def test_scene_loads_in_mitsuba(first_run: tuple[Path, dict[str, str]]) -> None:
 
     mi.set_variant("scalar_rgb")
     scene = mi.load_file(str(root / "run1" / "scene" / "scene.xml"), spp=4, optimize=False)  # keep shapes apart
-    assert sorted(s.id() for s in scene.shapes()) == sorted(
-        ["ceiling", "ceiling_light", "floor", "wall_x_neg", "wall_x_pos", "wall_z_neg", "wall_z_pos"])
+    room = ["ceiling", "ceiling_light", "floor", "wall_x_neg", "wall_x_pos", "wall_z_neg", "wall_z_pos"]
+    ids = [s.id() for s in scene.shapes()]
+    placed = json.loads((root / "run1" / "artifacts" / "placements_fit" / "placements.json").read_text())
+    segments = {f"object_{p['segment_id']}_" for p in placed["objects"]}
+    assert sorted(i for i in ids if not i.startswith("object_")) == sorted(room)
+    assert segments and {i[: i.index("_", 7) + 1] for i in ids if i.startswith("object_")} == segments
     image = np.array(mi.render(scene, spp=4))
     assert image.shape == (480, 640, 3) and image.mean() > 0  # the light reaches the room
 
@@ -96,7 +100,8 @@ def test_rerun_is_cached_and_identical(first_run: tuple[Path, dict[str, str]]) -
 def test_changed_stage_param_reruns_it_and_what_follows(first_run: tuple[Path, dict[str, str]]) -> None:
     root, env = first_run
     psdr_room(f"image={EXAMPLE}", "room_init.ransac_threshold=0.03", f"hydra.run.dir={root / 'run3'}", env=env)
-    assert computed(root / "run3") == {"room_init", "room_fit", "export_scene"}
+    assert computed(root / "run3") == {"room_init", "room_fit", "retrieve_objects", "place_objects", "fit_objects",
+                                       "export_scene"}
 
 
 def test_multirun_shares_the_cache(first_run: tuple[Path, dict[str, str]]) -> None:

@@ -143,6 +143,9 @@ class MitsubaRenderer:
 
         if mi.variant() != variant:
             mi.set_variant(variant)
+        # Furniture meshes are rarely manifold (parts meet at shared vertices); Mitsuba warns about each one
+        # when it builds silhouette edges, which is expected here and would drown the run's own log.
+        mi.set_log_level(mi.LogLevel.Error)
         if variant != "scalar_rgb":
             from . import integrator
 

@@ -1,4 +1,5 @@
-"""Neural preprocess implementations run with onnxruntime: ``depth=onnx`` and ``segmentation=onnx`` (§4.1).
+"""Neural implementations run with onnxruntime: ``depth=onnx`` and ``segmentation=onnx`` (§4.1) and
+``retrieval=clip_onnx`` (§4.3).
 
 The weights are files a user downloads once (``psdr-room-models download NAME``; the registry is
 ``psdr_room_core/models.json``); which file, the models directory and onnxruntime's thread count come
@@ -17,6 +18,7 @@ from __future__ import annotations
 from psdr_room_core.hookspecs import hookimpl
 from psdr_room_core.plugins import Registry
 
+from .clip import ClipRetrieval
 from .depth import OnnxDepth
 from .segmentation import OnnxSegmentation
 
@@ -25,3 +27,4 @@ from .segmentation import OnnxSegmentation
 def register_implementations(registry: Registry) -> None:
     registry.add_implementation("depth", "onnx", OnnxDepth)
     registry.add_implementation("segmentation", "onnx", OnnxSegmentation)
+    registry.add_implementation("retrieval", "clip_onnx", ClipRetrieval)

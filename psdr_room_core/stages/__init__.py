@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ..hookspecs import hookimpl
 from ..plugins import Registry
-from . import export, preprocess, room
+from . import export, objects, preprocess, room
 
 
 @hookimpl
@@ -18,4 +18,7 @@ def register_stages(registry: Registry) -> None:
     registry.add_stage("point_cloud", preprocess.point_cloud)
     registry.add_stage("room_init", room.room_init)
     registry.add_stage("room_fit", room.room_fit, uses=["renderer", "optimizer"], version="2")
-    registry.add_stage("export_scene", export.export_scene)
+    registry.add_stage("retrieve_objects", objects.retrieve_objects, uses=["retrieval"])
+    registry.add_stage("place_objects", objects.place_objects, uses=["retrieval"])
+    registry.add_stage("fit_objects", objects.fit_objects, uses=["renderer", "optimizer"])
+    registry.add_stage("export_scene", export.export_scene, version="2")

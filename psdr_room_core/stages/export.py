@@ -1,8 +1,10 @@
-"""Export: the reconstructed scene as Mitsuba 3 XML with separate, welded room meshes, plus the point cloud.
+"""Export: the reconstructed scene as Mitsuba 3 XML with separate, welded room and object meshes, plus the
+point cloud.
 
 The room box is written as one quad mesh per side (floor, ceiling, four walls) with normals facing into
 the room: separate meshes keep each side's parameters addressable, and welded quads give correct
-boundary gradients in differentiable renders (``RENDERING-NOTES.md``).
+boundary gradients in differentiable renders (``RENDERING-NOTES.md``). Each object is written as one
+world-space mesh per material group (``object_<segment>_<group>``), so each part can get its own material.
 """
 
 from __future__ import annotations
@@ -11,8 +13,9 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from ..artifacts import Camera, PointCloud, RoomBox, SceneFiles, ply_bytes
+from ..artifacts import Camera, Placement, Placements, PointCloud, RoomBox, SceneFiles, ply_bytes
 from ..dag import StageContext
+from ..geometry import TriangleMesh, weld
 
 CV_TO_MITSUBA = np.diag([-1.0, -1.0, 1.0, 1.0])
 """OpenCV camera axes (x right, y down, z forward) → Mitsuba's (x left, y up, z forward)."""
@@ -65,8 +68,28 @@ def _matrix(m: np.ndarray) -> str:
     return " ".join(f"{float(x):.9g}" for x in np.asarray(m).reshape(-1))
 
 
-def scene_xml(camera: Camera, room: RoomBox, params: dict) -> str:
-    """Mitsuba 3 scene description for the camera and the room meshes written by :func:`export_scene`."""
+def object_parts(placement: Placement) -> dict[str, tuple[TriangleMesh, np.ndarray]]:
+    """Shape id → (welded world-space mesh, sRGB base colour) for each material group of an object."""
+    world = placement.world_vertices()
+    parts = {}
+    for g, group in enumerate(placement.mesh.groups):
+        faces = placement.mesh.faces[placement.mesh.face_group == g]
+        if len(faces):
+            used, local = np.unique(faces, return_inverse=True)
+            mesh = weld(TriangleMesh(world[used], local.reshape(-1, 3)))
+            safe = "".join(ch if ch.isalnum() else "_" for ch in group)
+            parts[f"object_{placement.segment_id}_{safe}"] = (mesh, placement.mesh.colors[g])
+    return parts
+
+
+def srgb_to_linear(rgb: np.ndarray) -> np.ndarray:
+    rgb = np.clip(np.asarray(rgb, dtype=np.float64), 0.0, 1.0)
+    return np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+
+
+def scene_xml(camera: Camera, room: RoomBox, params: dict, objects: dict[str, np.ndarray]) -> str:
+    """Mitsuba 3 scene description for the camera, the room meshes and the object parts (shape id → linear
+    albedo) written by :func:`export_scene`."""
     to_world = np.asarray(room.camera_to_world) @ CV_TO_MITSUBA
     offset_x = (camera.width / 2.0 - camera.cx) / camera.width
     offset_y = (camera.height / 2.0 - camera.cy) / camera.height
@@ -101,6 +124,14 @@ def scene_xml(camera: Camera, room: RoomBox, params: dict) -> str:
             f'        <bsdf type="diffuse"><rgb name="reflectance" value="{rgb}"/></bsdf>',
             "    </shape>",
         ]
+    for name, albedo_rgb in objects.items():
+        rgb = " ".join(f"{a:.6g}" for a in albedo_rgb)
+        lines += [
+            f'    <shape type="ply" id={quoteattr(name)}>',
+            f'        <string name="filename" value="meshes/{name}.ply"/>',
+            f'        <bsdf type="diffuse"><rgb name="reflectance" value="{rgb}"/></bsdf>',
+            "    </shape>",
+        ]
     # An initial light until the lighting stage places real ones: a panel just below the ceiling centre.
     top = room.center + np.array([0.0, room.half_size[1] * 0.98, 0.0])
     size = 0.25 * float(min(room.half_size[0], room.half_size[2]))
@@ -116,9 +147,9 @@ def scene_xml(camera: Camera, room: RoomBox, params: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def export_scene(ctx: StageContext, camera: Camera, room: RoomBox, cloud: PointCloud) -> SceneFiles:
-    """Write ``scene.xml`` (Mitsuba 3: camera, room meshes, an initial light), the meshes, and the
-    segmented point cloud in world coordinates (``point_cloud.ply``).
+def export_scene(ctx: StageContext, camera: Camera, room: RoomBox, cloud: PointCloud, placements: Placements) -> SceneFiles:
+    """Write ``scene.xml`` (Mitsuba 3: camera, room meshes, object parts with their base colours, an initial
+    light), the meshes, and the segmented point cloud in world coordinates (``point_cloud.ply``).
 
     Params: ``spp``, ``max_depth`` (path tracer defaults in the XML), ``room_albedo`` (per side kind),
     ``light_radiance``.
@@ -127,7 +158,12 @@ def export_scene(ctx: StageContext, camera: Camera, room: RoomBox, cloud: PointC
     faces = np.array([[0, 1, 2], [0, 2, 3]])
     for name, quad in room_quads(room).items():
         files[f"meshes/{name}.ply"] = mesh_ply(quad, faces)
-    files["scene.xml"] = scene_xml(camera, room, ctx.params).encode()
+    objects = {}
+    for placement in placements.objects:
+        for name, (mesh, colour) in object_parts(placement).items():
+            files[f"meshes/{name}.ply"] = mesh_ply(mesh.vertices, mesh.faces)
+            objects[name] = srgb_to_linear(colour)
+    files["scene.xml"] = scene_xml(camera, room, ctx.params, objects).encode()
     c2w = np.asarray(room.camera_to_world)
     world = cloud.points @ c2w[:3, :3].T + c2w[:3, 3]
     files["point_cloud.ply"] = ply_bytes(world, cloud.colors, cloud.segment)

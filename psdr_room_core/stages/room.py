@@ -94,15 +94,6 @@ def room_targets(panoptic: Panoptic, depth: DepthMap, size: tuple[int, int]) -> 
                        depth_weight=weight)
 
 
-def scaled_camera(camera: Camera, width: int) -> Camera:
-    """The camera for a render ``width`` pixels wide: the same intrinsics scaled uniformly (square pixels
-    stay square; the rounded height changes the vertical field of view by under half a pixel)."""
-    s = width / camera.width
-    height = max(1, round(camera.height * s))
-    return Camera(width=width, height=height, fx=camera.fx * s, fy=camera.fy * s, cx=camera.cx * s, cy=camera.cy * s,
-                  method=camera.method)
-
-
 def box_vertices(room: RoomBox, theta: dict[str, torch.Tensor], scale: float, keep_floor: bool) -> dict[str, torch.Tensor]:
     """World quads of the box moved by ``theta``: yaw offset, translation in units of ``scale``, per-axis
     log-scale, and a tilt of the whole box about the camera centre (the floor normal from ``room_init``
@@ -176,7 +167,7 @@ def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, 
     import torch  # imported here: a cached run never pays for it
 
     params = ctx.params
-    cam = scaled_camera(camera, int(params["render_width"]))
+    cam = camera.resized(int(params["render_width"]))
     targets = room_targets(panoptic, depth, (cam.width, cam.height))
     if targets.visible.sum() < 1.0:
         raise PsdrRoomError("room_fit: the segmentation shows no wall, floor or ceiling; label them to fit the room")

@@ -1,0 +1,252 @@
+"""Thumbnails of database models, rendered with Mitsuba and cached; contact sheets.
+
+The paper searches 3D-FUTURE by encoding the renderings the database ships (§4.3 "Model search"); our
+databases have none, so :class:`ThumbnailRenderer` makes them: the mesh's groups in their base colours
+(diffuse), a sky-like constant light plus a sun, path traced (one bounce), seen from :data:`VIEWS`
+(azimuth from the front, +Z, towards +X; elevation) with the object framed tightly, composited on white.
+
+Renders are cached as PNG files under ``<cache>/object_db/<digest>/<model id>/view<k>.png`` (``<cache>``
+is ``$PSDR_ROOM_CACHE_DIR`` or ``~/.cache/psdr-room``; ``<digest>`` hashes the database's digest and the
+renderer settings), each written atomically, so concurrent builders and interrupted builds are safe.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import tempfile
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from psdr_room_core.errors import PsdrRoomError
+
+if TYPE_CHECKING:
+    from .database import GroupedMesh, ObjectDatabase
+
+VIEWS: tuple[tuple[float, float], ...] = ((30.0, 22.0), (-40.0, 22.0), (150.0, 22.0), (-130.0, 22.0))
+"""(azimuth, elevation) in degrees: front-right, front-left, back-right, back-left, at one elevation."""
+SIZE = 128
+SPP = 32
+RENDER_VERSION = 1
+"""Bump when the look of the thumbnails changes (it is part of the cache key)."""
+
+
+def srgb_to_linear(c: np.ndarray) -> np.ndarray:
+    c = np.clip(c, 0.0, 1.0)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def linear_to_srgb(c: np.ndarray) -> np.ndarray:
+    c = np.clip(c, 0.0, 1.0)
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
+
+
+def camera_for(extent: Sequence[float], azimuth: float, elevation: float, fov: float,
+               margin: float = 0.92) -> tuple[np.ndarray, np.ndarray]:
+    """(origin, target) of a camera looking at the canonical bounding box from (azimuth, elevation),
+    at the distance where every box corner is inside ``margin`` of the half field of view."""
+    ex, ey, ez = (max(float(e), 1e-3) for e in extent)
+    target = np.array([0.0, ey / 2, 0.0])
+    a, e = math.radians(azimuth), math.radians(elevation)
+    back = np.array([math.sin(a) * math.cos(e), math.sin(e), math.cos(a) * math.cos(e)])  # towards the camera
+    right = np.cross([0.0, 1.0, 0.0], back)
+    right /= np.linalg.norm(right)
+    up = np.cross(back, right)
+    corners = np.array([[sx * ex / 2, sy * ey / 2, sz * ez / 2] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    t = math.tan(math.radians(fov) / 2) * margin
+    distance = max(float(c @ back + max(abs(c @ right), abs(c @ up)) / t) for c in corners)
+    return target + back * distance, target
+
+
+class ThumbnailRenderer:
+    """Renders a :class:`~.database.GroupedMesh` from :data:`VIEWS` (H×W×3 uint8 sRGB each, on white)."""
+
+    def __init__(self, size: int = SIZE, spp: int = SPP, views: Sequence[tuple[float, float]] = VIEWS,
+                 fov: float = 30.0, variant: str = "auto") -> None:
+        self.size, self.spp, self.fov = int(size), int(spp), float(fov)
+        self.views = tuple((float(a), float(e)) for a, e in views)
+        self.variant = variant
+
+    def settings_key(self) -> str:
+        return f"v{RENDER_VERSION} size={self.size} spp={self.spp} fov={self.fov:g} views={self.views}"
+
+    def _mi(self) -> Any:
+        from psdr_room_plugins.mitsuba_renderer.llvm import resolve_variant
+
+        variant = resolve_variant(self.variant)
+        import mitsuba as mi
+
+        if mi.variant() != variant:
+            mi.set_variant(variant)
+        return mi
+
+    def render(self, mesh: "GroupedMesh") -> list[np.ndarray]:
+        mi = self._mi()
+        props = mi.Properties()
+        props["bsdf"] = mi.load_dict({"type": "twosided", "bsdf": {
+            "type": "diffuse", "reflectance": {"type": "mesh_attribute", "name": "face_color"}}})
+        corners = mesh.vertices[mesh.faces].reshape(-1, 3).astype(np.float32)  # unshared: flat shading
+        count = len(mesh.faces)
+        shape = mi.Mesh("object", 3 * count, count, props=props, has_vertex_normals=False, has_vertex_texcoords=False)
+        params = mi.traverse(shape)
+        params["vertex_positions"] = type(params["vertex_positions"])(corners.reshape(-1))
+        params["faces"] = type(params["faces"])(np.arange(3 * count, dtype=np.uint32))
+        params.update()
+        albedo = srgb_to_linear(mesh.colors[mesh.face_group]).astype(np.float32)
+        shape.add_attribute("face_color", 3, mi.Float(albedo.reshape(-1)))
+        scene: dict[str, Any] = {
+            "type": "scene",
+            "integrator": {"type": "path", "max_depth": 3, "hide_emitters": True},
+            "sky": {"type": "constant", "radiance": {"type": "rgb", "value": [0.62, 0.64, 0.68]}},
+            "sun": {"type": "directional", "direction": [0.35, -1.0, -0.55],
+                    "irradiance": {"type": "rgb", "value": [2.1, 2.0, 1.9]}},
+            "object": shape,
+        }
+        for k, (azimuth, elevation) in enumerate(self.views):
+            origin, target = camera_for(mesh.extent, azimuth, elevation, self.fov)
+            scene[f"view{k}"] = {
+                "type": "perspective", "fov": self.fov,
+                "to_world": mi.ScalarTransform4f().look_at(origin=origin.tolist(), target=target.tolist(),
+                                                           up=[0.0, 1.0, 0.0]),
+                "film": {"type": "hdrfilm", "width": self.size, "height": self.size, "pixel_format": "rgba",
+                         "rfilter": {"type": "gaussian"}},
+                "sampler": {"type": "independent", "sample_count": self.spp},
+            }
+        loaded = mi.load_dict(scene)
+        images = []
+        for k in range(len(self.views)):
+            rgba = np.array(mi.render(loaded, sensor=k, seed=k), dtype=np.float64)
+            alpha = np.clip(rgba[..., 3:4], 0.0, 1.0)
+            rgb = rgba[..., :3] + (1.0 - alpha)  # premultiplied (hidden background is black) over white
+            images.append((linear_to_srgb(rgb) * 255.0 + 0.5).astype(np.uint8))
+        return images
+
+
+_RENDERERS: dict[tuple[Any, ...], ThumbnailRenderer] = {}
+
+
+def default_renderer() -> ThumbnailRenderer:
+    key = (SIZE, SPP, VIEWS)
+    if key not in _RENDERERS:
+        _RENDERERS[key] = ThumbnailRenderer()
+    return _RENDERERS[key]
+
+
+def cache_dir(db: "ObjectDatabase", renderer: ThumbnailRenderer | None = None) -> Path:
+    """Where ``db``'s thumbnails live: ``<cache>/object_db/<digest of db and renderer settings>``."""
+    from .builtin import cache_root
+
+    renderer = renderer or default_renderer()
+    key = hashlib.sha256(f"{db.digest}\0{renderer.settings_key()}".encode()).hexdigest()[:20]
+    return cache_root() / "object_db" / key
+
+
+def _view_paths(folder: Path, model_id: str, count: int) -> list[Path]:
+    return [folder / model_id / f"view{k}.png" for k in range(count)]
+
+
+def _write_png(path: Path, rgb: np.ndarray) -> None:
+    import cv2
+
+    ok, data = cv2.imencode(".png", np.ascontiguousarray(rgb[:, :, ::-1]))
+    if not ok:
+        raise PsdrRoomError(f"{path}: could not encode the thumbnail")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data.tobytes())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _read_png(path: Path) -> np.ndarray | None:
+    import cv2
+
+    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    return None if image is None else np.ascontiguousarray(image[:, :, ::-1])
+
+
+def cached_thumbnails(db: "ObjectDatabase", model_id: str, renderer: ThumbnailRenderer | None = None
+                      ) -> list[np.ndarray] | None:
+    """The cached views of a model, or None if any is missing."""
+    renderer = renderer or default_renderer()
+    images = []
+    for path in _view_paths(cache_dir(db, renderer), model_id, len(renderer.views)):
+        image = _read_png(path) if path.is_file() else None
+        if image is None:
+            return None
+        images.append(image)
+    return images
+
+
+def thumbnails_for(db: "ObjectDatabase", model_id: str, renderer: ThumbnailRenderer | None = None) -> list[np.ndarray]:
+    """The model's views from the cache, rendered and stored there first if missing."""
+    renderer = renderer or default_renderer()
+    images = cached_thumbnails(db, model_id, renderer)
+    if images is not None:
+        return images
+    images = renderer.render(db.mesh(model_id))
+    for path, image in zip(_view_paths(cache_dir(db, renderer), model_id, len(images)), images):
+        _write_png(path, image)
+    return images
+
+
+def build_thumbnails(db: "ObjectDatabase", renderer: ThumbnailRenderer | None = None,
+                     progress: Callable[[Iterable[Any]], Iterable[Any]] | None = None) -> tuple[int, int]:
+    """Render every missing thumbnail of ``db``; returns (rendered, already cached)."""
+    renderer = renderer or default_renderer()
+    rendered = cached = 0
+    records = db.records if progress is None else progress(db.records)
+    for record in records:
+        if cached_thumbnails(db, record.id, renderer) is not None:
+            cached += 1
+            continue
+        thumbnails_for(db, record.id, renderer)
+        rendered += 1
+    return rendered, cached
+
+
+def contact_sheet(images: Sequence[tuple[str, np.ndarray]], columns: int = 8, font_scale: float = 0.3) -> np.ndarray:
+    """Images (all the same size) in a grid with their labels underneath (wrapped after a '/' when too
+    wide, then shortened): H×W×3 uint8."""
+    import cv2
+
+    if not images:
+        raise PsdrRoomError("contact sheet: no images (is the database empty?)")
+    h, w = images[0][1].shape[:2]
+
+    def width(text: str) -> int:
+        return cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, font_scale, 1)[0][0]
+
+    def fit(text: str) -> str:
+        if width(text) <= w - 4:
+            return text
+        while len(text) > 1 and width(text + "..") > w - 4:
+            text = text[:-1]
+        return text + ".."
+
+    labels = []
+    for label, _ in images:
+        head, sep, tail = label.rpartition("/")
+        labels.append([fit(label)] if width(label) <= w - 4 or not sep else [fit(head + sep), fit(tail)])
+    line = int(round(22 * font_scale / 0.4 * 1.1)) + 2
+    label_height = line * max(len(lines) for lines in labels) + 3
+    columns = max(1, min(columns, len(images)))
+    rows = (len(images) + columns - 1) // columns
+    sheet = np.full((rows * (h + label_height), columns * w, 3), 255, np.uint8)
+    for index, ((_, image), lines) in enumerate(zip(images, labels)):
+        r, c = divmod(index, columns)
+        y, x = r * (h + label_height), c * w
+        sheet[y:y + h, x:x + w] = image[:, :, :3]
+        cv2.rectangle(sheet, (x, y), (x + w - 1, y + h - 1), (225, 225, 225), 1)
+        for k, text in enumerate(lines):
+            cv2.putText(sheet, text, (x + 2, y + h + line * (k + 1) - 2), cv2.FONT_HERSHEY_SIMPLEX, font_scale,
+                        (20, 20, 20), 1, cv2.LINE_AA)
+    return sheet

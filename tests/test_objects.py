@@ -1,0 +1,156 @@
+"""Object stage (§4.3) on constructed cases: initial pose, yaw sweep, support rules, overlaps, artifacts."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from psdr_room_core.artifacts import Camera, DepthMap, Image, ObjectMesh, Panoptic, Placement, Placements, RoomBox, Segment
+from psdr_room_core.dag import StageContext
+from psdr_room_core.geometry import TriangleMesh, box_mesh, weld
+from psdr_room_core.objects import (ObjectQuery, SupportParams, best_yaw, initial_pose, mesh_radius, pose_matrix,
+                                    support_relations, transform, wall_frame)
+from psdr_room_core.silhouette import silhouette
+from psdr_room_core.stages.objects import find_overlaps, fit_objects
+from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
+from psdr_room_plugins.optimizer_adam import Adam
+
+C2W = np.eye(4)
+C2W[:3, :3] = np.diag([-1.0, -1.0, 1.0])  # OpenCV camera looking along world +Z, Y up
+C2W[:3, 3] = [0.0, 1.5, -2.5]
+ROOM = RoomBox(camera_to_world=C2W, center=np.array([0.0, 1.5, 0.0]), half_size=np.array([3.0, 1.5, 3.0]), yaw=0.0)
+CAMERA = Camera.from_vfov(160, 120, 60.0)
+
+
+def l_shape() -> ObjectMesh:
+    """An L-shaped sofa-like mesh (canonical frame: bottom at 0, centred, front +Z), two groups."""
+    seat = box_mesh(np.array([0.0, 0.2, 0.0]), np.array([1.0, 0.2, 0.4]))
+    arm = box_mesh(np.array([0.8, 0.4, 0.6]), np.array([0.2, 0.4, 0.3]))
+    vertices = np.vstack([seat.vertices, arm.vertices])
+    vertices -= [(vertices[:, 0].min() + vertices[:, 0].max()) / 2, 0.0, (vertices[:, 2].min() + vertices[:, 2].max()) / 2]
+    faces = np.vstack([seat.faces, arm.faces + 8])
+    return ObjectMesh(vertices=vertices, faces=faces, face_group=np.repeat([0, 1], 12), groups=("frame", "arm"),
+                      colors=np.array([[0.6, 0.3, 0.2], [0.2, 0.2, 0.2]]))
+
+
+def test_initial_pose_centres_on_the_median_at_half_the_radius() -> None:
+    rng = np.random.default_rng(0)
+    points = rng.normal(size=(4000, 3)) * [0.5, 0.3, 0.4] + [1.0, 0.6, 2.0]
+    mesh = l_shape()
+    position, scale = initial_pose(points, mesh.vertices, radius_factor=0.5)
+    centre = np.median(points, axis=0)
+    radius = np.median(np.linalg.norm(points - centre, axis=1))
+    assert scale == pytest.approx(0.5 * radius / mesh_radius(mesh.vertices))
+    world = transform(mesh.vertices, pose_matrix(position, 0.3, scale))
+    assert (world.min(axis=0) + world.max(axis=0))[1] / 2 == pytest.approx(centre[1])  # box centre on the median
+    assert position[[0, 2]] == pytest.approx(centre[[0, 2]])
+
+
+def test_yaw_sweep_finds_the_rotation_of_the_target_silhouette() -> None:
+    mesh = l_shape()
+    position, scale = np.array([0.3, 0.0, 1.5]), 1.0
+    target = silhouette(CAMERA, C2W, transform(mesh.vertices, pose_matrix(position, math.radians(90), scale)), mesh.faces)
+    yaw, error = best_yaw(CAMERA, C2W, mesh.vertices, mesh.faces, position, scale, target, n_yaw=12)
+    assert math.degrees(yaw) == pytest.approx(90.0) and error == 0.0
+
+
+def _query(segment_id: int, points: np.ndarray, rows: slice, cols: slice, shape: tuple[int, int] = (120, 160)) -> ObjectQuery:
+    mask = np.zeros(shape, dtype=bool)
+    mask[rows, cols] = True
+    return ObjectQuery(segment_id, "thing", None, mask, points, np.zeros((4, 4, 3), np.uint8))
+
+
+def _cloud(centre: list[float], half: list[float], n: int = 500) -> np.ndarray:
+    return np.random.default_rng(1).uniform(-1, 1, size=(n, 3)) * half + centre
+
+
+def test_support_rules_floor_parent_wall_free() -> None:
+    floor = np.zeros((120, 160), dtype=bool)
+    floor[90:, :] = True
+    queries = [
+        _query(1, _cloud([0.0, 0.4, 1.0], [0.6, 0.4, 0.4]), slice(60, 88), slice(40, 100)),    # table: on the floor
+        _query(2, _cloud([0.0, 1.0, 1.0], [0.15, 0.2, 0.15]), slice(45, 58), slice(60, 75)),   # vase: on the table
+        _query(3, _cloud([2.95, 1.6, 1.5], [0.03, 0.3, 0.4]), slice(20, 40), slice(130, 150)), # picture: on the +x wall
+        _query(4, _cloud([-1.0, 2.0, 0.5], [0.2, 0.1, 0.2]), slice(5, 15), slice(10, 30)),     # floating: free
+        _query(5, _cloud([1.5, 0.5, 1.0], [0.3, 0.3, 0.3]), slice(60, 70), slice(120, 128)),   # low but far from the floor mask
+    ]
+    relations = support_relations(queries, floor, ROOM, SupportParams())
+    assert relations[1] == ("floor", None)
+    assert relations[2] == ("parent", 1)
+    assert relations[3] == ("wall", 1)
+    assert relations[4] == ("free", None)
+    assert relations[5][0] == "free"
+    strict = support_relations(queries, floor, ROOM, SupportParams(edge_px=1.0))
+    assert strict[1] == ("free", None)  # the mask edge threshold is a config value
+
+
+def test_wall_frame_faces_into_the_room() -> None:
+    for index in range(4):
+        inward, tangent, offset = wall_frame(ROOM, index)
+        inside = inward @ ROOM.center - offset
+        assert inside == pytest.approx(3.0) and abs(inward @ tangent) < 1e-12 and tangent[1] == 0
+
+
+def test_overlaps_are_reported() -> None:
+    mesh = l_shape()
+    a = Placement(1, "sofa", "m", mesh, (0.0, 0.0, 1.0), 0.0, 1.0, "floor")
+    b = Placement(2, "sofa", "m", mesh, (0.5, 0.0, 1.2), 0.4, 1.0, "floor")
+    c = Placement(3, "sofa", "m", mesh, (5.0, 0.0, 1.0), 0.0, 1.0, "floor")
+    found = find_overlaps(Placements(objects=[a, b, c]), threshold=0.05)
+    assert [f["objects"] for f in found] == [[1, 2]] and 0.05 < found[0]["iou"] < 1.0
+
+
+def test_placements_round_trip_with_meshes(tmp_path: Path) -> None:
+    mesh = l_shape()
+    placements = Placements(objects=[Placement(7, "couch", "parametric/sofa_003", mesh, (0.1, 0.0, 2.0), 0.5, 0.8,
+                                               "parent", 3)], extra={"overlaps": []})
+    placements.save(tmp_path)
+    loaded = Placements.load(tmp_path)
+    p = loaded.objects[0]
+    assert (p.segment_id, p.model_id, p.support, p.anchor) == (7, "parametric/sofa_003", "parent", 3)
+    assert np.allclose(p.world_vertices(), placements.objects[0].world_vertices(), atol=1e-5)
+    assert p.mesh.groups == ("frame", "arm") and np.array_equal(p.mesh.face_group, mesh.face_group)
+    assert np.allclose(p.mesh.colors, mesh.colors, atol=1e-4)
+    assert (tmp_path / "meshes" / "7.obj").read_text().count("usemtl") == 2
+
+
+def _scene(truth: list[Placement], camera: Camera) -> tuple[Panoptic, DepthMap]:
+    """Exact-ish targets: the renderer's own masks and depth of the true poses at the photo's resolution."""
+    meshes = {f"object_{p.segment_id}": weld(TriangleMesh(p.world_vertices(), p.mesh.faces)) for p in truth}
+    renderer = MitsubaRenderer(spp=16, spp_boundary=4).geometry(camera, C2W, meshes, {n: i for i, n in enumerate(meshes)})
+    masks, weighted, alpha = (t.numpy() for t in renderer.render())
+    ids = np.where(masks.max(axis=0) > 0.5, np.argmax(masks, axis=0) + 1, 0)
+    segments = [Segment(i + 1, "object", p.label) for i, p in enumerate(truth)]
+    covered = alpha > 0.5
+    return (Panoptic(ids=np.array([0, *[p.segment_id for p in truth]])[ids].astype(np.int32),
+                     segments=[Segment(p.segment_id, s.category, s.label) for p, s in zip(truth, segments)]),
+            DepthMap(depth=np.where(covered, weighted / np.maximum(alpha, 1e-6), 0).astype(np.float32), valid=covered))
+
+
+def test_fit_objects_recovers_perturbed_poses(tmp_path: Path) -> None:
+    mesh = l_shape()
+    truth = [Placement(1, "sofa", "m", mesh, (-0.6, 0.0, 1.2), math.radians(20), 0.9, "floor"),
+             Placement(2, "sofa", "m", mesh, (1.0, 0.0, 2.2), math.radians(-30), 0.8, "floor")]
+    camera = Camera.from_vfov(96, 72, 60.0)
+    panoptic, depth = _scene(truth, camera)
+    start = Placements(objects=[replace(truth[0], position=(-0.4, 0.0, 1.4), yaw=math.radians(30), scale=0.8),
+                                replace(truth[1], position=(1.2, 0.0, 2.0), yaw=math.radians(-22), scale=0.7)])
+    params = {"iterations": 60, "render_width": 96, "blur_sigmas": [2.0, 4.0], "blur_weight": 1.0, "overlap_iou": 0.05,
+              "learning_rates": {"translation": 0.01, "log_scale": 0.01, "yaw": 1.0}}
+    ctx = StageContext(stage="fit_objects", params=params, seed=0, photo=tmp_path / "photo.png",
+                       implementations={"renderer": MitsubaRenderer(spp=4, spp_boundary=16), "optimizer": Adam()})
+    image = Image(rgb=np.full((72, 96, 3), 0.5, np.float32))
+    out = fit_objects(ctx, placements=start, camera=camera, room=ROOM, depth=depth, panoptic=panoptic, image=image)
+
+    def error(ps: Placements) -> float:
+        return float(np.mean([np.linalg.norm(np.subtract(p.position, t.position)) for p, t in zip(ps.objects, truth)]))
+
+    fitted, log = out["placements"], out["log"]
+    assert error(fitted) < 0.5 * error(start), (error(start), error(fitted))
+    assert all(p.position[1] == 0.0 and p.support == "floor" for p in fitted.objects)  # kept on the floor
+    assert log.history[-1]["mean_iou"] > log.history[0]["mean_iou"]
+    assert set(log.images) == {"before", "after", "loss"} and log.summary["overlaps"] == []
