@@ -1,8 +1,8 @@
 """``retrieval=silhouette``: offline object retrieval by silhouette agreement under the estimated camera.
 
 For each database model of the segment's category (every model when the label maps to none), the model is
-placed on the object's point cloud as §4.3 initialises it (at the points' full radius), swept about the
-vertical axis, and scored by the best IoU between its rendered silhouette and the object's mask.
+swept about the vertical axis at the object's apparent size and depth (:func:`fit_view`) and scored by the
+IoU between its silhouette and the object's mask at its best rotation.
 """
 
 from __future__ import annotations
@@ -16,9 +16,8 @@ import numpy as np
 from psdr_room_core.artifacts import Camera, Candidate, ObjectMesh
 from psdr_room_core.errors import PsdrRoomError
 from psdr_room_core.hookspecs import hookimpl
-from psdr_room_core.objects import ObjectQuery, initial_pose, pose_matrix, transform
+from psdr_room_core.objects import ObjectQuery, fit_view
 from psdr_room_core.plugins import Registry
-from psdr_room_core.silhouette import mask_iou, silhouette
 
 
 def open_database(database: str, fraction: float, seed: int) -> Any:
@@ -38,23 +37,21 @@ def open_database(database: str, fraction: float, seed: int) -> Any:
 
 
 def object_mesh(db: Any, model_id: str) -> ObjectMesh:
-    """A database mesh as the artifact type."""
+    """A database model's mesh, or a one-line error naming the unknown id."""
     try:
-        mesh = db.mesh(model_id)
+        return db.mesh(model_id)
     except KeyError:
         raise PsdrRoomError(f"object model '{model_id}' is not in the database; pick one listed by `psdr-room-db list`") from None
-    return ObjectMesh(vertices=mesh.vertices, faces=mesh.faces, face_group=mesh.face_group, groups=tuple(mesh.groups),
-                      colors=mesh.colors)
 
 
 class SilhouetteRetrieval:
-    """Rank models by the best silhouette IoU over a yaw sweep, each placed on the object's points."""
+    """Rank models by silhouette IoU at their best rotation, each fitted to the object's apparent size."""
 
     def __init__(self, database: str = "builtin", fraction: float = 1.0, seed: int = 0, n_yaw: int = 12,
-                 radius_factor: float = 1.0, render_width: int = 160) -> None:
+                 refine: int = 2, render_width: int = 160) -> None:
         self.spec = (str(database), float(fraction), int(seed))
         self.n_yaw = int(n_yaw)
-        self.radius_factor = float(radius_factor)
+        self.refine = int(refine)
         self.render_width = int(render_width)
         self._db: Any = None
 
@@ -82,12 +79,9 @@ class SilhouetteRetrieval:
         scored = []
         for record in models:
             mesh = self.database.mesh(record.id)
-            position, scale = initial_pose(query.points, mesh.vertices, self.radius_factor)
-            best = 0.0
-            for yaw in np.arange(self.n_yaw) * (2.0 * np.pi / self.n_yaw):
-                world = transform(mesh.vertices, pose_matrix(position, yaw, scale))
-                best = max(best, mask_iou(silhouette(cam, camera_to_world, world, mesh.faces), target))
-            scored.append(Candidate(record.id, best))
+            view = fit_view(cam, camera_to_world, mesh.vertices, mesh.faces, query.points, target, self.n_yaw,
+                            refine=self.refine)
+            scored.append(Candidate(record.id, view.iou))
         scored.sort(key=lambda c: (-c.score, c.model_id))
         return scored[:k]
 

@@ -24,6 +24,7 @@ import cv2
 import numpy as np
 
 from .errors import PsdrRoomError
+from .geometry import TriangleMesh
 
 CATEGORIES = ("wall", "floor", "ceiling", "window", "door", "lamp", "object")
 """Room categories a segmentation is mapped to; the room stage uses wall/floor/ceiling."""
@@ -69,8 +70,9 @@ def _read_npy(path: Path) -> np.ndarray:
         raise PsdrRoomError(f"{path}: not a readable .npy array ({exc}); regenerate it") from None
 
 
-def _write_png(path: Path, array: np.ndarray) -> None:
-    """Write an RGB (HxWx3) or gray array; uint8/uint16 as is."""
+def write_png(path: Path, array: np.ndarray) -> None:
+    """Write an RGB (HxWx3) or gray array as PNG (uint8/uint16 as is), making its folder."""
+    path.parent.mkdir(parents=True, exist_ok=True)
     if array.ndim == 3:
         array = array[..., ::-1]
     if not cv2.imwrite(str(path), np.ascontiguousarray(array)):
@@ -109,7 +111,7 @@ class Image:
         return np.clip(np.rint(self.rgb * 255.0), 0, 255).astype(np.uint8)
 
     def save(self, directory: Path) -> None:
-        _write_png(directory / "image.png", np.clip(np.rint(self.rgb * 65535.0), 0, 65535).astype(np.uint16))
+        write_png(directory / "image.png", np.clip(np.rint(self.rgb * 65535.0), 0, 65535).astype(np.uint16))
         _write_json(directory / "image.json", {"source": self.source, "original_size": list(self.original_size)})
 
     @classmethod
@@ -190,7 +192,7 @@ class DepthMap:
 
     def save(self, directory: Path) -> None:
         np.save(directory / "depth.npy", self.depth.astype(np.float32))
-        _write_png(directory / "valid.png", self.valid.astype(np.uint8) * 255)
+        write_png(directory / "valid.png", self.valid.astype(np.uint8) * 255)
         _write_json(directory / "depth.json", {"metric": self.metric, "source": self.source})
 
     @classmethod
@@ -300,7 +302,7 @@ def write_coco_panoptic(png: Path, json_path: Path, ids: np.ndarray, segments: l
         raise PsdrRoomError(f"{json_path}: segment(s) {sorted(listed - present)[:5]} have no pixels; drop them before writing")
 
     u = ids.astype(np.uint32)
-    _write_png(png, np.stack([u & 255, (u >> 8) & 255, (u >> 16) & 255], axis=-1).astype(np.uint8))
+    write_png(png, np.stack([u & 255, (u >> 8) & 255, (u >> 16) & 255], axis=-1).astype(np.uint8))
     cat_id = {name: i + 1 for i, name in enumerate(CATEGORIES)}
     infos = []
     for s in segments:
@@ -501,7 +503,7 @@ class ObjectCandidates:
 
     def save(self, directory: Path) -> None:
         if self.sheet is not None:
-            _write_png(directory / "candidates.png", self.sheet)
+            write_png(directory / "candidates.png", self.sheet)
         _write_json(directory / "candidates.json", {"source": self.source, "objects": [
             {"segment_id": sid, "label": self.labels.get(sid, ""),
              "candidates": [{"model_id": c.model_id, "score": float(c.score)} for c in ranked]}
@@ -531,7 +533,37 @@ class ObjectMesh:
     """(M,) index into ``groups`` per face: the material parts."""
     groups: tuple[str, ...]
     colors: np.ndarray
-    """(G, 3) sRGB base colour per group."""
+    """(G, 3) float sRGB base colour per group, in [0, 1]."""
+
+    @property
+    def extent(self) -> tuple[float, float, float]:
+        size = np.ptp(self.vertices, axis=0)
+        return float(size[0]), float(size[1]), float(size[2])
+
+    def group_mesh(self, group: str | int) -> TriangleMesh:
+        """The faces of one group (all vertices kept) as a :class:`~psdr_room_core.geometry.TriangleMesh`."""
+        index = self.groups.index(group) if isinstance(group, str) else int(group)
+        return TriangleMesh(vertices=self.vertices, faces=self.faces[self.face_group == index])
+
+    def triangle_mesh(self) -> TriangleMesh:
+        return TriangleMesh(vertices=self.vertices, faces=self.faces)
+
+    def check(self, where: str) -> None:
+        """Raise :class:`PsdrRoomError` unless the arrays are consistent (shapes, indices, finite values)."""
+        v, f, g = self.vertices, self.faces, self.face_group
+        problems = []
+        if v.ndim != 2 or v.shape[1] != 3 or not np.all(np.isfinite(v)):
+            problems.append("vertices must be finite (N, 3)")
+        if f.ndim != 2 or f.shape[1] != 3 or len(f) == 0:
+            problems.append("faces must be (M, 3) with M > 0")
+        elif f.min() < 0 or f.max() >= len(v):
+            problems.append("faces index vertices out of range")
+        if g.shape != (len(f),) or (len(g) and (g.min() < 0 or g.max() >= len(self.groups))):
+            problems.append("face_group must give every face a group")
+        if self.colors.shape != (len(self.groups), 3) or not np.all((self.colors >= 0) & (self.colors <= 1)):
+            problems.append("colors must be (G, 3) in [0, 1]")
+        if problems:
+            raise PsdrRoomError(f"{where}: invalid mesh ({'; '.join(problems)}); re-export it")
 
     def write_obj(self, obj: Path) -> None:
         """An OBJ (+ MTL beside it) with one ``usemtl`` block per group."""
@@ -682,7 +714,7 @@ class OptimizationLog:
         _write_json(directory / "log.json", {"history": self.history, "summary": self.summary,
                                              "images": sorted(self.images)})
         for name, picture in self.images.items():
-            _write_png(directory / f"{name}.png", picture)
+            write_png(directory / f"{name}.png", picture)
 
     @classmethod
     def load(cls, directory: Path) -> "OptimizationLog":

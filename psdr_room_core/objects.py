@@ -6,13 +6,14 @@ at ``y = 0``, centred on ``x = z = 0``, front facing +Z. A pose is ``to_world = 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
 from .artifacts import Camera, Image, Panoptic, PointCloud, RoomBox, rotation_y
-from .silhouette import mask_l1, silhouette
+from .silhouette import depth_map, mask_iou, mask_l1, silhouette, world_to_camera
 
 OBJECT_CATEGORIES = ("object", "lamp")
 """Segment categories that become retrieved objects (doors and windows are openings of the room)."""
@@ -130,6 +131,78 @@ def best_yaw(camera: Camera, camera_to_world: np.ndarray, vertices: np.ndarray, 
     return best
 
 
+def point_depth(camera: Camera, camera_to_world: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(H, W) float32 camera depth of the nearest world point falling in each pixel (0 where none does)."""
+    local = world_to_camera(points, camera_to_world)
+    local = local[local[:, 2] > 1e-6]
+    u = np.floor(camera.fx * local[:, 0] / local[:, 2] + camera.cx).astype(np.int64)
+    v = np.floor(camera.fy * local[:, 1] / local[:, 2] + camera.cy).astype(np.int64)
+    inside = (u >= 0) & (u < camera.width) & (v >= 0) & (v < camera.height)
+    nearest = np.full(camera.height * camera.width, np.inf, np.float32)
+    np.minimum.at(nearest, v[inside] * camera.width + u[inside], local[inside, 2].astype(np.float32))
+    nearest[~np.isfinite(nearest)] = 0.0
+    return nearest.reshape(camera.height, camera.width)
+
+
+@dataclass(frozen=True)
+class ViewFit:
+    """A model posed to match an object's mask and points in one view."""
+
+    position: np.ndarray
+    yaw: float
+    scale: float
+    iou: float
+    """Silhouette IoU with the mask."""
+    error: float
+    """Mask disagreement (pixels / mask pixels) + ``depth_weight`` × mean depth error / model size."""
+
+
+def fit_view(camera: Camera, camera_to_world: np.ndarray, vertices: np.ndarray, faces: np.ndarray,
+             points: np.ndarray, target: np.ndarray, n_yaw: int, support_height: float | None = None,
+             refine: int = 3, depth_weight: float = 1.0) -> ViewFit:
+    """The yaw sweep of §4.3 at the object's apparent size: for each of ``n_yaw`` rotations, ``refine``
+    times, the model moves so its silhouette's centroid lies on the mask's and its median depth on the
+    points', and scales so its silhouette's area matches the mask's (``target``, at the camera's resolution); with
+    ``support_height`` its bottom stays at that height. The rotation with the least :attr:`ViewFit.error`
+    wins: the depth term tells a model's front from its back, which silhouettes alone cannot."""
+    origin, rotation = camera_to_world[:3, 3], camera_to_world[:3, :3]
+    ys, xs = np.nonzero(target)
+    target_centroid = (xs.mean(), ys.mean())
+    target_depth = point_depth(camera, camera_to_world, points)
+    measured = target_depth > 0
+    target_median = float(np.median(world_to_camera(points, camera_to_world)[:, 2]))
+    target_area = max(int(target.sum()), 1)
+    box_centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2.0
+    size = float(np.linalg.norm(np.ptp(vertices, axis=0)))
+    start_centre, start_scale = initial_pose(points, vertices, 1.0)
+    start_centre = start_centre + start_scale * box_centre
+    best: ViewFit | None = None
+    for yaw in np.arange(n_yaw) * (2.0 * np.pi / n_yaw):
+        centre, scale = start_centre.copy(), start_scale
+        for step in range(refine + 1):
+            position = centre - scale * box_centre
+            if support_height is not None:
+                position[1] = support_height
+            depth = depth_map(camera, camera_to_world, transform(vertices, pose_matrix(position, yaw, scale)), faces)
+            mask = depth > 0
+            if step == refine or not mask.any():
+                break
+            rendered_median = float(np.median(depth[mask]))
+            ratio = target_median / rendered_median
+            ys, xs = np.nonzero(mask)
+            shift_px = np.array([target_centroid[0] - xs.mean(), target_centroid[1] - ys.mean()])
+            shift = rotation @ np.array([shift_px[0] / camera.fx, shift_px[1] / camera.fy, 0.0]) * rendered_median
+            centre = origin + (position + scale * box_centre + shift - origin) * ratio
+            scale *= ratio * math.sqrt(target_area / mask.sum())
+        both = mask & measured
+        depth_error = float(np.abs(depth[both] - target_depth[both]).mean()) / (scale * size) if both.any() else 1.0
+        error = float(np.logical_xor(mask, target).sum()) / target_area + depth_weight * depth_error
+        if best is None or error < best.error:
+            best = ViewFit(position, float(yaw), float(scale), mask_iou(mask, target), error)
+    assert best is not None
+    return best
+
+
 # ----------------------------------------------------------------------------------- support relations
 @dataclass(frozen=True)
 class SupportParams:
@@ -139,11 +212,15 @@ class SupportParams:
     """An object whose points' bottom is this close to the floor ..."""
     edge_px: float = 20.0
     """... and whose mask is this close to the floor mask stands on the floor; a floating object whose mask
-    is this close to a floor object's mask (and above it) stands on that object."""
+    is this close to a floor object's mask (and above it), whose bottom is no lower than that object's top
+    less ``floor_distance`` and whose points' centre is over that object's points, stands on that object."""
     wall_distance: float = 0.15
     """A floating object without a parent whose points lie this close to a wall is mounted on it."""
     bottom_percentile: float = 2.0
     """The points' bottom is this percentile of their heights (robust to stray points)."""
+    grounded: tuple[str, ...] = ("chair", "table", "sofa", "bed", "desk", "rug", "plant", "cabinet", "shelf")
+    """Database categories that stand on the floor when no parent holds them and their points' bottom is
+    below the room's mid-height (it is hidden behind something); higher up they may hang on a wall."""
 
 
 def mask_distance(mask: np.ndarray, other: np.ndarray) -> float:
@@ -177,27 +254,38 @@ def wall_frame(room: RoomBox, index: int) -> tuple[np.ndarray, np.ndarray, float
 
 def support_relations(queries: list[ObjectQuery], floor_mask: np.ndarray, room: RoomBox,
                       params: SupportParams) -> dict[int, tuple[str, int | None]]:
-    """Segment id → (``floor`` | ``parent`` | ``wall`` | ``free``, parent segment or wall index) by §4.3's rules."""
+    """Segment id → (``floor`` | ``parent`` | ``wall`` | ``free``, parent segment or wall index) by §4.3's
+    rules, in this order: on the floor; on a floor object whose mask touches its own from below, whose top
+    is at its bottom and whose points' footprint holds its centre; an object of a ``grounded`` category
+    whose bottom is hidden (below mid-height) on the floor; near a wall, on it; else free."""
     relations: dict[int, tuple[str, int | None]] = {}
+    bottoms = {q.segment_id: float(np.percentile(q.points[:, 1], params.bottom_percentile)) for q in queries}
     for q in queries:
-        bottom = float(np.percentile(q.points[:, 1], params.bottom_percentile))
-        if abs(bottom) < params.floor_distance and mask_distance(q.mask, floor_mask) < params.edge_px:
+        if abs(bottoms[q.segment_id]) < params.floor_distance and mask_distance(q.mask, floor_mask) < params.edge_px:
             relations[q.segment_id] = ("floor", None)
     on_floor = [q for q in queries if relations.get(q.segment_id, ("",))[0] == "floor"]
     for q in queries:
         if q.segment_id in relations:
             continue
+        bottom = bottoms[q.segment_id]
         rows = np.flatnonzero(q.mask.any(axis=1))
+        centre = np.median(q.points[:, [0, 2]], axis=0)
         parents = []
         for p in on_floor:
             p_rows = np.flatnonzero(p.mask.any(axis=1))
-            above = rows.mean() < p_rows.mean()
+            lo, hi = np.percentile(p.points[:, [0, 2]], [2, 98], axis=0)
+            over = bool(np.all((centre > lo - params.floor_distance) & (centre < hi + params.floor_distance)))
+            on_top = bottom > float(np.percentile(p.points[:, 1], 100 - params.bottom_percentile)) - params.floor_distance
             distance = mask_distance(q.mask, p.mask)
-            if above and distance < params.edge_px:
+            if rows.mean() < p_rows.mean() and over and on_top and distance < params.edge_px:
                 parents.append((distance, p.segment_id))
+        wall, wall_distance = nearest_wall(room, np.median(q.points, axis=0))
         if parents:
             relations[q.segment_id] = ("parent", min(parents)[1])
-            continue
-        wall, distance = nearest_wall(room, np.median(q.points, axis=0))
-        relations[q.segment_id] = ("wall", wall) if distance < params.wall_distance else ("free", None)
+        elif q.category in params.grounded and bottom < room.half_size[1]:
+            relations[q.segment_id] = ("floor", None)
+        elif wall_distance < params.wall_distance:
+            relations[q.segment_id] = ("wall", wall)
+        else:
+            relations[q.segment_id] = ("free", None)
     return relations

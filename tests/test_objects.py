@@ -12,9 +12,9 @@ import pytest
 from psdr_room_core.artifacts import Camera, DepthMap, Image, ObjectMesh, Panoptic, Placement, Placements, RoomBox, Segment
 from psdr_room_core.dag import StageContext
 from psdr_room_core.geometry import TriangleMesh, box_mesh, weld
-from psdr_room_core.objects import (ObjectQuery, SupportParams, best_yaw, initial_pose, mesh_radius, pose_matrix,
-                                    support_relations, transform, wall_frame)
-from psdr_room_core.silhouette import silhouette
+from psdr_room_core.objects import (ObjectQuery, SupportParams, best_yaw, fit_view, initial_pose, mesh_radius,
+                                    pose_matrix, support_relations, transform, wall_frame)
+from psdr_room_core.silhouette import depth_map, silhouette
 from psdr_room_core.stages.objects import find_overlaps, fit_objects
 from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
 from psdr_room_plugins.optimizer_adam import Adam
@@ -58,10 +58,39 @@ def test_yaw_sweep_finds_the_rotation_of_the_target_silhouette() -> None:
     assert math.degrees(yaw) == pytest.approx(90.0) and error == 0.0
 
 
-def _query(segment_id: int, points: np.ndarray, rows: slice, cols: slice, shape: tuple[int, int] = (120, 160)) -> ObjectQuery:
+def test_depth_map_is_the_nearest_surface() -> None:
+    box = box_mesh(np.array([0.0, 1.5, 2.0]), np.array([0.5, 0.5, 0.5]))  # front face at z = 1.5: 4 from the camera
+    depth = depth_map(CAMERA, C2W, box.vertices, box.faces)
+    assert np.array_equal(depth > 0, silhouette(CAMERA, C2W, box.vertices, box.faces))
+    assert np.median(depth[depth > 0]) == pytest.approx(4.0, abs=0.05)
+
+
+def _seen_points(mesh: ObjectMesh, to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(mask, world points of the visible surface) of a posed mesh, as segmentation and depth would give."""
+    depth = depth_map(CAMERA, C2W, transform(mesh.vertices, to_world), mesh.faces)
+    v, u = np.nonzero(depth > 0)
+    z = depth[v, u]
+    local = np.stack([(u + 0.5 - CAMERA.cx) * z / CAMERA.fx, (v + 0.5 - CAMERA.cy) * z / CAMERA.fy, z], axis=1)
+    return depth > 0, local @ C2W[:3, :3].T + C2W[:3, 3]
+
+
+@pytest.mark.parametrize("yaw_deg", [30.0, 150.0, 240.0])
+def test_fit_view_recovers_the_pose_from_mask_and_points(yaw_deg: float) -> None:
+    mesh = l_shape()
+    truth = pose_matrix(np.array([0.4, 0.0, 1.8]), math.radians(yaw_deg), 1.3)
+    mask, points = _seen_points(mesh, truth)
+    view = fit_view(CAMERA, C2W, mesh.vertices, mesh.faces, points, mask, n_yaw=12, support_height=0.0)
+    error = (math.degrees(view.yaw) - yaw_deg + 180.0) % 360.0 - 180.0
+    assert abs(error) < 16.0  # the nearest of the 12 rotations (30° apart) or its neighbour
+    assert view.scale == pytest.approx(1.3, rel=0.15) and view.iou > 0.7
+    assert np.linalg.norm(view.position - truth[:3, 3]) < 0.25 and view.position[1] == 0.0
+
+
+def _query(segment_id: int, points: np.ndarray, rows: slice, cols: slice, shape: tuple[int, int] = (120, 160),
+           category: str | None = None) -> ObjectQuery:
     mask = np.zeros(shape, dtype=bool)
     mask[rows, cols] = True
-    return ObjectQuery(segment_id, "thing", None, mask, points, np.zeros((4, 4, 3), np.uint8))
+    return ObjectQuery(segment_id, "thing", category, mask, points, np.zeros((4, 4, 3), np.uint8))
 
 
 def _cloud(centre: list[float], half: list[float], n: int = 500) -> np.ndarray:
@@ -86,6 +115,20 @@ def test_support_rules_floor_parent_wall_free() -> None:
     assert relations[5][0] == "free"
     strict = support_relations(queries, floor, ROOM, SupportParams(edge_px=1.0))
     assert strict[1] == ("free", None)  # the mask edge threshold is a config value
+
+
+def test_a_parent_must_hold_its_child_and_hidden_bottoms_of_furniture_stand_on_the_floor() -> None:
+    floor = np.zeros((120, 160), dtype=bool)
+    floor[90:, :] = True
+    front = _query(1, _cloud([0.0, 0.4, 1.0], [0.6, 0.4, 0.4]), slice(60, 88), slice(40, 100))
+    # a sofa behind the table: its mask touches the table's from above, its bottom is hidden, its points
+    # are 1.5 behind the table's: not on the table; a grounded category, so on the floor
+    behind = _cloud([0.0, 0.7, 2.5], [0.8, 0.2, 0.3])
+    relations = support_relations([front, _query(2, behind, slice(45, 59), slice(30, 110), category="sofa")], floor,
+                                  ROOM, SupportParams())
+    assert relations[2] == ("floor", None)
+    unknown = support_relations([front, _query(2, behind, slice(45, 59), slice(30, 110))], floor, ROOM, SupportParams())
+    assert unknown[2] == ("free", None)
 
 
 def test_wall_frame_faces_into_the_room() -> None:

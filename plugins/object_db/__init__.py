@@ -2,7 +2,7 @@
 
     db = ObjectDatabase.builtin()              # Kenney Furniture Kit (CC0) + parametric furniture
     sofas = db.category("sofa")                # [ModelRecord, ...]
-    mesh = db.mesh(sofas[0].id)                # GroupedMesh: canonical frame, metres, +Y up, front +Z
+    mesh = db.mesh(sofas[0].id)                # ObjectMesh: canonical frame, metres, +Y up, front +Z
     views = db.thumbnails(sofas[0].id)         # uint8 RGB renders, cached
 
 :mod:`.database` (records, meshes, our on-disk format), :mod:`.builtin` and :mod:`.parametric` (the shipped
@@ -12,9 +12,9 @@ library), :mod:`.future3d` (the 3D-FUTURE layout), :mod:`.thumbnails` (Mitsuba v
 
 from __future__ import annotations
 
-from .database import CATEGORIES, GroupedMesh, ModelRecord, ObjectDatabase
+from .database import CATEGORIES, ObjectMesh, ModelRecord, ObjectDatabase
 
-__all__ = ["CATEGORIES", "GroupedMesh", "ModelRecord", "ObjectDatabase", "read_3dfuture"]
+__all__ = ["CATEGORIES", "ObjectMesh", "ModelRecord", "ObjectDatabase", "read_3dfuture"]
 
 
 def read_3dfuture(root, **kwargs):  # type: ignore[no-untyped-def]

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from psdr_room_core.errors import PsdrRoomError
 
-from .database import GroupedMesh, ModelRecord, ObjectDatabase, mesh_from_obj
+from .database import ObjectMesh, ModelRecord, ObjectDatabase, mesh_from_obj
 from .objio import _atomic_write
 from .parametric import Variant, catalogue
 
@@ -74,7 +74,7 @@ KENNEY: dict[str, tuple[str, str]] = {
 """Every Kenney model shipped: name → (category, description)."""
 
 
-def _kenney_mesh(name: str) -> GroupedMesh:
+def _kenney_mesh(name: str) -> ObjectMesh:
     return mesh_from_obj(KENNEY_DIR / f"{name}.obj", up_axis="+y", front_axis=KENNEY_FRONT,
                          unit_scale=KENNEY_UNIT_SCALE)
 
@@ -87,7 +87,7 @@ def _variants() -> dict[str, Variant]:
 class BuiltinLoader:
     """Meshes of the built-in library by id (picklable)."""
 
-    def __call__(self, model_id: str) -> GroupedMesh:
+    def __call__(self, model_id: str) -> ObjectMesh:
         source, _, name = model_id.partition("/")
         if source == "kenney" and name in KENNEY:
             return _kenney_mesh(name)
@@ -111,7 +111,7 @@ def cache_root() -> Path:
     return Path(os.environ.get("PSDR_ROOM_CACHE_DIR") or Path.home() / ".cache" / "psdr-room")
 
 
-def _extent(mesh: GroupedMesh) -> tuple[float, float, float]:
+def _extent(mesh: ObjectMesh) -> tuple[float, float, float]:
     """The mesh's extent as the index stores it (micrometres), so fresh and cached records are equal."""
     x, y, z = (round(e, 6) for e in mesh.extent)
     return x, y, z

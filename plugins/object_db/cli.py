@@ -21,6 +21,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from psdr_room_core.artifacts import write_png
 from psdr_room_core.errors import PsdrRoomError
 
 PROG = "psdr-room-db"
@@ -77,15 +78,6 @@ def _progress(total: int, what: str):  # type: ignore[no-untyped-def]
                               disable=None if sys.stderr.isatty() else False, mininterval=1.0)
 
 
-def _write_png(path: Path, rgb: "object") -> None:
-    import cv2
-    import numpy as np
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if not cv2.imwrite(str(path), np.ascontiguousarray(rgb[:, :, ::-1])):  # type: ignore[index]
-        raise PsdrRoomError(f"{path}: could not write the image; check the directory and the .png suffix")
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
@@ -124,7 +116,7 @@ def _run(args: argparse.Namespace) -> int:
     if args.command == "show":
         record = db.record(args.id)
         views = db.thumbnails(record.id)
-        _write_png(args.out, contact_sheet([(f"{record.id} #{k}", v) for k, v in enumerate(views)],
+        write_png(args.out, contact_sheet([(f"{record.id} #{k}", v) for k, v in enumerate(views)],
                                            columns=len(views)))
         print(f"{record.id} ({record.category}, groups {', '.join(record.groups)}): {args.out}")
         return 0
@@ -135,7 +127,7 @@ def _run(args: argparse.Namespace) -> int:
         for record in records:
             views = db.thumbnails(record.id)
             images.append((record.id, views[min(max(args.view, 0), len(views) - 1)]))
-        _write_png(args.out, contact_sheet(images, columns=args.columns))
+        write_png(args.out, contact_sheet(images, columns=args.columns))
         print(f"contact sheet of {len(images)} models: {args.out}")
         return 0
     if args.command == "export":

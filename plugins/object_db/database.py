@@ -10,7 +10,7 @@ discarded. This module is that database in a format of our own:
     <root>/<id>/mesh.obj + mesh.mtl   triangles with one ``usemtl`` block per material group; Kd = base colour
 
 A record (:class:`ModelRecord`) names the model's category (one of :data:`CATEGORIES`), source, licence,
-material groups and size. A mesh (:class:`GroupedMesh`) is always given in the *canonical frame*: metres,
+material groups and size. A mesh (:class:`ObjectMesh`) is always given in the *canonical frame*: metres,
 +Y up, bottom at y = 0, bounding box centred on x = z = 0, front facing +Z, triangles counter-clockwise seen
 from outside. Readers convert to it (:func:`canonical_vertices`) from the file's up/front axes and unit.
 
@@ -34,8 +34,8 @@ from typing import Any
 
 import numpy as np
 
+from psdr_room_core.artifacts import ObjectMesh
 from psdr_room_core.errors import PsdrRoomError
-from psdr_room_core.geometry import TriangleMesh
 
 from .objio import group_colors, read_obj, write_obj
 
@@ -126,51 +126,6 @@ def _field(data: Mapping[str, Any], key: str, kind: type, where: str, default: A
 
 
 # ------------------------------------------------------------------------------------------------ meshes
-@dataclass(frozen=True)
-class GroupedMesh:
-    """Triangles with a material group per face, in the canonical frame (see the module docstring)."""
-
-    vertices: np.ndarray
-    """(N, 3) float64, metres."""
-    faces: np.ndarray
-    """(M, 3) int64, counter-clockwise seen from outside."""
-    face_group: np.ndarray
-    """(M,) int64 index into ``groups``."""
-    groups: tuple[str, ...]
-    colors: np.ndarray
-    """(G, 3) float sRGB base colour per group, in [0, 1]."""
-
-    @property
-    def extent(self) -> tuple[float, float, float]:
-        size = np.ptp(self.vertices, axis=0)
-        return float(size[0]), float(size[1]), float(size[2])
-
-    def group_mesh(self, group: str | int) -> TriangleMesh:
-        """The faces of one group (all vertices kept) as a :class:`~psdr_room_core.geometry.TriangleMesh`."""
-        index = self.groups.index(group) if isinstance(group, str) else int(group)
-        return TriangleMesh(vertices=self.vertices, faces=self.faces[self.face_group == index])
-
-    def triangle_mesh(self) -> TriangleMesh:
-        return TriangleMesh(vertices=self.vertices, faces=self.faces)
-
-    def check(self, where: str) -> None:
-        """Raise :class:`PsdrRoomError` unless the arrays are consistent (shapes, indices, finite values)."""
-        v, f, g = self.vertices, self.faces, self.face_group
-        problems = []
-        if v.ndim != 2 or v.shape[1] != 3 or not np.all(np.isfinite(v)):
-            problems.append("vertices must be finite (N, 3)")
-        if f.ndim != 2 or f.shape[1] != 3 or len(f) == 0:
-            problems.append("faces must be (M, 3) with M > 0")
-        elif f.min() < 0 or f.max() >= len(v):
-            problems.append("faces index vertices out of range")
-        if g.shape != (len(f),) or (len(g) and (g.min() < 0 or g.max() >= len(self.groups))):
-            problems.append("face_group must give every face a group")
-        if self.colors.shape != (len(self.groups), 3) or not np.all((self.colors >= 0) & (self.colors <= 1)):
-            problems.append("colors must be (G, 3) in [0, 1]")
-        if problems:
-            raise PsdrRoomError(f"{where}: invalid mesh ({'; '.join(problems)}); re-export it")
-
-
 def axis_rotation(up_axis: str = "+y", front_axis: str = "+z") -> np.ndarray:
     """The rotation taking a file's ``up_axis`` to +Y and ``front_axis`` to +Z (a proper rotation, so
     triangle winding is kept)."""
@@ -206,8 +161,8 @@ def clean_faces(vertices: np.ndarray, faces: np.ndarray, face_group: np.ndarray)
 
 
 def mesh_from_obj(path: Path, up_axis: str = "+y", front_axis: str = "+z", unit_scale: float = 1.0,
-                  mtl_names: Sequence[str] = (), colors: Mapping[str, Sequence[float]] | None = None) -> GroupedMesh:
-    """Read an OBJ file (and its MTL colours) into a canonical :class:`GroupedMesh`.
+                  mtl_names: Sequence[str] = (), colors: Mapping[str, Sequence[float]] | None = None) -> ObjectMesh:
+    """Read an OBJ file (and its MTL colours) into a canonical :class:`ObjectMesh`.
 
     Vertices no face uses are dropped, so that the bounding box is that of the surface."""
     path = Path(path)
@@ -233,12 +188,12 @@ def mesh_from_obj(path: Path, up_axis: str = "+y", front_axis: str = "+z", unit_
         group_rgb = group_rgb[present]
     else:
         groups = obj.groups
-    mesh = GroupedMesh(vertices=vertices, faces=faces, face_group=face_group, groups=groups, colors=group_rgb)
+    mesh = ObjectMesh(vertices=vertices, faces=faces, face_group=face_group, groups=groups, colors=group_rgb)
     mesh.check(str(path))
     return mesh
 
 
-def check_extent(record: ModelRecord, mesh: GroupedMesh, where: str) -> None:
+def check_extent(record: ModelRecord, mesh: ObjectMesh, where: str) -> None:
     """The record must describe the mesh: same groups, same extent (within :data:`EXTENT_TOLERANCE`)."""
     if tuple(mesh.groups) != tuple(record.groups):
         raise PsdrRoomError(f"{where}: field 'groups' = {list(record.groups)} but the mesh has groups "
@@ -253,13 +208,13 @@ def check_extent(record: ModelRecord, mesh: GroupedMesh, where: str) -> None:
 class _MeshCache:
     """A thread-safe LRU of loaded meshes, shared by a database and its subsets."""
 
-    def __init__(self, loader: Callable[[str], GroupedMesh], size: int) -> None:
+    def __init__(self, loader: Callable[[str], ObjectMesh], size: int) -> None:
         self.loader = loader
         self.size = size
-        self.items: OrderedDict[str, GroupedMesh] = OrderedDict()
+        self.items: OrderedDict[str, ObjectMesh] = OrderedDict()
         self.lock = threading.Lock()
 
-    def get(self, model_id: str) -> GroupedMesh:
+    def get(self, model_id: str) -> ObjectMesh:
         with self.lock:
             if model_id in self.items:
                 self.items.move_to_end(model_id)
@@ -278,7 +233,7 @@ class ObjectDatabase:
     ``digest`` identifies the content (it keys the thumbnail cache); subsets keep their parent's.
     ``images`` maps model ids to renderings the database ships (3D-FUTURE's ``image.jpg``)."""
 
-    def __init__(self, records: Iterable[ModelRecord], loader: Callable[[str], GroupedMesh], digest: str,
+    def __init__(self, records: Iterable[ModelRecord], loader: Callable[[str], ObjectMesh], digest: str,
                  label: str = "", images: Mapping[str, Path] | None = None, cache_size: int = 512,
                  _cache: _MeshCache | None = None) -> None:
         self.records: list[ModelRecord] = list(records)
@@ -358,7 +313,7 @@ class ObjectDatabase:
             raise PsdrRoomError(f"category {name!r} is not known; use one of {', '.join(CATEGORIES)}")
         return [r for r in self.records if r.category == name]
 
-    def mesh(self, model_id: str) -> GroupedMesh:
+    def mesh(self, model_id: str) -> ObjectMesh:
         """The model's mesh in the canonical frame (loaded once, then cached)."""
         self.record(model_id)
         return self._cache.get(model_id)
@@ -402,7 +357,7 @@ class ObjectDatabase:
         return write_index(root, self.records)
 
 
-def write_model(root: Path, record: ModelRecord, mesh: GroupedMesh) -> Path:
+def write_model(root: Path, record: ModelRecord, mesh: ObjectMesh) -> Path:
     """Write one model's folder (``model.json``, ``mesh.obj``, ``mesh.mtl``) under ``root``."""
     folder = Path(root) / record.id
     header = f"{record.id}: {record.name}\n{record.licence}"
@@ -448,7 +403,7 @@ class _FolderLoader:
         self.root = Path(root)
         self.records = dict(records)
 
-    def __call__(self, model_id: str) -> GroupedMesh:
+    def __call__(self, model_id: str) -> ObjectMesh:
         path = self.root / model_id / "model.json"
         data = _read_json(path)
         if data.get("id", model_id) != model_id:
@@ -459,7 +414,7 @@ class _FolderLoader:
         return mesh
 
     @staticmethod
-    def read_mesh(path: Path, data: Mapping[str, Any]) -> GroupedMesh:
+    def read_mesh(path: Path, data: Mapping[str, Any]) -> ObjectMesh:
         where = str(path)
         mesh_name = _field(data, "mesh", str, where, default="mesh.obj")
         if "/" in mesh_name or "\\" in mesh_name or mesh_name.startswith("."):

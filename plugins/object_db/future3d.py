@@ -28,7 +28,7 @@ from typing import Any
 
 from psdr_room_core.errors import PsdrRoomError
 
-from .database import GroupedMesh, ModelRecord, ObjectDatabase, mesh_from_obj
+from .database import ObjectMesh, ModelRecord, ObjectDatabase, mesh_from_obj
 from .objio import _atomic_write
 
 MODELS_DIR = "3D-FUTURE-model"
@@ -83,7 +83,7 @@ class Future3dLoader:
     def path(self, model_id: str) -> Path:
         return self.models_dir / model_id.partition("/")[2] / MESH_FILE
 
-    def __call__(self, model_id: str) -> GroupedMesh:
+    def __call__(self, model_id: str) -> ObjectMesh:
         return mesh_from_obj(self.path(model_id), up_axis="+y", front_axis=self.front_axis, unit_scale=1.0,
                              mtl_names=(MTL_FILE,))
 

@@ -1,7 +1,7 @@
 """Parametric furniture: one generator per category, each with style parameters and separate material groups.
 
 Each generator is a plain function of keyword parameters (sizes in metres) returning a canonical
-:class:`~.database.GroupedMesh` (+Y up, front +Z, bottom at y = 0), built from the closed primitives of
+:class:`~.database.ObjectMesh` (+Y up, front +Z, bottom at y = 0), built from the closed primitives of
 :mod:`.primitives`. The material groups are the parts a material stage would texture separately (§4.4):
 a sofa's ``frame``, ``cushion`` and ``legs``; a table's ``top``, ``legs`` and ``frame``; and so on.
 
@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from .database import GroupedMesh
+from .database import ObjectMesh
 from .primitives import (MeshBuilder, box, cylinder, lathe, polyline_tube, rot_x, rot_y, rot_z, rounded_box,
                          sphere, torus, transform, tube)
 
@@ -79,7 +79,7 @@ CHAIR_LEGS = ("square", "round", "tapered", "splayed", "sled", "swivel")
 def chair(seat_height: float = 0.46, seat_width: float = 0.44, seat_depth: float = 0.42, back_height: float = 0.42,
           back_style: str = "slats", leg_style: str = "square", armrests: bool = False, cushion: bool = False,
           seat_shape: str = "square", back_lean: float = 8.0, wood: str = "oak", fabric: str = "grey",
-          metal: str = "black metal") -> GroupedMesh:
+          metal: str = "black metal") -> ObjectMesh:
     """A chair or stool (``back_style="none"``): groups ``frame`` (seat and back), ``cushion`` (seat pad,
     upholstered back) and ``legs``. ``leg_style="swivel"`` is an office base on a five-star foot."""
     if back_style not in CHAIR_BACKS or leg_style not in CHAIR_LEGS:
@@ -171,7 +171,7 @@ def sofa(seats: int = 3, seat_width: float = 0.62, depth: float = 0.92, seat_hei
          back_height: float = 0.84, arm_style: str = "square", arm_height: float = 0.62,
          cushion_thickness: float = 0.14, leg_height: float = 0.1, leg_style: str = "tapered",
          back_cushions: bool = True, chaise: str = "none", fabric: str = "grey", cushion_fabric: str | None = None,
-         wood: str = "walnut") -> GroupedMesh:
+         wood: str = "walnut") -> ObjectMesh:
     """A sofa (``seats=1`` is an armchair): groups ``frame`` (base, back, arms), ``cushion`` (seat and back
     cushions) and ``legs``; ``chaise="left"/"right"`` extends one end forward into a chaise longue."""
     if arm_style not in SOFA_ARMS or leg_style not in SOFA_LEGS or chaise not in ("none", "left", "right"):
@@ -242,7 +242,7 @@ TABLE_LEGS = ("square", "round", "tapered", "splayed", "pedestal", "trestle", "m
 
 def table(shape: str = "rect", width: float = 1.6, depth: float = 0.9, height: float = 0.75,
           top_thickness: float = 0.04, leg_style: str = "square", apron: bool = True, lower_shelf: bool = False,
-          top: str = "oak", legs: str = "oak") -> GroupedMesh:
+          top: str = "oak", legs: str = "oak") -> ObjectMesh:
     """A dining, coffee, side or console table: groups ``top``, ``legs`` and ``frame`` (apron, stretchers,
     shelf). ``shape`` is rect/square/round/oval; ``leg_style="pedestal"`` is a central column."""
     if shape not in TABLE_SHAPES or leg_style not in TABLE_LEGS:
@@ -302,7 +302,7 @@ BED_HEADBOARDS = ("panel", "upholstered", "slats", "tall", "rounded", "none")
 def bed(width: float = 1.6, length: float = 2.05, headboard: str = "panel", headboard_height: float = 1.0,
         footboard: bool = False, mattress_height: float = 0.22, frame_height: float = 0.32, legs: bool = True,
         pillows: int = 2, blanket: bool = True, wood: str = "oak", fabric: str = "grey", bedding: str = "cream",
-        blanket_colour: str = "navy") -> GroupedMesh:
+        blanket_colour: str = "navy") -> ObjectMesh:
     """A bed: groups ``frame``, ``headboard``, ``mattress``, ``bedding`` (duvet), ``pillow`` and ``legs``;
     the headboard is at the back (-Z), the foot at the front (+Z)."""
     if headboard not in BED_HEADBOARDS:
@@ -366,7 +366,7 @@ def bed(width: float = 1.6, length: float = 2.05, headboard: str = "panel", head
 # ------------------------------------------------------------------------------------------------ cabinet
 def cabinet(width: float = 1.0, height: float = 0.85, depth: float = 0.45, drawers: int = 0, doors: int = 2,
             drawer_columns: int = 1, base: str = "plinth", handle: str = "bar", top_overhang: float = 0.01,
-            wood: str = "oak", fronts: str | None = None, metal: str = "steel") -> GroupedMesh:
+            wood: str = "oak", fronts: str | None = None, metal: str = "steel") -> ObjectMesh:
     """A cabinet, dresser, nightstand, wardrobe, sideboard or TV stand: drawers (in ``drawer_columns``)
     above ``doors``; groups ``body``, ``fronts`` (doors and drawer fronts), ``handles`` and ``legs``;
     ``base`` is plinth/legs/none."""
@@ -425,7 +425,7 @@ def cabinet(width: float = 1.0, height: float = 0.85, depth: float = 0.45, drawe
 # -------------------------------------------------------------------------------------------------- shelf
 def shelf(width: float = 0.8, height: float = 1.8, depth: float = 0.32, shelves: int = 5, columns: int = 1,
           back_panel: bool = True, sides: str = "solid", books: float = 0.6, wood: str = "white",
-          metal: str = "black metal", book_colours: tuple[str, str] = ("terracotta", "navy")) -> GroupedMesh:
+          metal: str = "black metal", book_colours: tuple[str, str] = ("terracotta", "navy")) -> ObjectMesh:
     """A bookcase or shelving unit: groups ``frame`` (sides, top, bottom, dividers), ``shelves``, ``back`` and
     ``books`` / ``books_alt`` (``books`` is the fraction of each compartment filled). ``sides="frame"`` is
     an open metal frame."""
@@ -485,7 +485,7 @@ def shelf(width: float = 0.8, height: float = 1.8, depth: float = 0.32, shelves:
 # --------------------------------------------------------------------------------------------------- desk
 def desk(width: float = 1.3, depth: float = 0.65, height: float = 0.75, drawers_side: str = "right",
          leg_style: str = "square", modesty_panel: bool = True, hutch: bool = False, top: str = "oak",
-         body: str = "white", metal: str = "black metal") -> GroupedMesh:
+         body: str = "white", metal: str = "black metal") -> ObjectMesh:
     """A desk: groups ``top``, ``legs``, ``drawers`` (pedestal and drawer fronts) and ``handles``;
     ``drawers_side`` is left/right/both/none (seen from the front, +Z, where the user sits)."""
     if drawers_side not in ("left", "right", "both", "none") or leg_style not in ("square", "tapered", "frame",
@@ -537,7 +537,7 @@ LAMP_SHADES = ("drum", "cone", "bell", "globe", "dome")
 
 def lamp(kind: str = "table", shade: str = "drum", base: str = "disk", height: float | None = None,
          shade_size: float | None = None, shade_colour: str = "cream", body: str = "brass",
-         base_colour: str | None = None) -> GroupedMesh:
+         base_colour: str | None = None) -> ObjectMesh:
     """A table or floor lamp (``kind="arc"`` is an arched floor lamp): groups ``shade``, ``stem`` and
     ``base``; ``base`` is disk/tripod/square/urn."""
     if kind not in ("table", "floor", "arc") or shade not in LAMP_SHADES or base not in ("disk", "tripod", "square",
@@ -604,7 +604,7 @@ def lamp(kind: str = "table", shade: str = "drum", base: str = "disk", height: f
 
 # ---------------------------------------------------------------------------------------------------- rug
 def rug(shape: str = "rect", width: float = 2.0, length: float = 1.4, border: float = 0.12, thickness: float = 0.012,
-        fringe: bool = False, field: str = "beige", border_colour: str = "terracotta") -> GroupedMesh:
+        fringe: bool = False, field: str = "beige", border_colour: str = "terracotta") -> ObjectMesh:
     """A rug (rect/round/oval/runner): groups ``field``, ``border`` (a band of ``border`` metres, none if 0)
     and ``fringe`` (tassels along the short ends)."""
     if shape not in ("rect", "round", "oval", "runner"):
@@ -645,7 +645,7 @@ def rug(shape: str = "rect", width: float = 2.0, length: float = 1.4, border: fl
 
 # ------------------------------------------------------------------------------------------------- pillow
 def pillow(shape: str = "square", size: float = 0.45, thickness: float = 0.12, puff: float = 0.3,
-           piping: bool = False, button: bool = False, fabric: str = "mustard", trim: str = "cream") -> GroupedMesh:
+           piping: bool = False, button: bool = False, fabric: str = "mustard", trim: str = "cream") -> ObjectMesh:
     """A cushion standing upright, facing +Z: square, lumbar (wide), round (a disc) or bolster (a roll along
     x); groups ``cover``, ``piping`` (a cord round the edge) and ``button``."""
     if shape not in ("square", "lumbar", "round", "bolster"):
@@ -695,7 +695,7 @@ def pillow(shape: str = "square", size: float = 0.45, thickness: float = 0.12, p
 
 # -------------------------------------------------------------------------------------------- plant and tv
 def plant(pot: str = "taper", height: float = 0.9, foliage: str = "bush", pot_colour: str = "terracotta",
-          leaves: str = "sage") -> GroupedMesh:
+          leaves: str = "sage") -> ObjectMesh:
     """A potted plant: groups ``pot``, ``soil`` and ``foliage`` (a bush of blobs, a tall spiky plant, or a
     small tree with a trunk)."""
     b = MeshBuilder().group("pot", _colour(pot_colour, FABRICS, WOODS)).group("soil", (0.25, 0.18, 0.12))
@@ -736,7 +736,7 @@ def plant(pot: str = "taper", height: float = 0.9, foliage: str = "bush", pot_co
     return b.build()
 
 
-def tv(diagonal_inches: float = 55.0, stand: str = "feet", frame: str = "black metal") -> GroupedMesh:
+def tv(diagonal_inches: float = 55.0, stand: str = "feet", frame: str = "black metal") -> ObjectMesh:
     """A flat television, screen facing +Z: groups ``screen``, ``frame`` (bezel and back) and ``stand``
     (``feet``, ``pedestal`` or ``none`` for a wall-mounted set)."""
     b = MeshBuilder().group("screen", (0.04, 0.045, 0.05)).group("frame", _colour(frame, METALS, WOODS))
@@ -758,7 +758,7 @@ def tv(diagonal_inches: float = 55.0, stand: str = "feet", frame: str = "black m
     return b.build()
 
 
-GENERATORS: dict[str, Callable[..., GroupedMesh]] = {
+GENERATORS: dict[str, Callable[..., ObjectMesh]] = {
     "chair": chair, "table": table, "sofa": sofa, "bed": bed, "cabinet": cabinet, "shelf": shelf, "desk": desk,
     "lamp": lamp, "rug": rug, "pillow": pillow, "plant": plant, "tv": tv,
 }
@@ -802,7 +802,7 @@ class Variant:
     generator: str
     params: dict[str, Any]
 
-    def build(self) -> GroupedMesh:
+    def build(self) -> ObjectMesh:
         return GENERATORS[self.generator](**self.params)
 
 

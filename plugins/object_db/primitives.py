@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .database import GroupedMesh, canonical_vertices
+from .database import ObjectMesh, canonical_vertices
 
 Vec = Sequence[float]
 
@@ -218,7 +218,7 @@ def _weld(vertices: np.ndarray, faces: np.ndarray, tolerance: float = 1e-9) -> t
 
 
 class MeshBuilder:
-    """Parts added into named material groups, then one canonical :class:`GroupedMesh`."""
+    """Parts added into named material groups, then one canonical :class:`ObjectMesh`."""
 
     def __init__(self) -> None:
         self._parts: list[tuple[str, np.ndarray, np.ndarray]] = []
@@ -244,7 +244,7 @@ class MeshBuilder:
             self.add(group, part)
         return self
 
-    def build(self) -> GroupedMesh:
+    def build(self) -> ObjectMesh:
         names = [n for n in self._colors if any(g == n for g, _, _ in self._parts)]
         index = {n: i for i, n in enumerate(names)}
         vertices, faces, groups, offset = [], [], [], 0
@@ -256,6 +256,6 @@ class MeshBuilder:
                     groups.append(np.full(len(f), index[name], dtype=np.int64))
                     offset += len(v)
         all_vertices = canonical_vertices(np.concatenate(vertices))
-        return GroupedMesh(vertices=all_vertices, faces=np.concatenate(faces).astype(np.int64),
+        return ObjectMesh(vertices=all_vertices, faces=np.concatenate(faces).astype(np.int64),
                            face_group=np.concatenate(groups), groups=tuple(names),
                            colors=np.array([self._colors[n] for n in names], dtype=np.float64))

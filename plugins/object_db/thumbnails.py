@@ -25,7 +25,7 @@ import numpy as np
 from psdr_room_core.errors import PsdrRoomError
 
 if TYPE_CHECKING:
-    from .database import GroupedMesh, ObjectDatabase
+    from .database import ObjectMesh, ObjectDatabase
 
 VIEWS: tuple[tuple[float, float], ...] = ((30.0, 22.0), (-40.0, 22.0), (150.0, 22.0), (-130.0, 22.0))
 """(azimuth, elevation) in degrees: front-right, front-left, back-right, back-left, at one elevation."""
@@ -63,7 +63,7 @@ def camera_for(extent: Sequence[float], azimuth: float, elevation: float, fov: f
 
 
 class ThumbnailRenderer:
-    """Renders a :class:`~.database.GroupedMesh` from :data:`VIEWS` (H×W×3 uint8 sRGB each, on white)."""
+    """Renders a :class:`~.database.ObjectMesh` from :data:`VIEWS` (H×W×3 uint8 sRGB each, on white)."""
 
     def __init__(self, size: int = SIZE, spp: int = SPP, views: Sequence[tuple[float, float]] = VIEWS,
                  fov: float = 30.0, variant: str = "auto") -> None:
@@ -84,7 +84,7 @@ class ThumbnailRenderer:
             mi.set_variant(variant)
         return mi
 
-    def render(self, mesh: "GroupedMesh") -> list[np.ndarray]:
+    def render(self, mesh: "ObjectMesh") -> list[np.ndarray]:
         mi = self._mi()
         props = mi.Properties()
         props["bsdf"] = mi.load_dict({"type": "twosided", "bsdf": {

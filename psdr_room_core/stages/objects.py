@@ -15,8 +15,8 @@ from ..artifacts import (Camera, Candidate, DepthMap, Image, ObjectCandidates, O
 from ..dag import StageContext
 from ..errors import PsdrRoomError
 from ..geometry import TriangleMesh, weld
-from ..objects import (ObjectQuery, SupportParams, best_yaw, initial_pose, object_queries, support_relations,
-                       wall_frame)
+from ..objects import (ObjectQuery, SupportParams, best_yaw, fit_view, initial_pose, object_queries,
+                       support_relations, wall_frame)
 from ..silhouette import silhouette
 from ..visualize import plot_curves, segment_overlay
 
@@ -83,10 +83,14 @@ def _pick(candidates: list[Candidate], choice: Any, segment_id: int) -> str:
 
 def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image, panoptic: Panoptic,
                   cloud: PointCloud, camera: Camera, room: RoomBox) -> Placements:
-    """Initial poses (§4.3): centre on the points' median, radius ``radius_factor`` × the points' radius, the
-    best of ``n_yaw`` rotations by silhouette L1, then the support rules (floor, parent, wall).
+    """Initial poses (§4.3) with the support rules (floor, parent, wall).
 
-    Params: ``pick`` (segment id → rank or model id), ``radius_factor``, ``n_yaw``, ``render_width``,
+    ``init=radius`` is the paper's: centre on the points' median, radius ``radius_factor`` × the points'
+    radius, the best of ``n_yaw`` rotations by silhouette L1. ``init=silhouette`` (default) sweeps the same
+    rotations at the object's apparent size and depth (:func:`fit_view`): the yaw is chosen where it can be
+    seen, which the small paper start cannot, and the fit has less to grow.
+
+    Params: ``init``, ``pick`` (segment id → rank or model id), ``radius_factor``, ``n_yaw``, ``render_width``,
     ``support`` (:class:`SupportParams` fields), ``min_points``, ``min_pixels``.
     """
     retriever = ctx.impl("retrieval")
@@ -98,30 +102,40 @@ def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image,
     if unknown:
         raise PsdrRoomError(f"place_objects.pick: no object segment {sorted(unknown)}; segments: "
                             f"{sorted(q.segment_id for q in queries)} (see the candidates artifact)")
-    relations = support_relations(queries, panoptic.mask("floor"), room, SupportParams(**ctx.params["support"]))
+    init = str(ctx.params["init"])
+    if init not in ("silhouette", "radius"):
+        raise PsdrRoomError(f"place_objects.init={init}: use 'silhouette' or 'radius' (the paper's)")
+    support = SupportParams(**{k: tuple(v) if k == "grounded" else v for k, v in ctx.params["support"].items()})
+    relations = support_relations(queries, panoptic.mask("floor"), room, support)
     placed: dict[int, Placement] = {}
     order = sorted(queries, key=lambda q: relations[q.segment_id][0] == "parent")  # parents before children
     for q in order:
         model_id = _pick(candidates.ranked[q.segment_id], picks.get(q.segment_id), q.segment_id)
         mesh = retriever.mesh(model_id)
-        position, scale = initial_pose(q.points, mesh.vertices, float(ctx.params["radius_factor"]))
         target = cv2.resize(q.mask.astype(np.uint8), (cam.width, cam.height), interpolation=cv2.INTER_AREA) > 0
-        yaw, _ = best_yaw(cam, c2w, mesh.vertices, mesh.faces, position, scale, target, int(ctx.params["n_yaw"]))
-        support, anchor = relations[q.segment_id]
-        if support == "floor":
-            position[1] = 0.0
-        elif support == "parent":
-            parent = placed[anchor]
-            position[1] = parent.position[1] + parent.scale * float(parent.mesh.vertices[:, 1].max())
-        elif support == "wall":
+        kind, anchor = relations[q.segment_id]
+        height = 0.0 if kind == "floor" else _top(placed[anchor]) if kind == "parent" else None
+        if init == "silhouette":
+            view = fit_view(cam, c2w, mesh.vertices, mesh.faces, q.points, target, int(ctx.params["n_yaw"]), height)
+            position, yaw, scale = view.position, view.yaw, view.scale
+        else:
+            position, scale = initial_pose(q.points, mesh.vertices, float(ctx.params["radius_factor"]))
+            yaw, _ = best_yaw(cam, c2w, mesh.vertices, mesh.faces, position, scale, target, int(ctx.params["n_yaw"]))
+            if height is not None:
+                position[1] = height
+        if kind == "wall":
             inward, _, offset = wall_frame(room, anchor)
             yaw = math.atan2(inward[0], inward[2])  # the model's front (+Z) faces into the room
             depth = float(np.ptp(mesh.vertices[:, 2]))
             position = position + (offset + 0.5 * scale * depth - inward @ position) * inward
         placed[q.segment_id] = Placement(segment_id=q.segment_id, label=q.label, model_id=model_id, mesh=mesh,
                                          position=tuple(map(float, position)), yaw=float(yaw), scale=float(scale),
-                                         support=support, anchor=anchor)
+                                         support=kind, anchor=anchor)
     return Placements(objects=[placed[q.segment_id] for q in queries if q.segment_id in placed])
+
+
+def _top(p: Placement) -> float:
+    return p.position[1] + p.scale * float(p.mesh.vertices[:, 1].max())
 
 
 # ------------------------------------------------------------------------------------------ refinement

@@ -1,0 +1,31 @@
+"""``material_graph=torch_graph``: differentiable procedural materials as node graphs in torch (§3.2, §4.4).
+
+The paper optimises the parameters of Substance-like node graphs (DiffMatV2) through the renderer; this
+package is the same idea in plain torch: tileable generator and filter nodes (:mod:`.nodes`), typed and
+bounded parameters with a sigmoid reparameterisation (:mod:`.params`), graph files that are data
+(:mod:`.graph`, ``library/*.yaml``), the library (:mod:`.library`), thumbnails (:mod:`.thumbnails`) and the
+``psdr-room-materials`` command (:mod:`.cli`).
+
+    lib = TorchGraphLibrary()
+    oak = lib.material("oak_planks")
+    u = oak.parameters()                      # unconstrained tensors, requires_grad
+    maps = oak.evaluate(512, u)               # base_color, roughness, metallic, height, normal
+"""
+
+from __future__ import annotations
+
+from psdr_room_core.hookspecs import hookimpl
+from psdr_room_core.plugins import Registry
+
+from .graph import GraphError, ProceduralMaterial, load_graph, parse_graph
+from .library import TorchGraphLibrary
+from .nodes import Input, NodeType
+from .params import Choice, Color, Float, Floats, Int, Ramp, Seed
+
+__all__ = ["TorchGraphLibrary", "ProceduralMaterial", "GraphError", "load_graph", "parse_graph", "NodeType", "Input",
+           "Int", "Seed", "Choice", "Float", "Color", "Floats", "Ramp"]
+
+
+@hookimpl
+def register_implementations(registry: Registry) -> None:
+    registry.add_implementation("material_graph", "torch_graph", TorchGraphLibrary)

@@ -1,0 +1,24 @@
+"""``texture`` implementations: descriptors for the crop-to-crop Gram loss of the appearance stage (§3.2).
+
+``texture=random_cnn`` (the offline default) needs no weights; ``texture=vgg19`` is the paper's descriptor
+and reads torchvision's VGG19 weights (``psdr-room-models download vgg19_imagenet``). Both map sRGB crops
+``[3, H, W]`` / ``[N, 3, H, W]`` to vectors whose length does not depend on the crop size, with
+``distance(a, b)`` the L1 norm of their difference (the ``TextureDescriptor`` protocol).
+"""
+
+from __future__ import annotations
+
+from psdr_room_core.hookspecs import hookimpl
+from psdr_room_core.plugins import Registry
+
+from .common import colour_stats, gram
+from .random_cnn import RandomCnnDescriptor
+from .vgg19 import Vgg19Descriptor
+
+__all__ = ["RandomCnnDescriptor", "Vgg19Descriptor", "colour_stats", "gram"]
+
+
+@hookimpl
+def register_implementations(registry: Registry) -> None:
+    registry.add_implementation("texture", "random_cnn", RandomCnnDescriptor)
+    registry.add_implementation("texture", "vgg19", Vgg19Descriptor)

@@ -1,0 +1,99 @@
+"""``texture=random_cnn``: Gram matrices of a fixed-seed, multi-scale random-filter CNN (offline, no weights).
+
+Ustyuzhaninov et al. (2017, "What does it take to generate natural textures?") showed that Gram matrices
+of a single layer of *random* convolution filters at several scales describe textures nearly as well as a
+trained VGG for synthesis. Here the scales come from an image pyramid: at each of ``levels`` levels (the
+crop average-pooled by 2^level) a bank of ``channels`` random k×k filters (zero mean per input channel, so
+a uniform colour gives no response; unit norm) is applied without padding, rectified, and summarised by its
+Gram matrix divided by the pixel count, so the descriptor length does not depend on the crop size.
+Entries are raised to ``power`` (0.5: the square root, which makes the descriptor scale with contrast
+rather than its square and balances bright and dark textures), and each level's block is weighted so that
+the L1 distance is the mean over its entries. Simple colour statistics (:func:`.common.colour_stats`) are
+appended with weight ``colour_weight``. The filters depend only on ``seed``: every process and machine
+gets the same descriptor.
+"""
+
+from __future__ import annotations
+
+import torch
+import torch.nn.functional as F
+
+from psdr_room_core.errors import PsdrRoomError
+
+from .common import as_batch, colour_stats, gram, l1_distance, resize_short_side, upper
+
+
+class RandomCnnDescriptor:
+    """Texture descriptor: Gram matrices of fixed random filters on an image pyramid, plus colour statistics."""
+
+    def __init__(self, seed: int = 0, channels: int = 32, kernel: int = 5, levels: int = 5, size: int | None = 256,
+                 power: float = 0.5, colour_weight: float = 0.5, device: str = "cpu") -> None:
+        """Parameters (``texture.random_cnn.*``):
+
+        seed: seed of the random filters (the descriptor is a different one for another seed).
+        channels: filters per pyramid level.
+        kernel: filter size in pixels (odd).
+        levels: pyramid levels (each half the resolution of the previous one).
+        size: crops are resized so that their shorter side is this many pixels (null: as given); the paper
+            resizes its VGG crops the same way.
+        power: exponent applied to the Gram entries (1: plain Gram matrices, as for VGG).
+        colour_weight: weight of the colour statistics against the texture (Gram) part.
+        device: torch device of the filters (``cpu``, ``cuda``); inputs are moved there.
+        """
+        for name, value, low in (("channels", channels, 1), ("kernel", kernel, 1), ("levels", levels, 1)):
+            if int(value) != value or value < low:
+                raise PsdrRoomError(f"texture.random_cnn.{name}={value!r} must be an integer >= {low}")
+        if kernel % 2 == 0:
+            raise PsdrRoomError(f"texture.random_cnn.kernel={kernel} must be odd")
+        if size is not None and (int(size) != size or size < kernel * 2 ** (levels - 1)):
+            raise PsdrRoomError(f"texture.random_cnn.size={size!r} must be null or at least kernel·2^(levels−1) = "
+                                f"{kernel * 2 ** (levels - 1)} pixels")
+        if not 0 < power <= 2:
+            raise PsdrRoomError(f"texture.random_cnn.power={power!r} must be in (0, 2]")
+        self.seed, self.channels, self.kernel, self.levels = int(seed), int(channels), int(kernel), int(levels)
+        self.size = None if size is None else int(size)
+        self.power = float(power)
+        self.colour_weight = float(colour_weight)
+        self.device = torch.device(device)
+        generator = torch.Generator().manual_seed(self.seed)
+        banks = []
+        for _ in range(self.levels):
+            w = torch.randn(self.channels, 3, self.kernel, self.kernel, generator=generator)
+            w = w - w.mean(dim=(2, 3), keepdim=True)
+            banks.append((w / w.flatten(1).norm(dim=1).reshape(-1, 1, 1, 1)).to(self.device))
+        self.banks = banks
+        self.block = self.channels * (self.channels + 1) // 2
+        self.dim = self.levels * self.block + 9
+
+    @property
+    def min_size(self) -> int:
+        """The smallest crop side the coarsest level can still filter."""
+        return self.kernel * 2 ** (self.levels - 1)
+
+    def describe(self, images: torch.Tensor) -> torch.Tensor:
+        """Descriptor(s) of sRGB images ``[3, H, W]`` → ``[D]`` or ``[N, 3, H, W]`` → ``[N, D]``,
+        differentiable with respect to the images."""
+        x, single = as_batch(images, "texture=random_cnn")
+        x = resize_short_side(x.to(self.device), self.size, self.min_size)
+        parts = []
+        level = x
+        for index, bank in enumerate(self.banks):
+            if index:
+                level = F.avg_pool2d(level, 2, ceil_mode=True)
+            features = F.relu(F.conv2d(level, bank))
+            g = upper(gram(features))
+            if self.power != 1.0:
+                g = (g + 1e-8).pow(self.power)
+            parts.append(g / self.block)
+        parts.append(colour_stats(x) * (self.colour_weight / 9.0))
+        out = torch.cat(parts, -1)
+        return out[0] if single else out
+
+    def distance(self, a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+        """L1 distance between descriptors (broadcast over leading dimensions)."""
+        return l1_distance(a, b)
+
+    def loss(self, images: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
+        """Mean descriptor distance between images and targets (or their precomputed descriptors)."""
+        target = targets if targets.dim() <= 2 and targets.shape[-1] == self.dim else self.describe(targets)
+        return self.distance(self.describe(images), target).mean()
