@@ -2,12 +2,14 @@
 texture descriptor, the cost of graph evaluations and descriptor calls, and (``--fit``) how far fitting a
 graph's parameters to a target made by the same graph cuts the descriptor loss.
 
-Retrieval. The database holds, for every library material at its own parameter values, crops of the shaded
-maps (``thumbnails.shade``, a fixed light) at 3 scales × 3 rotations (the transform search of §4.4). Each query
+Retrieval. The database is the ``assign_materials`` stage's :class:`~psdr_room_core.material_search.MaterialIndex`:
+for every library material at its own parameter values, views of its appearance (``thumbnails.shade``, a fixed
+light) at 3 scales × 3 rotations. Each query
 is a crop of the same material with its continuous parameters perturbed (unconstrained u + N(0, σ)), under a
 random light (direction, intensity, colour, ambient, exposure) and a random transform (scale, rotation
 in [−45°, 90°], offset, crop aspect). A query's rank is that of its material when materials are sorted by
-their nearest database crop; we report top-1 and top-5 accuracy over all queries.
+their nearest database crop; we report top-1 and top-5 accuracy over all queries, and the quantiles of the
+best match's similarity, on which the stage's ``min_similarity`` is calibrated.
 
     python benchmarks/materials.py [--queries 4] [--sigma 0.5] [--texture random_cnn] [--fit] [--json out.json]
 
@@ -23,16 +25,15 @@ import statistics
 import time
 from collections.abc import Callable
 
+import numpy as np
 import torch
 
+from psdr_room_core.material_search import MaterialIndex
 from psdr_room_plugins.material_graph import TorchGraphLibrary
 from psdr_room_plugins.material_graph.nodes.ops import sample_tiled
 from psdr_room_plugins.material_graph.thumbnails import shade
 from psdr_room_plugins.texture import RandomCnnDescriptor
 
-DB_SCALES = (0.75, 1.5, 3.0)
-"""Tiles across a database crop."""
-DB_ROTATIONS = (0.0, 45.0, 90.0)
 CROP = 128
 
 
@@ -61,19 +62,16 @@ def random_light(generator: torch.Generator) -> dict[str, object]:
 def retrieval(library: TorchGraphLibrary, descriptor: RandomCnnDescriptor, queries: int, sigma: float,
               map_size: int, seed: int) -> dict[str, object]:
     generator = torch.Generator().manual_seed(seed)
-    names = library.names()
-    database: list[torch.Tensor] = []  # per material: [views, D]
+    start = time.perf_counter()
+    index = MaterialIndex.build(library, descriptor, map_size)
+    db_seconds = time.perf_counter() - start
+    names = index.names
+    ranks: list[int] = []
+    similarities: list[float] = []
+    confusions: dict[str, list[str]] = {}
     start = time.perf_counter()
     with torch.no_grad():
-        for name in names:
-            shaded = shade(library.material(name).evaluate(map_size))
-            views = [sample_tiled(shaded, (CROP, CROP), scale=s, rotation_deg=r) for s in DB_SCALES for r in DB_ROTATIONS]
-            database.append(descriptor.describe(torch.stack(views)))
-        db_seconds = time.perf_counter() - start
-        ranks: list[int] = []
-        confusions: dict[str, list[str]] = {}
-        start = time.perf_counter()
-        for index, name in enumerate(names):
+        for number, name in enumerate(names):
             material = library.material(name)
             for _ in range(queries):
                 params = {k: v + sigma * torch.randn(v.shape, generator=generator)
@@ -86,20 +84,22 @@ def retrieval(library: TorchGraphLibrary, descriptor: RandomCnnDescriptor, queri
                 size = (CROP, max(64, round(CROP * aspect)))
                 offset = (float(torch.rand((), generator=generator)), float(torch.rand((), generator=generator)))
                 crop = sample_tiled(image, size, scale=scale, rotation_deg=rotation, offset=offset)
-                q = descriptor.describe(crop)
-                scores = torch.stack([descriptor.distance(views, q).min() for views in database])
-                order = torch.argsort(scores).tolist()
-                rank = order.index(index)
+                distances = index.distances(descriptor, descriptor.describe(crop))
+                order = torch.argsort(distances).tolist()
+                rank = order.index(number)
                 ranks.append(rank)
+                similarities.append(index.similarity(float(distances[order[0]])))
                 if rank:
                     confusions.setdefault(name, []).append(names[order[0]])
-        query_seconds = time.perf_counter() - start
-    per_material = {name: [r for i, r in enumerate(ranks) if i // queries == names.index(name)] for name in names}
+    query_seconds = time.perf_counter() - start
+    per_material = {name: ranks[i * queries:(i + 1) * queries] for i, name in enumerate(names)}
+    quantiles = {f"p{q}": float(np.percentile(similarities, q)) for q in (5, 10, 25, 50)}
     return {
         "materials": len(names), "queries": len(ranks),
         "top1": sum(r == 0 for r in ranks) / len(ranks), "top5": sum(r < 5 for r in ranks) / len(ranks),
         "worst": sorted(((sum(r == 0 for r in v) / len(v), n) for n, v in per_material.items()))[:8],
         "confusions": confusions, "database_s": db_seconds, "query_s": query_seconds,
+        "similarity": quantiles, "spacing": index.spacing,
     }
 
 
@@ -182,6 +182,9 @@ def main() -> None:
     print("| top-1 | top-5 | database (s) | per query (s) |\n| --- | --- | --- | --- |")
     print(f"| {r['top1']:.1%} | {r['top5']:.1%} | {r['database_s']:.1f} | {r['query_s'] / r['queries']:.3f} |")
     print("\nWorst top-1 per material: " + ", ".join(f"{n} {a:.0%}" for a, n in r["worst"]))  # type: ignore[union-attr]
+    q = r["similarity"]  # type: ignore[index]
+    print(f"Similarity of each query's best match (1 − d / library spacing {r['spacing']:.4f}): "
+          + ", ".join(f"{k} {v:.3f}" for k, v in q.items()) + " (assign_materials.min_similarity is calibrated on p10)")
     print("Confused with: " + "; ".join(f"{k} -> {', '.join(v)}" for k, v in r["confusions"].items()))  # type: ignore[union-attr]
 
     if not args.no_timings:

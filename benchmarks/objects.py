@@ -44,9 +44,15 @@ from psdr_room_plugins.synth.scene import generate
 OUT: Path | None = Path("outputs/benchmarks/objects")
 """Where the before/after overlays of each scene are written."""
 FLOOR_CATEGORIES = ("chair", "table", "sofa", "bed", "cabinet", "shelf", "desk")
-PLACE = {"init": "silhouette", "radius_factor": 0.5, "n_yaw": 12, "render_width": 160, "min_points": 30, "min_pixels": 200, "pick": {},
-         "support": {"floor_distance": 0.1, "edge_px": 20.0, "wall_distance": 0.15, "bottom_percentile": 2.0,
-                     "grounded": ["chair", "table", "sofa", "bed", "desk", "rug", "plant", "cabinet", "shelf"]}}
+CONF = Path(__file__).resolve().parents[1] / "conf" / "stage"
+
+
+def stage_params(name: str, **overrides: object) -> dict:
+    """The stage's default parameters from ``conf/stage/<name>.yaml`` (``_stage_`` etc. dropped), overridden."""
+    import yaml
+
+    params = {k: v for k, v in yaml.safe_load((CONF / f"{name}.yaml").read_text()).items() if not k.startswith("_")}
+    return {**params, **overrides}
 
 
 @dataclass
@@ -178,13 +184,11 @@ def evaluate(scene: Scene, retriever: SilhouetteRetrieval, small: SilhouetteRetr
     row["retrieval_s"] = time.perf_counter() - start
     candidates = ObjectCandidates(ranked={q.segment_id: [Candidate(truth[q.segment_id].model_id, 1.0)] for q in queries},
                                   labels={q.segment_id: q.label for q in queries})
-    ctx = StageContext("place_objects", PLACE, 0, Path("synthetic.png"), {"retrieval": retriever})
+    ctx = StageContext("place_objects", stage_params("place_objects"), 0, Path("synthetic.png"), {"retrieval": retriever})
     start = time.perf_counter()
     initial = place_objects(ctx, candidates, scene.image, scene.panoptic, scene.cloud, scene.camera, scene.room)
     row["place_s"] = time.perf_counter() - start
-    params = {"iterations": iterations, "render_width": render_width, "blur_sigmas": [2.0, 4.0, 8.0],
-              "blur_weight": 1.0, "overlap_iou": 0.05,
-              "learning_rates": {"translation": 0.01, "log_scale": 0.01, "yaw": 1.0}}
+    params = stage_params("fit_objects", iterations=iterations, render_width=render_width)
     ctx = StageContext("fit_objects", params, 0, Path("synthetic.png"),
                        {"renderer": MitsubaRenderer(), "optimizer": Adam()})
     start = time.perf_counter()

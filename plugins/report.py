@@ -42,7 +42,7 @@ def _figures(run: RunRecord, alpha: float) -> list[tuple[str, np.ndarray]]:
     if getattr(art.get("object_candidates"), "sheet", None) is not None:
         figures.append(("retrieval: object crop, then the top-k models (score)", art["object_candidates"].sheet))
     for name, artifact in art.items():
-        if artifact.kind == "optimization_log":
+        if artifact.kind in ("optimization_log", "materials"):
             figures += [(f"{name}: {title}", picture) for title, picture in artifact.images.items()]
     return figures
 

@@ -676,6 +676,70 @@ class Placements:
         return cls(objects=objects, extra=dict(data.get("extra") or {}))
 
 
+# ------------------------------------------------------------------------------------------ materials
+Rect = tuple[int, int, int, int]
+"""A crop window ``(x0, y0, x1, y1)`` in working-image pixels, ``x1``/``y1`` exclusive."""
+
+
+@dataclass(frozen=True)
+class PartMaterial:
+    """The material assigned to one scene part (a room side or an object's material group), §4.4."""
+
+    part: str
+    """Shape id as exported: ``floor``, ``wall_x_neg`` ..., ``object_<segment>_<group>``."""
+    kind: str
+    """``homogeneous`` (constant albedo and roughness) or ``procedural`` (a library graph)."""
+    albedo: tuple[float, float, float]
+    """sRGB median colour of the part's pixels: the homogeneous albedo and eq. 4's colour target ``C_i``."""
+    roughness: float = 0.5
+    material: str | None = None
+    """The library graph of a procedural part."""
+    scale: float = 1.0
+    """Texture transform: the graph's tile covers ``tile_size / scale`` metres of the surface ..."""
+    rotation: float = 0.0
+    """... rotated by this many degrees in the part's planar mapping."""
+    crops: tuple[Rect, ...] = ()
+    candidates: tuple[tuple[str, float], ...] = ()
+    """Retrieved graphs (name, similarity), best first, after voting across crops."""
+    scores: dict[str, float] = field(default_factory=dict)
+    """``similarity`` of the chosen graph, ``texture_loss`` at the chosen transform, ``homogeneous_loss``."""
+    reason: str = ""
+    """Why the part got its kind, in words."""
+
+
+@dataclass
+class MaterialAssignment:
+    """Initial materials of every visible part with their crop pairs (§4.4, first half)."""
+
+    kind: ClassVar[str] = "materials"
+    marker: ClassVar[str] = "materials.json"
+    parts: list[PartMaterial]
+    images: dict[str, np.ndarray] = field(default_factory=dict)
+    """Name → RGB uint8 picture (crop windows over the photo, crop pairs sheet)."""
+
+    def part(self, name: str) -> PartMaterial | None:
+        return next((p for p in self.parts if p.part == name), None)
+
+    def save(self, directory: Path) -> None:
+        for name, picture in self.images.items():
+            write_png(directory / f"{name}.png", picture)
+        _write_json(directory / "materials.json", {"images": sorted(self.images), "parts": [
+            {**asdict(p), "crops": [list(c) for c in p.crops], "candidates": [list(c) for c in p.candidates]}
+            for p in self.parts]})
+
+    @classmethod
+    def load(cls, directory: Path) -> "MaterialAssignment":
+        data = _read_json(directory / "materials.json")
+        try:
+            parts = [PartMaterial(**{**p, "albedo": tuple(float(v) for v in p["albedo"]),
+                                     "crops": tuple(tuple(int(v) for v in c) for c in p["crops"]),
+                                     "candidates": tuple((str(n), float(s)) for n, s in p["candidates"])})
+                     for p in data["parts"]]
+        except (KeyError, TypeError, ValueError) as exc:
+            raise PsdrRoomError(f"{directory / 'materials.json'}: not as psdr-room writes it ({exc}); fix or regenerate it") from None
+        return cls(parts=parts, images={n: _read_png(directory / f"{n}.png") for n in data.get("images", [])})
+
+
 # ------------------------------------------------------------------------------------------ scene files
 @dataclass
 class SceneFiles:
@@ -725,7 +789,8 @@ class OptimizationLog:
 
 ARTIFACT_TYPES: dict[str, type] = {
     t.kind: t
-    for t in (Image, Camera, DepthMap, Detections, Panoptic, PointCloud, RoomBox, ObjectCandidates, Placements, SceneFiles, OptimizationLog)
+    for t in (Image, Camera, DepthMap, Detections, Panoptic, PointCloud, RoomBox, ObjectCandidates, Placements,
+              MaterialAssignment, SceneFiles, OptimizationLog)
 }
 """Artifact kind → class, for loading cached or user-supplied artifacts. Plugins may add their own."""
 

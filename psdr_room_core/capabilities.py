@@ -193,6 +193,14 @@ class MaterialGraph(Protocol):
 
     def material(self, name: str) -> ProceduralMaterial: ...
 
+    def appearance(self, name: str, size: int) -> torch.Tensor:
+        """sRGB [3, size, size] of the material at its own values, head-on under a fixed light (tileable)."""
+        ...
+
+    def sample(self, image: torch.Tensor, u: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
+        """Bilinear samples of a tileable image at texture coordinates ``u``, ``v`` (1 = one tile)."""
+        ...
+
 
 @runtime_checkable
 class TextureDescriptor(Protocol):

@@ -312,6 +312,8 @@ class Runner:
         files: dict[str, Path] = {}
         if stage.reads_photo:
             files["photo"] = self.photo
+        for suffix in stage.sidecars:
+            files[f"sidecar:{suffix}"] = self.photo.with_name(self.photo.stem + suffix)
         for capability, instance in instances.items():
             for i, path in enumerate(getattr(instance, "external_files", lambda _p: [])(self.photo)):
                 files[f"{capability}[{i}]:{Path(path).name}"] = Path(path)

@@ -62,6 +62,9 @@ class StageDef:
     """Capabilities the stage calls through ``ctx.impl(capability)``."""
     reads_photo: bool
     """Whether the stage reads the input photo file itself (its bytes are then part of the cache key)."""
+    sidecars: tuple[str, ...]
+    """Suffixes of files beside the photo (``<stem><suffix>``) the stage reads when present (their bytes,
+    or their absence, are part of the cache key)."""
     description: str
     origin: Origin
 
@@ -107,6 +110,7 @@ class Registry:
         version: str = "1",
         uses: Iterable[str] = (),
         reads_photo: bool = False,
+        sidecars: Iterable[str] = (),
     ) -> None:
         """Register stage function ``fn`` under ``name`` (a later plugin's stage of the same name wins,
         so a plugin can replace a built-in stage; bump ``version`` when its results change)."""
@@ -115,7 +119,7 @@ class Registry:
             if capability not in CAPABILITIES:
                 raise ValueError(f"stage '{name}' uses unknown capability '{capability}'")
         description = (inspect.getdoc(fn) or "").split("\n")[0]
-        self.stages[name] = StageDef(name, fn, version, uses, reads_photo, description, self._origin)
+        self.stages[name] = StageDef(name, fn, version, uses, reads_photo, tuple(sidecars), description, self._origin)
 
     # ------------------------------------------------------------------ lookups used by the runner
     def implementation(self, capability: str, name: str) -> Implementation:

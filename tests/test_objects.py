@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import torch
 
 from psdr_room_core.artifacts import Camera, DepthMap, Image, ObjectMesh, Panoptic, Placement, Placements, RoomBox, Segment
 from psdr_room_core.dag import StageContext
@@ -15,7 +16,7 @@ from psdr_room_core.geometry import TriangleMesh, box_mesh, weld
 from psdr_room_core.objects import (ObjectQuery, SupportParams, best_yaw, fit_view, initial_pose, mesh_radius,
                                     pose_matrix, support_relations, transform, wall_frame)
 from psdr_room_core.silhouette import depth_map, silhouette
-from psdr_room_core.stages.objects import find_overlaps, fit_objects
+from psdr_room_core.stages.objects import PoseModel, find_overlaps, fit_objects, object_targets, try_yaw_turns
 from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
 from psdr_room_plugins.optimizer_adam import Adam
 
@@ -183,7 +184,8 @@ def test_fit_objects_recovers_perturbed_poses(tmp_path: Path) -> None:
     start = Placements(objects=[replace(truth[0], position=(-0.4, 0.0, 1.4), yaw=math.radians(30), scale=0.8),
                                 replace(truth[1], position=(1.2, 0.0, 2.0), yaw=math.radians(-22), scale=0.7)])
     params = {"iterations": 60, "render_width": 96, "blur_sigmas": [2.0, 4.0], "blur_weight": 1.0, "overlap_iou": 0.05,
-              "learning_rates": {"translation": 0.01, "log_scale": 0.01, "yaw": 1.0}}
+              "learning_rates": {"translation": 0.01, "log_scale": 0.01, "yaw": 1.0},
+              "yaw_test": {"at": 0.5, "angles": [180.0, 90.0, -90.0]}}
     ctx = StageContext(stage="fit_objects", params=params, seed=0, photo=tmp_path / "photo.png",
                        implementations={"renderer": MitsubaRenderer(spp=4, spp_boundary=16), "optimizer": Adam()})
     image = Image(rgb=np.full((72, 96, 3), 0.5, np.float32))
@@ -197,3 +199,25 @@ def test_fit_objects_recovers_perturbed_poses(tmp_path: Path) -> None:
     assert all(p.position[1] == 0.0 and p.support == "floor" for p in fitted.objects)  # kept on the floor
     assert log.history[-1]["mean_iou"] > log.history[0]["mean_iou"]
     assert set(log.images) == {"before", "after", "loss"} and log.summary["overlaps"] == []
+    assert log.summary["turned"] == {} and len(log.history) == 60  # nothing was the wrong way round
+
+
+def test_yaw_test_turns_an_object_placed_back_to_front() -> None:
+    mesh = l_shape()
+    truth = [Placement(1, "sofa", "m", mesh, (-0.6, 0.0, 1.2), math.radians(20), 0.9, "floor"),
+             Placement(2, "sofa", "m", mesh, (1.0, 0.0, 2.2), math.radians(-30), 0.8, "floor")]
+    camera = Camera.from_vfov(96, 72, 60.0)
+    panoptic, depth = _scene(truth, camera)
+    start = Placements(objects=[truth[0], replace(truth[1], yaw=math.radians(150))])  # the second faces away
+    targets = object_targets(start, panoptic, depth, (camera.width, camera.height))
+    model = PoseModel(start, ROOM, unit=3.0)
+    meshes = {k: TriangleMesh(v.detach().numpy(), model.welded[i].faces) for i, (k, v) in enumerate(model.vertices().items())}
+    renderer = MitsubaRenderer(spp=4).geometry(camera, C2W, meshes, {k: i for i, k in enumerate(meshes)})
+    t_masks = torch.from_numpy(targets.masks)
+
+    def mismatch() -> torch.Tensor:
+        masks, _, _ = renderer.render(model.vertices(), 0)
+        return (masks - t_masks).abs().sum()
+
+    assert try_yaw_turns(model, mismatch, [180.0, 90.0, -90.0]) == {2: 180.0}
+    assert model.theta["yaw"].detach().tolist() == [0.0, 180.0]

@@ -16,8 +16,9 @@ import pytest
 from conftest import EXAMPLE
 
 STAGES = ["load_image", "estimate_fov", "detect", "segment", "estimate_depth", "point_cloud", "room_init",
-          "room_fit", "retrieve_objects", "place_objects", "fit_objects", "export_scene"]
-SMALL = ["room_fit.iterations=8", "room_fit.render_width=64", "fit_objects.iterations=4", "fit_objects.render_width=64"]
+          "room_fit", "retrieve_objects", "place_objects", "fit_objects", "assign_materials", "export_scene"]
+SMALL = ["room_fit.iterations=8", "room_fit.render_width=64", "fit_objects.iterations=4", "fit_objects.render_width=64",
+         "assign_materials.map_size=128"]
 """A short room fit: these tests are about the engine; tests/test_room_fit.py checks the fit itself."""
 
 
@@ -70,8 +71,10 @@ def test_outputs_of_a_run(first_run: tuple[Path, dict[str, str]]) -> None:
     assert (run_dir / ".hydra" / "config.yaml").is_file()
     report = (run_dir / "report.html").read_text()
     assert report.count("data:image/png;base64,") >= 7 and "room_fit_log: after" in report
-    for name in ("image", "camera", "depth", "panoptic", "point_cloud", "room_box", "room_box_fit", "room_fit_log", "scene"):
+    for name in ("image", "camera", "depth", "panoptic", "point_cloud", "room_box", "room_box_fit", "room_fit_log", "scene",
+                 "materials"):
         assert (run_dir / "artifacts" / name).is_dir()
+    assert "materials: crops" in report
 
 
 def test_scene_loads_in_mitsuba(first_run: tuple[Path, dict[str, str]]) -> None:
@@ -86,6 +89,8 @@ def test_scene_loads_in_mitsuba(first_run: tuple[Path, dict[str, str]]) -> None:
     segments = {f"object_{p['segment_id']}_" for p in placed["objects"]}
     assert sorted(i for i in ids if not i.startswith("object_")) == sorted(room)
     assert segments and {i[: i.index("_", 7) + 1] for i in ids if i.startswith("object_")} == segments
+    assigned = json.loads((root / "run1" / "scene" / "materials.json").read_text())["parts"]
+    assert sorted(p["part"] for p in assigned) == sorted(i for i in ids if i != "ceiling_light")
     image = np.array(mi.render(scene, spp=4))
     assert image.shape == (480, 640, 3) and image.mean() > 0  # the light reaches the room
 
@@ -101,7 +106,7 @@ def test_changed_stage_param_reruns_it_and_what_follows(first_run: tuple[Path, d
     root, env = first_run
     psdr_room(f"image={EXAMPLE}", "room_init.ransac_threshold=0.03", f"hydra.run.dir={root / 'run3'}", env=env)
     assert computed(root / "run3") == {"room_init", "room_fit", "retrieve_objects", "place_objects", "fit_objects",
-                                       "export_scene"}
+                                       "assign_materials", "export_scene"}
 
 
 def test_multirun_shares_the_cache(first_run: tuple[Path, dict[str, str]]) -> None:

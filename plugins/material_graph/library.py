@@ -14,10 +14,14 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
+import torch
+
 from psdr_room_core.errors import PsdrRoomError
 
 from .graph import GRAPH_SUFFIXES, ProceduralMaterial, load_graph
 from .nodes import KINDS, NodeType, builtin_node_types
+from .nodes.ops import sample_periodic
+from .thumbnails import shade
 
 log = logging.getLogger(__name__)
 
@@ -57,6 +61,7 @@ class TorchGraphLibrary:
         self.dirs = dirs
         self.files = self._index(dirs)
         self._cache: dict[str, ProceduralMaterial] = {}
+        self._looks: dict[tuple[str, int], torch.Tensor] = {}
 
     def _add_node_type(self, node_type: Any) -> None:
         if not isinstance(node_type, NodeType) or node_type.kind not in KINDS:
@@ -98,3 +103,18 @@ class TorchGraphLibrary:
     def materials(self) -> list[ProceduralMaterial]:
         """Every material, validated (raises on the first invalid file)."""
         return [self.material(n) for n in self.names()]
+
+    def appearance(self, name: str, size: int) -> torch.Tensor:
+        """sRGB [3, size, size] of material ``name`` at its own parameter values, head-on under the thumbnail
+        light (:func:`.thumbnails.shade`): what material retrieval and the texture-transform search compare."""
+        key = (name, int(size))
+        if key not in self._looks:
+            with torch.no_grad():
+                self._looks[key] = shade(self.material(name).evaluate(int(size), device=self.device)).cpu()
+        return self._looks[key]
+
+    @staticmethod
+    def sample(image: torch.Tensor, u: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
+        """Bilinear samples [C, H', W'] of a tileable image [C, H, W] at texture coordinates ``u``, ``v``
+        (1 = one tile, wrapped), differentiable."""
+        return sample_periodic(image, u, v)

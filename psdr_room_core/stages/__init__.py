@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from ..hookspecs import hookimpl
 from ..plugins import Registry
-from . import export, objects, preprocess, room
+from . import export, materials, objects, preprocess, room
+from ..crops import CROPS_SUFFIX
 
 
 @hookimpl
@@ -20,5 +21,7 @@ def register_stages(registry: Registry) -> None:
     registry.add_stage("room_fit", room.room_fit, uses=["renderer", "optimizer"], version="2")
     registry.add_stage("retrieve_objects", objects.retrieve_objects, uses=["retrieval"])
     registry.add_stage("place_objects", objects.place_objects, uses=["retrieval"])
-    registry.add_stage("fit_objects", objects.fit_objects, uses=["renderer", "optimizer"])
-    registry.add_stage("export_scene", export.export_scene, version="2")
+    registry.add_stage("fit_objects", objects.fit_objects, uses=["renderer", "optimizer"], version="2")
+    registry.add_stage("assign_materials", materials.assign_materials, uses=["renderer", "material_graph", "texture"],
+                       sidecars=[CROPS_SUFFIX])
+    registry.add_stage("export_scene", export.export_scene, version="3")

@@ -9,11 +9,15 @@ world-space mesh per material group (``object_<segment>_<group>``), so each part
 
 from __future__ import annotations
 
+import json
+from dataclasses import asdict
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from ..artifacts import Camera, Placement, Placements, PointCloud, RoomBox, SceneFiles, ply_bytes
+from ..artifacts import (Camera, MaterialAssignment, Placement, Placements, PointCloud, RoomBox, SceneFiles,
+                         ply_bytes)
+from ..errors import PsdrRoomError
 from ..dag import StageContext
 from ..geometry import TriangleMesh, weld
 
@@ -87,13 +91,12 @@ def srgb_to_linear(rgb: np.ndarray) -> np.ndarray:
     return np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
 
 
-def scene_xml(camera: Camera, room: RoomBox, params: dict, objects: dict[str, np.ndarray]) -> str:
-    """Mitsuba 3 scene description for the camera, the room meshes and the object parts (shape id → linear
-    albedo) written by :func:`export_scene`."""
+def scene_xml(camera: Camera, room: RoomBox, params: dict, albedo: dict[str, np.ndarray]) -> str:
+    """Mitsuba 3 scene description for the camera, the room sides and the object parts (shape id → linear
+    albedo, room sides first) written by :func:`export_scene`."""
     to_world = np.asarray(room.camera_to_world) @ CV_TO_MITSUBA
     offset_x = (camera.width / 2.0 - camera.cx) / camera.width
     offset_y = (camera.height / 2.0 - camera.cy) / camera.height
-    albedo = params["room_albedo"]
     lines = [
         '<scene version="3.0.0">',
         f'    <default name="spp" value="{int(params["spp"])}"/>',
@@ -116,15 +119,7 @@ def scene_xml(camera: Camera, room: RoomBox, params: dict, objects: dict[str, np
         "        </film>",
         "    </sensor>",
     ]
-    for name in ROOM_SIDES:
-        rgb = " ".join(f"{a:.6g}" for a in albedo[name.split("_")[0]])
-        lines += [
-            f'    <shape type="ply" id={quoteattr(name)}>',
-            f'        <string name="filename" value="meshes/{name}.ply"/>',
-            f'        <bsdf type="diffuse"><rgb name="reflectance" value="{rgb}"/></bsdf>',
-            "    </shape>",
-        ]
-    for name, albedo_rgb in objects.items():
+    for name, albedo_rgb in albedo.items():
         rgb = " ".join(f"{a:.6g}" for a in albedo_rgb)
         lines += [
             f'    <shape type="ply" id={quoteattr(name)}>',
@@ -147,23 +142,30 @@ def scene_xml(camera: Camera, room: RoomBox, params: dict, objects: dict[str, np
     return "\n".join(lines) + "\n"
 
 
-def export_scene(ctx: StageContext, camera: Camera, room: RoomBox, cloud: PointCloud, placements: Placements) -> SceneFiles:
-    """Write ``scene.xml`` (Mitsuba 3: camera, room meshes, object parts with their base colours, an initial
-    light), the meshes, and the segmented point cloud in world coordinates (``point_cloud.ply``).
+def export_scene(ctx: StageContext, camera: Camera, room: RoomBox, cloud: PointCloud, placements: Placements,
+                 materials: MaterialAssignment) -> SceneFiles:
+    """Write ``scene.xml`` (Mitsuba 3: camera, room meshes, object parts with the albedo of their assigned
+    material, an initial light), the meshes, the materials (``materials.json``: kind, albedo, graph and
+    texture transform per part) and the segmented point cloud in world coordinates (``point_cloud.ply``).
 
-    Params: ``spp``, ``max_depth`` (path tracer defaults in the XML), ``room_albedo`` (per side kind),
-    ``light_radiance``.
+    Params: ``spp``, ``max_depth`` (path tracer defaults in the XML), ``light_radiance``.
     """
     files: dict[str, bytes] = {}
     faces = np.array([[0, 1, 2], [0, 2, 3]])
-    for name, quad in room_quads(room).items():
-        files[f"meshes/{name}.ply"] = mesh_ply(quad, faces)
-    objects = {}
+    meshes: dict[str, TriangleMesh] = {name: TriangleMesh(quad, faces) for name, quad in room_quads(room).items()}
+    colours: dict[str, np.ndarray] = {}
     for placement in placements.objects:
         for name, (mesh, colour) in object_parts(placement).items():
-            files[f"meshes/{name}.ply"] = mesh_ply(mesh.vertices, mesh.faces)
-            objects[name] = srgb_to_linear(colour)
-    files["scene.xml"] = scene_xml(camera, room, ctx.params, objects).encode()
+            meshes[name], colours[name] = mesh, colour
+    albedo = {}
+    for name, mesh in meshes.items():
+        files[f"meshes/{name}.ply"] = mesh_ply(mesh.vertices, mesh.faces)
+        assigned = materials.part(name)
+        if assigned is None and name not in colours:
+            raise PsdrRoomError(f"materials artifact has no part '{name}'; rerun assign_materials (+run.from=assign_materials)")
+        albedo[name] = srgb_to_linear(assigned.albedo if assigned is not None else colours[name])
+    files["scene.xml"] = scene_xml(camera, room, ctx.params, albedo).encode()
+    files["materials.json"] = json.dumps({"parts": [asdict(p) for p in materials.parts]}, indent=1).encode()
     c2w = np.asarray(room.camera_to_world)
     world = cloud.points @ c2w[:3, :3].T + c2w[:3, 3]
     files["point_cloud.ply"] = ply_bytes(world, cloud.colors, cloud.segment)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import cv2
@@ -258,7 +259,8 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
     scale, horizontal translation and yaw under its support constraint (:class:`PoseModel`), with the
     ``renderer`` and the ``optimizer``. Params: ``iterations``, ``render_width``, ``blur_sigmas``,
     ``blur_weight``, ``learning_rates`` {translation (room half-size units), log_scale, yaw (degrees)},
-    ``overlap_iou`` (pairs of fitted objects overlapping more than this are reported).
+    ``overlap_iou`` (pairs of fitted objects overlapping more than this are reported), ``yaw_test``
+    {``at``: fraction of the iterations after which :func:`try_yaw_turns` runs, ``angles``}.
     """
     import torch
 
@@ -289,13 +291,46 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
         return total, {"mask_depth_l1": depth_term.item(), "blurred_mask_l1": blur_term.item(), "mean_iou": iou.item()}
 
     iterations = int(params["iterations"])
-    history = ctx.impl("optimizer").minimize(model.theta, dict(params["learning_rates"]), loss, iterations,
-                                             lambda it: ctx.progress(it, total=iterations))
+    optimizer, rates = ctx.impl("optimizer"), dict(params["learning_rates"])
+    first = round(iterations * float(params["yaw_test"]["at"]))
+    history = optimizer.minimize(model.theta, rates, loss, first, lambda it: ctx.progress(it, total=iterations))
+    turned = try_yaw_turns(model, lambda: loss(first)[0], [float(a) for a in params["yaw_test"]["angles"]])
+    history += optimizer.minimize(model.theta, rates, lambda it: loss(first + it), iterations - first,
+                                  lambda it: ctx.progress(it, total=iterations - first))
     with torch.no_grad():
         fitted = Placements(objects=model.placements_now())
     overlaps = find_overlaps(fitted, float(params["overlap_iou"]))
-    fitted.extra = {"overlaps": overlaps, "final": {k: v for k, v in history[-1].items() if k != "seconds"}}
-    return {"placements": fitted, "log": _objects_log(history, image, camera, room, placements, fitted, panoptic, overlaps)}
+    fitted.extra = {"overlaps": overlaps, "turned": turned,
+                    "final": {k: v for k, v in history[-1].items() if k != "seconds"}}
+    log = _objects_log(history, image, camera, room, placements, fitted, panoptic, overlaps)
+    log.summary["turned"] = turned
+    return {"placements": fitted, "log": log}
+
+
+def try_yaw_turns(model: PoseModel, evaluate: Callable[[], torch.Tensor], angles: list[float]) -> dict[int, float]:
+    """Turn each free-standing object by each of ``angles`` (degrees) in turn and keep a turn that lowers the
+    joint loss (``evaluate``, one fixed-seed render); returns segment id → degrees turned.
+
+    Masks and depth seen from one side leave a model's front and back (and, for boxy furniture, its side)
+    nearly alike; gradient descent on yaw never crosses the ridge between them. Wall objects keep their
+    orientation (they face into the room)."""
+    import torch
+
+    turned: dict[int, float] = {}
+    with torch.no_grad():
+        best = float(evaluate())
+        yaw = model.theta["yaw"]
+        for i, p in enumerate(model.placements):
+            if p.support == "wall":
+                continue
+            start = float(yaw[i])
+            for angle in angles:
+                yaw[i] = start + angle
+                value = float(evaluate())
+                if value < best:
+                    best, turned[p.segment_id] = value, angle
+            yaw[i] = start + turned.get(p.segment_id, 0.0)
+    return turned
 
 
 # ------------------------------------------------------------------------------------------ reporting

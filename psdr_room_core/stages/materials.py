@@ -1,0 +1,228 @@
+"""Material initialisation (paper §4.4, first half): crop pairs per scene part, homogeneous colours, procedural
+material retrieval with voting across crops, and the texture-transform search."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import cv2
+import numpy as np
+
+from ..artifacts import Camera, Image, MaterialAssignment, PartMaterial, Panoptic, Placements, Rect, RoomBox
+from ..crops import crop_windows, crops_file, read_crops
+from ..dag import StageContext
+from ..errors import PsdrRoomError
+from ..geometry import TriangleMesh
+from .export import object_parts, room_quads
+
+if TYPE_CHECKING:
+    import torch
+
+
+@dataclass
+class ScenePart:
+    """A part the materials are assigned to, with what the photo shows of it."""
+
+    name: str
+    mesh: TriangleMesh
+    """World-space, welded."""
+    target: np.ndarray
+    """(H, W) bool: the segment the part should cover (its object's, or the room category's)."""
+    fallback: tuple[float, float, float]
+    """sRGB colour when the photo shows nothing of it (the model's own, or the room default)."""
+    region: np.ndarray | None = None
+    """(H, W) bool: rendered part ∩ target."""
+    crops: tuple[Rect, ...] = ()
+
+
+def scene_parts(room: RoomBox, placements: Placements, panoptic: Panoptic,
+                room_colours: dict[str, list[float]]) -> list[ScenePart]:
+    """The room's six sides and every object's material groups, as exported."""
+    parts = []
+    for name, quad in room_quads(room).items():
+        category = name.split("_")[0]
+        parts.append(ScenePart(name, TriangleMesh(quad, np.array([[0, 1, 2], [0, 2, 3]])), panoptic.mask(category),
+                               tuple(float(c) for c in room_colours[category])))
+    for p in placements.objects:
+        target = panoptic.ids == p.segment_id
+        for name, (mesh, colour) in object_parts(p).items():
+            parts.append(ScenePart(name, mesh, target, tuple(float(c) for c in colour)))
+    return parts
+
+
+def render_parts(ctx: StageContext, camera: Camera, room: RoomBox, parts: list[ScenePart]) -> tuple[np.ndarray, np.ndarray]:
+    """(ids, depth) at the camera's resolution: the index of the part seen in each pixel (-1: none, or less
+    than half covered) and the rendered z-depth, by the ``renderer`` at ``render_width``."""
+    import torch
+
+    small = camera.resized(min(int(ctx.params["render_width"]), camera.width))
+    renderer = ctx.impl("renderer").geometry(small, np.asarray(room.camera_to_world),
+                                             {p.name: p.mesh for p in parts}, {p.name: i for i, p in enumerate(parts)})
+    with torch.no_grad():
+        masks, depth, alpha = (t.numpy() for t in renderer.render())
+    ids = np.where(masks.max(axis=0) > 0.5, masks.argmax(axis=0), -1).astype(np.int32)
+    depth = np.where(alpha > 0.5, depth / np.maximum(alpha, 1e-6), 0.0).astype(np.float32)
+    size = (camera.width, camera.height)
+    return (cv2.resize(ids, size, interpolation=cv2.INTER_NEAREST),
+            cv2.resize(depth, size, interpolation=cv2.INTER_NEAREST))
+
+
+def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera: Camera, room: RoomBox,
+                     placements: Placements) -> MaterialAssignment:
+    """Initial material of every scene part (§4.4).
+
+    Crop pairs are the largest rectangles inside each part's rendered mask ∩ its target mask (eroded by
+    ``erode_px``; up to ``max_crops`` per part, none with a side under ``min_crop_px``), unless the user's
+    ``<photo>.crops.yaml`` gives them (:mod:`..crops`). A part with no crop, or whose best retrieved graph
+    has a similarity under ``min_similarity``, is homogeneous: albedo the median colour of its mesh-mask
+    intersection (else of its whole segment), roughness ``roughness``. Otherwise each crop ranks the
+    ``material_graph`` library by ``texture`` descriptor distance (``top_k`` kept), the ranks are voted
+    across crops, and the winner's texture transform is searched over ``scales`` × ``rotations``; the part
+    stays homogeneous when a flat colour matches its crops better. Params also: ``render_width``,
+    ``map_size`` (texture side evaluated for the search).
+    """
+    import torch
+
+    from ..material_search import MaterialIndex, flat_image, search_transform, surface_coordinates, vote
+
+    params = ctx.params
+    parts = scene_parts(room, placements, panoptic, dict(params["room_colours"]))
+    ids, depth = render_parts(ctx, camera, room, parts)
+    kernel = np.ones((2 * int(params["erode_px"]) + 1,) * 2, np.uint8)
+    for k, part in enumerate(parts):
+        part.region = (ids == k) & part.target
+        eroded = cv2.erode(part.region.astype(np.uint8), kernel) > 0
+        side = int(params["min_crop_px"])
+        part.crops = tuple(crop_windows(eroded, int(params["max_crops"]), side, side * side))
+    _apply_user_crops(ctx, image, parts, ids)
+
+    rgb = image.to_uint8().astype(np.float32) / 255.0
+    photo = torch.from_numpy(rgb).permute(2, 0, 1).contiguous()
+    library, descriptor = ctx.impl("material_graph"), ctx.impl("texture")
+    map_size = int(params["map_size"])
+    textured = [p for p in parts if p.crops]
+    index = MaterialIndex.build(library, descriptor, map_size) if textured else None
+    c2w = np.asarray(room.camera_to_world)
+    assigned, sheet_rows = [], []
+    for part in ctx.progress(parts, total=len(parts)):
+        albedo = _median_colour(rgb, part)
+        crops = []
+        for rect in part.crops:
+            coords = surface_coordinates(camera, c2w, depth, rect)
+            if coords is not None:
+                x0, y0, x1, y1 = rect
+                crop = photo[:, y0:y1, x0:x1]
+                crops.append((crop, descriptor.describe(crop), coords))
+        if not crops or index is None:
+            reason = "no crop: the photo shows too little of it" if part.region is None or not part.region.any() or not part.crops \
+                else "no rendered depth in its crops"
+            assigned.append(PartMaterial(part.name, "homogeneous", albedo, float(params["roughness"]), reason=reason))
+            continue
+        with torch.no_grad():
+            flats = [float(descriptor.distance(descriptor.describe(flat_image(albedo, c.shape[1:])), d)) for c, d, _ in crops]
+            per_crop = []
+            for _, target, _ in crops:
+                distances = index.distances(descriptor, target)
+                order = torch.argsort(distances)[: int(params["top_k"])].tolist()
+                per_crop.append([(index.names[i], index.similarity(float(distances[i]))) for i in order])
+        ranked = vote(per_crop)
+        name, best_similarity = ranked[0]
+        homogeneous_loss = float(np.mean(flats))
+        common = dict(part=part.name, albedo=albedo, roughness=float(params["roughness"]), crops=tuple(part.crops),
+                      candidates=tuple((n, round(s, 4)) for n, s in ranked[:5]))
+        if best_similarity < float(params["min_similarity"]):
+            assigned.append(PartMaterial(kind="homogeneous", scores={"similarity": best_similarity,
+                                                                     "homogeneous_loss": homogeneous_loss},
+                                         reason=f"best similarity {best_similarity:.3f} < min_similarity", **common))
+            continue
+        material = library.material(name)
+        fit = search_transform(library, descriptor, library.appearance(name, map_size), float(material.tile_size),
+                               crops, [float(s) for s in params["scales"]], [float(r) for r in params["rotations"]])
+        scores = {"similarity": best_similarity, "texture_loss": fit.loss, "homogeneous_loss": homogeneous_loss}
+        if fit.loss >= homogeneous_loss:
+            assigned.append(PartMaterial(kind="homogeneous", scores=scores, reason=f"a flat colour matches better than {name}",
+                                         **common))
+        else:
+            assigned.append(PartMaterial(kind="procedural", material=name, scale=fit.scale, rotation=fit.rotation,
+                                         scores=scores, reason="retrieved", **common))
+        sheet_rows += [(part.name, crop, view, albedo, assigned[-1]) for (crop, _, _), view in zip(crops, fit.views)]
+    return MaterialAssignment(parts=assigned, images={"crops": crop_overlay(image.to_uint8(), parts),
+                                                      **({"crop_pairs": crop_sheet(sheet_rows)} if sheet_rows else {})})
+
+
+def _median_colour(rgb: np.ndarray, part: ScenePart) -> tuple[float, float, float]:
+    """§4.4: the median colour of the mesh-mask intersection, else of the whole segment, else the fallback."""
+    for mask in (part.region, part.target):
+        if mask is not None and mask.any():
+            return tuple(float(c) for c in np.median(rgb[mask], axis=0))  # type: ignore[return-value]
+    return part.fallback
+
+
+def _apply_user_crops(ctx: StageContext, image: Image, parts: list[ScenePart], ids: np.ndarray) -> None:
+    """Replace the automatic crops by the user's file beside the photo, when there is one."""
+    path = crops_file(ctx.photo)
+    if not path.is_file():
+        return
+    names = [p.name for p in parts]
+    photo_size = image.original_size if all(image.original_size) else (image.width, image.height)
+    chosen: dict[str, list[Rect]] = {}
+    for crop in read_crops(path, photo_size, (image.width, image.height)):
+        if crop.part is not None:
+            if crop.part not in names:
+                raise PsdrRoomError(f"{path}: part '{crop.part}' is not in the scene; parts: {', '.join(names)}")
+            name = crop.part
+        else:
+            x0, y0, x1, y1 = crop.render  # type: ignore[misc]
+            seen = ids[y0:y1, x0:x1]
+            seen = seen[seen >= 0]
+            if not seen.size:
+                raise PsdrRoomError(f"{path}: render window {list(crop.render)} shows no scene part; move it")  # type: ignore[arg-type]
+            name = names[int(np.bincount(seen).argmax())]
+        chosen.setdefault(name, []).append(crop.image)
+    for part in parts:
+        part.crops = tuple(chosen.get(part.name, ()))
+
+
+# ------------------------------------------------------------------------------------------ pictures
+def crop_overlay(rgb8: np.ndarray, parts: list[ScenePart]) -> np.ndarray:
+    """The photo with every crop window outlined and named."""
+    out = rgb8.copy()
+    for k, part in enumerate(p for p in parts if p.crops):
+        colour = tuple(int(c) for c in cv2.applyColorMap(np.uint8([[53 * k % 255]]), cv2.COLORMAP_HSV)[0, 0][::-1])
+        for x0, y0, x1, y1 in part.crops:
+            cv2.rectangle(out, (x0, y0), (x1 - 1, y1 - 1), colour, 2)
+            cv2.putText(out, part.name, (x0 + 3, y0 + 12), cv2.FONT_HERSHEY_SIMPLEX, 0.38, colour, 1, cv2.LINE_AA)
+    return out
+
+
+def crop_sheet(rows: list[tuple[str, Any, Any, tuple[float, float, float], PartMaterial]], cell: int = 96) -> np.ndarray:
+    """One row per crop pair: the photo crop, the retrieved material in it at the chosen transform, the flat
+    median colour, and what was chosen."""
+    lines = []
+    for name, crop, view, albedo, chosen in rows:
+        tiles = [_fit(_to_uint8(crop), cell), _fit(_to_uint8(view), cell),
+                 np.full((cell, cell, 3), np.round(np.asarray(albedo) * 255), np.uint8)]
+        caption = np.full((cell, 3 * cell, 3), 255, np.uint8)
+        text = [name[:30], f"-> {chosen.material or 'homogeneous'}",
+                f"scale {chosen.scale:g} rot {chosen.rotation:g}",
+                f"tex {chosen.scores.get('texture_loss', float('nan')):.3f} flat {chosen.scores.get('homogeneous_loss', float('nan')):.3f}",
+                f"sim {chosen.scores.get('similarity', float('nan')):.3f}"]
+        for i, line in enumerate(text):
+            cv2.putText(caption, line, (4, 16 + 17 * i), cv2.FONT_HERSHEY_SIMPLEX, 0.42, (0, 0, 0), 1, cv2.LINE_AA)
+        lines.append(np.hstack(tiles + [caption]))
+    return np.vstack(lines)
+
+
+def _to_uint8(image: "torch.Tensor") -> np.ndarray:
+    return (image.clamp(0, 1).permute(1, 2, 0).numpy() * 255 + 0.5).astype(np.uint8)
+
+
+def _fit(rgb8: np.ndarray, cell: int) -> np.ndarray:
+    scale = cell / max(rgb8.shape[:2])
+    small = cv2.resize(rgb8, (max(1, round(rgb8.shape[1] * scale)), max(1, round(rgb8.shape[0] * scale))),
+                       interpolation=cv2.INTER_AREA if scale < 1 else cv2.INTER_NEAREST)
+    tile = np.full((cell, cell, 3), 255, np.uint8)
+    y0, x0 = (cell - small.shape[0]) // 2, (cell - small.shape[1]) // 2
+    tile[y0:y0 + small.shape[0], x0:x0 + small.shape[1]] = small
+    return tile
