@@ -101,8 +101,7 @@ def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera
     photo = torch.from_numpy(rgb).permute(2, 0, 1).contiguous()
     library, descriptor = ctx.impl("material_graph"), ctx.impl("texture")
     map_size = int(params["map_size"])
-    textured = [p for p in parts if p.crops]
-    index = MaterialIndex.build(library, descriptor, map_size) if textured else None
+    index = MaterialIndex.build(library, descriptor, map_size) if any(p.crops for p in parts) else None
     c2w = np.asarray(room.camera_to_world)
     assigned, sheet_rows = [], []
     for part in ctx.progress(parts, total=len(parts)):
@@ -115,8 +114,7 @@ def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera
                 crop = photo[:, y0:y1, x0:x1]
                 crops.append((crop, descriptor.describe(crop), coords))
         if not crops or index is None:
-            reason = "no crop: the photo shows too little of it" if part.region is None or not part.region.any() or not part.crops \
-                else "no rendered depth in its crops"
+            reason = "no rendered depth in its crops" if part.crops else "no crop: the photo shows too little of it"
             assigned.append(PartMaterial(part.name, "homogeneous", albedo, float(params["roughness"]), reason=reason))
             continue
         with torch.no_grad():
