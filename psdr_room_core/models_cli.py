@@ -46,7 +46,8 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _table(rows: list[list[str]]) -> str:
+def text_table(rows: list[list[str]]) -> str:
+    """Rows of cells as left-aligned columns (the first row is the header); the commands' list output."""
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
     return "\n".join("  ".join(cell.ljust(w) for cell, w in zip(row, widths)).rstrip() for row in rows)
 
@@ -63,7 +64,7 @@ def _list(registry: dict[str, models.ModelEntry], models_dir: Path, capability: 
         rows.append([entry.capability, entry.name, entry.file, entry.size_text(),
                      entry.checksum[:12] + ("…" if entry.sha256 else "") if entry.checksum else "-",
                      entry.licence, state, entry.url or entry.source])
-    print(_table(rows))
+    print(text_table(rows))
     return 0
 
 

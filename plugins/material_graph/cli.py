@@ -21,6 +21,7 @@ from pathlib import Path
 
 from psdr_room_core.artifacts import write_png
 from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.models_cli import text_table
 
 PROG = "psdr-room-materials"
 DEFAULT_OUT = Path("materials")
@@ -50,11 +51,6 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _table(rows: list[list[str]]) -> str:
-    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
-    return "\n".join("  ".join(cell.ljust(w) for cell, w in zip(row, widths)).rstrip() for row in rows)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
@@ -77,7 +73,7 @@ def _run(args: argparse.Namespace) -> int:
             rows.append([material.name, material.category, str(len(material.nodes)),
                          str(len(material.parameters(requires_grad=False))), f"{material.tile_size:g} m",
                          material.description])
-        print(_table(rows))
+        print(text_table(rows))
         print(f"{len(rows) - 1} materials ({', '.join(str(d) for d in library.dirs)})")
         return 0
     if args.command == "nodes":

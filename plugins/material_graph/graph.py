@@ -297,13 +297,7 @@ def _parse_node(name: str, raw: Any, node_types: Mapping[str, NodeType], fail: A
         raise fail(f"node '{name}': unknown type {type_name!r}; known: {', '.join(sorted(node_types))}")
     node_type = node_types[type_name]
     where = f"node '{name}' ({type_name})"
-    raw_params = raw.get("params") or {}
-    if not isinstance(raw_params, dict):
-        raise fail(f"{where}: 'params' must be a mapping")
-    unknown = sorted(set(raw_params) - set(node_type.params))
-    if unknown:
-        raise fail(f"{where}: unknown parameter(s) {', '.join(map(str, unknown))}; "
-                   f"known: {', '.join(node_type.params) or '(none)'}")
+    raw_params = _field(raw, "params", "a mapping", "parameter", node_type.params, "(none)", where, fail)
     params: dict[str, Any] = {}
     for key, spec in node_type.params.items():
         try:
@@ -317,13 +311,8 @@ def _parse_node(name: str, raw: Any, node_types: Mapping[str, NodeType], fail: A
         problem = node_type.check(params)
         if problem:
             raise fail(f"{where}: {problem}")
-    raw_inputs = raw.get("inputs") or {}
-    if not isinstance(raw_inputs, dict):
-        raise fail(f"{where}: 'inputs' must be a mapping of input -> node[.port]")
-    unknown = sorted(set(raw_inputs) - set(node_type.inputs))
-    if unknown:
-        raise fail(f"{where}: unknown input(s) {', '.join(map(str, unknown))}; "
-                   f"known: {', '.join(node_type.inputs) or '(none: a generator)'}")
+    raw_inputs = _field(raw, "inputs", "a mapping of input -> node[.port]", "input", node_type.inputs,
+                        "(none: a generator)", where, fail)
     inputs: dict[str, Ref] = {}
     for slot, declared in node_type.inputs.items():
         if slot in raw_inputs:
@@ -331,6 +320,18 @@ def _parse_node(name: str, raw: Any, node_types: Mapping[str, NodeType], fail: A
         elif declared.required:
             raise fail(f"{where}: input '{slot}' is not connected; set inputs: {{{slot}: NODE}}")
     return NodeSpec(name, node_type, params, inputs)
+
+
+def _field(raw: Mapping[str, Any], field: str, shape: str, noun: str, known: Mapping[str, Any], none: str,
+           where: str, fail: Any) -> dict[str, Any]:
+    """A node's ``field`` mapping (empty when absent), refusing any other shape and any key not in ``known``."""
+    value = raw.get(field) or {}
+    if not isinstance(value, dict):
+        raise fail(f"{where}: '{field}' must be {shape}")
+    unknown = sorted(set(value) - set(known))
+    if unknown:
+        raise fail(f"{where}: unknown {noun}(s) {', '.join(map(str, unknown))}; known: {', '.join(known) or none}")
+    return value
 
 
 def _parse_ref(raw: Any, fail: Any, where: str) -> Ref:

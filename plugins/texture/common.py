@@ -66,3 +66,19 @@ def colour_stats(images: torch.Tensor) -> torch.Tensor:
 def l1_distance(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
     """Sum of absolute differences over the last dimension (broadcasting over batches)."""
     return (a - b).abs().sum(-1)
+
+
+class GramDescriptor:
+    """What every texture descriptor shares: the L1 distance and the loss (subclasses define ``describe``)."""
+
+    def describe(self, images: torch.Tensor) -> torch.Tensor:
+        raise NotImplementedError
+
+    def distance(self, a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+        """L1 distance between descriptors (broadcast over leading dimensions)."""
+        return l1_distance(a, b)
+
+    def loss(self, images: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
+        """Mean descriptor distance between images and targets (images, or their precomputed descriptors)."""
+        target = targets if targets.dim() <= 2 else self.describe(targets)
+        return self.distance(self.describe(images), target).mean()

@@ -20,10 +20,10 @@ import torch.nn.functional as F
 
 from psdr_room_core.errors import PsdrRoomError
 
-from .common import as_batch, colour_stats, gram, l1_distance, resize_short_side, upper
+from .common import GramDescriptor, as_batch, colour_stats, gram, resize_short_side, upper
 
 
-class RandomCnnDescriptor:
+class RandomCnnDescriptor(GramDescriptor):
     """Texture descriptor: Gram matrices of fixed random filters on an image pyramid, plus colour statistics."""
 
     def __init__(self, seed: int = 0, channels: int = 32, kernel: int = 5, levels: int = 5, size: int | None = 256,
@@ -88,12 +88,3 @@ class RandomCnnDescriptor:
         parts.append(colour_stats(x) * (self.colour_weight / 9.0))
         out = torch.cat(parts, -1)
         return out[0] if single else out
-
-    def distance(self, a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
-        """L1 distance between descriptors (broadcast over leading dimensions)."""
-        return l1_distance(a, b)
-
-    def loss(self, images: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
-        """Mean descriptor distance between images and targets (or their precomputed descriptors)."""
-        target = targets if targets.dim() <= 2 and targets.shape[-1] == self.dim else self.describe(targets)
-        return self.distance(self.describe(images), target).mean()

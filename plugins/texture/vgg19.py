@@ -27,7 +27,7 @@ import torch.nn.functional as F
 from psdr_room_core import models
 from psdr_room_core.errors import PsdrRoomError
 
-from .common import as_batch, colour_stats, gram, l1_distance, resize_short_side
+from .common import GramDescriptor, as_batch, colour_stats, gram, resize_short_side
 
 MODEL = "vgg19_imagenet"
 BLOCKS = (2, 2, 4, 4, 4)
@@ -95,7 +95,7 @@ def check_vgg19_state(state: Mapping[str, Any], where: str, fix: str) -> list[tu
     return layers
 
 
-class Vgg19Descriptor:
+class Vgg19Descriptor(GramDescriptor):
     """Texture descriptor of the paper: concatenated Gram matrices of five VGG19 layers (weights required)."""
 
     def __init__(self, model: str = MODEL, path: str | None = None, models_dir: str | None = None,
@@ -170,11 +170,3 @@ class Vgg19Descriptor:
             parts.append(colour_stats(x) * (self.colour_weight / 9.0))
         out = torch.cat(parts, -1)
         return out[0] if single else out
-
-    def distance(self, a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
-        """L1 distance between descriptors (broadcast over leading dimensions)."""
-        return l1_distance(a, b)
-
-    def loss(self, images: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
-        """Mean descriptor distance between images and target images."""
-        return self.distance(self.describe(images), self.describe(targets)).mean()
