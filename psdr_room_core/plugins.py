@@ -113,7 +113,9 @@ class Registry:
         sidecars: Iterable[str] = (),
     ) -> None:
         """Register stage function ``fn`` under ``name`` (a later plugin's stage of the same name wins,
-        so a plugin can replace a built-in stage; bump ``version`` when its results change)."""
+        so a plugin can replace a built-in stage; bump ``version`` when its results change). ``uses``: the
+        capabilities it calls; ``reads_photo`` and ``sidecars`` (suffixes of files beside the photo): the
+        files it reads itself, whose bytes join its cache key."""
         uses = tuple(uses)
         for capability in uses:
             if capability not in CAPABILITIES:
