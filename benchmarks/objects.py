@@ -36,7 +36,7 @@ from psdr_room_core.artifacts import (Camera, Candidate, DepthMap, Image, Object
 from psdr_room_core.dag import StageContext
 from psdr_room_core.geometry import TriangleMesh, weld
 from psdr_room_core.objects import object_queries, pose_matrix, transform
-from psdr_room_core.stages.export import room_quads
+from psdr_room_core.rgb_scene import room_quads
 from psdr_room_core.stages.objects import fit_objects, footprint, place_objects
 from psdr_room_core.stages.preprocess import backproject
 from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer

@@ -1,7 +1,7 @@
 """renderer=mitsuba timing: forward + backward per iteration, a room box (6 quads) + 3 boxes + a ceiling light.
 
 Rows: masks + depth + alpha (``render``; gradients to every vertex tensor), RGB for the appearance stage
-(``render_rgb`` with ``prb``; gradients to albedo and light radiance), and RGB with vertex gradients
+(``render_rgb`` with ``prb``; gradients to base colour and light radiance), and RGB with vertex gradients
 (``prb_projective``, ``rgb_sppi=0``; biased for flat-shaded meshes, for reference only). The first call
 (Dr.Jit compilation; much less once ``~/.drjit`` holds the kernels) is reported apart from the median of the
 following iterations. ``dr.sync_thread()`` runs before every clock read (LLVM kernels run asynchronously).
@@ -20,7 +20,7 @@ import torch
 
 from psdr_room_core.artifacts import Camera, RoomBox
 from psdr_room_core.geometry import TriangleMesh, box_mesh, quad_mesh
-from psdr_room_core.stages.export import room_quads
+from psdr_room_core.rgb_scene import room_quads
 from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
 
 ROOM = RoomBox(camera_to_world=np.eye(4), center=np.array([0.0, 1.4, 0.0]), half_size=np.array([2.5, 1.4, 2.0]),
@@ -92,7 +92,7 @@ def main() -> None:
         radiance = torch.full((3,), 10.0, requires_grad=True)
 
         def rgb(iteration: int) -> None:
-            image = geometry.render_rgb(albedo=dict(zip(meshes, albedo)), radiance={"light": radiance},
+            image = geometry.render_rgb(base_color=dict(zip(meshes, albedo)), radiance={"light": radiance},
                                         iteration=iteration)
             image.mean().backward()
 

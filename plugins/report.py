@@ -1,5 +1,8 @@
-"""``report.html``: a self-contained page per run with the input, the estimates drawn over it, and the
-stage timings and cache hits (written by the ``after_run`` hook)."""
+"""``report.html``: a self-contained page per run (written by the ``after_run`` hook): the photo against the
+final render (a slider), the metrics, every stage's pictures in pipeline order (estimates over the photo,
+fits before/after, crop pairs at initialisation and after the fit, loss curves), the stage timings and
+cache hits, and the implementation used for every capability. Images are embedded as data URLs; a small
+script checks on load that every one of them decoded and logs an error otherwise."""
 
 from __future__ import annotations
 
@@ -7,13 +10,43 @@ import base64
 import html
 import os
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
 
 from psdr_room_core.dag import RunRecord
 from psdr_room_core.hookspecs import hookimpl
+from psdr_room_core.run import metrics
 from psdr_room_core.visualize import depth_colormap, legend, room_edges_overlay, segment_overlay
+
+PICTURE_KINDS = ("optimization_log", "materials", "lights")
+"""Artifact kinds whose ``images`` the report shows."""
+
+STYLE = """
+body { font-family: system-ui, sans-serif; margin: 2em; color: #222; max-width: 1400px; }
+figure { display: inline-block; margin: 0 1em 1em 0; vertical-align: top; }
+figure img { max-width: 480px; border: 1px solid #ccc; image-rendering: pixelated; }
+table { border-collapse: collapse; } td, th { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; }
+.compare { position: relative; display: inline-block; line-height: 0; }
+.compare img { width: 640px; height: auto; border: 1px solid #ccc; image-rendering: pixelated; }
+.compare .top { position: absolute; left: 0; top: 0; clip-path: inset(0 50% 0 0); }
+"""
+
+SCRIPT = """
+const slider = document.getElementById('slider');
+if (slider) {
+  slider.addEventListener('input', () => {
+    document.querySelector('.compare .top').style.clipPath = `inset(0 ${100 - slider.value}% 0 0)`;
+  });
+}
+window.addEventListener('load', () => {
+  const images = Array.from(document.images);
+  const broken = images.filter(img => !(img.complete && img.naturalWidth > 0));
+  broken.forEach(img => console.error('report image did not load: ' + img.alt));
+  document.body.dataset.images = `${images.length - broken.length}/${images.length}`;
+});
+"""
 
 
 def _png(rgb8: np.ndarray) -> str:
@@ -23,6 +56,7 @@ def _png(rgb8: np.ndarray) -> str:
 
 
 def _figures(run: RunRecord, alpha: float) -> list[tuple[str, np.ndarray]]:
+    """(title, picture) of every stage, in pipeline order."""
     art = run.artifacts
     image = art.get("image")
     if image is None:
@@ -42,9 +76,31 @@ def _figures(run: RunRecord, alpha: float) -> list[tuple[str, np.ndarray]]:
     if getattr(art.get("object_candidates"), "sheet", None) is not None:
         figures.append(("retrieval: object crop, then the top-k models (score)", art["object_candidates"].sheet))
     for name, artifact in art.items():
-        if artifact.kind in ("optimization_log", "materials"):
+        if artifact.kind in PICTURE_KINDS:
             figures += [(f"{name}: {title}", picture) for title, picture in artifact.images.items()]
     return figures
+
+
+def _comparison(run: RunRecord) -> str:
+    """The photo and the final render, one over the other, with a slider between them."""
+    image, appearance = run.artifacts.get("image"), run.artifacts.get("appearance")
+    if image is None or appearance is None or "render" not in appearance.images:
+        return ""
+    render = appearance.images["render"]
+    photo = cv2.resize(image.to_uint8(), (render.shape[1], render.shape[0]), interpolation=cv2.INTER_AREA)
+    return (f'<h2>photo | render</h2><div class="compare"><img src="{_png(photo)}" alt="photo">'
+            f'<img class="top" src="{_png(render)}" alt="final render"></div><br>'
+            '<label>render ◀ ▶ photo <input id="slider" type="range" min="0" max="100" value="50"></label>')
+
+
+def _metric_rows(numbers: dict[str, Any]) -> str:
+    rows = []
+    for stage, summary in numbers.items():
+        if isinstance(summary, dict) and stage.endswith("_log"):
+            cells = ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in summary.items()
+                              if isinstance(v, (int, float, str)))
+            rows.append(f"<tr><td>{html.escape(stage)}</td><td>{html.escape(cells)}</td></tr>")
+    return "".join(rows)
 
 
 def render_report(run: RunRecord, alpha: float) -> str:
@@ -66,6 +122,11 @@ def render_report(run: RunRecord, alpha: float) -> str:
     if room is not None:
         size = " × ".join(f"{2 * h:.2f}" for h in room.half_size)
         facts.append(f"room box {size} (x × y × z), camera height {room.extra.get('camera_height', float('nan')):.2f}")
+    fit = run.artifacts.get("fit_appearance_log")
+    if fit is not None and "rmse" in fit.summary:
+        s = fit.summary
+        facts.append(f"RMSE (1/8 size) {s['rmse_init']:.4f} → {s['rmse']:.4f}, SSIM {s['ssim_init']:.3f} → {s['ssim']:.3f}; "
+                     "LPIPS: not computed (its weights are not installed)")
     figures = "".join(
         f'<figure><img src="{_png(img)}" alt="{html.escape(title)}"><figcaption>{html.escape(title)}</figcaption></figure>'
         for title, img in _figures(run, alpha)
@@ -75,22 +136,24 @@ def render_report(run: RunRecord, alpha: float) -> str:
         + (f"<br><small>selected by {html.escape(d['selected_by'])}</small>" if "selected_by" in d else "") + "</li>"
         for c, d in run.implementations.items()
     )
+    total = sum(r.seconds for r in run.stages)
     return f"""<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>psdr-room: {html.escape(run.photo.name)}</title>
-<style>
-body {{ font-family: system-ui, sans-serif; margin: 2em; color: #222; }}
-figure {{ display: inline-block; margin: 0 1em 1em 0; vertical-align: top; }}
-img {{ max-width: 480px; border: 1px solid #ccc; }}
-table {{ border-collapse: collapse; }} td, th {{ border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; }}
-</style></head><body>
+<link rel="icon" href="data:,">
+<style>{STYLE}</style></head><body>
 <h1>psdr-room report</h1>
 <p>photo: <code>{html.escape(str(run.photo))}</code></p>
 <ul>{"".join(f"<li>{f}</li>" for f in facts)}</ul>
-{figures}
+{_comparison(run)}
 <h2>stages</h2>
+{figures}
+<h2>optimisation summaries</h2>
+<table><tr><th>log</th><th>summary</th></tr>{_metric_rows(metrics(run))}</table>
+<h2>timings</h2>
 <table><tr><th>stage</th><th>this run (s)</th><th>compute (s)</th><th>cache</th><th>implementations</th><th>key</th></tr>
-{rows}</table>
+{rows}<tr><td><b>total</b></td><td>{total:.2f}</td><td></td><td></td><td></td><td></td></tr></table>
 <h2>implementations</h2><ul>{impls}</ul>
+<script>{SCRIPT}</script>
 </body></html>
 """
 

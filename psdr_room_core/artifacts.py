@@ -740,6 +740,129 @@ class MaterialAssignment:
         return cls(parts=parts, images={n: _read_png(directory / f"{n}.png") for n in data.get("images", [])})
 
 
+# ------------------------------------------------------------------------------------------- lighting
+@dataclass
+class Light:
+    """An area light: a world-space mesh emitting on the side its triangles face counter-clockwise."""
+
+    name: str
+    kind: str
+    """``ceiling``, ``behind_camera``, ``invisible_wall``, ``window`` or ``lamp`` (§4.4)."""
+    mesh: TriangleMesh
+    radiance: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    """Linear RGB radiance."""
+    part: str | None = None
+    """The scene part this light replaces (a lamp's largest visible part), if any."""
+
+
+def _save_meshes(path: Path, meshes: dict[str, TriangleMesh]) -> None:
+    arrays = {}
+    for k, (name, mesh) in enumerate(meshes.items()):
+        arrays[f"v{k}"], arrays[f"f{k}"] = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
+    np.savez(path, **arrays)
+
+
+def _load_meshes(path: Path, names: list[str]) -> dict[str, TriangleMesh]:
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return {name: TriangleMesh(data[f"v{k}"], data[f"f{k}"]) for k, name in enumerate(names)}
+    except (FileNotFoundError, KeyError, ValueError) as exc:
+        raise PsdrRoomError(f"{path}: missing or incomplete ({exc}); regenerate the artifact") from None
+
+
+@dataclass
+class Lights:
+    """The scene's initial lights (§4.4): emitters, window frames, and the chosen uniform radiance."""
+
+    kind: ClassVar[str] = "lights"
+    marker: ClassVar[str] = "lights.json"
+    lights: list[Light]
+    fixtures: dict[str, TriangleMesh] = field(default_factory=dict)
+    """Non-emitting geometry the lights bring (window frames), world space."""
+    sweep: list[tuple[float, float]] = field(default_factory=list)
+    """(radiance, loss) of every uniform value tried."""
+    images: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def save(self, directory: Path) -> None:
+        for name, picture in self.images.items():
+            write_png(directory / f"{name}.png", picture)
+        _save_meshes(directory / "meshes.npz", {**{l.name: l.mesh for l in self.lights}, **self.fixtures})
+        _write_json(directory / "lights.json", {
+            "lights": [{"name": l.name, "kind": l.kind, "radiance": list(l.radiance), "part": l.part} for l in self.lights],
+            "fixtures": list(self.fixtures), "sweep": [list(s) for s in self.sweep], "images": sorted(self.images)})
+
+    @classmethod
+    def load(cls, directory: Path) -> "Lights":
+        data = _read_json(directory / "lights.json")
+        try:
+            names = [l["name"] for l in data["lights"]] + list(data["fixtures"])
+            meshes = _load_meshes(directory / "meshes.npz", names)
+            lights = [Light(str(l["name"]), str(l["kind"]), meshes[l["name"]], tuple(float(v) for v in l["radiance"]),
+                            l.get("part")) for l in data["lights"]]
+            return cls(lights=lights, fixtures={n: meshes[n] for n in data["fixtures"]},
+                       sweep=[(float(a), float(b)) for a, b in data["sweep"]],
+                       images={n: _read_png(directory / f"{n}.png") for n in data.get("images", [])})
+        except (KeyError, TypeError, ValueError) as exc:
+            raise PsdrRoomError(f"{directory / 'lights.json'}: not as psdr-room writes it ({exc}); fix or regenerate it") from None
+
+
+@dataclass
+class PartAppearance:
+    """A scene part's optimised material (§4.4, eq. 4)."""
+
+    part: str
+    kind: str
+    """``homogeneous`` or ``procedural``."""
+    base_color: tuple[float, float, float]
+    """Linear RGB (a procedural part: the mean of its map, for reference)."""
+    roughness: float = 0.5
+    specular: float = 0.5
+    material: str | None = None
+    scale: float = 1.0
+    rotation: float = 0.0
+    params: dict[str, Any] = field(default_factory=dict)
+    """The graph's continuous parameters (``node.param`` → number or nested list) of a procedural part."""
+
+
+@dataclass
+class SceneAppearance:
+    """Materials and light radiances after the joint optimisation, with its renders."""
+
+    kind: ClassVar[str] = "appearance"
+    marker: ClassVar[str] = "appearance.json"
+    parts: list[PartAppearance]
+    radiance: dict[str, tuple[float, float, float]]
+    """Light name → linear RGB radiance."""
+    images: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def part(self, name: str) -> PartAppearance | None:
+        return next((p for p in self.parts if p.part == name), None)
+
+    def save(self, directory: Path) -> None:
+        for name, picture in self.images.items():
+            write_png(directory / f"{name}.png", picture)
+        _write_json(directory / "appearance.json", {"parts": [asdict(p) for p in self.parts],
+                                                    "radiance": {k: list(v) for k, v in self.radiance.items()},
+                                                    "images": sorted(self.images)})
+
+    @classmethod
+    def load(cls, directory: Path) -> "SceneAppearance":
+        data = _read_json(directory / "appearance.json")
+        return cls(**appearance_fields(data, directory / "appearance.json"),
+                   images={n: _read_png(directory / f"{n}.png") for n in data.get("images", [])})
+
+
+def appearance_fields(data: Any, path: Path) -> dict[str, Any]:
+    """``parts`` and ``radiance`` of a :class:`SceneAppearance` from its JSON form (``path`` for errors)."""
+    try:
+        parts = [PartAppearance(**{**p, "base_color": tuple(float(v) for v in p["base_color"]),
+                                   "params": dict(p.get("params", {}))}) for p in data["parts"]]
+        radiance = {str(k): tuple(float(x) for x in v) for k, v in data["radiance"].items()}
+    except (KeyError, TypeError, ValueError) as exc:
+        raise PsdrRoomError(f"{path}: not as psdr-room writes it ({exc}); fix or regenerate it") from None
+    return {"parts": parts, "radiance": radiance}
+
+
 # ------------------------------------------------------------------------------------------ scene files
 @dataclass
 class SceneFiles:
@@ -790,7 +913,7 @@ class OptimizationLog:
 ARTIFACT_TYPES: dict[str, type] = {
     t.kind: t
     for t in (Image, Camera, DepthMap, Detections, Panoptic, PointCloud, RoomBox, ObjectCandidates, Placements,
-              MaterialAssignment, SceneFiles, OptimizationLog)
+              MaterialAssignment, Lights, SceneAppearance, SceneFiles, OptimizationLog)
 }
 """Artifact kind → class, for loading cached or user-supplied artifacts. Plugins may add their own."""
 

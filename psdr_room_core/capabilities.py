@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import TYPE_CHECKING, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 if TYPE_CHECKING:
     import numpy as np
@@ -19,6 +19,7 @@ if TYPE_CHECKING:
     from .artifacts import Camera, Candidate, DepthMap, Detections, Image, ObjectMesh, Panoptic
     from .objects import ObjectQuery
     from .geometry import TriangleMesh
+    from .shading import Surface
 
 CAPABILITIES: tuple[str, ...] = (
     "fov",
@@ -148,6 +149,14 @@ class GeometryRenderer(Protocol):
         the vertex tensors (N×3 world positions per mesh) including through visibility."""
         ...
 
+    def render_rgb(self, vertices: dict[str, torch.Tensor] | None = None,
+                   base_color: dict[str, torch.Tensor] | None = None, roughness: dict[str, torch.Tensor] | None = None,
+                   specular: dict[str, torch.Tensor] | None = None, radiance: dict[str, torch.Tensor] | None = None,
+                   iteration: int = 0, spp: int = 0, grad_spp: int = 0) -> torch.Tensor:
+        """Linear RGB [H,W,3] with global illumination, differentiable with respect to the surfaces'
+        parameters (constant or maps, as given at construction) and the emitters' radiance."""
+        ...
+
 
 @runtime_checkable
 class Renderer(Protocol):
@@ -159,7 +168,13 @@ class Renderer(Protocol):
         camera_to_world: np.ndarray,
         meshes: dict[str, TriangleMesh],
         parts: dict[str, int],
-    ) -> GeometryRenderer: ...
+        resolution_scale: float = 1.0,
+        surfaces: dict[str, Surface] | None = None,
+        emitters: dict[str, tuple[TriangleMesh, Any]] | None = None,
+    ) -> GeometryRenderer:
+        """A renderer of named world-space meshes seen by ``camera``; ``surfaces`` and ``emitters`` (mesh,
+        linear RGB radiance) serve RGB renders."""
+        ...
 
 
 @runtime_checkable

@@ -3,8 +3,8 @@ voting across a part's crops, and the texture-transform search on the crop pairs
 
 Materials are compared by how they look head-on under the library's thumbnail light
 (``material_graph.appearance``). In a crop, a material is laid on the part's surface: every crop pixel is
-back-projected with the rendered depth, the crop's points get a planar frame (their least-squares plane;
-horizontal surfaces map world x/z, others the horizontal tangent and the vertical), and the graph's tile
+back-projected with the rendered depth, the crop's points get the planar frame of their least-squares
+plane (:func:`psdr_room_core.shading.planar_frame`, the renderer's texture mapping), and the graph's tile
 covers ``tile_size / scale`` metres of that frame, rotated by ``rotation`` degrees. On the room's planes this
 is the exact perspective view of the texture; on curved object parts, the one of their mean plane.
 """
@@ -21,6 +21,7 @@ import torch
 import torch.nn.functional as F
 
 from .artifacts import Camera, Rect
+from .shading import planar_frame
 
 INDEX_SCALES = (0.75, 1.5, 3.0)
 """Tiles across a retrieval view (the index holds each material at these scales × rotations)."""
@@ -123,12 +124,9 @@ def surface_coordinates(camera: Camera, camera_to_world: np.ndarray, depth: np.n
     points = world.reshape(-1, 3)
     centre = points.mean(axis=0)
     normal = np.linalg.svd(points - centre, full_matrices=False)[2][-1]
-    if abs(normal[1]) > math.cos(math.radians(45)):  # floor, ceiling, table tops: world x and z
-        tangent, bitangent = np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0])
-    else:
-        tangent = np.cross([0.0, 1.0, 0.0], normal)
-        tangent /= np.linalg.norm(tangent)
-        bitangent = np.array([0.0, -1.0, 0.0])  # texture v runs down, as in an image
+    if np.dot(normal, camera_to_world[:3, 3] - centre) < 0:  # the side the camera sees, as the mesh's normal
+        normal = -normal
+    tangent, bitangent = planar_frame(normal)
     return (torch.from_numpy((world @ tangent).astype(np.float32)),
             torch.from_numpy((world @ bitangent).astype(np.float32)))
 

@@ -16,7 +16,8 @@ from psdr_room_core.dag import StageContext
 from psdr_room_core.errors import PsdrRoomError
 from psdr_room_core.material_search import (MaterialIndex, luminance, search_transform, surface_coordinates,
                                             surface_view, tiled_view, vote)
-from psdr_room_core.stages.materials import assign_materials, render_parts, scene_parts
+from psdr_room_core.rgb_scene import render_part_ids
+from psdr_room_core.stages.materials import assign_materials, scene_parts
 from psdr_room_plugins.material_graph import TorchGraphLibrary
 from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
 from psdr_room_plugins.texture import RandomCnnDescriptor
@@ -133,7 +134,8 @@ def _rendered_room(tmp_path: Path, library: TorchGraphLibrary, material: str, sc
                        {"renderer": MitsubaRenderer(spp=4), "material_graph": library, "texture": RandomCnnDescriptor()})
     empty = Panoptic(ids=np.zeros((150, 200), np.int32), segments=[])
     parts = scene_parts(ROOM, Placements(objects=[]), empty, PARAMS["room_colours"])
-    ids, depth = render_parts(ctx, CAMERA, ROOM, parts)
+    ids, depth = render_part_ids(ctx.impl("renderer"), CAMERA, ROOM.camera_to_world, {p.name: p.mesh for p in parts},
+                                 PARAMS["render_width"])
     names = [p.name for p in parts]
     segment_of = np.array([0] + [1 if n == "floor" else 2 if n == "ceiling" else 3 for n in names], np.int32)
     panoptic_ids = segment_of[ids + 1]  # part index (-1: none) → segment 1 floor, 2 ceiling, 3 wall

@@ -16,10 +16,13 @@ import pytest
 from conftest import EXAMPLE
 
 STAGES = ["load_image", "estimate_fov", "detect", "segment", "estimate_depth", "point_cloud", "room_init",
-          "room_fit", "retrieve_objects", "place_objects", "fit_objects", "assign_materials", "export_scene"]
+          "room_fit", "retrieve_objects", "place_objects", "fit_objects", "assign_materials", "init_lights",
+          "fit_appearance", "export_scene"]
 SMALL = ["room_fit.iterations=8", "room_fit.render_width=64", "fit_objects.iterations=4", "fit_objects.render_width=64",
-         "assign_materials.map_size=128"]
-"""A short room fit: these tests are about the engine; tests/test_room_fit.py checks the fit itself."""
+         "assign_materials.map_size=128", "init_lights.render_width=64", "fit_appearance.iterations=3",
+         "fit_appearance.render_width=64", "fit_appearance.final_spp=16", "fit_appearance.map_size=32",
+         "export_scene.texture_size=64"]
+"""Short fits: these tests are about the engine; the stages' own tests check the fits themselves."""
 
 
 def psdr_room(*args: str, env: dict[str, str], check: bool = True) -> subprocess.CompletedProcess[str]:
@@ -72,9 +75,27 @@ def test_outputs_of_a_run(first_run: tuple[Path, dict[str, str]]) -> None:
     report = (run_dir / "report.html").read_text()
     assert report.count("data:image/png;base64,") >= 7 and "room_fit_log: after" in report
     for name in ("image", "camera", "depth", "panoptic", "point_cloud", "room_box", "room_box_fit", "room_fit_log", "scene",
-                 "materials"):
+                 "materials", "lights", "appearance", "fit_appearance_log"):
         assert (run_dir / "artifacts" / name).is_dir()
-    assert "materials: crops" in report
+    assert "materials: crops" in report and "fit_appearance_log: crop_pairs" in report and 'id="slider"' in report
+    assert {"rmse", "rmse_init", "ssim", "ssim_init"} <= set(m["fit_appearance_log"])
+
+
+def test_report_loads_in_chromium(first_run: tuple[Path, dict[str, str]]) -> None:
+    """The report opens in headless Chromium with no console message, and every image decodes."""
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        pytest.skip("Debian chromium is not installed (scripts/setup.sh --test installs it as root)")
+    report = first_run[0] / "run1" / "report.html"
+    result = subprocess.run([chromium, "--headless=new", "--no-sandbox", "--disable-gpu", "--enable-logging=stderr",
+                             "--v=0", "--virtual-time-budget=10000", "--dump-dom", report.as_uri()],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr[-2000:]
+    console = [line for line in result.stderr.splitlines() if "CONSOLE" in line]
+    assert console == []
+    loaded = result.stdout.split('data-images="', 1)[1].split('"', 1)[0]
+    done, total = (int(v) for v in loaded.split("/"))
+    assert total >= 15 and done == total
 
 
 def test_scene_loads_in_mitsuba(first_run: tuple[Path, dict[str, str]]) -> None:
@@ -82,15 +103,19 @@ def test_scene_loads_in_mitsuba(first_run: tuple[Path, dict[str, str]]) -> None:
     import mitsuba as mi
 
     mi.set_variant("scalar_rgb")
-    scene = mi.load_file(str(root / "run1" / "scene" / "scene.xml"), spp=4, optimize=False)  # keep shapes apart
-    room = ["ceiling", "ceiling_light", "floor", "wall_x_neg", "wall_x_pos", "wall_z_neg", "wall_z_pos"]
-    ids = [s.id() for s in scene.shapes()]
+    scene_dir = root / "run1" / "scene"
+    scene = mi.load_file(str(scene_dir / "scene.xml"), spp=4, optimize=False)  # keep shapes apart
+    state = json.loads((scene_dir / "appearance.json").read_text())
+    ids = {s.id() for s in scene.shapes()}
+    lights = {l["name"] for l in state["lights"]}
+    lamp_parts = {l["part"] for l in state["lights"] if l["part"]}
+    parts = {p["part"] for p in state["parts"]} - lamp_parts
+    assert ids == parts | lights | set(state["fixtures"])
+    assert {"floor", "ceiling", "wall_x_neg", "wall_x_pos", "wall_z_neg", "wall_z_pos"} <= ids
+    assert any(l.startswith("light_ceiling") or l == "light_behind_camera" for l in lights)
     placed = json.loads((root / "run1" / "artifacts" / "placements_fit" / "placements.json").read_text())
-    segments = {f"object_{p['segment_id']}_" for p in placed["objects"]}
-    assert sorted(i for i in ids if not i.startswith("object_")) == sorted(room)
-    assert segments and {i[: i.index("_", 7) + 1] for i in ids if i.startswith("object_")} == segments
-    assigned = json.loads((root / "run1" / "scene" / "materials.json").read_text())["parts"]
-    assert sorted(p["part"] for p in assigned) == sorted(i for i in ids if i != "ceiling_light")
+    assert {f"object_{p['segment_id']}_" for p in placed["objects"]} == {i[: i.index("_", 7) + 1] for i in parts if i.startswith("object_")}
+    assert (scene_dir / "scene.glb").is_file()
     image = np.array(mi.render(scene, spp=4))
     assert image.shape == (480, 640, 3) and image.mean() > 0  # the light reaches the room
 
@@ -106,7 +131,7 @@ def test_changed_stage_param_reruns_it_and_what_follows(first_run: tuple[Path, d
     root, env = first_run
     psdr_room(f"image={EXAMPLE}", "room_init.ransac_threshold=0.03", f"hydra.run.dir={root / 'run3'}", env=env)
     assert computed(root / "run3") == {"room_init", "room_fit", "retrieve_objects", "place_objects", "fit_objects",
-                                       "assign_materials", "export_scene"}
+                                       "assign_materials", "init_lights", "fit_appearance", "export_scene"}
 
 
 def test_multirun_shares_the_cache(first_run: tuple[Path, dict[str, str]]) -> None:

@@ -18,6 +18,7 @@ import pytest
 from psdr_room_core.artifacts import Camera, RoomBox
 from psdr_room_core.errors import PsdrRoomError
 from psdr_room_core.geometry import TriangleMesh, box_mesh, quad_mesh
+from psdr_room_core.shading import Surface
 from psdr_room_plugins.mitsuba_renderer.llvm import ensure_llvm, find_llvm, llvm_version
 from psdr_room_plugins.mitsuba_renderer.session import weld_map
 
@@ -169,7 +170,7 @@ def _camera() -> tuple[Camera, np.ndarray]:
 
 def _vertices(theta: "torch.Tensor") -> dict[str, "torch.Tensor"]:
     """The scene's vertex tensors as a function of the 10 parameters (float64 in, float32 out)."""
-    from psdr_room_core.stages.export import room_quad_indices
+    from psdr_room_core.rgb_scene import room_quad_indices
 
     signs = torch.tensor([[(i >> 0) & 1, (i >> 1) & 1, (i >> 2) & 1] for i in range(8)], dtype=torch.float64) * 2 - 1
     zero = torch.zeros((), dtype=torch.float64)
@@ -249,11 +250,12 @@ def test_mask_and_depth_gradients_match_finite_differences(renderer_cls) -> None
     assert abs(ad_mask[8]) > 0.05 * np.abs(fd_mask).max() and abs(ad_mask[9]) > 0.05 * np.abs(fd_mask).max()
 
 
-def _rgb_geometry(renderer_cls, **params):
+def _rgb_geometry(renderer_cls, surfaces=None, **params):
     camera, c2w = _camera()
     light = quad_mesh(np.array([[-0.4, 2.95, -0.4], [0.4, 2.95, -0.4], [0.4, 2.95, 0.4], [-0.4, 2.95, 0.4]]))
     albedo = {name: (0.6, 0.6, 0.6) for name in PARTS} | {"object": (0.8, 0.3, 0.2), "floor": (0.5, 0.45, 0.4)}
-    return renderer_cls(max_depth=3, **params).geometry(camera, c2w, _meshes(), PARTS, albedo=albedo,
+    surfaces = {name: Surface(base_color=rgb) for name, rgb in albedo.items()} | dict(surfaces or {})
+    return renderer_cls(max_depth=3, **params).geometry(camera, c2w, _meshes(), PARTS, surfaces=surfaces,
                                                         emitters={"light": (light, (8.0, 8.0, 8.0))})
 
 
@@ -270,11 +272,11 @@ def test_rgb_gradients_match_finite_differences(renderer_cls) -> None:
     with torch.no_grad():
         goal = base * torch.tensor([[0.7, 1.4, 1.2], [1.3, 1.0, 0.8], [0.9, 1.1, 1.2], [1.2, 0.9, 1.0]])
         target = pooled(_rgb_geometry(renderer_cls, rgb_spp=256).render_rgb(
-            albedo=dict(zip(names, goal[:3])), radiance={"light": goal[3]}, iteration=999))
+            base_color=dict(zip(names, goal[:3])), radiance={"light": goal[3]}, iteration=999))
     renderer = _rgb_geometry(renderer_cls, rgb_spp=64)
 
     def loss(x: "torch.Tensor", iteration: int, geometry=renderer) -> "torch.Tensor":
-        image = geometry.render_rgb(albedo=dict(zip(names, x[:3].float())), radiance={"light": x[3].float()},
+        image = geometry.render_rgb(base_color=dict(zip(names, x[:3].float())), radiance={"light": x[3].float()},
                                     iteration=iteration)
         return ((pooled(image) - target) ** 2).mean()
 
@@ -289,6 +291,46 @@ def test_rgb_gradients_match_finite_differences(renderer_cls) -> None:
             step[i] = h
             fd[i] = float(loss(base + step.reshape(4, 3), 3, fine) - loss(base - step.reshape(4, 3), 3, fine)) / (2 * h)
     _check("RGB L2 (albedo, radiance)", ad, fd, labels)
+
+
+def test_rgb_map_and_roughness_gradients_match_finite_differences(renderer_cls) -> None:
+    """A UV-mapped base colour (the floor wears an 8×8 map, two repeats) and a constant roughness and
+    specular: the derivative of an image loss along a random direction of all of them matches central
+    differences."""
+    from psdr_room_core.shading import planar_uv
+
+    floor = _meshes()["floor"]
+    split, uv_metres = planar_uv(floor)
+    assert len(split.vertices) == len(floor.vertices)  # a flat quad stays one group
+    rng = np.random.default_rng(3)
+    texture = rng.uniform(0.2, 0.8, (8, 8, 3)).astype(np.float32)
+    surface = Surface(base_color=texture, roughness=0.4, uv=uv_metres / np.ptp(uv_metres, axis=0).max() * 2.0)
+    with torch.no_grad():
+        target = _rgb_geometry(renderer_cls, {"floor": surface}, rgb_spp=256).render_rgb(
+            base_color={"floor": torch.from_numpy(texture[::-1].copy())}, roughness={"object": torch.tensor([0.1])},
+            specular={"object": torch.tensor([1.0])}, iteration=999)
+    renderer = _rgb_geometry(renderer_cls, {"floor": surface}, rgb_spp=64)
+    fine = _rgb_geometry(renderer_cls, {"floor": surface}, rgb_spp=256)
+
+    def loss(t: "torch.Tensor", rough: "torch.Tensor", spec: "torch.Tensor", iteration: int, geometry) -> "torch.Tensor":
+        image = geometry.render_rgb(base_color={"floor": t}, roughness={"object": rough}, specular={"object": spec},
+                                    iteration=iteration)
+        return ((image - target) ** 2).mean()
+
+    t0, r0, s0 = torch.from_numpy(texture), torch.tensor([0.4]), torch.tensor([0.5])
+    x = [t0.clone().requires_grad_(True), r0.clone().requires_grad_(True), s0.clone().requires_grad_(True)]
+    grads = torch.autograd.grad(loss(*x, 0, renderer), x)
+    assert grads[0].shape == (8, 8, 3) and float(grads[0].abs().sum()) > 0
+    for k, name in enumerate(("map", "roughness", "specular")):
+        direction = [torch.zeros_like(v) for v in x]
+        direction[k] = torch.from_numpy(rng.normal(size=tuple(x[k].shape)).astype(np.float32))
+        ad = float((grads[k] * direction[k]).sum())
+        h = 0.05
+        with torch.no_grad():
+            plus = loss(*(v + h * d for v, d in zip((t0, r0, s0), direction)), 3, fine)
+            minus = loss(*(v - h * d for v, d in zip((t0, r0, s0), direction)), 3, fine)
+        fd = float(plus - minus) / (2 * h)
+        assert np.sign(ad) == np.sign(fd) and 0.5 < ad / fd < 2.0, (name, ad, fd)
 
 
 def test_rgb_refuses_biased_geometry_gradients(renderer_cls) -> None:

@@ -17,17 +17,10 @@ from typing import Any
 import numpy as np
 import torch
 
+from psdr_room_core.shading import linear_to_srgb, srgb_to_linear
+
 DEFAULT_LIGHT = (-0.45, 0.55, 0.70)
 """Direction towards the light in the patch's tangent frame (x right, y up the image, z out)."""
-
-
-def srgb_to_linear(x: torch.Tensor) -> torch.Tensor:
-    return torch.where(x <= 0.04045, x / 12.92, ((x.clamp(min=0.04045) + 0.055) / 1.055) ** 2.4)
-
-
-def linear_to_srgb(x: torch.Tensor) -> torch.Tensor:
-    x = x.clamp(0, 1)
-    return torch.where(x <= 0.0031308, 12.92 * x, 1.055 * x.clamp(min=0.0031308) ** (1 / 2.4) - 0.055)
 
 
 def shade(maps: Mapping[str, torch.Tensor], light: Sequence[float] = DEFAULT_LIGHT, intensity: float = 2.6,

@@ -4,7 +4,8 @@
 first use). :meth:`MitsubaRenderer.geometry` builds a :class:`MitsubaGeometryRenderer` for one camera and a
 set of named meshes, whose :meth:`~MitsubaGeometryRenderer.render` returns per-part coverage, z-depth and
 alpha, and :meth:`~MitsubaGeometryRenderer.render_rgb` a path-traced image, both as torch tensors
-differentiable with respect to the vertex tensors (and, for RGB, per-shape albedo and emitter radiance).
+differentiable with respect to the vertex tensors (and, for RGB, every shape's principled-BSDF parameters:
+base colour and roughness, constant or UV-mapped, specular; and emitter radiance).
 
 Torch ↔ Dr.Jit: a ``torch.autograd.Function`` copies the inputs into the Mitsuba scene, renders the primal
 image with the iteration's seed and, in ``backward``, sets the *same* inputs again with gradients enabled
@@ -25,6 +26,7 @@ import numpy as np
 from psdr_room_core.artifacts import Camera
 from psdr_room_core.errors import PsdrRoomError
 from psdr_room_core.geometry import TriangleMesh
+from psdr_room_core.shading import Surface
 
 from .llvm import VARIANTS, resolve_variant
 
@@ -33,8 +35,6 @@ if TYPE_CHECKING:
 
 CV_TO_MITSUBA = np.diag([-1.0, -1.0, 1.0, 1.0])
 """OpenCV camera axes (x right, y down, z forward) → Mitsuba's (x left, y up, z forward)."""
-
-DEFAULT_ALBEDO = (0.5, 0.5, 0.5)
 
 
 @dataclass(frozen=True)
@@ -48,16 +48,21 @@ class _Shape:
     """For each welded vertex, the index of the caller's vertex it is taken from (N' indices into N)."""
     n_input: int
     """Vertex count of the caller's mesh (the row count its vertex tensors must have)."""
+    uv: np.ndarray | None = None
+    """Texture coordinates of the welded vertices (float32, N'×2), for shapes with maps."""
 
 
-def weld_map(mesh: TriangleMesh, tolerance: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+def weld_map(mesh: TriangleMesh, tolerance: float = 1e-6, uv: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(first, faces): indices of the vertices kept when welding ``mesh`` (the first of each group of
-    coincident vertices, as :func:`psdr_room_core.geometry.weld`), and the faces renumbered onto them with
-    degenerate ones dropped. Split vertices would double boundary gradients (``RENDERING-NOTES.md``)."""
+    coincident vertices, as :func:`psdr_room_core.geometry.weld`; with ``uv``, of coincident position and
+    texture coordinates), and the faces renumbered onto them with degenerate ones dropped. Split vertices
+    would double boundary gradients (``RENDERING-NOTES.md``)."""
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     faces = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
     extent = float(np.ptp(vertices, axis=0).max()) if len(vertices) else 0.0
     keys = np.round(vertices / (tolerance * (extent or 1.0))).astype(np.int64)
+    if uv is not None:
+        keys = np.concatenate([keys, np.round(np.asarray(uv, np.float64) / tolerance).astype(np.int64)], axis=1)
     _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
     welded = inverse.reshape(-1)[faces]
     keep = (welded[:, 0] != welded[:, 1]) & (welded[:, 1] != welded[:, 2]) & (welded[:, 0] != welded[:, 2])
@@ -166,19 +171,19 @@ class MitsubaRenderer:
         meshes: Mapping[str, TriangleMesh],
         parts: Mapping[str, int],
         resolution_scale: float = 1.0,
-        albedo: Mapping[str, Any] | None = None,
+        surfaces: Mapping[str, Surface] | None = None,
         emitters: Mapping[str, tuple[TriangleMesh, Any]] | None = None,
     ) -> "MitsubaGeometryRenderer":
         """A renderer of ``meshes`` (name → world-space mesh) seen by ``camera`` at ``camera_to_world``
         (4×4, OpenCV camera axes), at ``resolution_scale`` × the camera's resolution.
 
         ``parts`` maps shape names to part indices 0..P-1 (several shapes may share one; a shape without an
-        entry occludes but belongs to no mask). ``albedo`` (shape → RGB, default 0.5 grey) and ``emitters``
-        (name → (quad mesh, RGB radiance); emitting on the side its triangles face counter-clockwise) are
-        used only by :meth:`MitsubaGeometryRenderer.render_rgb`.
+        entry occludes but belongs to no mask). ``surfaces`` (shape → :class:`~psdr_room_core.shading.Surface`,
+        default grey) and ``emitters`` (name → (mesh, RGB radiance); emitting on the side its triangles face
+        counter-clockwise) are used only by :meth:`MitsubaGeometryRenderer.render_rgb`.
         """
         return MitsubaGeometryRenderer(self, camera, camera_to_world, meshes, parts, resolution_scale,
-                                       albedo or {}, emitters or {})
+                                       surfaces or {}, emitters or {})
 
 
 class MitsubaGeometryRenderer:
@@ -192,7 +197,7 @@ class MitsubaGeometryRenderer:
         meshes: Mapping[str, TriangleMesh],
         parts: Mapping[str, int],
         resolution_scale: float,
-        albedo: Mapping[str, Any],
+        surfaces: Mapping[str, Surface],
         emitters: Mapping[str, tuple[TriangleMesh, Any]],
     ) -> None:
         self.renderer = renderer
@@ -206,9 +211,12 @@ class MitsubaGeometryRenderer:
             raise PsdrRoomError(f"renderer.geometry: part indices must be >= 0, got {values[0]}")
         self.n_parts = (values[-1] + 1) if values else 0
         self.parts = {name: int(parts[name]) if name in parts else -1 for name in meshes}
-        for name in albedo:
+        for name, surface in surfaces.items():
             if name not in meshes:
-                raise PsdrRoomError(f"renderer.geometry: albedo given for '{name}', which is not a mesh")
+                raise PsdrRoomError(f"renderer.geometry: surface given for '{name}', which is not a mesh")
+            if surface.mapped and (surface.uv is None or np.shape(surface.uv) != (len(meshes[name].vertices), 2)):
+                raise PsdrRoomError(f"renderer.geometry: surface of '{name}' has maps but no N×2 uv for its "
+                                    f"{len(meshes[name].vertices)} vertices")
         clash = sorted(set(emitters) & set(meshes))
         if clash:
             raise PsdrRoomError(f"renderer.geometry: emitter names clash with mesh names: {', '.join(clash)}")
@@ -237,17 +245,19 @@ class MitsubaGeometryRenderer:
         self.camera_axis = tuple(float(x) for x in axis)
 
         # Welded shapes (index maps kept so the caller's vertex tensors can be used as they are).
+        self.surfaces = {name: surfaces.get(name, Surface()) for name in meshes}
         self.shapes: dict[str, _Shape] = {}
         for name, mesh in meshes.items():
             vertices = np.asarray(mesh.vertices, dtype=np.float64)
             if vertices.ndim != 2 or vertices.shape[1] != 3 or not np.all(np.isfinite(vertices)):
                 raise PsdrRoomError(f"renderer.geometry: mesh '{name}' needs finite N×3 vertices")
-            first, faces = weld_map(mesh)
+            uv = self.surfaces[name].uv if self.surfaces[name].mapped else None
+            first, faces = weld_map(mesh, uv=uv)
             if len(faces) == 0:
                 raise PsdrRoomError(f"renderer.geometry: mesh '{name}' has no non-degenerate triangle")
             self.shapes[name] = _Shape(name, vertices[first].astype(np.float32), faces.astype(np.uint32),
-                                       first.astype(np.int64), len(vertices))
-        self.albedo = {name: _rgb(albedo.get(name, DEFAULT_ALBEDO), f"albedo of '{name}'") for name in meshes}
+                                       first.astype(np.int64), len(vertices),
+                                       None if uv is None else np.asarray(uv, np.float32)[first])
         self.emitters = {}
         for name, (mesh, radiance) in emitters.items():
             first, faces = weld_map(mesh)
@@ -320,7 +330,7 @@ class MitsubaGeometryRenderer:
         scene = self._geometry_scene()
         inputs = self._inputs(vertices)
         keys = [k for k, _ in inputs]
-        images = _RenderFunction.apply(scene, keys, self._seed(iteration), *[t for _, t in inputs])
+        images = _RenderFunction.apply(scene, keys, self._seed(iteration), (0, 0), *[t for _, t in inputs])
         flat = torch.cat([img.permute(2, 0, 1) for img in images], dim=0)  # [P + 2 (or 3), H, W]
         p = self.n_parts
         return flat[:p], flat[p], flat[p + 1]
@@ -328,33 +338,42 @@ class MitsubaGeometryRenderer:
     def render_rgb(
         self,
         vertices: Mapping[str, "torch.Tensor"] | None = None,
-        albedo: Mapping[str, "torch.Tensor"] | None = None,
+        base_color: Mapping[str, "torch.Tensor"] | None = None,
+        roughness: Mapping[str, "torch.Tensor"] | None = None,
+        specular: Mapping[str, "torch.Tensor"] | None = None,
         radiance: Mapping[str, "torch.Tensor"] | None = None,
         iteration: int = 0,
+        spp: int = 0,
+        grad_spp: int = 0,
     ) -> "torch.Tensor":
-        """Path-traced linear RGB [H,W,3] (``max_depth``, ``rgb_spp``) with the shapes' diffuse albedo and the
-        emitters given to :meth:`MitsubaRenderer.geometry`.
+        """Path-traced linear RGB [H,W,3] (``max_depth``; ``spp`` samples per pixel, default ``rgb_spp``; its
+        gradient pass ``grad_spp``, default the same) with the shapes' surfaces and the emitters given to
+        :meth:`MitsubaRenderer.geometry`.
 
-        ``albedo`` (shape → RGB tensor [3]) and ``radiance`` (emitter → RGB tensor [3]) override the
-        values given at construction, differentiably (``prb``: exact for fixed geometry). ``vertices``
-        move the shapes; their gradients are refused unless ``rgb_geometry_gradients`` is set, because
-        Mitsuba 3.9.1's ``prb_projective`` gets them wrong for flat-shaded (position-only) meshes: it
-        samples silhouettes only, not the shading jump at a box's creases, and drops moving shadows unless
-        ``rgb_sppi`` > 0 (measured 0.2-0.45x of central finite differences on a lit box). Fit geometry
-        with :meth:`render`'s masks and depth, as the paper does.
+        ``base_color`` (shape → linear RGB [3], or [H, W, 3] for a mapped one), ``roughness`` ([1] or
+        [H, W, 1]), ``specular`` ([1]) and ``radiance`` (emitter → RGB [3]) override the values given at
+        construction, differentiably (``prb``: exact for fixed geometry). ``vertices`` move the shapes;
+        their gradients are refused unless ``rgb_geometry_gradients`` is set, because Mitsuba 3.9.1's
+        ``prb_projective`` gets them wrong for flat-shaded (position-only) meshes: it samples silhouettes
+        only, not the shading jump at a box's creases, and drops moving shadows unless ``rgb_sppi`` > 0
+        (measured 0.2-0.45x of central finite differences on a lit box). Fit geometry with :meth:`render`'s
+        masks and depth, as the paper does.
         """
         import torch
 
         scene = self._rgb_scene()
         inputs = self._inputs(vertices)
-        for name, value in (albedo or {}).items():
-            if name not in self.shapes:
-                raise PsdrRoomError(f"renderer.render_rgb: albedo for unknown shape '{name}'")
-            inputs.append((scene.albedo_keys[name], _as_rgb_tensor(value, f"albedo['{name}']")))
+        for channel, values in (("base_color", base_color), ("roughness", roughness), ("specular", specular)):
+            for name, value in (values or {}).items():
+                if name not in self.shapes:
+                    raise PsdrRoomError(f"renderer.render_rgb: {channel} for unknown shape '{name}'")
+                key = scene.surface_keys[name][channel]
+                inputs.append((key, _as_input(value, scene.params[key], f"{channel}['{name}']")))
         for name, value in (radiance or {}).items():
             if name not in self.emitters:
                 raise PsdrRoomError(f"renderer.render_rgb: radiance for unknown emitter '{name}'")
-            inputs.append((scene.radiance_keys[name], _as_rgb_tensor(value, f"radiance['{name}']")))
+            key = scene.radiance_keys[name]
+            inputs.append((key, _as_input(value, scene.params[key], f"radiance['{name}']")))
         if self.renderer.variant == "scalar_rgb" and any(t.requires_grad for _, t in inputs):
             raise PsdrRoomError(
                 "renderer.mitsuba.variant=scalar_rgb has no gradients; use variant=auto or llvm_ad_rgb, or pass "
@@ -369,19 +388,28 @@ class MitsubaGeometryRenderer:
             )
         keys = [k for k, _ in inputs]
         (image,) = _RenderFunction.apply(scene.with_mode("projective" if moving else "plain"), keys,
-                                         self._seed(iteration), *[t for _, t in inputs])
+                                         self._seed(iteration), (int(spp), int(grad_spp or spp)),
+                                         *[t for _, t in inputs])
         return image if image.dtype == torch.float32 else image.float()
 
 
-def _as_rgb_tensor(value: Any, what: str) -> "torch.Tensor":
+def _as_input(value: Any, current: Any, what: str) -> "torch.Tensor":
+    """``value`` as a float tensor shaped like the scene parameter it replaces (a colour [3], a number [1],
+    or a map [H, W, C] of the size given at construction)."""
     import torch
 
-    tensor = value if isinstance(value, torch.Tensor) else torch.tensor(_rgb(value, what), dtype=torch.float32)
-    if tensor.numel() == 1:
+    tensor = value if isinstance(value, torch.Tensor) else torch.as_tensor(np.asarray(value, np.float32))
+    expected = tuple(current.shape) if hasattr(current, "ndim") and current.ndim == 3 else None
+    if expected is not None:
+        if tuple(tensor.shape) != expected:
+            raise PsdrRoomError(f"renderer.render_rgb: {what} must be a map of shape {expected}, got {tuple(tensor.shape)}")
+        return tensor
+    size = 3 if "Color" in type(current).__name__ else 1
+    if tensor.numel() == 1 and size == 3:
         tensor = tensor.reshape(1).expand(3)
-    if tensor.numel() != 3:
-        raise PsdrRoomError(f"renderer.render_rgb: {what} must have 3 values, got shape {tuple(tensor.shape)}")
-    return tensor.reshape(3)
+    if tensor.numel() != size:
+        raise PsdrRoomError(f"renderer.render_rgb: {what} must have {size} value(s), got shape {tuple(tensor.shape)}")
+    return tensor.reshape(size)
 
 
 class _MitsubaScene:
@@ -396,7 +424,7 @@ class _MitsubaScene:
         self.passes = passes
         self._plain = passes
         self._projective = projective or passes
-        self.albedo_keys: dict[str, str] = {}
+        self.surface_keys: dict[str, dict[str, str]] = {}
         self.radiance_keys: dict[str, str] = {}
 
     def with_mode(self, mode: str) -> "_MitsubaScene":
@@ -431,7 +459,8 @@ class _MitsubaScene:
         }
         desc: dict[str, Any] = {"type": "scene", "sensor": sensor}
         for name, shape in owner.shapes.items():
-            desc[name] = _mesh(mi, name, shape, bsdf=_diffuse(mi, owner.albedo[name]))
+            bsdf = _principled(mi, owner.surfaces[name]) if rgb else _diffuse(mi, (0.5, 0.5, 0.5))
+            desc[name] = _mesh(mi, name, shape, bsdf=bsdf)
         if rgb:
             for name, (shape, radiance) in owner.emitters.items():
                 emitter = mi.load_dict({"type": "area", "radiance": {"type": "rgb", "value": list(radiance)}})
@@ -450,9 +479,13 @@ class _MitsubaScene:
                                             "sppp": r.spp_boundary, "sppi": r.rgb_sppi, "guiding": r.rgb_guiding})]
                 out = cls(owner, mi, scene, plain, projective)
             for name in owner.shapes:
-                out.albedo_keys[name] = _find_key(out.params, name + ".bsdf.", "reflectance.value")
+                out.surface_keys[name] = {
+                    "base_color": _find_key(out.params, name + ".bsdf.", ("base_color.value", "base_color.data")),
+                    "roughness": _find_key(out.params, name + ".bsdf.", ("roughness.value", "roughness.data")),
+                    "specular": _find_key(out.params, name + ".bsdf.", (".specular",)),
+                }
             for name in owner.emitters:
-                out.radiance_keys[name] = _find_key(out.params, name + ".emitter.", "radiance.value")
+                out.radiance_keys[name] = _find_key(out.params, name + ".emitter.", ("radiance.value",))
         else:
             from .integrator import ALPHA, DEPTH, NAME
 
@@ -470,21 +503,25 @@ class _MitsubaScene:
 
     # ------------------------------------------------------------------------------- torch bridge
     def set_inputs(self, keys: Sequence[str], arrays: Sequence[np.ndarray], attach: Sequence[bool] = ()) -> list[Any]:
-        """Write flat float32 arrays into the scene parameters (with gradients enabled where ``attach``);
-        returns the Dr.Jit variables written."""
+        """Write float32 arrays into the scene parameters, each converted to the parameter's own type
+        (with gradients enabled where ``attach``); returns the Dr.Jit variables written."""
         mi = self.mi
         import drjit as dr
 
         written = []
         attach = list(attach) or [False] * len(keys)
+        scalar = mi.variant().startswith("scalar")
         for key, array, grad in zip(keys, arrays, attach):
+            current = self.params[key]
             flat = np.ascontiguousarray(array, dtype=np.float32).reshape(-1)
-            if key.endswith(".vertex_positions"):
-                value = type(self.params[key])(flat)
-            elif mi.variant().startswith("scalar"):
-                value = mi.Color3f(*(float(x) for x in flat))
-            else:
-                value = dr.unravel(mi.Color3f, mi.Float(flat))
+            if isinstance(current, mi.TensorXf):  # a map
+                value = mi.TensorXf(flat.reshape(current.shape))
+            elif "Color" in type(current).__name__:
+                value = mi.Color3f(*(float(x) if scalar else _opaque(mi.Float, x) for x in flat))
+            elif key.endswith(".vertex_positions"):
+                value = type(current)(flat)
+            else:  # a number (a Float of one entry)
+                value = float(flat[0]) if scalar else _opaque(mi.Float, flat[0])
             if grad:
                 dr.enable_grad(value)
             self.params[key] = value
@@ -502,6 +539,20 @@ class _MitsubaScene:
         self.params.update()
 
 
+def _opaque(kind: Any, value: Any) -> Any:
+    """A one-entry Dr.Jit array held in memory: a literal (or memory Dr.Jit did not allocate) is baked
+    into the kernel, so every new value would compile a new kernel (measured 0.45-0.5 s per backward pass)."""
+    import drjit as dr
+
+    return dr.opaque(kind, value)
+
+
+def _opaque_seed(seed: int) -> Any:
+    import mitsuba as mi
+
+    return _opaque(mi.UInt32, seed) if not mi.variant().startswith("scalar") else seed
+
+
 def _make_function() -> Any:
     import torch
 
@@ -509,7 +560,8 @@ def _make_function() -> Any:
         """Primal render of every pass; backward = ``render_backward`` of every pass on the same inputs."""
 
         @staticmethod
-        def forward(ctx: Any, scene: _MitsubaScene, keys: list[str], seed: int, *tensors: torch.Tensor):
+        def forward(ctx: Any, scene: _MitsubaScene, keys: list[str], seed: int, spp: tuple[int, int],
+                    *tensors: torch.Tensor):
             arrays = [t.detach().to("cpu", torch.float32).numpy().copy() for t in tensors]
             scene.owner.renderer.activate()
             scene.set_inputs(keys, arrays)
@@ -517,9 +569,9 @@ def _make_function() -> Any:
             outputs = []
             device = tensors[0].device if tensors else torch.device(scene.owner.device)
             for integrator in passes:
-                image = integrator.render(scene.scene, sensor=0, seed=seed, spp=0)
+                image = integrator.render(scene.scene, sensor=0, seed=_opaque_seed(seed), spp=spp[0])
                 outputs.append(torch.from_numpy(np.array(image, dtype=np.float32)).to(device))
-            ctx.scene, ctx.keys, ctx.seed, ctx.arrays, ctx.passes = scene, keys, seed, arrays, passes
+            ctx.scene, ctx.keys, ctx.seed, ctx.arrays, ctx.passes, ctx.spp = scene, keys, seed, arrays, passes, spp
             ctx.shapes = [tuple(t.shape) for t in tensors]
             ctx.types = [(t.dtype, t.device) for t in tensors]
             return tuple(outputs)
@@ -530,7 +582,7 @@ def _make_function() -> Any:
 
             scene: _MitsubaScene = ctx.scene
             mi = scene.owner.renderer.activate()
-            needs = list(ctx.needs_input_grad[3:])
+            needs = list(ctx.needs_input_grad[4:])
             grads: list[torch.Tensor | None] = [None] * len(ctx.keys)
             if any(needs):
                 values = scene.set_inputs(ctx.keys, ctx.arrays, needs)
@@ -539,14 +591,17 @@ def _make_function() -> Any:
                     if grad is None:
                         continue
                     grad_in = mi.TensorXf(np.ascontiguousarray(grad.detach().to("cpu", torch.float32).numpy()))
-                    integrator.render_backward(scene.scene, scene.params, grad_in, sensor=0, seed=seed_grad, spp=0)
-                for i, (value, need) in enumerate(zip(values, needs)):
-                    if need:
-                        g = np.array(dr.ravel(dr.grad(value)), dtype=np.float32).reshape(ctx.shapes[i])
+                    integrator.render_backward(scene.scene, scene.params, grad_in, sensor=0, seed=_opaque_seed(seed_grad),
+                                               spp=ctx.spp[1])
+                flat = {i: dr.ravel(dr.grad(value)) for i, (value, need) in enumerate(zip(values, needs)) if need}
+                dr.eval(*flat.values())  # one kernel for every gradient, not one per parameter
+                for i, g_flat in flat.items():
+                    if True:
+                        g = np.array(g_flat, dtype=np.float32).reshape(ctx.shapes[i])
                         dtype, device = ctx.types[i]
                         grads[i] = torch.from_numpy(g).to(device=device, dtype=dtype)
                 scene.detach_all(ctx.keys)
-            return (None, None, None, *grads)
+            return (None, None, None, None, *grads)
 
     return RenderFunction
 
@@ -563,11 +618,11 @@ class _LazyFunction:
 _RenderFunction = _LazyFunction()
 
 
-def _find_key(params: Any, prefix: str, suffix: str) -> str:
+def _find_key(params: Any, prefix: str, suffixes: tuple[str, ...]) -> str:
     for key in params.keys():
-        if key.startswith(prefix) and key.endswith(suffix):
+        if key.startswith(prefix) and key.endswith(suffixes):
             return key
-    raise PsdrRoomError(f"renderer=mitsuba: no scene parameter {prefix}*{suffix} (Mitsuba version mismatch?)")
+    raise PsdrRoomError(f"renderer=mitsuba: no scene parameter {prefix}*{suffixes[0]} (Mitsuba version mismatch?)")
 
 
 def _diffuse(mi: Any, rgb: tuple[float, float, float]) -> Any:
@@ -575,18 +630,37 @@ def _diffuse(mi: Any, rgb: tuple[float, float, float]) -> Any:
                                                       "reflectance": {"type": "rgb", "value": list(rgb)}}})
 
 
+def _principled(mi: Any, surface: Surface) -> Any:
+    """A two-sided principled BSDF for ``surface`` (maps as repeating, bilinear bitmaps of linear values)."""
+
+    def texture(value: Any, channels: int) -> dict[str, Any]:
+        array = np.asarray(value, dtype=np.float32)
+        if array.ndim == 3:
+            return {"type": "bitmap", "data": mi.TensorXf(np.ascontiguousarray(array)), "raw": True,
+                    "filter_type": "bilinear", "wrap_mode": "repeat"}
+        values = [float(v) for v in np.broadcast_to(array.reshape(-1), (channels,))]
+        return {"type": "rgb", "value": values} if channels == 3 else {"type": "uniform", "value": values[0]}
+
+    return mi.load_dict({"type": "twosided", "bsdf": {
+        "type": "principled", "base_color": texture(surface.base_color, 3),
+        "roughness": texture(surface.roughness, 1), "specular": float(surface.specular)}})
+
+
 def _mesh(mi: Any, name: str, shape: _Shape, bsdf: Any, emitter: Any = None) -> Any:
-    """A position-only Mitsuba mesh (face normals) built from arrays."""
+    """A Mitsuba mesh with face normals (and texture coordinates when the shape has them) built from arrays."""
     props = mi.Properties()
     props["bsdf"] = bsdf
     if emitter is not None:
         props["emitter"] = emitter
     mesh = mi.Mesh(name, len(shape.vertices), len(shape.faces), props=props, has_vertex_normals=False,
-                   has_vertex_texcoords=False)
+                   has_vertex_texcoords=shape.uv is not None)
     params = mi.traverse(mesh)
     # The parameters' own types: mi.Float / mi.UInt32 in JIT variants, dynamic arrays in scalar ones.
     params["vertex_positions"] = type(params["vertex_positions"])(
         np.ascontiguousarray(shape.vertices, dtype=np.float32).reshape(-1))
     params["faces"] = type(params["faces"])(np.ascontiguousarray(shape.faces, dtype=np.uint32).reshape(-1))
+    if shape.uv is not None:
+        params["vertex_texcoords"] = type(params["vertex_texcoords"])(
+            np.ascontiguousarray(shape.uv, dtype=np.float32).reshape(-1))
     params.update()
     return mesh

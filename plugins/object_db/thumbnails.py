@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.shading import linear_to_srgb, srgb_to_linear
 
 if TYPE_CHECKING:
     from .database import ObjectMesh, ObjectDatabase
@@ -33,16 +34,6 @@ SIZE = 128
 SPP = 32
 RENDER_VERSION = 1
 """Bump when the look of the thumbnails changes (it is part of the cache key)."""
-
-
-def srgb_to_linear(c: np.ndarray) -> np.ndarray:
-    c = np.clip(c, 0.0, 1.0)
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-
-
-def linear_to_srgb(c: np.ndarray) -> np.ndarray:
-    c = np.clip(c, 0.0, 1.0)
-    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
 
 
 def camera_for(extent: Sequence[float], azimuth: float, elevation: float, fov: float,

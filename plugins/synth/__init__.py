@@ -5,7 +5,8 @@ Each scene directory holds what the ``file`` implementations read beside a photo
     photo.png                      path-traced with Mitsuba 3 (global illumination, area lights)
     photo.depth.png/.depth.json    z-depth, uint16 millimetres (scale 1000): exact, or estimator-like (--depth-noise)
     photo.panoptic.png/.json       COCO panoptic: floor, ceiling, one segment per wall, objects, lights
-    ground_truth.json              intrinsics, vfov, camera pose, room box, objects (boxes), lights, seed, case
+    ground_truth.json              intrinsics, vfov, camera pose, room box, objects (boxes), lights, seed, case,
+                                   albedo (linear), exposure (photo = sRGB(exposure × radiance))
 """
 
 from __future__ import annotations
@@ -46,11 +47,12 @@ def write_scene(room: SyntheticRoom, directory: Path, spp: int = 64, depth_noise
     depth, ids, segments = raycast(room)
     depth = estimated_depth(depth, depth_noise, room.seed)
     photo = directory / "photo.png"
-    cv2.imwrite(str(photo), render_photo(room, spp=spp)[..., ::-1])
+    image, scale = render_photo(room, spp=spp)
+    cv2.imwrite(str(photo), image[..., ::-1])
     cv2.imwrite(str(directory / "photo.depth.png"), np.clip(np.rint(depth * 1000.0), 0, 65535).astype(np.uint16))
     (directory / "photo.depth.json").write_text(json.dumps({"encoding": "png16", "scale": 1000.0}) + "\n")
     artifacts.write_coco_panoptic(directory / "photo.panoptic.png", directory / "photo.panoptic.json", ids, segments)
-    (directory / "ground_truth.json").write_text(json.dumps(room.to_json(), indent=2) + "\n")
+    (directory / "ground_truth.json").write_text(json.dumps({**room.to_json(), "exposure": scale}, indent=2) + "\n")
     return photo
 
 

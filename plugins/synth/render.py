@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from psdr_room_core.artifacts import RoomBox, rotation_y
-from psdr_room_core.stages.export import CV_TO_MITSUBA, room_quads
+from psdr_room_core.rgb_scene import room_quads
+from psdr_room_core.stages.export import CV_TO_MITSUBA
 
 from .scene import Box, SyntheticRoom
 
@@ -77,19 +78,21 @@ def scene_dict(room: SyntheticRoom, spp: int, max_depth: int) -> dict:
     return scene
 
 
-def to_srgb8(linear: np.ndarray, percentile: float = 97.0, target: float = 0.85) -> np.ndarray:
-    """Auto-exposed sRGB 8-bit image from linear radiance."""
-    scale = target / max(float(np.percentile(linear, percentile)), 1e-6)
-    x = np.clip(linear * scale, 0.0, 1.0)
-    srgb = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
-    return np.clip(np.rint(srgb * 255), 0, 255).astype(np.uint8)
+def exposure(linear: np.ndarray, percentile: float = 97.0, target: float = 0.85) -> float:
+    """The auto-exposure of a linear render: the factor that puts its ``percentile`` at ``target``."""
+    return target / max(float(np.percentile(linear, percentile)), 1e-6)
 
 
-def render_photo(room: SyntheticRoom, spp: int = 64, max_depth: int = 5, variant: str = "llvm_ad_rgb") -> np.ndarray:
-    """Path-traced RGB photo (uint8 HxWx3, sRGB) of the synthetic room."""
+def render_photo(room: SyntheticRoom, spp: int = 64, max_depth: int = 5, variant: str = "llvm_ad_rgb"
+                 ) -> tuple[np.ndarray, float]:
+    """Path-traced RGB photo (uint8 HxWx3, sRGB, auto-exposed) of the synthetic room, and its exposure: photo
+    values are the sRGB encoding of exposure × radiance (the scale the light intensities are compared in)."""
     import mitsuba as mi
+
+    from psdr_room_core.rgb_scene import to_srgb8
 
     mi.set_variant(variant)
     scene = mi.load_dict(scene_dict(room, spp, max_depth))
     image = np.asarray(mi.render(scene, seed=room.seed), dtype=np.float32)[..., :3]
-    return to_srgb8(image)
+    scale = exposure(image)
+    return to_srgb8(image * scale), scale

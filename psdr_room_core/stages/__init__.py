@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ..hookspecs import hookimpl
 from ..plugins import Registry
-from . import export, materials, objects, preprocess, room
+from . import appearance, export, lighting, materials, objects, preprocess, room
 from ..crops import CROPS_SUFFIX
 
 
@@ -24,4 +24,7 @@ def register_stages(registry: Registry) -> None:
     registry.add_stage("fit_objects", objects.fit_objects, uses=["renderer", "optimizer"], version="2")
     registry.add_stage("assign_materials", materials.assign_materials, uses=["renderer", "material_graph", "texture"],
                        sidecars=[CROPS_SUFFIX])
-    registry.add_stage("export_scene", export.export_scene, version="3")
+    registry.add_stage("init_lights", lighting.init_lights, uses=["renderer", "material_graph"])
+    registry.add_stage("fit_appearance", appearance.fit_appearance,
+                       uses=["renderer", "optimizer", "material_graph", "texture"])
+    registry.add_stage("export_scene", export.export_scene, uses=["material_graph"], version="4")

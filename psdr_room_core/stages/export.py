@@ -1,5 +1,5 @@
-"""Export: the reconstructed scene as Mitsuba 3 XML with separate, welded room and object meshes, plus the
-point cloud.
+"""Export: the reconstructed scene as Mitsuba 3 XML (separate, welded room and object meshes, baked maps,
+area lights) and as glTF 2.0, with its editable appearance and the point cloud.
 
 The room box is written as one quad mesh per side (floor, ceiling, four walls) with normals facing into
 the room: separate meshes keep each side's parameters addressable, and welded quads give correct
@@ -11,162 +11,193 @@ from __future__ import annotations
 
 import json
 from dataclasses import asdict
+from typing import Any
 from xml.sax.saxutils import quoteattr
 
+import cv2
 import numpy as np
 
-from ..artifacts import (Camera, MaterialAssignment, Placement, Placements, PointCloud, RoomBox, SceneFiles,
-                         ply_bytes)
-from ..errors import PsdrRoomError
+from ..artifacts import (Camera, Light, Lights, PartAppearance, Placements, PointCloud, RoomBox,
+                         SceneAppearance, SceneFiles, ply_bytes)
 from ..dag import StageContext
-from ..geometry import TriangleMesh, weld
+from ..errors import PsdrRoomError
+from ..geometry import TriangleMesh
+from ..gltf import scene_glb
+from ..rgb_scene import RgbScene, build_scene, part_meshes
+from ..shading import linear_to_srgb
 
 CV_TO_MITSUBA = np.diag([-1.0, -1.0, 1.0, 1.0])
 """OpenCV camera axes (x right, y down, z forward) → Mitsuba's (x left, y up, z forward)."""
 
-ROOM_SIDES = {
-    # side name: (axis, sign) of the box face in the box's local frame
-    "floor": (1, -1),
-    "ceiling": (1, 1),
-    "wall_x_neg": (0, -1),
-    "wall_x_pos": (0, 1),
-    "wall_z_neg": (2, -1),
-    "wall_z_pos": (2, 1),
-}
-
-
-def room_quad_indices(room: RoomBox) -> dict[str, np.ndarray]:
-    """Corner indices (into ``room.corners()``) of each side's quad, counter-clockwise seen from inside."""
-    corners = room.corners()
-    indices = {}
-    for name, (axis, sign) in ROOM_SIDES.items():
-        base = (1 << axis) if sign > 0 else 0
-        bit_u, bit_v = (1 << a for a in range(3) if a != axis)
-        quad = np.array([base, base | bit_u, base | bit_u | bit_v, base | bit_v])
-        normal = np.cross(corners[quad[1]] - corners[quad[0]], corners[quad[2]] - corners[quad[0]])
-        if np.dot(normal, room.center - corners[quad].mean(axis=0)) < 0:  # face the inside of the room
-            quad = quad[::-1]
-        indices[name] = quad
-    return indices
-
-
-def room_quads(room: RoomBox) -> dict[str, np.ndarray]:
-    """World-space quads (4x3, counter-clockwise seen from inside the room) for each side of the box."""
-    corners = room.corners()
-    return {name: corners[index] for name, index in room_quad_indices(room).items()}
-
-
-def mesh_ply(vertices: np.ndarray, faces: np.ndarray) -> bytes:
-    """A binary PLY triangle mesh with positions only (welded: one vertex per corner)."""
+def mesh_ply(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray | None = None) -> bytes:
+    """A binary PLY triangle mesh: positions (one vertex per corner), and texture coordinates ``u``, ``v``
+    when given."""
+    props = "property float x\nproperty float y\nproperty float z\n" + ("property float u\nproperty float v\n" if uv is not None else "")
     header = (
         "ply\nformat binary_little_endian 1.0\n"
-        f"element vertex {len(vertices)}\nproperty float x\nproperty float y\nproperty float z\n"
+        f"element vertex {len(vertices)}\n{props}"
         f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n"
     )
+    columns = [np.asarray(vertices, np.float64)] + ([np.asarray(uv, np.float64)] if uv is not None else [])
     tris = np.empty(len(faces), dtype=[("n", "u1"), ("i", "<i4", (3,))])
     tris["n"], tris["i"] = 3, faces
-    return header.encode("ascii") + vertices.astype("<f4").tobytes() + tris.tobytes()
+    return header.encode("ascii") + np.hstack(columns).astype("<f4").tobytes() + tris.tobytes()
 
 
 def _matrix(m: np.ndarray) -> str:
     return " ".join(f"{float(x):.9g}" for x in np.asarray(m).reshape(-1))
 
 
-def object_parts(placement: Placement) -> dict[str, tuple[TriangleMesh, np.ndarray]]:
-    """Shape id → (welded world-space mesh, sRGB base colour) for each material group of an object."""
-    world = placement.world_vertices()
-    parts = {}
-    for g, group in enumerate(placement.mesh.groups):
-        faces = placement.mesh.faces[placement.mesh.face_group == g]
-        if len(faces):
-            used, local = np.unique(faces, return_inverse=True)
-            mesh = weld(TriangleMesh(world[used], local.reshape(-1, 3)))
-            safe = "".join(ch if ch.isalnum() else "_" for ch in group)
-            parts[f"object_{placement.segment_id}_{safe}"] = (mesh, placement.mesh.colors[g])
-    return parts
+def _texture(name: str, channel: str, value: Any, files: dict[str, bytes]) -> list[str]:
+    """XML for one principled input: a constant, or a map written to ``textures/`` (base colour as sRGB PNG,
+    roughness as a linear PNG)."""
+    array = np.asarray(value, dtype=np.float64)
+    if array.ndim == 3:
+        path = f"textures/{name}_{channel}.png"
+        if channel == "base_color":
+            files[path] = _png8(linear_to_srgb(array))
+            raw = "false"
+        else:
+            files[path] = _png8(array[..., 0])
+            raw = "true"
+        return [f'<texture type="bitmap" name="{channel}"><string name="filename" value="{path}"/>'
+                f'<boolean name="raw" value="{raw}"/></texture>']
+    if channel == "base_color":
+        return [f'<rgb name="base_color" value="{" ".join(f"{float(c):.6g}" for c in array.reshape(-1))}"/>']
+    return [f'<float name="{channel}" value="{float(array.reshape(-1)[0]):.6g}"/>']
 
 
-def srgb_to_linear(rgb: np.ndarray) -> np.ndarray:
-    rgb = np.clip(np.asarray(rgb, dtype=np.float64), 0.0, 1.0)
-    return np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+def _png8(image: np.ndarray) -> bytes:
+    data = (np.clip(image, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+    ok, encoded = cv2.imencode(".png", np.ascontiguousarray(data[..., ::-1] if data.ndim == 3 else data))
+    assert ok
+    return encoded.tobytes()
 
 
-def scene_xml(camera: Camera, room: RoomBox, params: dict, albedo: dict[str, np.ndarray]) -> str:
-    """Mitsuba 3 scene description for the camera, the room sides and the object parts (shape id → linear
-    albedo, room sides first) written by :func:`export_scene`."""
-    to_world = np.asarray(room.camera_to_world) @ CV_TO_MITSUBA
+def scene_xml(camera: Camera, camera_to_world: np.ndarray, scene: RgbScene, params: dict, files: dict[str, bytes]) -> str:
+    """Mitsuba 3 scene description of ``scene`` (meshes and textures are added to ``files``): the camera
+    (``$width``, ``$height``, ``$spp`` overridable), two-sided principled surfaces, area-light meshes, and a
+    path tracer of ``max_depth`` (``$max_depth``)."""
+    to_world = np.asarray(camera_to_world) @ CV_TO_MITSUBA
     offset_x = (camera.width / 2.0 - camera.cx) / camera.width
     offset_y = (camera.height / 2.0 - camera.cy) / camera.height
     lines = [
         '<scene version="3.0.0">',
         f'    <default name="spp" value="{int(params["spp"])}"/>',
-        '    <integrator type="path">',
-        f'        <integer name="max_depth" value="{int(params["max_depth"])}"/>',
-        "    </integrator>",
+        f'    <default name="max_depth" value="{int(params["max_depth"])}"/>',
+        f'    <default name="width" value="{camera.width}"/>',
+        f'    <default name="height" value="{camera.height}"/>',
+        '    <integrator type="path"><integer name="max_depth" value="$max_depth"/></integrator>',
         '    <sensor type="perspective" id="camera">',
         '        <string name="fov_axis" value="y"/>',
         f'        <float name="fov" value="{camera.vfov_deg:.9g}"/>',
         f'        <float name="principal_point_offset_x" value="{offset_x:.9g}"/>',
         f'        <float name="principal_point_offset_y" value="{offset_y:.9g}"/>',
-        '        <float name="near_clip" value="0.01"/>',
-        '        <float name="far_clip" value="1000"/>',
+        '        <float name="near_clip" value="0.001"/>',
+        '        <float name="far_clip" value="10000"/>',
         f'        <transform name="to_world"><matrix value="{_matrix(to_world)}"/></transform>',
         '        <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>',
         '        <film type="hdrfilm">',
-        f'            <integer name="width" value="{camera.width}"/>',
-        f'            <integer name="height" value="{camera.height}"/>',
+        '            <integer name="width" value="$width"/>',
+        '            <integer name="height" value="$height"/>',
         '            <rfilter type="box"/>',
         "        </film>",
         "    </sensor>",
     ]
-    for name, albedo_rgb in albedo.items():
-        rgb = " ".join(f"{a:.6g}" for a in albedo_rgb)
+    for name, mesh in scene.meshes.items():
+        surface = scene.surfaces[name]
+        files[f"meshes/{name}.ply"] = mesh_ply(mesh.vertices, mesh.faces, surface.uv if surface.mapped else None)
+        inputs = (_texture(name, "base_color", surface.base_color, files)
+                  + _texture(name, "roughness", surface.roughness, files)
+                  + [f'<float name="specular" value="{float(surface.specular):.6g}"/>'])
         lines += [
             f'    <shape type="ply" id={quoteattr(name)}>',
             f'        <string name="filename" value="meshes/{name}.ply"/>',
-            f'        <bsdf type="diffuse"><rgb name="reflectance" value="{rgb}"/></bsdf>',
+            '        <boolean name="face_normals" value="true"/>',
+            '        <bsdf type="twosided"><bsdf type="principled">',
+            *(f"            {line}" for line in inputs),
+            "        </bsdf></bsdf>",
             "    </shape>",
         ]
-    # An initial light until the lighting stage places real ones: a panel just below the ceiling centre.
-    top = room.center + np.array([0.0, room.half_size[1] * 0.98, 0.0])
-    size = 0.25 * float(min(room.half_size[0], room.half_size[2]))
-    panel = np.array([[size, 0, 0, top[0]], [0, -1e-3, 0, top[1]], [0, 0, size, top[2]], [0, 0, 0, 1]])
-    rotate = np.array([[1, 0, 0, 0], [0, 0, 1, 0], [0, -1, 0, 0], [0, 0, 0, 1.0]])  # +z normal → -y (down)
-    lines += [
-        '    <shape type="rectangle" id="ceiling_light">',
-        f'        <transform name="to_world"><matrix value="{_matrix(panel @ rotate)}"/></transform>',
-        f'        <emitter type="area"><rgb name="radiance" value="{float(params["light_radiance"]):.6g}"/></emitter>',
-        "    </shape>",
-        "</scene>",
-    ]
+    for name, (mesh, radiance) in scene.emitters.items():
+        files[f"meshes/{name}.ply"] = mesh_ply(mesh.vertices, mesh.faces)
+        rgb = " ".join(f"{float(c):.6g}" for c in radiance)
+        lines += [
+            f'    <shape type="ply" id={quoteattr(name)}>',
+            f'        <string name="filename" value="meshes/{name}.ply"/>',
+            '        <boolean name="face_normals" value="true"/>',
+            '        <bsdf type="diffuse"><rgb name="reflectance" value="0"/></bsdf>',
+            f'        <emitter type="area"><rgb name="radiance" value="{rgb}"/></emitter>',
+            "    </shape>",
+        ]
+    lines.append("</scene>")
     return "\n".join(lines) + "\n"
 
 
-def export_scene(ctx: StageContext, camera: Camera, room: RoomBox, cloud: PointCloud, placements: Placements,
-                 materials: MaterialAssignment) -> SceneFiles:
-    """Write ``scene.xml`` (Mitsuba 3: camera, room meshes, object parts with the albedo of their assigned
-    material, an initial light), the meshes, the materials (``materials.json``: kind, albedo, graph and
-    texture transform per part) and the segmented point cloud in world coordinates (``point_cloud.ply``).
+def read_mesh_ply(data: bytes, source: str) -> tuple[TriangleMesh, np.ndarray | None]:
+    """A mesh written by :func:`mesh_ply` (with its texture coordinates, if any); ``source`` names it in errors."""
+    end = data.find(b"end_header\n")
+    if not data.startswith(b"ply\n") or end < 0:
+        raise PsdrRoomError(f"{source}: not a PLY file as psdr-room writes it; re-export the scene")
+    header = data[:end].decode("ascii", "replace").split("\n")
+    try:
+        n_vertices = int(next(l.split()[2] for l in header if l.startswith("element vertex")))
+        n_faces = int(next(l.split()[2] for l in header if l.startswith("element face")))
+    except (StopIteration, ValueError, IndexError):
+        raise PsdrRoomError(f"{source}: PLY header without vertex/face counts; re-export the scene") from None
+    columns = sum(1 for l in header if l.startswith("property float"))
+    body = data[end + len(b"end_header\n"):]
+    size = n_vertices * columns * 4
+    tris = np.frombuffer(body[size:], dtype=[("n", "u1"), ("i", "<i4", (3,))], count=n_faces)
+    table = np.frombuffer(body[:size], dtype="<f4").reshape(n_vertices, columns).astype(np.float64)
+    return TriangleMesh(table[:, :3], tris["i"].astype(np.int64)), (table[:, 3:5] if columns >= 5 else None)
 
-    Params: ``spp``, ``max_depth`` (path tracer defaults in the XML), ``light_radiance``.
-    """
+
+def scene_state(camera: Camera, camera_to_world: np.ndarray, parts: list[PartAppearance],
+                lights: list[Light], fixtures: list[str], texture_size: int) -> dict[str, Any]:
+    """What a scene folder's ``appearance.json`` holds: everything besides the meshes needed to rebuild and
+    edit it (camera, every part's material with its graph parameters, the lights, the window frames)."""
+    return {
+        "camera": {"width": camera.width, "height": camera.height, "fx": camera.fx, "fy": camera.fy,
+                   "cx": camera.cx, "cy": camera.cy},
+        "camera_to_world": np.asarray(camera_to_world).tolist(),
+        "parts": [asdict(p) for p in parts],
+        "lights": [{"name": l.name, "kind": l.kind, "part": l.part, "radiance": list(l.radiance)} for l in lights],
+        "fixtures": list(fixtures),
+        "texture_size": int(texture_size),
+    }
+
+
+def scene_folder(scene: RgbScene, state: dict[str, Any], spp: int, max_depth: int, glb: bool) -> dict[str, bytes]:
+    """The files of a scene folder: ``scene.xml`` with its meshes and maps, ``scene.glb`` (when ``glb``) and
+    ``appearance.json`` (``state``)."""
+    camera = Camera(**state["camera"])
+    c2w = np.asarray(state["camera_to_world"], dtype=np.float64)
     files: dict[str, bytes] = {}
-    faces = np.array([[0, 1, 2], [0, 2, 3]])
-    meshes: dict[str, TriangleMesh] = {name: TriangleMesh(quad, faces) for name, quad in room_quads(room).items()}
-    colours: dict[str, np.ndarray] = {}
-    for placement in placements.objects:
-        for name, (mesh, colour) in object_parts(placement).items():
-            meshes[name], colours[name] = mesh, colour
-    albedo = {}
-    for name, mesh in meshes.items():
-        files[f"meshes/{name}.ply"] = mesh_ply(mesh.vertices, mesh.faces)
-        assigned = materials.part(name)
-        if assigned is None and name not in colours:
-            raise PsdrRoomError(f"materials artifact has no part '{name}'; rerun assign_materials (+run.from=assign_materials)")
-        albedo[name] = srgb_to_linear(assigned.albedo if assigned is not None else colours[name])
-    files["scene.xml"] = scene_xml(camera, room, ctx.params, albedo).encode()
-    files["materials.json"] = json.dumps({"parts": [asdict(p) for p in materials.parts]}, indent=1).encode()
+    files["scene.xml"] = scene_xml(camera, c2w, scene, {"spp": spp, "max_depth": max_depth}, files).encode()
+    if glb:
+        files["scene.glb"] = scene_glb(scene, camera, c2w)
+    files["appearance.json"] = (json.dumps(state, indent=1) + "\n").encode()
+    return files
+
+
+def export_scene(ctx: StageContext, camera: Camera, room: RoomBox, cloud: PointCloud, placements: Placements,
+                 lights: Lights, appearance: SceneAppearance) -> SceneFiles:
+    """Write the fitted scene: ``scene.xml`` (Mitsuba 3; ``mitsuba.load_file`` renders what ``fit_appearance``
+    rendered) with its meshes (PLY, texture coordinates on mapped parts) and the procedural parts' maps
+    baked at ``texture_size`` (``textures/``); ``scene.glb`` (glTF 2.0, when ``glb``); ``appearance.json``
+    (camera, every part's material with its graph parameters, the lights: what ``psdr-room-edit``
+    changes); and the segmented point cloud in world coordinates (``point_cloud.ply``).
+
+    Params: ``spp``, ``max_depth`` (the XML's path tracer defaults), ``texture_size``, ``glb``.
+    """
+    params = ctx.params
+    lit = [Light(l.name, l.kind, l.mesh, appearance.radiance.get(l.name, l.radiance), l.part) for l in lights.lights]
+    scene = build_scene(part_meshes(room, placements), appearance.parts, lit, lights.fixtures,
+                        ctx.impl("material_graph"), int(params["texture_size"]))
     c2w = np.asarray(room.camera_to_world)
+    state = scene_state(camera, c2w, appearance.parts, lit, list(lights.fixtures), int(params["texture_size"]))
+    files = scene_folder(scene, state, int(params["spp"]), int(params["max_depth"]), bool(params["glb"]))
     world = cloud.points @ c2w[:3, :3].T + c2w[:3, 3]
     files["point_cloud.ply"] = ply_bytes(world, cloud.colors, cloud.segment)
     return SceneFiles(files=files)

@@ -14,7 +14,7 @@ from ..crops import crop_windows, crops_file, read_crops
 from ..dag import StageContext
 from ..errors import PsdrRoomError
 from ..geometry import TriangleMesh
-from .export import object_parts, room_quads
+from ..rgb_scene import object_parts, render_part_ids, room_quads
 
 if TYPE_CHECKING:
     import torch
@@ -51,23 +51,6 @@ def scene_parts(room: RoomBox, placements: Placements, panoptic: Panoptic,
     return parts
 
 
-def render_parts(ctx: StageContext, camera: Camera, room: RoomBox, parts: list[ScenePart]) -> tuple[np.ndarray, np.ndarray]:
-    """(ids, depth) at the camera's resolution: the index of the part seen in each pixel (-1: none, or less
-    than half covered) and the rendered z-depth, by the ``renderer`` at ``render_width``."""
-    import torch
-
-    small = camera.resized(min(int(ctx.params["render_width"]), camera.width))
-    renderer = ctx.impl("renderer").geometry(small, np.asarray(room.camera_to_world),
-                                             {p.name: p.mesh for p in parts}, {p.name: i for i, p in enumerate(parts)})
-    with torch.no_grad():
-        masks, depth, alpha = (t.numpy() for t in renderer.render())
-    ids = np.where(masks.max(axis=0) > 0.5, masks.argmax(axis=0), -1).astype(np.int32)
-    depth = np.where(alpha > 0.5, depth / np.maximum(alpha, 1e-6), 0.0).astype(np.float32)
-    size = (camera.width, camera.height)
-    return (cv2.resize(ids, size, interpolation=cv2.INTER_NEAREST),
-            cv2.resize(depth, size, interpolation=cv2.INTER_NEAREST))
-
-
 def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera: Camera, room: RoomBox,
                      placements: Placements) -> MaterialAssignment:
     """Initial material of every scene part (§4.4).
@@ -88,7 +71,8 @@ def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera
 
     params = ctx.params
     parts = scene_parts(room, placements, panoptic, dict(params["room_colours"]))
-    ids, depth = render_parts(ctx, camera, room, parts)
+    ids, depth = render_part_ids(ctx.impl("renderer"), camera, room.camera_to_world, {p.name: p.mesh for p in parts},
+                                 int(params["render_width"]))
     kernel = np.ones((2 * int(params["erode_px"]) + 1,) * 2, np.uint8)
     for k, part in enumerate(parts):
         part.region = (ids == k) & part.target

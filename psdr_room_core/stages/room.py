@@ -22,7 +22,7 @@ from ..errors import PsdrRoomError
 from ..geometry import quad_mesh
 from ..room_box import RoomInitParams, box_iou_3d, init_room_box
 from ..visualize import plot_curves, room_edges_overlay, segment_overlay
-from .export import room_quad_indices, room_quads
+from ..rgb_scene import room_quad_indices, room_quads
 
 if TYPE_CHECKING:
     import torch

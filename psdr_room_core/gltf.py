@@ -1,0 +1,124 @@
+"""A glTF 2.0 binary (``.glb``) of the reconstructed scene: one mesh per scene part with a metallic-roughness
+PBR material (constant, or embedded PNG maps on the planar texture coordinates), the lights as emissive
+meshes (``KHR_materials_emissive_strength`` carries radiance above 1), and the photo's camera."""
+
+from __future__ import annotations
+
+import json
+import math
+import struct
+from typing import Any
+
+import cv2
+import numpy as np
+
+from .artifacts import Camera
+from .rgb_scene import RgbScene
+from .shading import linear_to_srgb
+
+CV_TO_GL = np.diag([1.0, -1.0, -1.0, 1.0])
+"""OpenCV camera axes (x right, y down, z forward) → glTF's (x right, y up, looking down −z)."""
+
+
+class _Buffer:
+    """The binary chunk with its buffer views and accessors."""
+
+    def __init__(self) -> None:
+        self.data = bytearray()
+        self.views: list[dict[str, Any]] = []
+        self.accessors: list[dict[str, Any]] = []
+
+    def view(self, payload: bytes, target: int | None = None) -> int:
+        while len(self.data) % 4:
+            self.data.append(0)
+        self.views.append({"buffer": 0, "byteOffset": len(self.data), "byteLength": len(payload),
+                           **({"target": target} if target else {})})
+        self.data += payload
+        return len(self.views) - 1
+
+    def accessor(self, array: np.ndarray, kind: str, component: int, target: int, bounds: bool = False) -> int:
+        view = self.view(np.ascontiguousarray(array).tobytes(), target)
+        entry: dict[str, Any] = {"bufferView": view, "componentType": component, "count": int(len(array)), "type": kind}
+        if bounds:
+            entry["min"] = [float(v) for v in array.min(axis=0)]
+            entry["max"] = [float(v) for v in array.max(axis=0)]
+        self.accessors.append(entry)
+        return len(self.accessors) - 1
+
+
+def _png(image: np.ndarray) -> bytes:
+    ok, data = cv2.imencode(".png", np.ascontiguousarray(image[..., ::-1] if image.ndim == 3 else image))
+    assert ok
+    return data.tobytes()
+
+
+def scene_glb(scene: RgbScene, camera: Camera, camera_to_world: np.ndarray) -> bytes:
+    """The scene as a ``.glb`` (y up, metres, world coordinates baked into the vertices)."""
+    buf = _Buffer()
+    meshes, materials, textures, images, nodes = [], [], [], [], []
+
+    def texture(png: bytes) -> int:
+        images.append({"bufferView": buf.view(png), "mimeType": "image/png"})
+        textures.append({"source": len(images) - 1, "sampler": 0})
+        return len(textures) - 1
+
+    def add(name: str, vertices: np.ndarray, faces: np.ndarray, material: dict[str, Any], uv: np.ndarray | None) -> None:
+        attributes = {"POSITION": buf.accessor(vertices.astype(np.float32), "VEC3", 5126, 34962, bounds=True)}
+        if uv is not None:
+            attributes["TEXCOORD_0"] = buf.accessor(uv.astype(np.float32), "VEC2", 5126, 34962)
+        indices = buf.accessor(faces.astype(np.uint32).reshape(-1), "SCALAR", 5125, 34963)
+        materials.append({"name": name, "doubleSided": True, **material})
+        meshes.append({"name": name, "primitives": [{"attributes": attributes, "indices": indices,
+                                                     "material": len(materials) - 1}]})
+        nodes.append({"name": name, "mesh": len(meshes) - 1})
+
+    for name, mesh in scene.meshes.items():
+        surface = scene.surfaces[name]
+        pbr: dict[str, Any] = {"metallicFactor": 0.0}
+        if np.ndim(surface.base_color) == 3:
+            srgb = (linear_to_srgb(np.asarray(surface.base_color)) * 255 + 0.5).astype(np.uint8)
+            pbr["baseColorTexture"] = {"index": texture(_png(srgb))}
+        else:
+            pbr["baseColorFactor"] = [float(c) for c in surface.base_color] + [1.0]
+        if np.ndim(surface.roughness) == 3:
+            rough = (np.clip(np.asarray(surface.roughness)[..., 0], 0, 1) * 255 + 0.5).astype(np.uint8)
+            packed = np.stack([np.zeros_like(rough), rough, np.zeros_like(rough)], axis=-1)  # glTF: roughness in G
+            pbr["metallicRoughnessTexture"] = {"index": texture(_png(packed))}
+            pbr["roughnessFactor"] = 1.0
+        else:
+            pbr["roughnessFactor"] = float(surface.roughness)
+        add(name, np.asarray(mesh.vertices), np.asarray(mesh.faces), {"pbrMetallicRoughness": pbr},
+            surface.uv if surface.mapped else None)
+    for name, (mesh, radiance) in scene.emitters.items():
+        strength = max(max(radiance), 1e-6)
+        add(name, np.asarray(mesh.vertices), np.asarray(mesh.faces), {
+            "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0},
+            "emissiveFactor": [float(c) / strength for c in radiance],
+            "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": float(strength)}}}, None)
+
+    pose = np.asarray(camera_to_world, dtype=np.float64) @ CV_TO_GL
+    nodes.append({"name": "camera", "camera": 0, "matrix": [float(v) for v in pose.T.reshape(-1)]})
+    gltf: dict[str, Any] = {
+        "asset": {"version": "2.0", "generator": "psdr-room"},
+        "extensionsUsed": ["KHR_materials_emissive_strength"],
+        "scene": 0,
+        "scenes": [{"name": "psdr-room", "nodes": list(range(len(nodes)))}],
+        "nodes": nodes,
+        "meshes": meshes,
+        "materials": materials,
+        "cameras": [{"type": "perspective", "name": "photo", "perspective": {
+            "yfov": math.radians(camera.vfov_deg), "aspectRatio": camera.width / camera.height, "znear": 0.01}}],
+        "buffers": [{"byteLength": 0}],
+        "bufferViews": buf.views,
+        "accessors": buf.accessors,
+    }
+    if textures:
+        gltf.update(textures=textures, images=images,
+                    samplers=[{"magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497}])
+    while len(buf.data) % 4:
+        buf.data.append(0)
+    gltf["buffers"][0]["byteLength"] = len(buf.data)
+    text = json.dumps(gltf, separators=(",", ":")).encode()
+    text += b" " * (-len(text) % 4)
+    body = struct.pack("<I4s", len(text), b"JSON") + text + struct.pack("<I4s", len(buf.data), b"BIN\x00") + bytes(buf.data)
+    return struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body

@@ -1,0 +1,32 @@
+"""Image agreement between a render and the photo: RMSE on down-sampled images and SSIM (Wang et al. 2004),
+both on sRGB values in [0, 1]."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+
+def rmse(a: np.ndarray, b: np.ndarray, factor: int = 8) -> float:
+    """Root mean squared difference of two [H, W, 3] images after area down-sampling by ``factor`` (the
+    paper's RMSE on down-sampled images, which forgives small misalignment)."""
+    size = (max(1, a.shape[1] // factor), max(1, a.shape[0] // factor))
+    small_a = cv2.resize(np.asarray(a, np.float32), size, interpolation=cv2.INTER_AREA)
+    small_b = cv2.resize(np.asarray(b, np.float32), size, interpolation=cv2.INTER_AREA)
+    return float(np.sqrt(np.mean((small_a - small_b) ** 2)))
+
+
+def ssim(a: np.ndarray, b: np.ndarray, sigma: float = 1.5) -> float:
+    """Mean structural similarity of the Rec. 709 luma of two [H, W, 3] images in [0, 1] (Gaussian window of
+    ``sigma`` pixels, the standard constants K1 = 0.01, K2 = 0.03)."""
+    weights = np.array([0.2126, 0.7152, 0.0722], np.float64)
+    x, y = np.asarray(a, np.float64) @ weights, np.asarray(b, np.float64) @ weights
+    c1, c2 = 0.01 ** 2, 0.03 ** 2
+
+    def blur(z: np.ndarray) -> np.ndarray:
+        return cv2.GaussianBlur(z, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
+
+    mx, my = blur(x), blur(y)
+    vx, vy, cxy = blur(x * x) - mx * mx, blur(y * y) - my * my, blur(x * y) - mx * my
+    index = ((2 * mx * my + c1) * (2 * cxy + c2)) / ((mx * mx + my * my + c1) * (vx + vy + c2))
+    return float(index.mean())

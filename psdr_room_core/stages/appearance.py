@@ -1,0 +1,218 @@
+"""Joint material and lighting optimisation under global illumination (paper §4.4, eq. 4)."""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import replace
+from typing import Any
+
+import cv2
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+from ..artifacts import (Camera, Image, Lights, MaterialAssignment, OptimizationLog, PartAppearance, Placements,
+                         RoomBox, SceneAppearance)
+from ..dag import StageContext
+from ..image_metrics import rmse, ssim
+from ..rgb_scene import build_scene, graph_maps, part_meshes, render_part_ids
+from ..shading import linear_to_srgb
+from ..visualize import plot_curves
+from .lighting import downsampled, initial_parts
+
+log = logging.getLogger("psdr_room")
+
+
+def _logit(x: float) -> torch.Tensor:
+    x = min(max(float(x), 1e-3), 1 - 1e-3)
+    return torch.tensor([np.log(x / (1 - x))], dtype=torch.float32)
+
+
+class AppearanceModel:
+    """The optimised parameters of eq. 4: per homogeneous part a base colour, roughness and specular (each
+    through a sigmoid); per procedural part its graph's unconstrained parameters and a specular; per light a
+    log RGB radiance."""
+
+    def __init__(self, parts: list[PartAppearance], lights: Lights, library: Any, map_size: int) -> None:
+        self.parts = parts
+        self.lights = lights
+        self.library = library
+        self.map_size = map_size
+        self.theta: dict[str, torch.Tensor] = {}
+        self.group: dict[str, str] = {}
+        for p in parts:
+            if p.kind == "procedural":
+                graph = library.material(p.material).unconstrained(p.params) if p.params else {}
+                for key, value in graph.items():
+                    self._add(f"{p.part}/graph/{key}", value.detach().clone().float(), "graph")
+            else:
+                self._add(f"{p.part}/base_color", torch.cat([_logit(c) for c in p.base_color]), "base_color")
+                self._add(f"{p.part}/roughness", _logit(p.roughness), "roughness")
+            self._add(f"{p.part}/specular", _logit(p.specular), "specular")
+        for light in lights.lights:
+            self._add(f"{light.name}/radiance", torch.log(torch.tensor(light.radiance, dtype=torch.float32).clamp_min(1e-4)),
+                      "radiance")
+
+    def _add(self, name: str, value: torch.Tensor, group: str) -> None:
+        self.theta[name] = value.requires_grad_(True)
+        self.group[name] = group
+
+    def inputs(self) -> dict[str, dict[str, torch.Tensor]]:
+        """Keyword arguments of ``render_rgb`` for the current parameters."""
+        base, rough, spec = {}, {}, {}
+        for p in self.parts:
+            spec[p.part] = torch.sigmoid(self.theta[f"{p.part}/specular"])
+            if p.kind == "procedural":
+                prefix = f"{p.part}/graph/"
+                graph = {k[len(prefix):]: v for k, v in self.theta.items() if k.startswith(prefix)}
+                base[p.part], rough[p.part] = graph_maps(self.library, p, self.map_size, graph)
+            else:
+                base[p.part] = torch.sigmoid(self.theta[f"{p.part}/base_color"])
+                rough[p.part] = torch.sigmoid(self.theta[f"{p.part}/roughness"])
+        radiance = {l.name: torch.exp(self.theta[f"{l.name}/radiance"]) for l in self.lights.lights}
+        return {"base_color": base, "roughness": rough, "specular": spec, "radiance": radiance}
+
+    def result(self) -> tuple[list[PartAppearance], dict[str, tuple[float, float, float]]]:
+        """The parts and radiances at the current parameters."""
+        with torch.no_grad():
+            values = self.inputs()
+            parts = []
+            for p in self.parts:
+                base = values["base_color"][p.part]
+                mean_base = tuple(float(v) for v in base.reshape(-1, 3).mean(0))
+                common = dict(base_color=mean_base, roughness=float(values["roughness"][p.part].mean()),
+                              specular=float(values["specular"][p.part]))
+                if p.kind == "procedural":
+                    prefix = f"{p.part}/graph/"
+                    graph = {k[len(prefix):]: v for k, v in self.theta.items() if k.startswith(prefix)}
+                    constrained = self.library.material(p.material).values(graph)
+                    common["params"] = {k: v.tolist() for k, v in constrained.items()}
+                parts.append(replace(p, **common))
+            radiance = {name: tuple(float(x) for x in v) for name, v in values["radiance"].items()}
+        return parts, radiance
+
+
+def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBox, placements: Placements,
+                   materials: MaterialAssignment, lights: Lights) -> dict[str, Any]:
+    """Optimise all materials and light radiances jointly (§4.4, eq. 4) by path tracing (``renderer``, its
+    ``max_depth`` bounces) at ``render_width``:
+
+    ``w_image · L1(R↓, I↓) + w_colour · mean_i L1(μ(R on part i's rendered mask), C_i)
+    + w_texture · mean_crops d(T(R crop), T(I crop))``
+
+    with ↓ an area down-sampling by ``downsample``, ``C_i`` the part's median photo colour from
+    ``assign_materials``, ``T`` the ``texture`` descriptor on the crop pairs, all in sRGB. Parameters: see
+    :class:`AppearanceModel` (procedural maps evaluated at ``map_size``); ``learning_rates`` per group
+    (graph, base_color, roughness, specular, radiance), ``iterations``, ``spp`` / ``grad_spp`` (primal and
+    gradient samples per pixel), ``final_spp`` (the final render), ``min_region_px`` (smaller parts get no
+    colour term), ``crops_per_part`` (largest first) and ``max_crop_aspect`` (see :func:`squarish`).
+    """
+    params = ctx.params
+    library, descriptor, renderer = ctx.impl("material_graph"), ctx.impl("texture"), ctx.impl("renderer")
+    c2w = np.asarray(room.camera_to_world)
+    width = min(int(params["render_width"]), camera.width)
+    scale = width / camera.width
+    model = AppearanceModel(initial_parts(materials, library), lights, library, int(params["map_size"]))
+    meshes = part_meshes(room, placements)
+    scene = build_scene(meshes, model.parts, lights.lights, lights.fixtures, library, int(params["map_size"]))
+    geometry = scene.renderer(renderer, camera, c2w, width)
+    height = geometry.height
+
+    photo = cv2.resize(np.asarray(image.rgb, np.float32), (width, height), interpolation=cv2.INTER_AREA)
+    target = torch.from_numpy(photo)
+    factor = int(params["downsample"])
+    target_small = downsampled(target, factor)
+    ids, _ = render_part_ids(renderer, camera.resized(width), c2w, meshes, width)
+    names = list(meshes)
+    regions = []
+    for p in materials.parts:
+        if p.part in names and p.part in scene.meshes:
+            mask = torch.from_numpy(ids == names.index(p.part))
+            if int(mask.sum()) >= int(params["min_region_px"]):
+                regions.append((mask, torch.tensor(p.albedo, dtype=torch.float32)))
+    crops = []
+    for p in materials.parts:
+        for rect in p.crops[: int(params["crops_per_part"])]:
+            r = squarish([int(round(v * scale)) for v in rect], float(params["max_crop_aspect"]))
+            if r[2] - r[0] >= 8 and r[3] - r[1] >= 8:
+                with torch.no_grad():
+                    crops.append((r, descriptor.describe(target[r[1]:r[3], r[0]:r[2]].permute(2, 0, 1))))
+    weights = {k: float(v) for k, v in params["weights"].items()}
+    spp, grad_spp = int(params["spp"]), int(params["grad_spp"])
+
+    def terms(srgb: torch.Tensor) -> dict[str, torch.Tensor]:
+        out = {"image": (downsampled(srgb, factor) - target_small).abs().mean()}
+        if regions:
+            out["colour"] = torch.stack([(srgb[m].mean(0) - c).abs().mean() for m, c in regions]).mean()
+        if crops:
+            out["texture"] = torch.stack([descriptor.distance(descriptor.describe(srgb[y0:y1, x0:x1].permute(2, 0, 1)), d)
+                                          .reshape(()) for (x0, y0, x1, y1), d in crops]).mean()
+        return out
+
+    renders: list[np.ndarray] = []
+
+    def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
+        srgb = linear_to_srgb(geometry.render_rgb(**model.inputs(), iteration=iteration, spp=spp, grad_spp=grad_spp))
+        if iteration == 0:
+            renders.append(srgb.detach().numpy())
+        parts = terms(srgb)
+        total = sum(weights[k] * v for k, v in parts.items())
+        return total, {k: float(v.detach()) for k, v in parts.items()}
+
+    rates = {name: float(params["learning_rates"][group]) for name, group in model.group.items()}
+    history = ctx.impl("optimizer").minimize(model.theta, rates, loss, int(params["iterations"]),
+                                             lambda it: ctx.progress(it, total=int(params["iterations"])))
+    final_spp = int(params["final_spp"])
+    with torch.no_grad():
+        start = linear_to_srgb(geometry.render_rgb(**AppearanceModel(model.parts, lights, library, model.map_size).inputs(),
+                                                   iteration=10**6, spp=final_spp)).numpy()
+        final = linear_to_srgb(geometry.render_rgb(**model.inputs(), iteration=10**6 + 1, spp=final_spp)).numpy()
+    parts, radiance = model.result()
+    metrics = {"rmse_init": rmse(start, photo), "rmse": rmse(final, photo), "ssim_init": ssim(start, photo),
+               "ssim": ssim(final, photo), "iterations": len(history),
+               "seconds_per_iteration": float(np.median([h["seconds"] for h in history])) if history else 0.0}
+    log.info("fit_appearance: RMSE %.4f -> %.4f, SSIM %.3f -> %.3f", metrics["rmse_init"], metrics["rmse"],
+             metrics["ssim_init"], metrics["ssim"])
+    as8 = lambda x: (np.clip(x, 0, 1) * 255 + 0.5).astype(np.uint8)  # noqa: E731
+    curves = {k: [h[k] for h in history] for k in ("loss", "image", "colour", "texture") if history and k in history[0]}
+    images = {"photo_init_final": np.hstack([as8(photo), as8(start), as8(final)])}
+    if crops:
+        images["crop_pairs"] = _crop_pairs(photo, start, final, [c[0] for c in crops])
+    if curves:
+        images["loss"] = plot_curves(curves, title="fit_appearance (eq. 4)")
+    appearance = SceneAppearance(parts=parts, radiance=radiance, images={"render": as8(final)})
+    return {"appearance": appearance, "log": OptimizationLog(history=history, images=images, summary=metrics)}
+
+
+def squarish(rect: list[int], max_aspect: float) -> list[int]:
+    """The centred part of a crop window whose long side is at most ``max_aspect`` times its short side (the
+    descriptor resizes the short side to a fixed size, so long thin crops cost in proportion to their aspect)."""
+    x0, y0, x1, y1 = rect
+    w, h = x1 - x0, y1 - y0
+    if w > max_aspect * h:
+        cut = int(round(max_aspect * h))
+        x0 += (w - cut) // 2
+        x1 = x0 + cut
+    elif h > max_aspect * w:
+        cut = int(round(max_aspect * w))
+        y0 += (h - cut) // 2
+        y1 = y0 + cut
+    return [x0, y0, x1, y1]
+
+
+def _crop_pairs(photo: np.ndarray, start: np.ndarray, final: np.ndarray, rects: list[list[int]], cell: int = 96) -> np.ndarray:
+    """Fig. 7: each crop of the photo beside the render's crop at initialisation and after the fit."""
+    rows = []
+    for x0, y0, x1, y1 in rects:
+        tiles = []
+        for picture in (photo, start, final):
+            crop = (np.clip(picture[y0:y1, x0:x1], 0, 1) * 255 + 0.5).astype(np.uint8)
+            s = cell / max(crop.shape[:2])
+            small = cv2.resize(crop, (max(1, round(crop.shape[1] * s)), max(1, round(crop.shape[0] * s))),
+                               interpolation=cv2.INTER_AREA if s < 1 else cv2.INTER_NEAREST)
+            tile = np.full((cell, cell, 3), 255, np.uint8)
+            tile[:small.shape[0], :small.shape[1]] = small
+            tiles.append(tile)
+        rows.append(np.hstack(tiles))
+    return np.vstack(rows)
+

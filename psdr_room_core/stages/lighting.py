@@ -1,0 +1,120 @@
+"""Light initialisation (paper §4.4): the light layout, lamps made emissive, and the uniform initial radiance
+chosen by one render at unit radiance (light transport is linear in it)."""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+from ..artifacts import (Camera, Image, Light, Lights, MaterialAssignment, PartAppearance, Panoptic, Placements,
+                         RoomBox)
+from ..dag import StageContext
+from ..geometry import TriangleMesh
+from ..lighting import (QUAD_FACES, behind_camera_light, ceiling_lights, wall_window_light, window_panel)
+from ..rgb_scene import build_scene, part_meshes, render_part_ids, to_srgb8
+from ..shading import linear_to_srgb, srgb_to_linear
+from ..visualize import plot_curves
+from ..rgb_scene import room_quads
+
+log = logging.getLogger("psdr_room")
+
+
+def initial_parts(materials: MaterialAssignment, library: object) -> list[PartAppearance]:
+    """Eq. 4's starting point from the assignment: homogeneous parts at their median colour (linear),
+    procedural ones at their graph's own parameter values with the searched transform."""
+    parts = []
+    for m in materials.parts:
+        base = tuple(float(v) for v in srgb_to_linear(np.asarray(m.albedo)))
+        if m.kind == "procedural" and m.material:
+            values = {k: v.value.tolist() for k, v in library.material(m.material).bounds.items()}  # type: ignore[attr-defined]
+            parts.append(PartAppearance(m.part, "procedural", base, m.roughness, 0.5, m.material, m.scale, m.rotation,
+                                        values))
+        else:
+            parts.append(PartAppearance(m.part, "homogeneous", base, m.roughness, 0.5))
+    return parts
+
+
+def luminance(rgb: torch.Tensor) -> torch.Tensor:
+    """Rec. 709 luma of an [..., 3] image."""
+    return rgb @ torch.tensor([0.2126, 0.7152, 0.0722], dtype=rgb.dtype)
+
+
+def downsampled(rgb: torch.Tensor, factor: int) -> torch.Tensor:
+    """An [H, W, C] image area-averaged by ``factor`` (the paper's 1/8 image loss)."""
+    return F.avg_pool2d(rgb.permute(2, 0, 1)[None], factor, ceil_mode=True)[0].permute(1, 2, 0)
+
+
+def init_lights(ctx: StageContext, image: Image, panoptic: Panoptic, camera: Camera, room: RoomBox,
+                placements: Placements, materials: MaterialAssignment) -> Lights:
+    """The initial lights of §4.4.
+
+    The ceiling is split into a ``ceiling_grid`` of panels, each scaled by ``cell_ratio``, and those in the
+    camera's view or wholly behind it are removed; a panel ``behind_ratio`` of the wall behind the camera is
+    added, and a window panel (``window_ratio`` of the wall) on every wall showing under ``hidden_wall_px``
+    pixels. Visible ``window`` segments become emissive panels on their wall with a frame (``frame_width``
+    metres); the largest visible part of each ``lamp`` object emits. Every light gets one uniform radiance:
+    the scene is rendered once at unit radiance (``render_width``, ``spp``), and of the ``sweep`` values
+    {min, max, count} (geometric) the one whose scaled render has the least L1 to the photo's luminance at
+    1/``downsample`` size is kept. Params also: ``drop`` (metres lights sit off their surface).
+    """
+    params = ctx.params
+    c2w = np.asarray(room.camera_to_world)
+    quads = room_quads(room)
+    meshes = part_meshes(room, placements)
+    names = list(meshes)
+    ids, _ = render_part_ids(ctx.impl("renderer"), camera, c2w, meshes, int(params["render_width"]))
+    seen = np.bincount(ids[ids >= 0].ravel(), minlength=len(names))
+    drop = float(params["drop"])
+    rows, cols = (int(v) for v in params["ceiling_grid"])
+    lights = ceiling_lights(quads["ceiling"], camera, c2w, rows, cols, float(params["cell_ratio"]), drop)
+    lights.append(behind_camera_light(room, quads, float(params["behind_ratio"])))
+    for name, quad in quads.items():
+        if name.startswith("wall") and seen[names.index(name)] < int(params["hidden_wall_px"]):
+            lights.append(wall_window_light(name, quad, float(params["window_ratio"]), drop))
+    fixtures: dict[str, TriangleMesh] = {}
+    walls = [n for n in names if n.startswith("wall")]
+    for segment in (s for s in panoptic.segments if s.category == "window"):
+        mask = panoptic.ids == segment.id
+        on = [int(np.sum(ids[mask] == names.index(w))) for w in walls]
+        if not max(on, default=0):
+            continue
+        panel = window_panel(mask, quads[walls[int(np.argmax(on))]], camera, c2w, drop, float(params["frame_width"]))
+        if panel is not None:
+            quad, bars = panel
+            lights.append(Light(f"light_window_{segment.id}", "window", TriangleMesh(quad, QUAD_FACES)))
+            fixtures.update({f"window_{segment.id}_frame_{k}": bar for k, bar in enumerate(bars)})
+    lamps = {p.segment_id for p in placements.objects
+             if any(s.id == p.segment_id and s.category == "lamp" for s in panoptic.segments)}
+    for segment_id in sorted(lamps):
+        prefix = f"object_{segment_id}_"
+        own = [(int(seen[i]), n) for i, n in enumerate(names) if n.startswith(prefix)]
+        if own and max(own)[0] > 0:
+            part = max(own)[1]
+            lights.append(Light(f"light_lamp_{segment_id}", "lamp", meshes[part], part=part))
+
+    scene = build_scene(meshes, initial_parts(materials, ctx.impl("material_graph")), lights, fixtures,
+                        ctx.impl("material_graph"), 64)
+    width = min(int(params["render_width"]), camera.width)
+    with torch.no_grad():
+        unit = scene.renderer(ctx.impl("renderer"), camera, c2w, width).render_rgb(spp=int(params["spp"]))
+    photo = torch.from_numpy(np.asarray(image.rgb, np.float32))
+    photo = F.interpolate(photo.permute(2, 0, 1)[None], size=unit.shape[:2], mode="area")[0].permute(1, 2, 0)
+    factor = int(params["downsample"])
+    target = luminance(downsampled(photo, factor))
+    sweep = []
+    low, high, count = float(params["sweep"]["min"]), float(params["sweep"]["max"]), int(params["sweep"]["count"])
+    for value in np.geomspace(low, high, count):
+        render = luminance(downsampled(linear_to_srgb(unit * float(value)), factor))
+        sweep.append((float(value), float((render - target).abs().mean())))
+    best = min(sweep, key=lambda s: s[1])[0]
+    lights = [Light(l.name, l.kind, l.mesh, (best, best, best), l.part) for l in lights]
+    curve = plot_curves({"L1 luminance vs log radiance": [s[1] for s in sweep]},
+                        title=f"initial radiance sweep: {best:.3g} chosen of {low:g}..{high:g}")
+    log.info("%d lights (%s); initial radiance %.3g", len(lights),
+                 ", ".join(f"{k} {sum(l.kind == k for l in lights)}" for k in dict.fromkeys(l.kind for l in lights)), best)
+    return Lights(lights=lights, fixtures=fixtures, sweep=sweep,
+                  images={"initial_render": np.hstack([to_srgb8(unit * best), (photo.numpy() * 255 + 0.5).astype(np.uint8)]),
+                          "radiance_sweep": curve})
