@@ -32,7 +32,7 @@ import cv2
 import numpy as np
 
 from psdr_room_core.artifacts import (Camera, Candidate, DepthMap, Image, ObjectCandidates, ObjectMesh, Panoptic,
-                                      Placement, Placements, PointCloud, RoomBox, Segment)
+                                      Placement, PointCloud, RoomBox, Segment)
 from psdr_room_core.dag import StageContext
 from psdr_room_core.geometry import TriangleMesh, weld
 from psdr_room_core.objects import object_queries, pose_matrix, transform

@@ -125,8 +125,10 @@ def render_report(run: RunRecord, alpha: float) -> str:
     fit = run.artifacts.get("fit_appearance_log")
     if fit is not None and "rmse" in fit.summary:
         s = fit.summary
-        facts.append(f"RMSE (1/8 size) {s['rmse_init']:.4f} → {s['rmse']:.4f}, SSIM {s['ssim_init']:.3f} → {s['ssim']:.3f}; "
-                     "LPIPS: not computed (its weights are not installed)")
+        perceptual = (f"LPIPS {s['lpips_init']:.3f} → {s['lpips']:.3f}" if "lpips" in s else
+                      "LPIPS: not computed (psdr-room-models download alexnet_imagenet lpips_alex_v01 installs it)")
+        facts.append(f"RMSE (1/8 size) {s['rmse_init']:.4f} → {s['rmse']:.4f}, SSIM {s['ssim_init']:.3f} → "
+                     f"{s['ssim']:.3f}; {perceptual}")
     figures = "".join(
         f'<figure><img src="{_png(img)}" alt="{html.escape(title)}"><figcaption>{html.escape(title)}</figcaption></figure>'
         for title, img in _figures(run, alpha)

@@ -1,10 +1,12 @@
 """Image agreement between a render and the photo: RMSE on down-sampled images and SSIM (Wang et al. 2004),
-both on sRGB values in [0, 1]."""
+both on sRGB values in [0, 1]; and the differentiable pieces of the losses (luma, area down-sampling)."""
 
 from __future__ import annotations
 
 import cv2
 import numpy as np
+import torch
+import torch.nn.functional as F
 
 
 def rmse(a: np.ndarray, b: np.ndarray, factor: int = 8) -> float:
@@ -30,3 +32,13 @@ def ssim(a: np.ndarray, b: np.ndarray, sigma: float = 1.5) -> float:
     vx, vy, cxy = blur(x * x) - mx * mx, blur(y * y) - my * my, blur(x * y) - mx * my
     index = ((2 * mx * my + c1) * (2 * cxy + c2)) / ((mx * mx + my * my + c1) * (vx + vy + c2))
     return float(index.mean())
+
+
+def luminance(rgb: torch.Tensor) -> torch.Tensor:
+    """Rec. 709 luma of an [..., 3] image."""
+    return rgb @ torch.tensor([0.2126, 0.7152, 0.0722], dtype=rgb.dtype)
+
+
+def downsampled(rgb: torch.Tensor, factor: int) -> torch.Tensor:
+    """An [H, W, C] image area-averaged by ``factor`` (the paper's 1/8 image loss)."""
+    return F.avg_pool2d(rgb.permute(2, 0, 1)[None], factor, ceil_mode=True)[0].permute(1, 2, 0)

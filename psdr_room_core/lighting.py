@@ -11,10 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .artifacts import Camera, Light, RoomBox
-from .geometry import TriangleMesh, box_mesh
-
-QUAD_FACES = np.array([[0, 1, 2], [0, 2, 3]])
-
+from .geometry import TriangleMesh, box_mesh, quad_mesh
 
 def shrink(quad: np.ndarray, ratio: float) -> np.ndarray:
     """A quad scaled by ``ratio`` about its centre (corner order kept)."""
@@ -70,7 +67,7 @@ def ceiling_lights(ceiling: np.ndarray, camera: Camera, camera_to_world: np.ndar
         quad = offset(shrink(cell, ratio), drop)
         if in_view(quad, camera, camera_to_world) or behind_camera(quad, camera_to_world):
             continue
-        lights.append(Light(f"light_ceiling_{k}", "ceiling", TriangleMesh(quad, QUAD_FACES)))
+        lights.append(Light(f"light_ceiling_{k}", "ceiling", quad_mesh(quad)))
     return lights
 
 
@@ -91,12 +88,12 @@ def behind_camera_light(room: RoomBox, quads: dict[str, np.ndarray], ratio: floa
     normal /= np.linalg.norm(normal)
     distance = float(np.dot(origin - wall[0], normal))
     panel = shrink(wall, ratio) + normal * max(0.5 * distance, 0.01)
-    return Light("light_behind_camera", "behind_camera", TriangleMesh(panel, QUAD_FACES))
+    return Light("light_behind_camera", "behind_camera", quad_mesh(panel))
 
 
 def wall_window_light(name: str, wall: np.ndarray, ratio: float, drop: float) -> Light:
     """A window-sized panel (``ratio`` of the wall) at the centre of a wall the photo does not show."""
-    return Light(f"light_{name}", "invisible_wall", TriangleMesh(offset(shrink(wall, ratio), drop), QUAD_FACES))
+    return Light(f"light_{name}", "invisible_wall", quad_mesh(offset(shrink(wall, ratio), drop)))
 
 
 def window_panel(mask: np.ndarray, wall: np.ndarray, camera: Camera, camera_to_world: np.ndarray,

@@ -46,6 +46,9 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
+USES = (*CAPABILITIES, "metric")
+"""What a model file can serve: a capability, or a ``metric`` of the report (LPIPS)."""
+
 BUILTIN_REGISTRY = Path(__file__).with_name("models.json")
 MODELS_DIR_ENV = "PSDR_ROOM_MODELS_DIR"
 HASH_CACHE = ".sha256-cache.json"
@@ -116,8 +119,8 @@ def _check_entry(raw: Any, where: Path, index: int) -> ModelEntry:
             raise PsdrRoomError(f"{label}: '{key}' must be a string, got {value!r}; fix the registry file")
     if not _NAME.match(raw["name"]):
         raise PsdrRoomError(f"{label}: name must be letters, digits, '_', '.' or '-'; rename it")
-    if raw["capability"] not in CAPABILITIES:
-        raise PsdrRoomError(f"{label}: unknown capability '{raw['capability']}'; use one of {', '.join(CAPABILITIES)}")
+    if raw["capability"] not in USES:
+        raise PsdrRoomError(f"{label}: unknown capability '{raw['capability']}'; use one of {', '.join(USES)}")
     if not _NAME.match(raw["file"]) or raw["file"].startswith("."):
         raise PsdrRoomError(f"{label}: file must be a plain file name (no directory, not hidden), got {raw['file']!r}")
     size = raw.get("size")

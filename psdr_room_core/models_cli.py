@@ -56,7 +56,7 @@ def _list(registry: dict[str, models.ModelEntry], models_dir: Path, capability: 
     entries = [e for e in registry.values() if capability is None or e.capability == capability]
     print(f"models dir: {models_dir}" + ("" if models_dir.is_dir() else " (does not exist yet)"))
     rows = [["capability", "name", "file", "size", "sha256", "licence", "status", "source"]]
-    for entry in sorted(entries, key=lambda e: (models.CAPABILITIES.index(e.capability), e.name)):
+    for entry in sorted(entries, key=lambda e: (models.USES.index(e.capability), e.name)):
         status = models.check_file(entry, models_dir)
         state = {"unverified": "installed (unverified)"}.get(status.state, status.state)
         if status.state == "missing" and not entry.url:

@@ -13,11 +13,10 @@ import cv2
 import numpy as np
 import torch
 
-from .artifacts import Camera, Light, PartAppearance, Placement, Placements, RoomBox
-from .geometry import TriangleMesh, weld
+from .artifacts import Camera, Light, MaterialAssignment, PartAppearance, Placement, Placements, RoomBox
+from .geometry import TriangleMesh, quad_mesh, weld
 from .shading import Surface, linear_to_srgb, planar_uv, srgb_to_linear, texture_transform
 
-QUAD_FACES = np.array([[0, 1, 2], [0, 2, 3]])
 FIXTURE_COLOUR = (0.8, 0.8, 0.8)
 """Linear base colour of window frames."""
 
@@ -71,7 +70,7 @@ def object_parts(placement: Placement) -> dict[str, tuple[TriangleMesh, np.ndarr
 def part_meshes(room: RoomBox, placements: Placements) -> dict[str, TriangleMesh]:
     """Every scene part as exported: the room's six sides (quads facing in), then each object's material
     groups (``object_<segment>_<group>``), world space, welded."""
-    meshes = {name: TriangleMesh(quad, QUAD_FACES) for name, quad in room_quads(room).items()}
+    meshes = {name: quad_mesh(quad) for name, quad in room_quads(room).items()}
     for placement in placements.objects:
         meshes.update({name: mesh for name, (mesh, _) in object_parts(placement).items()})
     return meshes
@@ -90,6 +89,21 @@ def render_part_ids(renderer: Any, camera: Camera, camera_to_world: np.ndarray, 
     size = (camera.width, camera.height)
     return (cv2.resize(ids, size, interpolation=cv2.INTER_NEAREST),
             cv2.resize(depth, size, interpolation=cv2.INTER_NEAREST))
+
+
+def initial_parts(materials: MaterialAssignment, library: Any) -> list[PartAppearance]:
+    """Eq. 4's starting point from the assignment: homogeneous parts at their median colour (linear),
+    procedural ones at their graph's own parameter values with the searched transform."""
+    parts = []
+    for m in materials.parts:
+        base = tuple(float(v) for v in srgb_to_linear(np.asarray(m.albedo)))
+        if m.kind == "procedural" and m.material:
+            values = {k: v.value.tolist() for k, v in library.material(m.material).bounds.items()}
+            parts.append(PartAppearance(m.part, "procedural", base, m.roughness, 0.5, m.material, m.scale, m.rotation,
+                                        values))
+        else:
+            parts.append(PartAppearance(m.part, "homogeneous", base, m.roughness, 0.5))
+    return parts
 
 
 def graph_maps(library: Any, part: PartAppearance, size: int,

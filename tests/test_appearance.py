@@ -15,17 +15,17 @@ import numpy as np
 import pytest
 import torch
 
-from psdr_room_core.artifacts import (Camera, Image, Light, Lights, MaterialAssignment, Panoptic, PartAppearance,
+from psdr_room_core.artifacts import (Camera, Image, Light, Lights, MaterialAssignment, Panoptic,
                                       PartMaterial, Placements, PointCloud, RoomBox, Segment)
 from psdr_room_core.dag import StageContext
 from psdr_room_core.edit import main as edit_main
 from psdr_room_core.errors import PsdrRoomError
 from psdr_room_core.lighting import behind_camera, in_view
-from psdr_room_core.rgb_scene import build_scene, part_meshes, render_part_ids, room_quads
+from psdr_room_core.rgb_scene import build_scene, initial_parts, part_meshes, render_part_ids, room_quads
 from psdr_room_core.shading import linear_to_srgb, srgb_to_linear
 from psdr_room_core.stages.appearance import fit_appearance
 from psdr_room_core.stages.export import export_scene
-from psdr_room_core.stages.lighting import init_lights, initial_parts
+from psdr_room_core.stages.lighting import init_lights
 from psdr_room_plugins.material_graph import TorchGraphLibrary
 from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
 from psdr_room_plugins.optimizer_adam import Adam

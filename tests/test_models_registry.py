@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 from psdr_room_core import models, models_cli
-from psdr_room_core.capabilities import CAPABILITIES
+from psdr_room_core.models import USES
 from psdr_room_core.errors import PsdrRoomError
 from psdr_room_core.hookspecs import hookimpl
 from psdr_room_core.plugins import Origin, load_plugins
@@ -83,7 +83,7 @@ def test_builtin_registry_is_complete_and_well_formed() -> None:
         assert family in by_family, family
     assert {e.capability for e in registry.values()} >= {"depth", "segmentation", "retrieval", "texture"}
     for e in registry.values():
-        assert e.capability in CAPABILITIES and e.licence and e.source.startswith("https://") and e.obtain
+        assert e.capability in USES and e.licence and e.source.startswith("https://") and e.obtain
         assert e.url is None or e.url.startswith("https://")
         assert e.url or "export" in e.obtain.lower() or "python" in e.obtain  # how to get it by hand
         if e.sha256:

@@ -9,16 +9,15 @@ from typing import Any
 import cv2
 import numpy as np
 import torch
-import torch.nn.functional as F
 
 from ..artifacts import (Camera, Image, Lights, MaterialAssignment, OptimizationLog, PartAppearance, Placements,
                          RoomBox, SceneAppearance)
+from .. import lpips
 from ..dag import StageContext
-from ..image_metrics import rmse, ssim
-from ..rgb_scene import build_scene, graph_maps, part_meshes, render_part_ids
+from ..image_metrics import downsampled, rmse, ssim
+from ..rgb_scene import build_scene, graph_maps, initial_parts, part_meshes, render_part_ids
 from ..shading import linear_to_srgb
 from ..visualize import plot_curves
-from .lighting import downsampled, initial_parts
 
 log = logging.getLogger("psdr_room")
 
@@ -106,6 +105,9 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     (graph, base_color, roughness, specular, radiance), ``iterations``, ``spp`` / ``grad_spp`` (primal and
     gradient samples per pixel), ``final_spp`` (the final render), ``min_region_px`` (smaller parts get no
     colour term), ``crops_per_part`` (largest first) and ``max_crop_aspect`` (see :func:`squarish`).
+
+    The log's summary has RMSE (1/8 size) and SSIM of the init and final renders (``final_spp``) against the
+    photo, and LPIPS when its weights are installed (:mod:`psdr_room_core.lpips`).
     """
     params = ctx.params
     library, descriptor, renderer = ctx.impl("material_graph"), ctx.impl("texture"), ctx.impl("renderer")
@@ -171,6 +173,9 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     metrics = {"rmse_init": rmse(start, photo), "rmse": rmse(final, photo), "ssim_init": ssim(start, photo),
                "ssim": ssim(final, photo), "iterations": len(history),
                "seconds_per_iteration": float(np.median([h["seconds"] for h in history])) if history else 0.0}
+    scorer = lpips.installed()
+    if scorer is not None:  # the paper's perceptual metric, only with its real weights
+        metrics.update(lpips_init=scorer(start, photo), lpips=scorer(final, photo))
     log.info("fit_appearance: RMSE %.4f -> %.4f, SSIM %.3f -> %.3f", metrics["rmse_init"], metrics["rmse"],
              metrics["ssim_init"], metrics["ssim"])
     as8 = lambda x: (np.clip(x, 0, 1) * 255 + 0.5).astype(np.uint8)  # noqa: E731

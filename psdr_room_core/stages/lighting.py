@@ -9,42 +9,16 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from ..artifacts import (Camera, Image, Light, Lights, MaterialAssignment, PartAppearance, Panoptic, Placements,
-                         RoomBox)
+from ..artifacts import Camera, Image, Light, Lights, MaterialAssignment, Panoptic, Placements, RoomBox
 from ..dag import StageContext
-from ..geometry import TriangleMesh
-from ..lighting import (QUAD_FACES, behind_camera_light, ceiling_lights, wall_window_light, window_panel)
-from ..rgb_scene import build_scene, part_meshes, render_part_ids, to_srgb8
-from ..shading import linear_to_srgb, srgb_to_linear
+from ..geometry import TriangleMesh, quad_mesh
+from ..image_metrics import downsampled, luminance
+from ..lighting import behind_camera_light, ceiling_lights, wall_window_light, window_panel
+from ..rgb_scene import build_scene, initial_parts, part_meshes, render_part_ids, room_quads, to_srgb8
+from ..shading import linear_to_srgb
 from ..visualize import plot_curves
-from ..rgb_scene import room_quads
 
 log = logging.getLogger("psdr_room")
-
-
-def initial_parts(materials: MaterialAssignment, library: object) -> list[PartAppearance]:
-    """Eq. 4's starting point from the assignment: homogeneous parts at their median colour (linear),
-    procedural ones at their graph's own parameter values with the searched transform."""
-    parts = []
-    for m in materials.parts:
-        base = tuple(float(v) for v in srgb_to_linear(np.asarray(m.albedo)))
-        if m.kind == "procedural" and m.material:
-            values = {k: v.value.tolist() for k, v in library.material(m.material).bounds.items()}  # type: ignore[attr-defined]
-            parts.append(PartAppearance(m.part, "procedural", base, m.roughness, 0.5, m.material, m.scale, m.rotation,
-                                        values))
-        else:
-            parts.append(PartAppearance(m.part, "homogeneous", base, m.roughness, 0.5))
-    return parts
-
-
-def luminance(rgb: torch.Tensor) -> torch.Tensor:
-    """Rec. 709 luma of an [..., 3] image."""
-    return rgb @ torch.tensor([0.2126, 0.7152, 0.0722], dtype=rgb.dtype)
-
-
-def downsampled(rgb: torch.Tensor, factor: int) -> torch.Tensor:
-    """An [H, W, C] image area-averaged by ``factor`` (the paper's 1/8 image loss)."""
-    return F.avg_pool2d(rgb.permute(2, 0, 1)[None], factor, ceil_mode=True)[0].permute(1, 2, 0)
 
 
 def init_lights(ctx: StageContext, image: Image, panoptic: Panoptic, camera: Camera, room: RoomBox,
@@ -84,7 +58,7 @@ def init_lights(ctx: StageContext, image: Image, panoptic: Panoptic, camera: Cam
         panel = window_panel(mask, quads[walls[int(np.argmax(on))]], camera, c2w, drop, float(params["frame_width"]))
         if panel is not None:
             quad, bars = panel
-            lights.append(Light(f"light_window_{segment.id}", "window", TriangleMesh(quad, QUAD_FACES)))
+            lights.append(Light(f"light_window_{segment.id}", "window", quad_mesh(quad)))
             fixtures.update({f"window_{segment.id}_frame_{k}": bar for k, bar in enumerate(bars)})
     lamps = {p.segment_id for p in placements.objects
              if any(s.id == p.segment_id and s.category == "lamp" for s in panoptic.segments)}
