@@ -250,3 +250,38 @@ def test_srgb_curves_invert_each_other() -> None:
     t = torch.linspace(0, 1, 11, requires_grad=True)
     linear_to_srgb(srgb_to_linear(t)).sum().backward()
     assert torch.isfinite(t.grad).all()
+
+
+def test_a_lamp_emits_from_its_largest_visible_part(library: TorchGraphLibrary, photo: tuple[Image, Panoptic, Lights]
+                                                     ) -> None:
+    """A lamp object's most visible material group becomes an emitter (§4.4), and the appearance fit runs
+    with it as a light rather than a surface."""
+    from psdr_room_core.artifacts import ObjectMesh, Placement
+    from psdr_room_core.geometry import box_mesh
+
+    shade, base = box_mesh(np.array([0.0, 0.6, 0.0]), np.array([0.25, 0.2, 0.25])), \
+        box_mesh(np.array([0.0, 0.2, 0.0]), np.array([0.05, 0.2, 0.05]))
+    mesh = ObjectMesh(vertices=np.vstack([shade.vertices, base.vertices]),
+                      faces=np.vstack([shade.faces, base.faces + 8]), face_group=np.repeat([0, 1], 12),
+                      groups=("shade", "base"), colors=np.array([[0.9, 0.9, 0.8], [0.2, 0.2, 0.2]]))
+    lamp = Placement(segment_id=4, label="lamp", model_id="test/lamp", mesh=mesh, position=(0.5, 0.0, 1.5), yaw=0.0,
+                     scale=1.0, support="floor")
+    image, panoptic, _ = photo
+    ids, _ = render_part_ids(MitsubaRenderer(spp=4), CAMERA, C2W, part_meshes(ROOM, Placements(objects=[lamp])), 96)
+    labels = panoptic.ids.copy()
+    labels[ids >= 6] = 4  # the lamp's pixels (after the six room sides)
+    segments = [*panoptic.segments, Segment(4, "lamp", "lamp")]
+    with_lamp = Panoptic(ids=labels, segments=segments)
+    placements = Placements(objects=[lamp])
+    assignment = MaterialAssignment(parts=[*_assignment(TRUE_SRGB).parts,
+                                           PartMaterial("object_4_shade", "homogeneous", (0.9, 0.9, 0.8)),
+                                           PartMaterial("object_4_base", "homogeneous", (0.2, 0.2, 0.2))])
+    ctx = StageContext("init_lights", LIGHT_PARAMS, 0, Path("photo.png"), _implementations(library))
+    lights = init_lights(ctx, image, with_lamp, CAMERA, ROOM, placements, assignment)
+    lamps = [l for l in lights.lights if l.kind == "lamp"]
+    assert [(l.name, l.part) for l in lamps] == [("light_lamp_4", "object_4_shade")]
+    ctx = StageContext("fit_appearance", {**FIT_PARAMS, "iterations": 2, "final_spp": 8}, 0, Path("photo.png"),
+                       _implementations(library))
+    out = fit_appearance(ctx, image, CAMERA, ROOM, placements, assignment, lights)
+    assert "light_lamp_4" in out["appearance"].radiance and out["appearance"].part("object_4_shade") is None
+    assert out["appearance"].part("object_4_base") is not None

@@ -41,8 +41,9 @@ class AppearanceModel:
         self.group: dict[str, str] = {}
         for p in parts:
             if p.kind == "procedural":
-                graph = library.material(p.material).unconstrained(p.params) if p.params else {}
-                for key, value in graph.items():
+                material = library.material(p.material)
+                free = {k: v for k, v in p.params.items() if not material.bounds[k].fixed}
+                for key, value in (material.unconstrained(free) if free else {}).items():
                     self._add(f"{p.part}/graph/{key}", value.detach().clone().float(), "graph")
             else:
                 self._add(f"{p.part}/base_color", torch.cat([_logit(c) for c in p.base_color]), "base_color")
@@ -114,7 +115,9 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     c2w = np.asarray(room.camera_to_world)
     width = min(int(params["render_width"]), camera.width)
     scale = width / camera.width
-    model = AppearanceModel(initial_parts(materials, library), lights, library, int(params["map_size"]))
+    emitting = {light.part for light in lights.lights if light.part}  # lamp parts are lights now
+    parts = [p for p in initial_parts(materials, library) if p.part not in emitting]
+    model = AppearanceModel(parts, lights, library, int(params["map_size"]))
     meshes = part_meshes(room, placements)
     scene = build_scene(meshes, model.parts, lights.lights, lights.fixtures, library, int(params["map_size"]))
     geometry = scene.renderer(renderer, camera, c2w, width)
@@ -151,12 +154,8 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
                                           .reshape(()) for (x0, y0, x1, y1), d in crops]).mean()
         return out
 
-    renders: list[np.ndarray] = []
-
     def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
         srgb = linear_to_srgb(geometry.render_rgb(**model.inputs(), iteration=iteration, spp=spp, grad_spp=grad_spp))
-        if iteration == 0:
-            renders.append(srgb.detach().numpy())
         parts = terms(srgb)
         total = sum(weights[k] * v for k, v in parts.items())
         return total, {k: float(v.detach()) for k, v in parts.items()}
