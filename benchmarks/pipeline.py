@@ -2,7 +2,7 @@
 example, through the command line, as a user runs it (shared cache, default settings unless ``--set``).
 
 Per scene it prints RMSE (1/8-size images) and SSIM of the render against the photo at initialisation and
-after ``fit_appearance``; on synthetic rooms also the albedo error of the homogeneous room sides (mean
+after ``fit_appearance``; on synthetic rooms also the albedo error of the homogeneous room sides in view (mean
 absolute difference of linear RGB against the true albedo, after removing the global light/albedo scale
 ambiguity by the ratio of medians: the photo cannot tell a twice brighter light from a twice brighter
 room) and the light-intensity error (fitted over true emitted power, both in the photo's exposure); and
@@ -53,12 +53,12 @@ def quad_area(vertices: np.ndarray) -> float:
     return float(np.linalg.norm(np.cross(vertices[1] - vertices[0], vertices[3] - vertices[0])))
 
 
-def ground_truth_errors(run_dir: Path, truth: dict) -> dict[str, float]:
-    """Albedo error of homogeneous room sides (scale-aligned) and the light power ratio."""
+def ground_truth_errors(run_dir: Path, truth: dict, seen: list[str]) -> dict[str, float]:
+    """Albedo error of the homogeneous room sides in view (``seen``; scale-aligned) and the light power ratio."""
     state = json.loads((run_dir / "scene" / "appearance.json").read_text())
     fitted, true = [], []
     for part in state["parts"]:
-        if part["part"] in ROOM_SIDES and part["kind"] == "homogeneous":
+        if part["part"] in ROOM_SIDES and part["part"] in seen and part["kind"] == "homogeneous":
             fitted.append(part["base_color"])
             true.append(truth["albedo"][part["part"].split("_")[0]])
     out: dict[str, float] = {}
@@ -106,7 +106,7 @@ def ablations(env: dict[str, str]) -> None:
     if sweep.exists():
         shutil.rmtree(sweep)
     run([shutil.which("psdr-room") or "psdr-room", "--multirun", "+experiment=paper_ablations", f"image={EXAMPLE}",
-         f"hydra.sweep.dir={sweep}", "hydra.sweep.subdir=${ablation}"], env)
+         f"hydra.sweep.dir={sweep}"], env)
     print("| ablation (Fig. 9) | RMSE init | RMSE fit | SSIM init | SSIM fit | wall s (this run) |")
     print("|---|---|---|---|---|---|")
     for job in ("full", "naive_fov", "naive_poses", "no_transform_search", "direct_light"):
@@ -147,7 +147,8 @@ def main() -> None:
         run_dir = OUT / "runs" / name.split()[0] / photo.parent.name
         m = pipeline(photo, run_dir, args.set, env)
         truth_path = photo.parent / "ground_truth.json"
-        extra = ground_truth_errors(run_dir, json.loads(truth_path.read_text())) if truth_path.is_file() else {}
+        seen = m.get("fit_appearance_log", {}).get("fitted_parts", [])
+        extra = ground_truth_errors(run_dir, json.loads(truth_path.read_text()), seen) if truth_path.is_file() else {}
         runs[name] = m
         print(row(name, m, extra), flush=True)
         shutil.copyfile(run_dir / "artifacts" / "fit_appearance_log" / "photo_init_final.png",

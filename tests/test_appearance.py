@@ -55,7 +55,7 @@ LIGHT_PARAMS = {"ceiling_grid": [3, 3], "cell_ratio": 0.8, "behind_ratio": 0.8, 
 FIT_PARAMS = {"iterations": 40, "render_width": 96, "spp": 8, "grad_spp": 4, "final_spp": 128, "map_size": 32,
               "downsample": 8, "min_region_px": 16, "weights": {"image": 1.0, "colour": 1.0, "texture": 0.05},
               "learning_rates": {"graph": 0.05, "base_color": 0.05, "roughness": 0.05, "specular": 0.05, "radiance": 0.05},
-              "crops_per_part": 2, "max_crop_aspect": 2.0}
+              "crops_per_part": 2, "max_crop_aspect": 2.0, "radiance_range": 16.0}
 
 
 @pytest.fixture(scope="module")
@@ -144,7 +144,7 @@ def fitted(library: TorchGraphLibrary, photo: tuple[Image, Panoptic, Lights]) ->
             parts.append(PartMaterial(name, "procedural", colour, material="herringbone_oak", scale=2.0,
                                       crops=((20, 50, 76, 72),)))
         else:
-            parts.append(PartMaterial(name, "homogeneous", colour, crops=((2, 20, 22, 50),) if name == "wall_x_neg" else ()))
+            parts.append(PartMaterial(name, "homogeneous", colour, crops=((40, 2, 70, 20),) if name == "wall_z_pos" else ()))
     start = Lights(lights=[Light(l.name, l.kind, l.mesh, (1.0, 1.0, 1.0), l.part) for l in layout.lights],
                    fixtures=layout.fixtures)
     ctx = StageContext("fit_appearance", FIT_PARAMS, 0, Path("photo.png"), _implementations(library))
@@ -168,9 +168,12 @@ def test_fit_appearance_matches_the_photo_better(fitted: dict, library: TorchGra
     for key, value in floor.params.items():
         lo, hi = (np.asarray(start[key].lo, np.float64), np.asarray(start[key].hi, np.float64))
         assert np.all(np.asarray(value) >= lo - 1e-6) and np.all(np.asarray(value) <= hi + 1e-6)
-    # The side walls' chroma moves the right way: warm on x-, cool on x+.
-    warm, cool = appearance.part("wall_x_neg").base_color, appearance.part("wall_x_pos").base_color
-    assert warm[0] > warm[2] and cool[2] > cool[0]
+    # The far wall (seen) takes its true chroma (green > red > blue); the walls out of view keep their start.
+    far = appearance.part("wall_z_pos").base_color
+    assert far[1] > far[0] > far[2]
+    start = {p.part: p for p in initial_parts(fitted["materials"], library)}
+    for hidden in ("wall_x_neg", "wall_x_pos", "wall_z_neg"):
+        assert appearance.part(hidden) == start[hidden]
     assert set(log.images) == {"photo_init_final", "crop_pairs", "loss"}
 
 

@@ -146,6 +146,23 @@ def test_multirun_shares_the_cache(first_run: tuple[Path, dict[str, str]]) -> No
     assert not fixed["stages"]["estimate_fov"]["cached"]
 
 
+def test_paper_ablations_are_one_sweep(first_run: tuple[Path, dict[str, str]]) -> None:
+    """Fig. 9's ablations compose as one --multirun (cut short here): one folder per ablation, each with its
+    change, sharing the first run's cache."""
+    root, env = first_run
+    psdr_room("--multirun", "+experiment=paper_ablations", f"image={EXAMPLE}", "run.until=assign_materials",
+              f"hydra.sweep.dir={root / 'ablations'}", env=env)
+    runs = {name: metrics(root / "ablations" / name) for name in
+            ("full", "naive_fov", "naive_poses", "no_transform_search", "direct_light")}
+    assert not any(s["cached"] is False for s in runs["full"]["stages"].values())  # the first run's results
+    assert runs["naive_fov"]["vfov_deg"] == pytest.approx(40.0)
+    assert computed(root / "ablations" / "naive_poses") == {"place_objects", "fit_objects", "assign_materials"}
+    assert computed(root / "ablations" / "no_transform_search") == {"assign_materials"}
+    assert "room_fit" in computed(root / "ablations" / "direct_light")  # the renderer's settings key every use
+    config = json.loads((root / "ablations" / "no_transform_search" / "run.json").read_text())["config"]
+    assert config["assign_materials"]["scales"] == [1.0] and config["assign_materials"]["rotations"] == [0.0]
+
+
 def test_joblib_launcher_runs_jobs_in_parallel_workers(first_run: tuple[Path, dict[str, str]]) -> None:
     root, env = first_run
     psdr_room("--multirun", "hydra/launcher=local_parallel", f"image={EXAMPLE}", "fov.fixed.vfov_deg=50,55",

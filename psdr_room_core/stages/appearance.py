@@ -28,48 +28,57 @@ def _logit(x: float) -> torch.Tensor:
 
 
 class AppearanceModel:
-    """The optimised parameters of eq. 4: per homogeneous part a base colour, roughness and specular (each
-    through a sigmoid); per procedural part its graph's unconstrained parameters and a specular; per light a
-    log RGB radiance."""
+    """The optimised parameters of eq. 4: per optimised homogeneous part a base colour, roughness and specular
+    (each through a sigmoid); per optimised procedural part its graph's free unconstrained parameters and a
+    specular; per light an RGB radiance within a factor ``radiance_range`` of its initial value either way
+    (``r0 · exp(ln(range) · tanh(u))``). Parts not in ``free`` keep their initial material."""
 
-    def __init__(self, parts: list[PartAppearance], lights: Lights, library: Any, map_size: int) -> None:
+    def __init__(self, parts: list[PartAppearance], lights: Lights, library: Any, map_size: int,
+                 free: set[str] | None = None, radiance_range: float = 16.0) -> None:
         self.parts = parts
         self.lights = lights
         self.library = library
         self.map_size = map_size
+        self.free = {p.part for p in parts} if free is None else set(free)
+        self.log_range = float(np.log(max(radiance_range, 1.0 + 1e-6)))
         self.theta: dict[str, torch.Tensor] = {}
         self.group: dict[str, str] = {}
-        for p in parts:
+        for p in self.optimised():
             if p.kind == "procedural":
                 material = library.material(p.material)
-                free = {k: v for k, v in p.params.items() if not material.bounds[k].fixed}
-                for key, value in (material.unconstrained(free) if free else {}).items():
+                graph = {k: v for k, v in p.params.items() if not material.bounds[k].fixed}
+                for key, value in (material.unconstrained(graph) if graph else {}).items():
                     self._add(f"{p.part}/graph/{key}", value.detach().clone().float(), "graph")
             else:
                 self._add(f"{p.part}/base_color", torch.cat([_logit(c) for c in p.base_color]), "base_color")
                 self._add(f"{p.part}/roughness", _logit(p.roughness), "roughness")
             self._add(f"{p.part}/specular", _logit(p.specular), "specular")
         for light in lights.lights:
-            self._add(f"{light.name}/radiance", torch.log(torch.tensor(light.radiance, dtype=torch.float32).clamp_min(1e-4)),
-                      "radiance")
+            self._add(f"{light.name}/radiance", torch.zeros(3), "radiance")
+
+    def optimised(self) -> list[PartAppearance]:
+        return [p for p in self.parts if p.part in self.free]
 
     def _add(self, name: str, value: torch.Tensor, group: str) -> None:
         self.theta[name] = value.requires_grad_(True)
         self.group[name] = group
 
+    def _graph(self, part: str) -> dict[str, torch.Tensor]:
+        prefix = f"{part}/graph/"
+        return {k[len(prefix):]: v for k, v in self.theta.items() if k.startswith(prefix)}
+
     def inputs(self) -> dict[str, dict[str, torch.Tensor]]:
-        """Keyword arguments of ``render_rgb`` for the current parameters."""
+        """Keyword arguments of ``render_rgb`` for the current parameters (the optimised parts and the lights)."""
         base, rough, spec = {}, {}, {}
-        for p in self.parts:
+        for p in self.optimised():
             spec[p.part] = torch.sigmoid(self.theta[f"{p.part}/specular"])
             if p.kind == "procedural":
-                prefix = f"{p.part}/graph/"
-                graph = {k[len(prefix):]: v for k, v in self.theta.items() if k.startswith(prefix)}
-                base[p.part], rough[p.part] = graph_maps(self.library, p, self.map_size, graph)
+                base[p.part], rough[p.part] = graph_maps(self.library, p, self.map_size, self._graph(p.part))
             else:
                 base[p.part] = torch.sigmoid(self.theta[f"{p.part}/base_color"])
                 rough[p.part] = torch.sigmoid(self.theta[f"{p.part}/roughness"])
-        radiance = {l.name: torch.exp(self.theta[f"{l.name}/radiance"]) for l in self.lights.lights}
+        radiance = {l.name: torch.tensor(l.radiance, dtype=torch.float32)
+                    * torch.exp(self.log_range * torch.tanh(self.theta[f"{l.name}/radiance"])) for l in self.lights.lights}
         return {"base_color": base, "roughness": rough, "specular": spec, "radiance": radiance}
 
     def result(self) -> tuple[list[PartAppearance], dict[str, tuple[float, float, float]]]:
@@ -78,14 +87,15 @@ class AppearanceModel:
             values = self.inputs()
             parts = []
             for p in self.parts:
+                if p.part not in self.free:
+                    parts.append(p)
+                    continue
                 base = values["base_color"][p.part]
                 mean_base = tuple(float(v) for v in base.reshape(-1, 3).mean(0))
                 common = dict(base_color=mean_base, roughness=float(values["roughness"][p.part].mean()),
                               specular=float(values["specular"][p.part]))
                 if p.kind == "procedural":
-                    prefix = f"{p.part}/graph/"
-                    graph = {k[len(prefix):]: v for k, v in self.theta.items() if k.startswith(prefix)}
-                    constrained = self.library.material(p.material).values(graph)
+                    constrained = self.library.material(p.material).values(self._graph(p.part))
                     common["params"] = {k: v.tolist() for k, v in constrained.items()}
                 parts.append(replace(p, **common))
             radiance = {name: tuple(float(x) for x in v) for name, v in values["radiance"].items()}
@@ -105,7 +115,8 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     :class:`AppearanceModel` (procedural maps evaluated at ``map_size``); ``learning_rates`` per group
     (graph, base_color, roughness, specular, radiance), ``iterations``, ``spp`` / ``grad_spp`` (primal and
     gradient samples per pixel), ``final_spp`` (the final render), ``min_region_px`` (smaller parts get no
-    colour term), ``crops_per_part`` (largest first) and ``max_crop_aspect`` (see :func:`squarish`).
+    colour term, and are not optimised), ``crops_per_part`` (largest first), ``max_crop_aspect`` (see
+    :func:`squarish`) and ``radiance_range`` (how far each light may move from its initial radiance).
 
     The log's summary has RMSE (1/8 size) and SSIM of the init and final renders (``final_spp``) against the
     photo, and LPIPS when its weights are installed (:mod:`psdr_room_core.lpips`).
@@ -117,9 +128,8 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     scale = width / camera.width
     emitting = {light.part for light in lights.lights if light.part}  # lamp parts are lights now
     parts = [p for p in initial_parts(materials, library) if p.part not in emitting]
-    model = AppearanceModel(parts, lights, library, int(params["map_size"]))
     meshes = part_meshes(room, placements)
-    scene = build_scene(meshes, model.parts, lights.lights, lights.fixtures, library, int(params["map_size"]))
+    scene = build_scene(meshes, parts, lights.lights, lights.fixtures, library, int(params["map_size"]))
     geometry = scene.renderer(renderer, camera, c2w, width)
     height = geometry.height
 
@@ -129,12 +139,17 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     target_small = downsampled(target, factor)
     ids, _ = render_part_ids(renderer, camera.resized(width), c2w, meshes, width)
     names = list(meshes)
-    regions = []
+    regions, seen = [], set()
     for p in materials.parts:
         if p.part in names and p.part in scene.meshes:
             mask = torch.from_numpy(ids == names.index(p.part))
             if int(mask.sum()) >= int(params["min_region_px"]):
                 regions.append((mask, torch.tensor(p.albedo, dtype=torch.float32)))
+                seen.add(p.part)
+    # Parts the camera does not see keep their initial material: only indirect light shows them, and it
+    # trades off freely against the lights' radiance.
+    model = AppearanceModel(parts, lights, library, int(params["map_size"]), free=seen,
+                            radiance_range=float(params["radiance_range"]))
     crops = []
     for p in materials.parts:
         for rect in p.crops[: int(params["crops_per_part"])]:
@@ -165,12 +180,12 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
                                              lambda it: ctx.progress(it, total=int(params["iterations"])))
     final_spp = int(params["final_spp"])
     with torch.no_grad():
-        start = linear_to_srgb(geometry.render_rgb(**AppearanceModel(model.parts, lights, library, model.map_size).inputs(),
+        start = linear_to_srgb(geometry.render_rgb(**AppearanceModel(parts, lights, library, model.map_size, seen).inputs(),
                                                    iteration=10**6, spp=final_spp)).numpy()
         final = linear_to_srgb(geometry.render_rgb(**model.inputs(), iteration=10**6 + 1, spp=final_spp)).numpy()
     parts, radiance = model.result()
     metrics = {"rmse_init": rmse(start, photo), "rmse": rmse(final, photo), "ssim_init": ssim(start, photo),
-               "ssim": ssim(final, photo), "iterations": len(history),
+               "ssim": ssim(final, photo), "iterations": len(history), "fitted_parts": sorted(seen),
                "seconds_per_iteration": float(np.median([h["seconds"] for h in history])) if history else 0.0}
     scorer = lpips.installed()
     if scorer is not None:  # the paper's perceptual metric, only with its real weights
