@@ -148,7 +148,8 @@ def main() -> None:
         m = pipeline(photo, run_dir, args.set, env)
         truth_path = photo.parent / "ground_truth.json"
         seen = m.get("fit_appearance_log", {}).get("fitted_parts", [])
-        extra = ground_truth_errors(run_dir, json.loads(truth_path.read_text()), seen) if truth_path.is_file() else {}
+        truth = json.loads(truth_path.read_text()) if truth_path.is_file() else {}
+        extra = ground_truth_errors(run_dir, truth, seen) if "albedo" in truth else {}  # synthetic rooms only
         runs[name] = m
         print(row(name, m, extra), flush=True)
         shutil.copyfile(run_dir / "artifacts" / "fit_appearance_log" / "photo_init_final.png",
