@@ -596,10 +596,9 @@ def _make_function() -> Any:
                 flat = {i: dr.ravel(dr.grad(value)) for i, (value, need) in enumerate(zip(values, needs)) if need}
                 dr.eval(*flat.values())  # one kernel for every gradient, not one per parameter
                 for i, g_flat in flat.items():
-                    if True:
-                        g = np.array(g_flat, dtype=np.float32).reshape(ctx.shapes[i])
-                        dtype, device = ctx.types[i]
-                        grads[i] = torch.from_numpy(g).to(device=device, dtype=dtype)
+                    g = np.array(g_flat, dtype=np.float32).reshape(ctx.shapes[i])
+                    dtype, device = ctx.types[i]
+                    grads[i] = torch.from_numpy(g).to(device=device, dtype=dtype)
                 scene.detach_all(ctx.keys)
             return (None, None, None, None, *grads)
 
