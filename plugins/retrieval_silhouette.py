@@ -1,8 +1,9 @@
 """``retrieval=silhouette``: offline object retrieval by silhouette agreement under the estimated camera.
 
 For each database model of the segment's category (every model when the label maps to none), the model is
-swept about the vertical axis at the object's apparent size and depth (:func:`fit_view`) and scored by the
-IoU between its silhouette and the object's mask at its best rotation.
+posed by the occlusion-aware view search (:func:`~psdr_room_core.view_search.fit_view`: a sweep about the
+vertical axis at the object's apparent size and depth, the best rotations refined) and scored by how well its
+visible silhouette and depth match the object's mask and points there.
 """
 
 from __future__ import annotations
@@ -10,14 +11,14 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 
 from psdr_room_core.artifacts import Camera, Candidate, ObjectMesh
 from psdr_room_core.errors import PsdrRoomError
 from psdr_room_core.hookspecs import hookimpl
-from psdr_room_core.objects import ObjectQuery, fit_view
+from psdr_room_core.objects import ObjectQuery
 from psdr_room_core.plugins import Registry
+from psdr_room_core.view_search import SearchParams, ViewTarget, fit_view
 
 
 def open_database(database: str, fraction: float, seed: int) -> Any:
@@ -45,13 +46,15 @@ def object_mesh(db: Any, model_id: str) -> ObjectMesh:
 
 
 class SilhouetteRetrieval:
-    """Rank models by silhouette IoU at their best rotation, each fitted to the object's apparent size."""
+    """Rank models by how well each, posed by the view search, explains the object's mask and depth: score
+    ``1 / (1 + error)`` of :class:`~psdr_room_core.view_search.ViewFit`."""
 
     def __init__(self, database: str = "builtin", fraction: float = 1.0, seed: int = 0, n_yaw: int = 12,
-                 refine: int = 2, render_width: int = 160) -> None:
+                 refine: int = 2, coarse: int = 1, explore: int = 3, polish: int = 2, halvings: int = 2,
+                 render_width: int = 160) -> None:
         self.spec = (str(database), float(fraction), int(seed))
-        self.n_yaw = int(n_yaw)
-        self.refine = int(refine)
+        self.search = SearchParams(n_yaw=int(n_yaw), refine=int(refine), coarse=int(coarse), explore=int(explore),
+                                   polish=int(polish), halvings=int(halvings))
         self.render_width = int(render_width)
         self._db: Any = None
 
@@ -74,14 +77,12 @@ class SilhouetteRetrieval:
     def rank(self, query: ObjectQuery, camera: Camera, camera_to_world: np.ndarray, k: int) -> list[Candidate]:
         models = self.database.category(query.category) if query.category else []
         models = models or list(self.database.records)
-        cam = camera.resized(min(self.render_width, camera.width))
-        target = cv2.resize(query.mask.astype(np.uint8), (cam.width, cam.height), interpolation=cv2.INTER_NEAREST) > 0
+        target = ViewTarget.build(camera, camera_to_world, query.mask, query.points, query.scene_points,
+                                  self.render_width)
         scored = []
         for record in models:
             mesh = self.database.mesh(record.id)
-            view = fit_view(cam, camera_to_world, mesh.vertices, mesh.faces, query.points, target, self.n_yaw,
-                            refine=self.refine)
-            scored.append(Candidate(record.id, view.iou))
+            scored.append(Candidate(record.id, 1.0 / (1.0 + fit_view(target, mesh.vertices, mesh.faces, self.search).error)))
         scored.sort(key=lambda c: (-c.score, c.model_id))
         return scored[:k]
 

@@ -6,14 +6,13 @@ at ``y = 0``, centred on ``x = z = 0``, front facing +Z. A pose is ``to_world = 
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
 from .artifacts import Camera, Image, Panoptic, PointCloud, RoomBox, rotation_y
-from .silhouette import depth_map, mask_iou, mask_l1, silhouette, world_to_camera
+from .silhouette import mask_l1, silhouette
 
 OBJECT_CATEGORIES = ("object", "lamp")
 """Segment categories that become retrieved objects (doors and windows are openings of the room)."""
@@ -59,6 +58,8 @@ class ObjectQuery:
     """(N, 3) world points of the segment."""
     crop: np.ndarray
     """uint8 RGB crop around the mask (square, with context) for image-based retrieval."""
+    scene_points: np.ndarray
+    """(M, 3) world points of every segment (one array shared by all queries): what may hide the object."""
 
 
 def object_queries(image: Image, panoptic: Panoptic, cloud: PointCloud, room: RoomBox, min_points: int,
@@ -66,17 +67,17 @@ def object_queries(image: Image, panoptic: Panoptic, cloud: PointCloud, room: Ro
     """A query per object segment with at least ``min_pixels`` pixels and ``min_points`` depth points."""
     to_world = np.asarray(room.camera_to_world)
     rgb8 = image.to_uint8()
+    scene = cloud.points.astype(np.float64) @ to_world[:3, :3].T + to_world[:3, 3]
     queries = []
     for segment in panoptic.segments:
         if segment.category not in OBJECT_CATEGORIES:
             continue
         mask = panoptic.ids == segment.id
-        points = cloud.points[cloud.segment == segment.id].astype(np.float64)
+        points = scene[cloud.segment == segment.id]
         if mask.sum() < min_pixels or len(points) < min_points:
             continue
-        world = points @ to_world[:3, :3].T + to_world[:3, 3]
         queries.append(ObjectQuery(segment.id, segment.label, database_category(segment.label, segment.category),
-                                   mask, world, _square_crop(rgb8, mask)))
+                                   mask, points, _square_crop(rgb8, mask), scene))
     return queries
 
 
@@ -131,78 +132,6 @@ def best_yaw(camera: Camera, camera_to_world: np.ndarray, vertices: np.ndarray, 
     return best
 
 
-def point_depth(camera: Camera, camera_to_world: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """(H, W) float32 camera depth of the nearest world point falling in each pixel (0 where none does)."""
-    local = world_to_camera(points, camera_to_world)
-    local = local[local[:, 2] > 1e-6]
-    u = np.floor(camera.fx * local[:, 0] / local[:, 2] + camera.cx).astype(np.int64)
-    v = np.floor(camera.fy * local[:, 1] / local[:, 2] + camera.cy).astype(np.int64)
-    inside = (u >= 0) & (u < camera.width) & (v >= 0) & (v < camera.height)
-    nearest = np.full(camera.height * camera.width, np.inf, np.float32)
-    np.minimum.at(nearest, v[inside] * camera.width + u[inside], local[inside, 2].astype(np.float32))
-    nearest[~np.isfinite(nearest)] = 0.0
-    return nearest.reshape(camera.height, camera.width)
-
-
-@dataclass(frozen=True)
-class ViewFit:
-    """A model posed to match an object's mask and points in one view."""
-
-    position: np.ndarray
-    yaw: float
-    scale: float
-    iou: float
-    """Silhouette IoU with the mask."""
-    error: float
-    """Mask disagreement (pixels / mask pixels) + ``depth_weight`` × mean depth error / model size."""
-
-
-def fit_view(camera: Camera, camera_to_world: np.ndarray, vertices: np.ndarray, faces: np.ndarray,
-             points: np.ndarray, target: np.ndarray, n_yaw: int, support_height: float | None = None,
-             refine: int = 3, depth_weight: float = 1.0) -> ViewFit:
-    """The yaw sweep of §4.3 at the object's apparent size: for each of ``n_yaw`` rotations, ``refine``
-    times, the model moves so its silhouette's centroid lies on the mask's and its median depth on the
-    points', and scales so its silhouette's area matches the mask's (``target``, at the camera's resolution); with
-    ``support_height`` its bottom stays at that height. The rotation with the least :attr:`ViewFit.error`
-    wins: the depth term tells a model's front from its back, which silhouettes alone cannot."""
-    origin, rotation = camera_to_world[:3, 3], camera_to_world[:3, :3]
-    ys, xs = np.nonzero(target)
-    target_centroid = (xs.mean(), ys.mean())
-    target_depth = point_depth(camera, camera_to_world, points)
-    measured = target_depth > 0
-    target_median = float(np.median(world_to_camera(points, camera_to_world)[:, 2]))
-    target_area = max(int(target.sum()), 1)
-    box_centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2.0
-    size = float(np.linalg.norm(np.ptp(vertices, axis=0)))
-    start_centre, start_scale = initial_pose(points, vertices, 1.0)
-    start_centre = start_centre + start_scale * box_centre
-    best: ViewFit | None = None
-    for yaw in np.arange(n_yaw) * (2.0 * np.pi / n_yaw):
-        centre, scale = start_centre.copy(), start_scale
-        for step in range(refine + 1):
-            position = centre - scale * box_centre
-            if support_height is not None:
-                position[1] = support_height
-            depth = depth_map(camera, camera_to_world, transform(vertices, pose_matrix(position, yaw, scale)), faces)
-            mask = depth > 0
-            if step == refine or not mask.any():
-                break
-            rendered_median = float(np.median(depth[mask]))
-            ratio = target_median / rendered_median
-            ys, xs = np.nonzero(mask)
-            shift_px = np.array([target_centroid[0] - xs.mean(), target_centroid[1] - ys.mean()])
-            shift = rotation @ np.array([shift_px[0] / camera.fx, shift_px[1] / camera.fy, 0.0]) * rendered_median
-            centre = origin + (position + scale * box_centre + shift - origin) * ratio
-            scale *= ratio * math.sqrt(target_area / mask.sum())
-        both = mask & measured
-        depth_error = float(np.abs(depth[both] - target_depth[both]).mean()) / (scale * size) if both.any() else 1.0
-        error = float(np.logical_xor(mask, target).sum()) / target_area + depth_weight * depth_error
-        if best is None or error < best.error:
-            best = ViewFit(position, float(yaw), float(scale), mask_iou(mask, target), error)
-    assert best is not None
-    return best
-
-
 # ----------------------------------------------------------------------------------- support relations
 @dataclass(frozen=True)
 class SupportParams:
@@ -252,18 +181,25 @@ def wall_frame(room: RoomBox, index: int) -> tuple[np.ndarray, np.ndarray, float
     return inward, tangent, offset
 
 
+Support = tuple[str, int | None]
+"""(``floor`` | ``parent`` | ``wall`` | ``free``, the parent's segment id or the wall's index)."""
+
+
 def support_relations(queries: list[ObjectQuery], floor_mask: np.ndarray, room: RoomBox,
-                      params: SupportParams) -> dict[int, tuple[str, int | None]]:
-    """Segment id → (``floor`` | ``parent`` | ``wall`` | ``free``, parent segment or wall index) by §4.3's
-    rules, in this order: on the floor; on a floor object whose mask touches its own from below, whose top
-    is at its bottom and whose points' footprint holds its centre; an object of a ``grounded`` category
-    whose bottom is hidden (below mid-height) on the floor; near a wall, on it; else free."""
-    relations: dict[int, tuple[str, int | None]] = {}
+                      params: SupportParams) -> dict[int, list[Support]]:
+    """Segment id → the supports §4.3's rules allow it, the rules' choice first, by these rules in this order:
+    on the floor; on a floor object whose mask touches its own from below, whose top is at its bottom and
+    whose points' footprint holds its centre; an object of a ``grounded`` category whose bottom is hidden
+    (below mid-height) on the floor; near a wall, on it; else free.
+
+    A grounded object that a parent could hold may also stand on the floor behind it (a tall cabinet whose
+    lower part a low one hides looks the same): both are listed, and the view search decides."""
+    relations: dict[int, list[Support]] = {}
     bottoms = {q.segment_id: float(np.percentile(q.points[:, 1], params.bottom_percentile)) for q in queries}
     for q in queries:
         if abs(bottoms[q.segment_id]) < params.floor_distance and mask_distance(q.mask, floor_mask) < params.edge_px:
-            relations[q.segment_id] = ("floor", None)
-    on_floor = [q for q in queries if relations.get(q.segment_id, ("",))[0] == "floor"]
+            relations[q.segment_id] = [("floor", None)]
+    on_floor = [q for q in queries if q.segment_id in relations]
     for q in queries:
         if q.segment_id in relations:
             continue
@@ -279,13 +215,14 @@ def support_relations(queries: list[ObjectQuery], floor_mask: np.ndarray, room: 
             distance = mask_distance(q.mask, p.mask)
             if rows.mean() < p_rows.mean() and over and on_top and distance < params.edge_px:
                 parents.append((distance, p.segment_id))
+        grounded: list[Support] = [("floor", None)] if q.category in params.grounded and bottom < room.half_size[1] else []
         wall, wall_distance = nearest_wall(room, np.median(q.points, axis=0))
         if parents:
-            relations[q.segment_id] = ("parent", min(parents)[1])
-        elif q.category in params.grounded and bottom < room.half_size[1]:
-            relations[q.segment_id] = ("floor", None)
+            relations[q.segment_id] = [("parent", min(parents)[1]), *grounded]
+        elif grounded:
+            relations[q.segment_id] = grounded
         elif wall_distance < params.wall_distance:
-            relations[q.segment_id] = ("wall", wall)
+            relations[q.segment_id] = [("wall", wall)]
         else:
-            relations[q.segment_id] = ("free", None)
+            relations[q.segment_id] = [("free", None)]
     return relations

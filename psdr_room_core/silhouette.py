@@ -1,17 +1,22 @@
-"""Fast silhouettes and depth maps of triangle meshes (no gradients): for pose sweeps and retrieval.
+"""Exact silhouettes and depth maps of triangle meshes by ray casting (no gradients): for pose searches,
+retrieval and overlays.
 
-Triangles are projected with the pinhole camera and filled with OpenCV at 1/16-pixel precision; triangles
-crossing the near plane are dropped (objects stand in front of the camera).
+A :class:`MeshCaster` builds one bounding-volume hierarchy (open3d) of a mesh in its own frame and moves each
+pixel's ray into that frame for a pose (a similarity ``T R S``), so a mesh is posed thousands of times in a
+search without rebuilding anything. Rays go through pixel centres (``u + 0.5``, as the renderer and the
+back-projection of depth maps).
 """
 
 from __future__ import annotations
 
-import cv2
+from typing import Any
+
 import numpy as np
 
 from .artifacts import Camera
 
-SHIFT = 4  # fillPoly's fractional bits
+Window = tuple[int, int, int, int]
+"""(x0, y0, x1, y1): the pixels ``[y0:y1, x0:x1]`` of an image."""
 
 
 def world_to_camera(points: np.ndarray, camera_to_world: np.ndarray) -> np.ndarray:
@@ -20,36 +25,58 @@ def world_to_camera(points: np.ndarray, camera_to_world: np.ndarray) -> np.ndarr
     return (points - origin) @ rotation
 
 
-def _projected(camera: Camera, camera_to_world: np.ndarray, vertices: np.ndarray, faces: np.ndarray,
-               near: float) -> tuple[np.ndarray, np.ndarray]:
-    """(fixed-point image triangles [F,3,2] int32, mean camera depth [F]) of the faces in front of the camera."""
-    local = world_to_camera(vertices, camera_to_world)
-    z = local[:, 2]
-    in_front = np.all(z[faces] > near, axis=1)
-    zs = np.maximum(z, near)
-    uv = np.stack([camera.fx * local[:, 0] / zs + camera.cx, camera.fy * local[:, 1] / zs + camera.cy], axis=1)
-    kept = faces[in_front]
-    limit = 1 << 28  # keep far-off projections inside int32
-    triangles = np.clip(np.round(uv[kept] * (1 << SHIFT)), -limit, limit).astype(np.int32)
-    return triangles, z[kept].mean(axis=1)
+class MeshCaster:
+    """Camera depth of one mesh under any similarity pose, by ray casting against a hierarchy built once."""
+
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray) -> None:
+        import open3d as o3d  # heavy: imported when a mesh is first cast
+
+        self._o3d = o3d
+        self._scene = o3d.t.geometry.RaycastingScene()
+        self._scene.add_triangles(o3d.core.Tensor(np.ascontiguousarray(vertices, np.float32)),
+                                  o3d.core.Tensor(np.ascontiguousarray(faces, np.uint32)))
+        self._rays: dict[Any, np.ndarray] = {}
+
+    def _camera_rays(self, camera: Camera, window: Window) -> np.ndarray:
+        """[h*w, 3] camera-frame directions with unit z through the window's pixel centres (cached)."""
+        key = (camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy, window)
+        if key not in self._rays:
+            x0, y0, x1, y1 = window
+            u, v = np.meshgrid(np.arange(x0, x1) + 0.5, np.arange(y0, y1) + 0.5)
+            self._rays[key] = np.stack([(u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy,
+                                        np.ones_like(u)], axis=-1).reshape(-1, 3)
+        return self._rays[key]
+
+    def depth(self, camera: Camera, camera_to_world: np.ndarray, to_world: np.ndarray | None = None,
+              window: Window | None = None) -> np.ndarray:
+        """(h, w) float32 z-depth of the nearest surface of the mesh posed by ``to_world`` (4×4 similarity:
+        rotation times a uniform scale, plus translation; identity when None), 0 where no surface is hit,
+        over ``window`` (default: the whole image)."""
+        window = window or (0, 0, camera.width, camera.height)
+        x0, y0, x1, y1 = window
+        if x1 <= x0 or y1 <= y0:
+            return np.zeros((max(0, y1 - y0), max(0, x1 - x0)), np.float32)
+        directions = self._camera_rays(camera, window) @ camera_to_world[:3, :3].T
+        origin = camera_to_world[:3, 3]
+        if to_world is not None:  # into the mesh's frame: x_local = A^-1 (x_world - t); t along the ray is kept
+            inverse = np.linalg.inv(to_world[:3, :3])
+            directions = directions @ inverse.T
+            origin = inverse @ (origin - to_world[:3, 3])
+        rays = np.empty((len(directions), 6), np.float32)
+        rays[:, :3] = origin
+        rays[:, 3:] = directions
+        hit = self._scene.cast_rays(self._o3d.core.Tensor(rays))["t_hit"].numpy()
+        return np.where(np.isfinite(hit), hit, 0.0).astype(np.float32).reshape(y1 - y0, x1 - x0)
 
 
-def silhouette(camera: Camera, camera_to_world: np.ndarray, vertices: np.ndarray, faces: np.ndarray,
-               near: float = 1e-3) -> np.ndarray:
+def depth_map(camera: Camera, camera_to_world: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(H, W) float32 z-depth of the nearest surface of the mesh (world ``vertices``, ``faces``), 0 where none."""
+    return MeshCaster(vertices, faces).depth(camera, camera_to_world)
+
+
+def silhouette(camera: Camera, camera_to_world: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """(H, W) bool mask of the mesh (world ``vertices``, ``faces``) seen by ``camera``."""
-    return depth_map(camera, camera_to_world, vertices, faces, near) > 0
-
-
-def depth_map(camera: Camera, camera_to_world: np.ndarray, vertices: np.ndarray, faces: np.ndarray,
-              near: float = 1e-3) -> np.ndarray:
-    """(H, W) float32 camera depth of the mesh (0 where it is absent): faces drawn far to near, each at its
-    mean depth (painter's algorithm). One fill per triangle: OpenCV fills a list of polygons by the even-odd
-    rule, which would cut overlapping triangles out."""
-    triangles, z = _projected(camera, camera_to_world, vertices, faces, near)
-    depth = np.zeros((camera.height, camera.width), np.float32)
-    for k in np.argsort(-z, kind="stable"):
-        cv2.fillConvexPoly(depth, triangles[k], float(z[k]), cv2.LINE_8, SHIFT)
-    return depth
+    return depth_map(camera, camera_to_world, vertices, faces) > 0
 
 
 def mask_l1(rendered: np.ndarray, target: np.ndarray) -> float:

@@ -16,9 +16,10 @@ from ..artifacts import (Camera, Candidate, DepthMap, Image, ObjectCandidates, O
 from ..dag import StageContext
 from ..errors import PsdrRoomError
 from ..geometry import TriangleMesh, weld
-from ..objects import (ObjectQuery, SupportParams, best_yaw, fit_view, initial_pose, object_queries,
-                       support_relations, wall_frame)
+from ..objects import (ObjectQuery, SupportParams, best_yaw, initial_pose, object_queries, support_relations,
+                       wall_frame)
 from ..silhouette import silhouette
+from ..view_search import SearchParams, ViewTarget, fit_view
 from ..visualize import plot_curves, segment_overlay
 
 if TYPE_CHECKING:
@@ -88,11 +89,13 @@ def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image,
 
     ``init=radius`` is the paper's: centre on the points' median, radius ``radius_factor`` × the points'
     radius, the best of ``n_yaw`` rotations by silhouette L1. ``init=silhouette`` (default) sweeps the same
-    rotations at the object's apparent size and depth (:func:`fit_view`): the yaw is chosen where it can be
-    seen, which the small paper start cannot, and the fit has less to grow.
+    rotations at the object's apparent size and depth and refines the best by the occlusion-aware view search
+    (:func:`~psdr_room_core.view_search.fit_view`): the yaw is chosen where it can be seen, which the small
+    paper start cannot, and an object half hidden behind another keeps its whole size.
 
     Params: ``init``, ``pick`` (segment id → rank or model id), ``radius_factor``, ``n_yaw``, ``render_width``,
-    ``support`` (:class:`SupportParams` fields), ``min_points``, ``min_pixels``.
+    ``search`` (:class:`~psdr_room_core.view_search.SearchParams` fields but ``n_yaw``), ``support``
+    (:class:`SupportParams` fields), ``min_points``, ``min_pixels``.
     """
     retriever = ctx.impl("retrieval")
     c2w = np.asarray(room.camera_to_world)
@@ -107,21 +110,24 @@ def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image,
     if init not in ("silhouette", "radius"):
         raise PsdrRoomError(f"place_objects.init={init}: use 'silhouette' or 'radius' (the paper's)")
     support = SupportParams(**{k: tuple(v) if k == "grounded" else v for k, v in ctx.params["support"].items()})
+    search = SearchParams(n_yaw=int(ctx.params["n_yaw"]), **ctx.params["search"])
     relations = support_relations(queries, panoptic.mask("floor"), room, support)
     placed: dict[int, Placement] = {}
-    order = sorted(queries, key=lambda q: relations[q.segment_id][0] == "parent")  # parents before children
+    order = sorted(queries, key=lambda q: relations[q.segment_id][0][0] == "parent")  # parents before children
     for q in order:
         model_id = _pick(candidates.ranked[q.segment_id], picks.get(q.segment_id), q.segment_id)
         mesh = retriever.mesh(model_id)
-        target = cv2.resize(q.mask.astype(np.uint8), (cam.width, cam.height), interpolation=cv2.INTER_AREA) > 0
-        kind, anchor = relations[q.segment_id]
-        height = 0.0 if kind == "floor" else _top(placed[anchor]) if kind == "parent" else None
-        if init == "silhouette":
-            view = fit_view(cam, c2w, mesh.vertices, mesh.faces, q.points, target, int(ctx.params["n_yaw"]), height)
+        if init == "silhouette":  # each support the rules allow; the view search picks
+            target = ViewTarget.build(camera, c2w, q.mask, q.points, q.scene_points, int(ctx.params["render_width"]))
+            view, kind, anchor = min(((fit_view(target, mesh.vertices, mesh.faces, search, _support_height(k, a, placed)), k, a)
+                                      for k, a in relations[q.segment_id]), key=lambda f: f[0].error)
             position, yaw, scale = view.position, view.yaw, view.scale
         else:
+            kind, anchor = relations[q.segment_id][0]
+            target = cv2.resize(q.mask.astype(np.uint8), (cam.width, cam.height), interpolation=cv2.INTER_AREA) > 0
             position, scale = initial_pose(q.points, mesh.vertices, float(ctx.params["radius_factor"]))
             yaw, _ = best_yaw(cam, c2w, mesh.vertices, mesh.faces, position, scale, target, int(ctx.params["n_yaw"]))
+            height = _support_height(kind, anchor, placed)
             if height is not None:
                 position[1] = height
         if kind == "wall":
@@ -137,6 +143,11 @@ def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image,
 
 def _top(p: Placement) -> float:
     return p.position[1] + p.scale * float(p.mesh.vertices[:, 1].max())
+
+
+def _support_height(kind: str, anchor: int | None, placed: dict[int, Placement]) -> float | None:
+    """Where a supported object's bottom stays: the floor, its parent's top; None for wall and free objects."""
+    return 0.0 if kind == "floor" else _top(placed[anchor]) if kind == "parent" else None
 
 
 # ------------------------------------------------------------------------------------------ refinement
@@ -260,7 +271,7 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
     ``renderer`` and the ``optimizer``. Params: ``iterations``, ``render_width``, ``blur_sigmas``,
     ``blur_weight``, ``learning_rates`` {translation (room half-size units), log_scale, yaw (degrees)},
     ``overlap_iou`` (pairs of fitted objects overlapping more than this are reported), ``yaw_test``
-    {``at``: fraction of the iterations after which :func:`try_yaw_turns` runs, ``angles``}.
+    {``at``: fraction of the iterations after which :func:`try_yaw_turns` runs, ``angles``, ``min_gain``}.
     """
     import torch
 
@@ -281,20 +292,26 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
     sigmas = tuple(float(s) for s in params["blur_sigmas"])
     t_blur = gaussian_pyramid_blur(t_masks, sigmas)
 
-    def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
+    def per_object(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
+        """Eq. 3's term of each object [P], and the logged terms."""
         masks, weighted_depth, alpha = renderer.render(model.vertices(), iteration)
         rendered_depth = weighted_depth / alpha.clamp_min(1e-3)
-        depth_term = (masks * rendered_depth - t_masked).abs().mean(dim=(1, 2)).sum() / depth_scale
-        blur_term = (gaussian_pyramid_blur(masks, sigmas) - t_blur).abs().mean(dim=(2, 3)).sum()
+        depth_term = (masks * rendered_depth - t_masked).abs().mean(dim=(1, 2)) / depth_scale
+        blur_term = (gaussian_pyramid_blur(masks, sigmas) - t_blur).abs().mean(dim=(2, 3)).sum(dim=0)
         iou = ((masks * t_masks).sum((1, 2)) / (masks + t_masks - masks * t_masks).sum((1, 2)).clamp_min(1e-6)).mean()
-        total = depth_term + float(params["blur_weight"]) * blur_term
-        return total, {"mask_depth_l1": depth_term.item(), "blurred_mask_l1": blur_term.item(), "mean_iou": iou.item()}
+        terms = {"mask_depth_l1": depth_term.sum().item(), "blurred_mask_l1": blur_term.sum().item(), "mean_iou": iou.item()}
+        return depth_term + float(params["blur_weight"]) * blur_term, terms
+
+    def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
+        terms, logged = per_object(iteration)
+        return terms.sum(), logged
 
     iterations = int(params["iterations"])
     optimizer, rates = ctx.impl("optimizer"), dict(params["learning_rates"])
     first = round(iterations * float(params["yaw_test"]["at"]))
     history = optimizer.minimize(model.theta, rates, loss, first, lambda it: ctx.progress(it, total=iterations))
-    turned = try_yaw_turns(model, lambda: loss(first)[0], [float(a) for a in params["yaw_test"]["angles"]])
+    turned = try_yaw_turns(model, lambda: per_object(first)[0], [float(a) for a in params["yaw_test"]["angles"]],
+                           float(params["yaw_test"]["min_gain"]))
     history += optimizer.minimize(model.theta, rates, lambda it: loss(first + it), iterations - first,
                                   lambda it: ctx.progress(it, total=iterations - first))
     with torch.no_grad():
@@ -307,18 +324,21 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
     return {"placements": fitted, "log": log}
 
 
-def try_yaw_turns(model: PoseModel, evaluate: Callable[[], torch.Tensor], angles: list[float]) -> dict[int, float]:
-    """Turn each free-standing object by each of ``angles`` (degrees) in turn and keep a turn that lowers the
-    joint loss (``evaluate``, one fixed-seed render); returns segment id → degrees turned.
+def try_yaw_turns(model: PoseModel, evaluate: Callable[[], torch.Tensor], angles: list[float],
+                  min_gain: float) -> dict[int, float]:
+    """Turn each free-standing object by each of ``angles`` (degrees) in turn and keep a turn that lowers both
+    its own loss term by at least ``min_gain`` (a share of it) and the joint loss; ``evaluate`` gives every
+    object's term [P] (one fixed-seed render). Returns segment id → degrees turned.
 
     Masks and depth seen from one side leave a model's front and back (and, for boxy furniture, its side)
-    nearly alike; gradient descent on yaw never crosses the ridge between them. Wall objects keep their
+    nearly alike; gradient descent on yaw never crosses the ridge between them. A near-symmetric model's turn
+    changes its term by less than the render's noise: ``min_gain`` keeps it as it is. Wall objects keep their
     orientation (they face into the room)."""
     import torch
 
     turned: dict[int, float] = {}
     with torch.no_grad():
-        best = float(evaluate())
+        best = evaluate()
         yaw = model.theta["yaw"]
         for i, p in enumerate(model.placements):
             if p.support == "wall":
@@ -326,8 +346,8 @@ def try_yaw_turns(model: PoseModel, evaluate: Callable[[], torch.Tensor], angles
             start = float(yaw[i])
             for angle in angles:
                 yaw[i] = start + angle
-                value = float(evaluate())
-                if value < best:
+                value = evaluate()
+                if value[i] < (1.0 - min_gain) * best[i] and value.sum() < best.sum():
                     best, turned[p.segment_id] = value, angle
             yaw[i] = start + turned.get(p.segment_id, 0.0)
     return turned

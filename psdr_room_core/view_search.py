@@ -1,0 +1,267 @@
+"""Posing one database model to match one object in the photo (§4.3's yaw sweep, made occlusion-aware).
+
+A pose is scored against the object's mask and the photo's depth at a search resolution. A pixel the model
+would cover but the photo shows *something nearer* (another object, or anything in front) is hidden, not
+wrong, so a cabinet behind a sofa may be whole; pixels outside the frame do not exist, so an object cut by
+the image border is not shrunk into it.
+
+For each of ``n_yaw`` rotations about the vertical axis the model is first moved and scaled so its visible
+part has the mask's area, its back-projected pixels the median of the object's points across the view, and
+its depth the object's where they overlap. Each hypothesis is then improved by a coarse pattern search over
+shift, depth, scale and yaw (the best ``explore`` of them, or all), the best ``polish`` of those at finer
+steps; the best is also turned by each of ``turns`` in place and refined, and the best of all wins.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from .artifacts import Camera
+from .objects import pose_matrix
+from .silhouette import MeshCaster, Window, world_to_camera
+
+
+def point_depth(camera: Camera, camera_to_world: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(H, W) float32 camera depth of the nearest world point falling in each pixel (0 where none does)."""
+    local = world_to_camera(points, camera_to_world)
+    local = local[local[:, 2] > 1e-6]
+    u = np.floor(camera.fx * local[:, 0] / local[:, 2] + camera.cx).astype(np.int64)
+    v = np.floor(camera.fy * local[:, 1] / local[:, 2] + camera.cy).astype(np.int64)
+    inside = (u >= 0) & (u < camera.width) & (v >= 0) & (v < camera.height)
+    nearest = np.full(camera.height * camera.width, np.inf, np.float32)
+    np.minimum.at(nearest, v[inside] * camera.width + u[inside], local[inside, 2].astype(np.float32))
+    nearest[~np.isfinite(nearest)] = 0.0
+    return nearest.reshape(camera.height, camera.width)
+
+
+@dataclass(frozen=True)
+class ViewTarget:
+    """What one object's pose is scored against, at the search resolution."""
+
+    camera: Camera
+    camera_to_world: np.ndarray
+    mask: np.ndarray
+    """(h, w) bool: the object's segment (area-resampled, majority)."""
+    own_depth: np.ndarray
+    """(h, w) float32 depth of the object's own points (0: none)."""
+    seen_depth: np.ndarray
+    """(h, w) float32 depth of the nearest point of any segment (0: none): what may hide the model."""
+    points: np.ndarray
+    """(N, 3) world points of the object."""
+
+    @classmethod
+    def build(cls, camera: Camera, camera_to_world: np.ndarray, mask: np.ndarray, points: np.ndarray,
+              scene_points: np.ndarray, width: int) -> "ViewTarget":
+        """The target of an object with ``mask`` (working-image resolution) and world ``points`` in a scene of
+        world ``scene_points`` (every segment's), seen by ``camera`` resized to ``width``."""
+        cam = camera.resized(min(int(width), camera.width))
+        small = cv2.resize(mask.astype(np.float32), (cam.width, cam.height), interpolation=cv2.INTER_AREA) > 0.5
+        if not small.any():  # a sliver: keep its pixels rather than lose the object
+            small = cv2.resize(mask.astype(np.uint8), (cam.width, cam.height), interpolation=cv2.INTER_AREA) > 0
+        c2w = np.asarray(camera_to_world, np.float64)
+        return cls(cam, c2w, small, point_depth(cam, c2w, points), point_depth(cam, c2w, scene_points), points)
+
+
+@dataclass(frozen=True)
+class ViewFit:
+    """A model posed to match an object's mask and points in one view."""
+
+    position: np.ndarray
+    yaw: float
+    scale: float
+    iou: float
+    """IoU of the model's visible silhouette (hidden pixels left out) with the mask."""
+    error: float
+    """Mask disagreement (wrong pixels / mask pixels, hidden pixels not wrong) + ``depth_weight`` × the mean
+    relative depth error where the model meets the object's points."""
+
+
+@dataclass(frozen=True)
+class SearchParams:
+    """How hard :func:`fit_view` looks."""
+
+    n_yaw: int = 12
+    """Rotations about the vertical axis swept."""
+    refine: int = 3
+    """Moment-matching steps per rotation (area, 3D median across the view, depth where they overlap)."""
+    coarse: int = 2
+    """Pattern-search step levels the explored rotations get (0: none)."""
+    explore: int = 0
+    """Rotations (the best after moment matching) that get the coarse search (0: all)."""
+    polish: int = 3
+    """Best rotations then refined at finer steps."""
+    depth_weight: float = 2.0
+    """Weight of the mean relative depth error against the mask disagreement."""
+    hidden_margin: float = 0.03
+    """A model pixel is hidden where the photo sees a surface this much (relative) nearer."""
+    halvings: int = 3
+    """Finer step levels (each half the last) of the polish."""
+    turns: tuple[float, ...] = (90.0, 180.0, 270.0)
+    """Turns (degrees) of the polished best, each refined at the fine levels (with ``polish`` > 0)."""
+    rounds: int = 12
+    """Most pattern-search moves at one step size."""
+
+
+class _Scorer:
+    """Scores poses of one mesh against one :class:`ViewTarget`."""
+
+    def __init__(self, target: ViewTarget, vertices: np.ndarray, faces: np.ndarray, params: SearchParams) -> None:
+        self.target, self.params = target, params
+        self.caster = MeshCaster(vertices, faces)
+        lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+        self.corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        ys, xs = np.nonzero(target.mask)
+        self.mask_box = (int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1)
+        self.mask_area = int(target.mask.sum())
+        own = target.own_depth[target.mask & (target.own_depth > 0)]
+        local = world_to_camera(target.points, target.camera_to_world)[:, 2]
+        self.median_depth = float(np.median(own)) if own.size else float(np.median(local))
+
+    def window(self, to_world: np.ndarray) -> Window:
+        """The mask's box joined with the posed model's projected box, inside the image."""
+        cam = self.target.camera
+        local = world_to_camera(self.corners @ to_world[:3, :3].T + to_world[:3, 3], self.target.camera_to_world)
+        if np.any(local[:, 2] <= 1e-3):
+            return 0, 0, cam.width, cam.height
+        u = cam.fx * local[:, 0] / local[:, 2] + cam.cx
+        v = cam.fy * local[:, 1] / local[:, 2] + cam.cy
+        x0, y0, x1, y1 = self.mask_box
+        return (max(0, min(x0, int(math.floor(u.min())))), max(0, min(y0, int(math.floor(v.min())))),
+                min(cam.width, max(x1, int(math.ceil(u.max())) + 1)), min(cam.height, max(y1, int(math.ceil(v.max())) + 1)))
+
+    def render(self, to_world: np.ndarray) -> tuple[Window, np.ndarray, np.ndarray]:
+        """(window, depth of the model, its visible pixels) over the window."""
+        window = self.window(to_world)
+        depth = self.caster.depth(self.target.camera, self.target.camera_to_world, to_world, window)
+        x0, y0, x1, y1 = window
+        seen = self.target.seen_depth[y0:y1, x0:x1]
+        hidden = (seen > 0) & (seen < depth * (1.0 - self.params.hidden_margin)) & ~self.target.mask[y0:y1, x0:x1]
+        return window, depth, (depth > 0) & ~hidden
+
+    def surface_points(self, window: Window, depth: np.ndarray, visible: np.ndarray) -> np.ndarray:
+        """(N, 3) world points of the model's visible pixels."""
+        cam, c2w = self.target.camera, self.target.camera_to_world
+        ys, xs = np.nonzero(visible)
+        z = depth[ys, xs]
+        local = np.stack([(xs + window[0] + 0.5 - cam.cx) / cam.fx * z, (ys + window[1] + 0.5 - cam.cy) / cam.fy * z, z], axis=1)
+        return local @ c2w[:3, :3].T + c2w[:3, 3]
+
+    def depth_residual(self, window: Window, depth: np.ndarray, visible: np.ndarray) -> float:
+        """Median of (observed − model) depth where the model's visible pixels meet the object's points (0
+        where they do not meet)."""
+        x0, y0, x1, y1 = window
+        own = self.target.own_depth[y0:y1, x0:x1]
+        both = visible & (own > 0)
+        return float(np.median(own[both] - depth[both])) if both.any() else 0.0
+
+    def score(self, to_world: np.ndarray) -> tuple[float, float]:
+        """(error, visible IoU) of a pose; see :attr:`ViewFit.error`."""
+        (x0, y0, x1, y1), depth, visible = self.render(to_world)
+        mask = self.target.mask[y0:y1, x0:x1]
+        overlap = int((visible & mask).sum())
+        wrong = int(visible.sum()) - overlap + self.mask_area - overlap
+        own = self.target.own_depth[y0:y1, x0:x1]
+        both = visible & mask & (own > 0)
+        depth_error = float(np.abs(depth[both] - own[both]).mean()) / self.median_depth if both.any() else 1.0
+        error = wrong / self.mask_area + self.params.depth_weight * depth_error
+        return error, overlap / max(self.mask_area + int(visible.sum()) - overlap, 1)
+
+
+def fit_view(target: ViewTarget, vertices: np.ndarray, faces: np.ndarray, params: SearchParams = SearchParams(),
+             support_height: float | None = None, yaws: np.ndarray | None = None) -> ViewFit:
+    """The pose of a mesh (canonical: bottom at 0, centred on the vertical axis) that best explains the
+    object in ``target``; with ``support_height`` its bottom stays at that height. ``yaws`` (radians)
+    replaces the sweep of ``params.n_yaw`` rotations."""
+    scorer = _Scorer(target, vertices, faces, params)
+    origin, axis = target.camera_to_world[:3, 3], target.camera_to_world[:3, 2]
+    box_centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2.0
+    size = float(np.linalg.norm(np.ptp(vertices, axis=0)))
+
+    def supported(position: np.ndarray) -> np.ndarray:
+        if support_height is not None:
+            position = position.copy()
+            position[1] = support_height
+        return position
+
+    # start: the mesh's box centre on the points' median, its size the points' spread; a supported object
+    # reaches at least as high as its highest points (its lower part is what others hide)
+    median = np.median(target.points, axis=0)
+    spread = float(np.median(np.linalg.norm(target.points - median, axis=1)))
+    start_scale = max(spread, 1e-3) / max(float(np.median(np.linalg.norm(vertices - box_centre, axis=1))), 1e-9)
+    if support_height is not None:
+        reach = float(np.percentile(target.points[:, 1], 98)) - support_height
+        start_scale = max(start_scale, reach / max(float(np.ptp(vertices[:, 1])), 1e-9))
+    hypotheses = []
+    for yaw in (np.arange(params.n_yaw) * (2.0 * math.pi / params.n_yaw) if yaws is None else yaws):
+        position, scale = supported(median - start_scale * box_centre), start_scale
+        for _ in range(params.refine):
+            window, depth, visible = scorer.render(pose_matrix(position, yaw, scale))
+            if not visible.any():
+                break
+            seen = scorer.surface_points(window, depth, visible)
+            shift = median - np.median(seen, axis=0)
+            shift += axis * (scorer.depth_residual(window, depth, visible) - shift @ axis)
+            position = supported(position + shift)
+            scale *= math.sqrt(scorer.mask_area / len(seen))
+        error, _ = scorer.score(pose_matrix(position, yaw, scale))
+        hypotheses.append((error, float(yaw), position, scale))
+    spacing = 2.0 * math.pi / max(params.n_yaw, 1)
+    search = _PatternSearch(scorer, supported, spacing / 2.0, size, origin, params.rounds)
+    hypotheses.sort(key=lambda h: h[0])
+    explored = hypotheses[:params.explore] if params.explore else hypotheses
+    coarse = sorted((search.run(h, range(params.coarse)) for h in explored), key=lambda h: h[0])
+    fine_levels = range(params.coarse, params.coarse + params.halvings)
+    fine = [search.run(h, fine_levels) for h in coarse[:params.polish]]
+    best = min(fine + coarse[:1], key=lambda h: h[0])
+    if params.polish:  # a front/back or side flip of the best, refined from there: it keeps its place and size
+        turned = [search.run((scorer.score(pose_matrix(best[2], best[1] + turn, best[3]))[0], best[1] + turn, best[2],
+                              best[3]), fine_levels) for turn in np.radians(params.turns)]
+        best = min([best, *turned], key=lambda h: h[0])
+    error, yaw, position, scale = best
+    return ViewFit(position, yaw % (2.0 * math.pi), scale, scorer.score(pose_matrix(position, yaw, scale))[1], error)
+
+
+Hypothesis = tuple[float, float, np.ndarray, float]
+"""(error, yaw, position, scale)."""
+
+
+class _PatternSearch:
+    """Steepest-descent pattern search over: a sideways and a forward shift (horizontal, camera-aligned), a
+    move along the view ray that keeps the apparent size, a scale about the model's origin, and a turn. At
+    step level ``k`` the steps are 8% of the model's size (shifts), 8% (log scale) and ``yaw_step``, halved
+    ``k`` times; a level ends when no move helps or after ``rounds`` moves."""
+
+    def __init__(self, scorer: _Scorer, supported: Callable[[np.ndarray], np.ndarray], yaw_step: float, size: float,
+                 origin: np.ndarray, rounds: int) -> None:
+        self.scorer, self.supported, self.yaw_step, self.size, self.origin, self.rounds = (
+            scorer, supported, yaw_step, size, origin, rounds)
+        forward = scorer.target.camera_to_world[:3, 2] * [1.0, 0.0, 1.0]
+        self.forward = forward / max(float(np.linalg.norm(forward)), 1e-9)
+        self.right = np.cross([0.0, 1.0, 0.0], self.forward)
+
+    def run(self, start: Hypothesis, levels: range) -> Hypothesis:
+        error, yaw, position, scale = start
+        for level in levels:
+            step = 0.08 / 2 ** level
+            turn = self.yaw_step / 2 ** level
+            for _ in range(self.rounds):
+                shift = step * scale * self.size
+                moves = []
+                for sign in (1.0, -1.0):
+                    ray = math.exp(sign * step)
+                    moves += [(yaw, self.supported(position + sign * shift * self.right), scale),
+                              (yaw, self.supported(position + sign * shift * self.forward), scale),
+                              (yaw, position, scale * math.exp(sign * step)),
+                              (yaw, self.supported(self.origin + (position - self.origin) * ray), scale * ray),
+                              (yaw + sign * turn, position, scale)]
+                best = min(((self.scorer.score(pose_matrix(p, y, s))[0], y, p, s) for y, p, s in moves),
+                           key=lambda h: h[0])
+                if best[0] >= error - 1e-9:
+                    break
+                error, yaw, position, scale = best
+        return error, yaw, position, scale
