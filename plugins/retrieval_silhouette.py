@@ -51,11 +51,12 @@ class SilhouetteRetrieval:
 
     def __init__(self, database: str = "builtin", fraction: float = 1.0, seed: int = 0, n_yaw: int = 12,
                  refine: int = 2, coarse: int = 1, explore: int = 3, polish: int = 2, halvings: int = 2,
-                 render_width: int = 160) -> None:
+                 render_width: int = 160, max_pixels: int = 3000) -> None:
         self.spec = (str(database), float(fraction), int(seed))
         self.search = SearchParams(n_yaw=int(n_yaw), refine=int(refine), coarse=int(coarse), explore=int(explore),
-                                   polish=int(polish), halvings=int(halvings))
+                                   polish=int(polish), halvings=int(halvings), turns=())
         self.render_width = int(render_width)
+        self.max_pixels = int(max_pixels)
         self._db: Any = None
 
     @property
@@ -78,11 +79,12 @@ class SilhouetteRetrieval:
         models = self.database.category(query.category) if query.category else []
         models = models or list(self.database.records)
         target = ViewTarget.build(camera, camera_to_world, query.mask, query.points, query.scene_points,
-                                  self.render_width)
+                                  self.render_width, self.max_pixels)
         scored = []
         for record in models:
             mesh = self.database.mesh(record.id)
-            scored.append(Candidate(record.id, 1.0 / (1.0 + fit_view(target, mesh.vertices, mesh.faces, self.search).error)))
+            view = fit_view(target, mesh.vertices, mesh.faces, self.search)
+            scored.append(Candidate(record.id, 1.0 / (1.0 + view.error)))
         scored.sort(key=lambda c: (-c.score, c.model_id))
         return scored[:k]
 

@@ -215,7 +215,8 @@ def support_relations(queries: list[ObjectQuery], floor_mask: np.ndarray, room: 
             distance = mask_distance(q.mask, p.mask)
             if rows.mean() < p_rows.mean() and over and on_top and distance < params.edge_px:
                 parents.append((distance, p.segment_id))
-        grounded: list[Support] = [("floor", None)] if q.category in params.grounded and bottom < room.half_size[1] else []
+        hidden_bottom = q.category in params.grounded and bottom < room.half_size[1]
+        grounded: list[Support] = [("floor", None)] if hidden_bottom else []
         wall, wall_distance = nearest_wall(room, np.median(q.points, axis=0))
         if parents:
             relations[q.segment_id] = [("parent", min(parents)[1]), *grounded]

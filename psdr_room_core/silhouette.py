@@ -38,14 +38,15 @@ class MeshCaster:
         self._rays: dict[Any, np.ndarray] = {}
 
     def _camera_rays(self, camera: Camera, window: Window) -> np.ndarray:
-        """[h*w, 3] camera-frame directions with unit z through the window's pixel centres (cached)."""
-        key = (camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy, window)
+        """[h*w, 3] camera-frame directions with unit z through the window's pixel centres (the whole image's
+        grid is built once per camera)."""
+        key = (camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy)
         if key not in self._rays:
-            x0, y0, x1, y1 = window
-            u, v = np.meshgrid(np.arange(x0, x1) + 0.5, np.arange(y0, y1) + 0.5)
-            self._rays[key] = np.stack([(u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy,
-                                        np.ones_like(u)], axis=-1).reshape(-1, 3)
-        return self._rays[key]
+            u, v = np.meshgrid(np.arange(camera.width) + 0.5, np.arange(camera.height) + 0.5)
+            self._rays[key] = np.stack([(u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, np.ones_like(u)],
+                                       axis=-1)
+        x0, y0, x1, y1 = window
+        return self._rays[key][y0:y1, x0:x1].reshape(-1, 3)
 
     def depth(self, camera: Camera, camera_to_world: np.ndarray, to_world: np.ndarray | None = None,
               window: Window | None = None) -> np.ndarray:
@@ -59,7 +60,8 @@ class MeshCaster:
         directions = self._camera_rays(camera, window) @ camera_to_world[:3, :3].T
         origin = camera_to_world[:3, 3]
         if to_world is not None:  # into the mesh's frame: x_local = A^-1 (x_world - t); t along the ray is kept
-            inverse = np.linalg.inv(to_world[:3, :3])
+            linear = to_world[:3, :3]
+            inverse = linear.T / float(linear[:, 0] @ linear[:, 0])  # A = s R: A^-1 = A^T / s^2
             directions = directions @ inverse.T
             origin = inverse @ (origin - to_world[:3, 3])
         rays = np.empty((len(directions), 6), np.float32)

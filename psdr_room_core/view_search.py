@@ -56,10 +56,15 @@ class ViewTarget:
 
     @classmethod
     def build(cls, camera: Camera, camera_to_world: np.ndarray, mask: np.ndarray, points: np.ndarray,
-              scene_points: np.ndarray, width: int) -> "ViewTarget":
+              scene_points: np.ndarray, width: int, max_pixels: int = 0) -> "ViewTarget":
         """The target of an object with ``mask`` (working-image resolution) and world ``points`` in a scene of
-        world ``scene_points`` (every segment's), seen by ``camera`` resized to ``width``."""
-        cam = camera.resized(min(int(width), camera.width))
+        world ``scene_points`` (every segment's), seen by ``camera`` resized to ``width``, or narrower where
+        the mask would have more than ``max_pixels`` pixels (0: no limit; scores are relative, so a cap buys
+        speed for big objects at the cost of their fine detail)."""
+        scale = min(int(width), camera.width) / camera.width
+        if max_pixels > 0:
+            scale = min(scale, math.sqrt(max_pixels / max(int(mask.sum()), 1)))
+        cam = camera.resized(max(16, round(camera.width * scale)))
         small = cv2.resize(mask.astype(np.float32), (cam.width, cam.height), interpolation=cv2.INTER_AREA) > 0.5
         if not small.any():  # a sliver: keep its pixels rather than lose the object
             small = cv2.resize(mask.astype(np.uint8), (cam.width, cam.height), interpolation=cv2.INTER_AREA) > 0
@@ -131,8 +136,8 @@ class _Scorer:
         u = cam.fx * local[:, 0] / local[:, 2] + cam.cx
         v = cam.fy * local[:, 1] / local[:, 2] + cam.cy
         x0, y0, x1, y1 = self.mask_box
-        return (max(0, min(x0, int(math.floor(u.min())))), max(0, min(y0, int(math.floor(v.min())))),
-                min(cam.width, max(x1, int(math.ceil(u.max())) + 1)), min(cam.height, max(y1, int(math.ceil(v.max())) + 1)))
+        return (max(0, min(x0, math.floor(u.min()))), max(0, min(y0, math.floor(v.min()))),
+                min(cam.width, max(x1, math.ceil(u.max()) + 1)), min(cam.height, max(y1, math.ceil(v.max()) + 1)))
 
     def render(self, to_world: np.ndarray) -> tuple[Window, np.ndarray, np.ndarray]:
         """(window, depth of the model, its visible pixels) over the window."""
@@ -148,7 +153,8 @@ class _Scorer:
         cam, c2w = self.target.camera, self.target.camera_to_world
         ys, xs = np.nonzero(visible)
         z = depth[ys, xs]
-        local = np.stack([(xs + window[0] + 0.5 - cam.cx) / cam.fx * z, (ys + window[1] + 0.5 - cam.cy) / cam.fy * z, z], axis=1)
+        u, v = xs + window[0] + 0.5, ys + window[1] + 0.5
+        local = np.stack([(u - cam.cx) / cam.fx * z, (v - cam.cy) / cam.fy * z, z], axis=1)
         return local @ c2w[:3, :3].T + c2w[:3, 3]
 
     def depth_residual(self, window: Window, depth: np.ndarray, visible: np.ndarray) -> float:
@@ -172,11 +178,14 @@ class _Scorer:
         return error, overlap / max(self.mask_area + int(visible.sum()) - overlap, 1)
 
 
+Hypothesis = tuple[float, float, np.ndarray, float]
+"""(error, yaw, position, scale)."""
+
+
 def fit_view(target: ViewTarget, vertices: np.ndarray, faces: np.ndarray, params: SearchParams = SearchParams(),
-             support_height: float | None = None, yaws: np.ndarray | None = None) -> ViewFit:
+             support_height: float | None = None) -> ViewFit:
     """The pose of a mesh (canonical: bottom at 0, centred on the vertical axis) that best explains the
-    object in ``target``; with ``support_height`` its bottom stays at that height. ``yaws`` (radians)
-    replaces the sweep of ``params.n_yaw`` rotations."""
+    object in ``target``; with ``support_height`` its bottom stays at that height."""
     scorer = _Scorer(target, vertices, faces, params)
     origin, axis = target.camera_to_world[:3, 3], target.camera_to_world[:3, 2]
     box_centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2.0
@@ -196,8 +205,8 @@ def fit_view(target: ViewTarget, vertices: np.ndarray, faces: np.ndarray, params
     if support_height is not None:
         reach = float(np.percentile(target.points[:, 1], 98)) - support_height
         start_scale = max(start_scale, reach / max(float(np.ptp(vertices[:, 1])), 1e-9))
-    hypotheses = []
-    for yaw in (np.arange(params.n_yaw) * (2.0 * math.pi / params.n_yaw) if yaws is None else yaws):
+    hypotheses: list[Hypothesis] = []
+    for yaw in np.arange(params.n_yaw) * (2.0 * math.pi / params.n_yaw):
         position, scale = supported(median - start_scale * box_centre), start_scale
         for _ in range(params.refine):
             window, depth, visible = scorer.render(pose_matrix(position, yaw, scale))
@@ -226,15 +235,12 @@ def fit_view(target: ViewTarget, vertices: np.ndarray, faces: np.ndarray, params
     return ViewFit(position, yaw % (2.0 * math.pi), scale, scorer.score(pose_matrix(position, yaw, scale))[1], error)
 
 
-Hypothesis = tuple[float, float, np.ndarray, float]
-"""(error, yaw, position, scale)."""
-
-
 class _PatternSearch:
-    """Steepest-descent pattern search over: a sideways and a forward shift (horizontal, camera-aligned), a
-    move along the view ray that keeps the apparent size, a scale about the model's origin, and a turn. At
-    step level ``k`` the steps are 8% of the model's size (shifts), 8% (log scale) and ``yaw_step``, halved
-    ``k`` times; a level ends when no move helps or after ``rounds`` moves."""
+    """Pattern search over a sideways and a forward shift (horizontal, camera-aligned), a move along the view
+    ray that keeps the apparent size, a scale about the model's origin, and a turn; the first move that helps
+    is taken, the last one that helped tried first. At step level ``k`` the steps are 8% of the model's size
+    (shifts), 8% (log scale) and ``yaw_step``, halved ``k`` times; a level ends when no move helps or after
+    ``rounds`` moves."""
 
     def __init__(self, scorer: _Scorer, supported: Callable[[np.ndarray], np.ndarray], yaw_step: float, size: float,
                  origin: np.ndarray, rounds: int) -> None:
@@ -245,7 +251,9 @@ class _PatternSearch:
         self.right = np.cross([0.0, 1.0, 0.0], self.forward)
 
     def run(self, start: Hypothesis, levels: range) -> Hypothesis:
+        """The hypothesis improved at each step level of ``levels``."""
         error, yaw, position, scale = start
+        last = 0  # the move that helped last is tried first
         for level in levels:
             step = 0.08 / 2 ** level
             turn = self.yaw_step / 2 ** level
@@ -259,9 +267,12 @@ class _PatternSearch:
                               (yaw, position, scale * math.exp(sign * step)),
                               (yaw, self.supported(self.origin + (position - self.origin) * ray), scale * ray),
                               (yaw + sign * turn, position, scale)]
-                best = min(((self.scorer.score(pose_matrix(p, y, s))[0], y, p, s) for y, p, s in moves),
-                           key=lambda h: h[0])
-                if best[0] >= error - 1e-9:
+                for k in (last, *(k for k in range(len(moves)) if k != last)):
+                    y, p, s = moves[k]
+                    value = self.scorer.score(pose_matrix(p, y, s))[0]
+                    if value < error - 1e-9:
+                        error, yaw, position, scale, last = value, y, p, s, k
+                        break
+                else:
                     break
-                error, yaw, position, scale = best
         return error, yaw, position, scale

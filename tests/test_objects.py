@@ -123,7 +123,7 @@ def test_an_object_hidden_behind_another_keeps_its_size() -> None:
     view = fit_view(target, cabinet.vertices, cabinet.faces, support_height=0.0)
     assert view.scale == pytest.approx(1.0, rel=0.05)
     assert np.linalg.norm(view.position - truth[:3, 3]) < 0.08
-    on_the_box = fit_view(target, cabinet.vertices, cabinet.faces, support_height=1.2)  # the support rules' other option
+    on_the_box = fit_view(target, cabinet.vertices, cabinet.faces, support_height=1.2)  # the rules' other reading
     assert view.error < 0.5 * on_the_box.error
 
 
@@ -294,7 +294,8 @@ def test_silhouette_retrieval_ranks_the_true_model_first(model_id: str, yaw_deg:
     retriever = SilhouetteRetrieval()
     mesh = retriever.mesh(model_id)
     category = retriever.database.record(model_id).category
-    mask, points = _seen_points(mesh, pose_matrix(np.array([0.2, 0.0, 2.0 + mesh.extent[2]]), math.radians(yaw_deg), 1.0))
+    truth = pose_matrix(np.array([0.2, 0.0, 2.0 + mesh.extent[2]]), math.radians(yaw_deg), 1.0)
+    mask, points = _seen_points(mesh, truth)
     query = ObjectQuery(1, category, category, mask, points, np.zeros((4, 4, 3), np.uint8), points)
     ranked = retriever.rank(query, CAMERA, C2W, 5)
     assert ranked[0].model_id == model_id, [(c.model_id, round(c.score, 3)) for c in ranked]

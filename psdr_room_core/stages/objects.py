@@ -119,8 +119,9 @@ def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image,
         mesh = retriever.mesh(model_id)
         if init == "silhouette":  # each support the rules allow; the view search picks
             target = ViewTarget.build(camera, c2w, q.mask, q.points, q.scene_points, int(ctx.params["render_width"]))
-            view, kind, anchor = min(((fit_view(target, mesh.vertices, mesh.faces, search, _support_height(k, a, placed)), k, a)
-                                      for k, a in relations[q.segment_id]), key=lambda f: f[0].error)
+            fits = [(fit_view(target, mesh.vertices, mesh.faces, search, _support_height(k, a, placed)), k, a)
+                    for k, a in relations[q.segment_id]]
+            view, kind, anchor = min(fits, key=lambda f: f[0].error)
             position, yaw, scale = view.position, view.yaw, view.scale
         else:
             kind, anchor = relations[q.segment_id][0]
@@ -299,7 +300,8 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
         depth_term = (masks * rendered_depth - t_masked).abs().mean(dim=(1, 2)) / depth_scale
         blur_term = (gaussian_pyramid_blur(masks, sigmas) - t_blur).abs().mean(dim=(2, 3)).sum(dim=0)
         iou = ((masks * t_masks).sum((1, 2)) / (masks + t_masks - masks * t_masks).sum((1, 2)).clamp_min(1e-6)).mean()
-        terms = {"mask_depth_l1": depth_term.sum().item(), "blurred_mask_l1": blur_term.sum().item(), "mean_iou": iou.item()}
+        terms = {"mask_depth_l1": depth_term.sum().item(), "blurred_mask_l1": blur_term.sum().item(),
+                 "mean_iou": iou.item()}
         return depth_term + float(params["blur_weight"]) * blur_term, terms
 
     def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
