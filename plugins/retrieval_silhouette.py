@@ -1,4 +1,4 @@
-"""``retrieval=silhouette``: offline object retrieval by silhouette agreement under the estimated camera.
+"""``retrieval=silhouette``: offline object retrieval by silhouette and depth agreement under the estimated camera.
 
 For each database model of the segment's category (every model when the label maps to none), the model is
 posed by the occlusion-aware view search (:func:`~psdr_room_core.view_search.fit_view`: a sweep about the
