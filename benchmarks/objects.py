@@ -75,8 +75,10 @@ class Scene:
     cloud: PointCloud
 
 
-def furnish(seed: int, retriever: SilhouetteRetrieval, count: int, width: int, height: int) -> Scene:
-    """A synthetic room with ``count`` database models on its floor, in view and not overlapping."""
+def furnish(seed: int, retriever: SilhouetteRetrieval, count: int, width: int, height: int,
+            min_pixels: int = 200) -> Scene:
+    """A synthetic room with up to ``count`` database models on its floor, not overlapping; those with at
+    least ``min_pixels`` visible pixels are kept."""
     synthetic = generate(seed, width=width, height=height)
     room = RoomBox(camera_to_world=np.asarray(synthetic.camera_to_world), center=np.array(synthetic.room.center),
                    half_size=np.array(synthetic.room.half), yaw=synthetic.room.yaw)
@@ -101,7 +103,7 @@ def furnish(seed: int, retriever: SilhouetteRetrieval, count: int, width: int, h
             continue
         placed.append(candidate)
     panoptic, depth = _render(camera, room, placed)
-    visible = [p for p in placed if (panoptic.ids == p.segment_id).sum() >= 200]
+    visible = [p for p in placed if (panoptic.ids == p.segment_id).sum() >= min_pixels]
     image = Image(rgb=np.full((height, width, 3), 0.5, np.float32))
     return Scene(seed, camera, room, visible, image, panoptic, depth, _cloud(camera, depth, panoptic))
 
@@ -193,9 +195,9 @@ def pose_errors(fitted: Placement, truth: Placement, tolerance: float = EXACT) -
 
 
 def evaluate(scene: Scene, retriever: SilhouetteRetrieval, small: SilhouetteRetrieval, iterations: int,
-             render_width: int) -> dict:
+             render_width: int, min_pixels: int = 200) -> dict:
     c2w = np.asarray(scene.room.camera_to_world)
-    queries = object_queries(scene.image, scene.panoptic, scene.cloud, scene.room, 30, 200)
+    queries = object_queries(scene.image, scene.panoptic, scene.cloud, scene.room, 30, min_pixels)
     truth = {p.segment_id: p for p in scene.truth}
     queries = [q for q in queries if q.segment_id in truth]
     row: dict = {"scene": scene.seed, "objects": len(queries)}
@@ -287,6 +289,8 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=300)
     parser.add_argument("--render-width", type=int, default=160)
     parser.add_argument("--objects", type=int, nargs=2, default=(4, 8), help="min and max objects per scene")
+    parser.add_argument("--min-pixels", type=int, default=200,
+                        help="objects with fewer visible pixels (at 320x240) are left out of the scene")
     parser.add_argument("--set", action="append", default=[], metavar="STAGE.KEY=VALUE",
                         help="override a stage parameter (YAML value), e.g. --set place_objects.n_yaw=24")
     args = parser.parse_args()
@@ -304,8 +308,8 @@ def main() -> None:
     print(HEADER, flush=True)
     for seed in args.seeds or range(args.scenes):
         count = args.objects[0] + seed % (args.objects[1] - args.objects[0] + 1)
-        scene = furnish(seed, retriever, count, width=320, height=240)
-        rows.append(evaluate(scene, retriever, small, args.iterations, args.render_width))
+        scene = furnish(seed, retriever, count, width=320, height=240, min_pixels=args.min_pixels)
+        rows.append(evaluate(scene, retriever, small, args.iterations, args.render_width, args.min_pixels))
         print(table_row(rows[-1]), flush=True)
     print()
     print_table(rows)
