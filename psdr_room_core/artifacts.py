@@ -162,6 +162,12 @@ class Camera:
     def K(self) -> np.ndarray:
         return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
 
+    def pixel_rays(self) -> np.ndarray:
+        """(H, W, 3) camera-frame directions with unit z through the pixel centres (``u + 0.5``, ``v + 0.5``):
+        a z-depth map times these is its back-projection."""
+        u, v = np.meshgrid(np.arange(self.width) + 0.5, np.arange(self.height) + 0.5)
+        return np.stack([(u - self.cx) / self.fx, (v - self.cy) / self.fy, np.ones_like(u)], axis=-1)
+
     def save(self, directory: Path) -> None:
         data = {k: v for k, v in asdict(self).items()}
         data["vfov_deg"] = self.vfov_deg

@@ -37,14 +37,12 @@ class MeshCaster:
                                   o3d.core.Tensor(np.ascontiguousarray(faces, np.uint32)))
         self._rays: dict[Any, np.ndarray] = {}
 
-    def _camera_rays(self, camera: Camera, window: Window) -> np.ndarray:
-        """[h*w, 3] camera-frame directions with unit z through the window's pixel centres (the whole image's
-        grid is built once per camera)."""
+    def rays(self, camera: Camera, window: Window) -> np.ndarray:
+        """[h*w, 3] camera-frame directions with unit z through the window's pixel centres
+        (:meth:`Camera.pixel_rays`, built once per camera)."""
         key = (camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy)
         if key not in self._rays:
-            u, v = np.meshgrid(np.arange(camera.width) + 0.5, np.arange(camera.height) + 0.5)
-            self._rays[key] = np.stack([(u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, np.ones_like(u)],
-                                       axis=-1)
+            self._rays[key] = camera.pixel_rays()
         x0, y0, x1, y1 = window
         return self._rays[key][y0:y1, x0:x1].reshape(-1, 3)
 
@@ -57,7 +55,7 @@ class MeshCaster:
         x0, y0, x1, y1 = window
         if x1 <= x0 or y1 <= y0:
             return np.zeros((max(0, y1 - y0), max(0, x1 - x0)), np.float32)
-        directions = self._camera_rays(camera, window) @ camera_to_world[:3, :3].T
+        directions = self.rays(camera, window) @ camera_to_world[:3, :3].T
         origin = camera_to_world[:3, 3]
         if to_world is not None:  # into the mesh's frame: x_local = A^-1 (x_world - t); t along the ray is kept
             linear = to_world[:3, :3]
@@ -84,8 +82,3 @@ def silhouette(camera: Camera, camera_to_world: np.ndarray, vertices: np.ndarray
 def mask_l1(rendered: np.ndarray, target: np.ndarray) -> float:
     """Mean absolute difference of two masks (the paper's yaw-sweep criterion)."""
     return float(np.mean(np.abs(rendered.astype(np.float32) - target.astype(np.float32))))
-
-
-def mask_iou(a: np.ndarray, b: np.ndarray) -> float:
-    union = np.logical_or(a, b).sum()
-    return float(np.logical_and(a, b).sum() / union) if union else 0.0

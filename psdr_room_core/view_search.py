@@ -124,8 +124,8 @@ class _Scorer:
         self.mask_box = (int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1)
         self.mask_area = int(target.mask.sum())
         own = target.own_depth[target.mask & (target.own_depth > 0)]
-        local = world_to_camera(target.points, target.camera_to_world)[:, 2]
-        self.median_depth = float(np.median(own)) if own.size else float(np.median(local))
+        self.median_depth = float(np.median(own if own.size else
+                                            world_to_camera(target.points, target.camera_to_world)[:, 2]))
 
     def window(self, to_world: np.ndarray) -> Window:
         """The mask's box joined with the posed model's projected box, inside the image."""
@@ -150,11 +150,8 @@ class _Scorer:
 
     def surface_points(self, window: Window, depth: np.ndarray, visible: np.ndarray) -> np.ndarray:
         """(N, 3) world points of the model's visible pixels."""
-        cam, c2w = self.target.camera, self.target.camera_to_world
-        ys, xs = np.nonzero(visible)
-        z = depth[ys, xs]
-        u, v = xs + window[0] + 0.5, ys + window[1] + 0.5
-        local = np.stack([(u - cam.cx) / cam.fx * z, (v - cam.cy) / cam.fy * z, z], axis=1)
+        c2w = self.target.camera_to_world
+        local = self.caster.rays(self.target.camera, window)[visible.ravel()] * depth[visible][:, None]
         return local @ c2w[:3, :3].T + c2w[:3, 3]
 
     def depth_residual(self, window: Window, depth: np.ndarray, visible: np.ndarray) -> float:

@@ -57,12 +57,8 @@ def estimate_depth(ctx: StageContext, image: Image, camera: Camera, panoptic: Pa
 
 
 def backproject(depth: np.ndarray, camera: Camera) -> np.ndarray:
-    """Camera-frame points (HxWx3) for a z-depth map."""
-    height, width = depth.shape
-    u, v = np.meshgrid(np.arange(width) + 0.5, np.arange(height) + 0.5)
-    x = (u - camera.cx) / camera.fx * depth
-    y = (v - camera.cy) / camera.fy * depth
-    return np.stack([x, y, depth], axis=-1).astype(np.float32)
+    """Camera-frame points (HxWx3) for a z-depth map at the camera's resolution."""
+    return (camera.pixel_rays() * depth[..., None]).astype(np.float32)
 
 
 def _inlier_mask(points: np.ndarray, neighbours: int, std_ratio: float) -> np.ndarray:
