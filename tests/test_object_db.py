@@ -36,7 +36,9 @@ def test_builtin_library_size_and_ids(db: ObjectDatabase) -> None:
     assert all(counts.get(c, 0) >= 5 for c in FURNITURE), counts
     assert len({r.id for r in db.records}) == len(db)
     assert sum(r.id.startswith("kenney/") for r in db.records) == 54
-    assert sum(r.id.startswith("parametric/") for r in db.records) >= 100
+    assert sum(r.id.startswith("polyhaven/") for r in db.records) == 6
+    assert sum(r.id.startswith("parametric/") for r in db.records) >= 160
+    assert all(counts.get(c, 0) >= 4 for c in ("ottoman", "refrigerator", "appliance", "frame", "box")), counts
     assert {"kenney/loungeSofa", "parametric/sofa_000", "parametric/pillow_011"} <= {r.id for r in db.records}
     assert [v.params for v in parametric.catalogue()] == [v.params for v in parametric.catalogue()]  # stable ids
     for record in db.records:
@@ -88,6 +90,15 @@ def test_kenney_models_are_in_metres_and_face_front(db: ObjectDatabase) -> None:
         assert high[:, 2].mean() < 0, model_id  # back rest / headboard behind, so the front faces +Z
 
 
+def test_polyhaven_models_are_real_size(db: ObjectDatabase) -> None:
+    assert 2.6 < db.record("polyhaven/sofa_03").extent[0] < 2.8
+    assert 2.0 < db.record("polyhaven/wooden_bookshelf_worn").extent[1] < 2.1
+    assert db.record("polyhaven/painted_wooden_cabinet").groups == ("body", "doors", "drawers")
+    assert all(r.licence.startswith("CC0") for r in db.records if r.id.startswith("polyhaven/"))
+    doors = db.mesh("polyhaven/painted_wooden_cabinet").group_mesh("doors")
+    assert doors.vertices[np.unique(doors.faces)][:, 2].mean() > 0  # the doors at the front
+
+
 def test_parametric_parts_face_front() -> None:
     def group_centre(mesh, name: str) -> np.ndarray:
         return mesh.vertices[np.unique(mesh.faces[mesh.face_group == mesh.groups.index(name)])].mean(axis=0)
@@ -102,6 +113,11 @@ def test_parametric_parts_face_front() -> None:
     high = chair.vertices[chair.vertices[:, 1] > 0.6]
     assert high[:, 2].mean() < 0  # the back rest is behind the seat
     assert parametric.chair(back_style="none").extent[1] < 0.5  # a stool
+    for mesh, part in ((parametric.refrigerator(), "handles"), (parametric.frame(), "picture"),
+                       (parametric.oven(), "door"), (parametric.washer(), "door"), (parametric.microwave(), "door"),
+                       (parametric.monitor(), "screen"), (parametric.kitchen_unit(), "fronts")):
+        assert group_centre(mesh, part)[2] > 0, part
+    assert parametric.frame().extent[2] < 0.06 and parametric.kitchen_unit(kind="base").groups[-1] == "counter"
 
 
 @pytest.mark.parametrize("category, changes", [
@@ -111,7 +127,11 @@ def test_parametric_parts_face_front() -> None:
     ("bed", {"headboard": "slats"}), ("cabinet", {"drawers": 3}), ("shelf", {"shelves": 3}),
     ("desk", {"drawers_side": "left"}), ("lamp", {"kind": "floor"}), ("lamp", {"shade": "globe"}),
     ("rug", {"shape": "round"}), ("pillow", {"shape": "bolster"}), ("plant", {"foliage": "tree"}),
-    ("tv", {"stand": "pedestal"}),
+    ("tv", {"stand": "pedestal"}), ("ottoman", {"shape": "round"}), ("ottoman", {"legs_height": 0.1}),
+    ("kitchen_unit", {"kind": "wall"}), ("kitchen_unit", {"modules": 2}), ("container", {"kind": "basket"}),
+    ("container", {"kind": "crate"}), ("frame", {"kind": "whiteboard"}), ("frame", {"mat": 0.05}),
+    ("monitor", {"stand": "disc"}), ("refrigerator", {"style": "side_by_side"}), ("oven", {"kind": "wall"}),
+    ("microwave", {"width": 0.6}), ("washer", {"finish": "black", "height": 0.9}),
 ])
 def test_parametric_parameters_change_the_mesh(category: str, changes: dict) -> None:
     generate = parametric.GENERATORS[category]

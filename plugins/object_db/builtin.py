@@ -1,4 +1,5 @@
-"""The built-in library: the Kenney Furniture Kit (CC0 OBJ/MTL in ``library/kenney/``) and the parametric
+"""The built-in library: the Kenney Furniture Kit (CC0 OBJ/MTL in ``library/kenney/``), six Poly Haven models
+(CC0, real size, converted by ``tools/convert_polyhaven.py`` into ``library/polyhaven/``) and the parametric
 furniture of :mod:`.parametric`.
 
 Kenney's models are half real size and face -Z (a chair's back is at +Z); they are scaled by
@@ -25,6 +26,8 @@ from .parametric import Variant, catalogue
 LIBRARY = Path(__file__).resolve().parent / "library"
 KENNEY_DIR = LIBRARY / "kenney"
 KENNEY_LICENCE = "CC0 1.0 (Kenney Furniture Kit 2.0, www.kenney.nl)"
+POLYHAVEN_DIR = LIBRARY / "polyhaven"
+POLYHAVEN_LICENCE = "CC0 1.0 (Poly Haven, polyhaven.com, via RobotLocomotion/models)"
 KENNEY_UNIT_SCALE = 2.0
 """Kenney's furniture is about half real size (a chair seat at 0.23, a double bed 0.96 wide)."""
 KENNEY_FRONT = "-z"
@@ -73,10 +76,24 @@ KENNEY: dict[str, tuple[str, str]] = {
 }
 """Every Kenney model shipped: name → (category, description)."""
 
+POLYHAVEN: dict[str, tuple[str, str]] = {
+    "painted_wooden_cabinet": ("cabinet", "painted wooden cabinet, two doors and two drawers"),
+    "painted_wooden_cabinet_02": ("cabinet", "tall painted wooden cupboard, a door and a drawer"),
+    "painted_wooden_stool": ("chair", "painted wooden stool"),
+    "sofa_03": ("sofa", "three-seat sofa with fringed cushions"),
+    "wooden_bookshelf_worn": ("shelf", "tall worn wooden bookshelf"),
+    "wooden_table_02": ("table", "wooden dining table"),
+}
+"""Every Poly Haven model shipped (metres, +Y up, front +Z): name → (category, description)."""
+
 
 def _kenney_mesh(name: str) -> ObjectMesh:
     return mesh_from_obj(KENNEY_DIR / f"{name}.obj", up_axis="+y", front_axis=KENNEY_FRONT,
                          unit_scale=KENNEY_UNIT_SCALE)
+
+
+def _polyhaven_mesh(name: str) -> ObjectMesh:
+    return mesh_from_obj(POLYHAVEN_DIR / f"{name}.obj", up_axis="+y", front_axis="+z")
 
 
 @functools.lru_cache(maxsize=1)
@@ -91,6 +108,8 @@ class BuiltinLoader:
         source, _, name = model_id.partition("/")
         if source == "kenney" and name in KENNEY:
             return _kenney_mesh(name)
+        if source == "polyhaven" and name in POLYHAVEN:
+            return _polyhaven_mesh(name)
         if source == "parametric" and model_id in _variants():
             return _variants()[model_id].build()
         raise PsdrRoomError(f"built-in object library: no model {model_id!r}; list them with `psdr-room-db list`")
@@ -100,8 +119,9 @@ def library_digest() -> str:
     """Digest of what the built-in library is made of: the Kenney files and the generators' code."""
     h = hashlib.sha256(f"builtin {BUILTIN_VERSION}\0".encode())
     here = Path(__file__).resolve().parent
-    for path in [*(here / n for n in ("builtin.py", "parametric.py", "primitives.py", "database.py", "objio.py")),
-                 *sorted(KENNEY_DIR.iterdir())]:
+    sources = [*(here / n for n in ("builtin.py", "primitives.py", "database.py", "objio.py")),
+               *sorted((here / "parametric").glob("*.py"))]
+    for path in [*sources, *sorted(KENNEY_DIR.iterdir()), *sorted(POLYHAVEN_DIR.iterdir())]:
         h.update(path.name.encode() + b"\0" + path.read_bytes())
     return h.hexdigest()
 
@@ -124,6 +144,11 @@ def builtin_records() -> list[ModelRecord]:
         mesh = _kenney_mesh(name)
         records.append(ModelRecord(id=f"kenney/{name}", category=category, name=f"{description} (Kenney {name})",
                                    source=f"library/kenney/{name}.obj", licence=KENNEY_LICENCE, groups=mesh.groups,
+                                   extent=_extent(mesh)))
+    for name, (category, description) in POLYHAVEN.items():
+        mesh = _polyhaven_mesh(name)
+        records.append(ModelRecord(id=f"polyhaven/{name}", category=category, name=f"{description} (Poly Haven {name})",
+                                   source=f"library/polyhaven/{name}.obj", licence=POLYHAVEN_LICENCE, groups=mesh.groups,
                                    extent=_extent(mesh)))
     for variant in _variants().values():
         mesh = variant.build()

@@ -40,9 +40,10 @@ from psdr_room_core.errors import PsdrRoomError
 from .objio import group_colors, read_obj, write_obj
 
 CATEGORIES = ("chair", "table", "sofa", "bed", "cabinet", "shelf", "desk", "lamp", "rug", "pillow", "plant", "tv",
-              "other")
-"""Object categories; the first ten are the furniture classes of the built-in library, ``other`` takes
-whatever a foreign database has that maps onto none of them."""
+              "ottoman", "refrigerator", "appliance", "frame", "box", "other")
+"""Object categories: those of the built-in library (``tv`` holds monitors, ``cabinet`` kitchen units,
+``appliance`` microwaves, ovens and washing machines, ``frame`` pictures, mirrors and boards, ``box`` boxes,
+bins and baskets); ``other`` takes whatever a foreign database has that maps onto none of them."""
 
 FORMAT = "psdr-room-object-db"
 VERSION = 1

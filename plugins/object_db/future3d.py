@@ -51,7 +51,7 @@ CATEGORY_MAP: dict[str, str] = {
     "dressing table": "desk", "dining table": "table", "desk": "desk", "tea table": "table", "bar": "table",
     "three-seat / multi-seat sofa": "sofa", "three-seat / multi-person sofa": "sofa", "two-seat sofa": "sofa",
     "loveseat sofa": "sofa", "l-shaped sofa": "sofa", "u-shaped sofa": "sofa", "lazy sofa": "sofa",
-    "chaise longue sofa": "sofa", "footstool / sofastool / bed end stool / stool": "chair",
+    "chaise longue sofa": "sofa", "footstool / sofastool / bed end stool / stool": "ottoman",
     "pendant lamp": "lamp", "ceiling lamp": "lamp", "floor lamp": "lamp", "wall lamp": "lamp",
     "shoe cabinet": "cabinet", "electronics": "tv",
 }
