@@ -4,13 +4,14 @@ Pipeline:
 
 1. RANSAC floor plane on the floor points; its normal is oriented toward the camera and the camera height is
    the camera centre's distance to it; this fixes ``camera_to_world``;
-2. room height: a high percentile of the ceiling point heights, or ``ceiling_margin`` times the top of the
-   room points when no ceiling is visible;
+2. room height: a high percentile of the ceiling point heights, or, when no ceiling is visible,
+   ``ceiling_margin`` times the top of the room points and at least ``height_ratio`` camera heights;
 3. yaw: sequential RANSAC planes on the wall points; the near-vertical ones vote (weighted by inliers) for the
    box rotation about the floor normal, modulo 90 degrees;
 4. extents in the yaw-rotated frame: a side sits on the wall plane that bounds it, else at a robust percentile
    of the room points, and never closer to the camera than ``behind_margin`` times the scene scale (so the
-   unseen back wall lies behind the camera and an unseen side wall never cuts into the visible frustum).
+   unseen back wall lies behind the camera and an unseen side wall never cuts into the visible frustum); an
+   unseen side the camera faces lies at least ``size_ratio`` camera heights from the opposite side.
 
 Conventions: camera frame is OpenCV (x right, y down, z forward). World frame: Y up, floor y = 0, origin on
 the floor below the camera, Z = optical axis projected on the floor, X = Y x Z (so X points to the camera's
@@ -59,10 +60,17 @@ class RoomInitParams:
     """Planes extracted sequentially from the wall points."""
     min_wall_inliers: float = 0.05
     """Fraction of the wall points a wall plane needs; extraction stops at the first smaller plane."""
-    vertical_tolerance_deg: float = 10.0
-    """A wall plane's normal must be within this of horizontal (else it is dropped)."""
+    vertical_tolerance_deg: float = 20.0
+    """A wall plane's normal must be within this of horizontal (else it is dropped); an estimated depth's
+    smooth error tilts real walls by 10-15 degrees."""
     ceiling_margin: float = 1.2
-    """Room height = this x the top of the room points when no ceiling is visible (paper §4.2)."""
+    """Room height = this x the top of the room points when no ceiling is visible (paper §4.2) ..."""
+    height_ratio: float = 1.85
+    """... but at least this many camera heights (the walls go on above the frame: a camera held at 1.5 m
+    sees rooms about 2.8 m high)."""
+    size_ratio: float = 3.0
+    """A side that no wall bounds and that the camera does not turn its back to lies beyond the frame: at
+    least this many camera heights from the opposite side (rooms about 4.5 m across for a camera at 1.5 m)."""
     extent_percentile: float = 98.0
     """Robust 'maximum' of point coordinates (ceiling height, top of points, box sides without a wall)."""
     behind_margin: float = 0.15
@@ -92,6 +100,8 @@ class RoomInitResult:
     """Whether the room height comes from ceiling points (else from ``ceiling_margin``)."""
     camera_height: float
     """Camera centre height above the floor."""
+    floor_source: str = "floor"
+    """Where the floor plane came from: ``floor`` points, or, with none in view, the ``ceiling`` or the ``walls``."""
 
 
 def fit_floor_plane(
@@ -121,18 +131,21 @@ def camera_to_world_from_floor(floor_plane: np.ndarray) -> np.ndarray:
 def init_room_box(points: dict[str, np.ndarray], params: RoomInitParams = RoomInitParams()) -> RoomInitResult:
     """Coarse room box from camera-frame points labelled "floor", "wall", "ceiling" (paper §4.2).
 
-    Missing or empty categories are allowed except "floor". Non-finite points and points not in front of the
-    camera (z <= 0, e.g. missing depth) are ignored. Raises ``ValueError`` when the floor has too few points.
+    Missing or empty categories are allowed. Without a visible floor (:func:`floor_without_floor_points`) the
+    floor plane is inferred from the ceiling or the walls; ``floor_source`` says which. Non-finite points and
+    points not in front of the camera (z <= 0, e.g. missing depth) are ignored. Raises ``ValueError`` when
+    neither floor, ceiling nor two walls can be found.
     """
     clouds = {name: _valid_points(points.get(name)) for name in ("floor", "wall", "ceiling")}
-    if len(clouds["floor"]) < _MIN_FLOOR_POINTS:
-        raise ValueError(
-            f"room_init: only {len(clouds['floor'])} floor points; "
-            "the segmentation needs a visible floor (label it 'floor')"
-        )
+    if not sum(len(c) for c in clouds.values()):
+        raise ValueError("room_init: no wall, floor or ceiling point has a depth; label them and check the depth")
     scale = _scene_scale(clouds)
     threshold = params.ransac_threshold * scale
-    floor_plane, _ = fit_floor_plane(clouds["floor"], threshold, params.ransac_iterations, params.seed)
+    if len(clouds["floor"]) >= _MIN_FLOOR_POINTS:
+        floor_plane, _ = fit_floor_plane(clouds["floor"], threshold, params.ransac_iterations, params.seed)
+        floor_source = "floor"
+    else:
+        floor_plane, floor_source = floor_without_floor_points(clouds, threshold, scale, params)
     camera_to_world = camera_to_world_from_floor(floor_plane)
     world = {name: _transform(cloud, camera_to_world) for name, cloud in clouds.items()}
     camera_height = float(floor_plane[3])
@@ -144,7 +157,8 @@ def init_room_box(points: dict[str, np.ndarray], params: RoomInitParams = RoomIn
     yaw = _wall_yaw(wall_normals, [len(inliers) for inliers in wall_inliers])
 
     room = np.concatenate([world["floor"], world["wall"], world["ceiling"]])
-    lower, upper = _horizontal_extents(room, wall_normals, wall_inliers, yaw, params.behind_margin * scale, params)
+    lower, upper = _horizontal_extents(room, wall_normals, wall_inliers, yaw, params.behind_margin * scale,
+                                       params.size_ratio * camera_height, params)
     center_local = np.array([(lower[0] + upper[0]) / 2, height / 2, (lower[1] + upper[1]) / 2])
     half_size = np.array([(upper[0] - lower[0]) / 2, height / 2, (upper[1] - lower[1]) / 2])
     return RoomInitResult(
@@ -156,7 +170,39 @@ def init_room_box(points: dict[str, np.ndarray], params: RoomInitParams = RoomIn
         wall_planes=[plane for plane, _ in walls],
         ceiling_visible=ceiling_visible,
         camera_height=camera_height,
+        floor_source=floor_source,
     )
+
+
+def floor_without_floor_points(clouds: dict[str, np.ndarray], threshold: float, scale: float,
+                               params: RoomInitParams) -> tuple[np.ndarray, str]:
+    """The floor plane (camera frame, camera side positive) of a photo that shows no floor, and how it was found.
+
+    From the ceiling plane when one is seen: parallel to it, the camera ``1 / (height_ratio - 1)`` of the
+    ceiling's distance above it (a camera at 1.5 m under a 2.8 m ceiling). Else from two walls: up is their
+    normals' cross product, and the floor lies just below the lowest wall point (10% lower), at least half
+    the scene scale below the camera. Raises ``ValueError`` when neither is seen.
+    """
+    if len(clouds["ceiling"]) >= _MIN_FLOOR_POINTS:
+        ceiling, _ = fit_floor_plane(clouds["ceiling"], threshold, params.ransac_iterations, params.seed)
+        up = -ceiling[:3]  # the ceiling's normal points down, to the camera
+        return np.append(up, ceiling[3] / (params.height_ratio - 1.0)), "ceiling"
+    rng = np.random.default_rng((params.seed, 2))
+    remaining, normals = clouds["wall"], []
+    while len(remaining) >= _MIN_FLOOR_POINTS and len(normals) < params.max_walls:
+        plane, inliers = _ransac_plane(remaining, threshold, params.ransac_iterations, rng)
+        if inliers.sum() < max(params.min_wall_inliers * len(clouds["wall"]), _MIN_PLANE_POINTS):
+            break
+        normals.append(plane[:3])
+        remaining = remaining[~inliers]
+    pairs = [(a, b) for i, a in enumerate(normals) for b in normals[i + 1:] if abs(a @ b) < 0.3]
+    if not pairs:
+        raise ValueError(f"room_init: only {len(clouds['floor'])} floor points and no ceiling or two walls to stand "
+                         "the room on; the segmentation needs a visible floor (label it 'floor')")
+    up = np.cross(*pairs[0])
+    up = up / np.linalg.norm(up) * (1.0 if up[1] < 0 else -1.0)  # image up: camera y points down
+    drop = float(np.max(-(clouds["wall"] @ up)))
+    return np.append(up, max(1.1 * drop, 0.5 * scale)), "walls"
 
 
 def box_iou_3d(
@@ -273,7 +319,7 @@ def _room_height(world: dict[str, np.ndarray], camera_height: float, params: Roo
     if len(upper) < _MIN_PLANE_POINTS:
         upper = world["floor"]
     top = max(float(np.percentile(upper[:, 1], params.extent_percentile)), camera_height)
-    return params.ceiling_margin * top, False
+    return max(params.ceiling_margin * top, params.height_ratio * camera_height), False
 
 
 def _extract_wall_planes(
@@ -316,12 +362,16 @@ def _horizontal_extents(
     wall_inliers: list[np.ndarray],
     yaw: float,
     clearance: float,
+    size: float,
     params: RoomInitParams,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(lower, upper) box bounds along the yaw-rotated local (x, z).
 
     A side is placed at the wall (median inlier coordinate) that bounds it, the one with most inliers if
-    several do; otherwise at the extent_percentile of the room points, at least ``clearance`` from the camera.
+    several do; otherwise at the extent_percentile of the room points, at least ``clearance`` from the camera
+    (the camera, at the origin, stands inside the room), and, unless it is the side most directly behind the
+    camera (the wall the photo was taken from), at least ``size`` from the opposite side: it lies beyond the
+    frame, where a room of typical size would have it.
     """
     rotation = _rotation_y(yaw)
     local = room @ rotation
@@ -340,6 +390,18 @@ def _horizontal_extents(
         if len(inliers) > support.get(side, 0):
             support[side] = len(inliers)
             (upper if position > 0 else lower)[axis] = position
+    forward = (rotation.T @ np.array([0.0, 0.0, 1.0]))[[0, 2]]  # the camera looks along world +Z
+    back = int(np.argmax(np.abs(forward)))
+    behind = (back, bool(forward[back] < 0))  # the side the camera turns its back to: the photo is taken from there
+    for axis in (0, 1):
+        # a side is known when a wall bounds it or it is the one behind the camera; an unknown side lies beyond
+        # the frame: `size` from a known opposite side, else the visible extent widened to `size` about its middle
+        known = [(axis, side) in support or (axis, side) == behind for side in (False, True)]
+        middle = (lower[axis] + upper[axis]) / 2
+        if not known[1]:
+            upper[axis] = max(upper[axis], lower[axis] + size if known[0] else middle + size / 2)
+        if not known[0]:
+            lower[axis] = min(lower[axis], upper[axis] - size if known[1] else middle - size / 2)
     return lower, upper
 
 

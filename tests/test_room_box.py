@@ -41,17 +41,19 @@ def camera_rotation(heading_deg: float, pitch_down_deg: float, roll_deg: float) 
 
 
 def render_room(
-    camera_local: np.ndarray, heading_deg: float, pitch_down_deg: float, roll_deg: float, rng: np.random.Generator
+    camera_local: np.ndarray, heading_deg: float, pitch_down_deg: float, roll_deg: float, rng: np.random.Generator,
+    focal: float = 40.0, depth_error: float = 0.0,
 ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
-    """Ray-cast a 80 x 60 depth image (90 x 71 deg FoV) from inside the box.
+    """Ray-cast a 80 x 60 depth image (90 x 71 deg FoV at ``focal`` 40) from inside the box.
 
     ``camera_local`` is the camera centre in box-local coordinates (y measured from the floor); the heading is
-    relative to the box yaw. Returns camera-frame points per label, the camera rotation and centre (truth).
+    relative to the box yaw; ``depth_error`` scales depth by 1 ± that much from the top of the image to the bottom,
+    as an estimator's smooth error (it tilts the walls). Returns camera-frame points per label, the camera rotation
+    and centre (truth).
     """
     rotation = camera_rotation(np.degrees(BOX_YAW) + heading_deg, pitch_down_deg, roll_deg)
     centre = BOX_CENTER + rot_y(BOX_YAW) @ (camera_local - np.array([0.0, BOX_HALF[1], 0.0]))
     u, v = np.meshgrid(np.arange(80) + 0.5, np.arange(60) + 0.5)
-    focal = 40.0
     rays = np.column_stack([(u.ravel() - 40) / focal, (v.ravel() - 30) / focal, np.ones(u.size)])
     origin = rot_y(BOX_YAW).T @ (centre - BOX_CENTER)
     directions = rays @ (rot_y(BOX_YAW).T @ rotation).T
@@ -61,6 +63,7 @@ def render_room(
     depth_along_ray = exits[np.arange(len(rays)), face]
     points = rays * depth_along_ray[:, None]
     points *= (1 + rng.normal(0.0, NOISE, len(points)) / points[:, 2])[:, None]
+    points *= (1 + depth_error * (v.ravel() / 30.0 - 1.0))[:, None]
     going_up = directions[np.arange(len(rays)), face] > 0
     labels = np.where(face == 1, np.where(going_up, "ceiling", "floor"), "wall")
     clouds = {name: points[labels == name] for name in ("floor", "wall", "ceiling")}
@@ -116,11 +119,35 @@ def test_box_recovery(pitch_down_deg: float, ceiling_visible: bool) -> None:
     assert abs(np.degrees((yaw - BOX_YAW + np.pi / 4) % (np.pi / 2) - np.pi / 4)) < 1.0  # yaw is mod 90 deg
     if ceiling_visible:
         assert box_iou_3d(center, half, yaw, BOX_CENTER, BOX_HALF, BOX_YAW) >= 0.85
-    else:
+    else:  # 1.2 x the top of the walls, and at least height_ratio camera heights: the walls go on above the frame
         top = max(((clouds["wall"] @ rotation.T)[:, 1] + centre[1]).max(), centre[1])
-        assert 2 * half[1] == pytest.approx(1.2 * top, rel=0.03)
+        assert 2 * half[1] == pytest.approx(max(1.2 * top, RoomInitParams().height_ratio * 1.4), rel=0.03)
         same_height = np.array([center[0], BOX_CENTER[1], center[2]]), np.array([half[0], BOX_HALF[1], half[2]])
         assert box_iou_3d(*same_height, yaw, BOX_CENTER, BOX_HALF, BOX_YAW) >= 0.85
+
+
+def test_walls_tilted_by_an_estimated_depth_still_give_the_box() -> None:
+    """A smooth 25% depth error from the top of the photo to the bottom tilts the walls by more than 10 deg."""
+    clouds, rotation, centre = render_room(np.array([0.5, 1.4, -1.3]), -6.0, 10.0, 2.0, np.random.default_rng(3),
+                                           depth_error=0.25)
+    result = init_room_box(clouds)
+    assert len(result.wall_planes) >= 2
+    _, _, yaw = estimated_box_in_truth(result, rotation, centre)
+    assert abs(np.degrees((yaw - BOX_YAW + np.pi / 4) % (np.pi / 2) - np.pi / 4)) < 3.0
+    assert not init_room_box(clouds, RoomInitParams(vertical_tolerance_deg=5.0)).wall_planes  # the old tolerance
+
+
+def test_an_unseen_side_wall_lies_a_room_width_beyond_the_frame() -> None:
+    """A narrow view of the far wall: the side walls are out of view. The one behind the camera stays just
+    behind it; the sides the camera faces go ``size_ratio`` camera heights from the walls opposite them."""
+    clouds, rotation, centre = render_room(np.array([0.0, 1.4, -1.6]), 0.0, 15.0, 0.0, np.random.default_rng(3),
+                                           focal=120.0)
+    result = init_room_box(clouds)
+    assert len(result.wall_planes) == 1  # the far wall only
+    size = RoomInitParams().size_ratio * result.camera_height
+    assert 2 * result.half_size[0] == pytest.approx(size, rel=0.02)  # no side wall seen: the typical width
+    behind = result.center[2] - result.half_size[2]
+    assert -1.0 < behind < 0.0  # the wall the photo was taken from: just behind the camera (behind_margin)
 
 
 def test_scale_free() -> None:
@@ -146,13 +173,27 @@ def test_deterministic() -> None:
     assert all(np.array_equal(a, b) for a, b in zip(first.wall_planes, second.wall_planes))
 
 
-@pytest.mark.parametrize("n_floor", [0, 12])
-def test_missing_floor_is_a_one_line_error(n_floor: int) -> None:
+def test_without_a_floor_the_room_stands_on_the_ceiling_or_the_walls() -> None:
+    clouds, rotation, centre = render_room(np.array([0.5, 1.4, -1.3]), -6.0, 10.0, 2.0, np.random.default_rng(3))
+    true_up = rotation.T @ np.array([0.0, 1.0, 0.0])  # in the camera frame
+    for dropped, source in ((("floor",), "ceiling"), (("floor", "ceiling"), "walls")):
+        result = init_room_box({k: (v[:12] if k in dropped else v) for k, v in clouds.items()})
+        assert result.floor_source == source
+        assert np.degrees(np.arccos(np.clip(result.floor_plane[:3] @ true_up, -1, 1))) < 3.0, source
+        assert result.camera_height > 0.5
+    on_ceiling = init_room_box({**clouds, "floor": clouds["floor"][:0]})
+    ceiling_distance = 2 * BOX_HALF[1] - 1.4
+    assert on_ceiling.camera_height == pytest.approx(ceiling_distance / (RoomInitParams().height_ratio - 1), rel=0.05)
+
+
+def test_nothing_to_stand_the_room_on_is_a_one_line_error() -> None:
     clouds, _, _ = render_room(np.array([0.5, 1.4, -1.3]), -6.0, 10.0, 2.0, np.random.default_rng(3))
-    clouds["floor"] = clouds["floor"][:n_floor]
-    with pytest.raises(ValueError, match=f"only {n_floor} floor points") as error:
-        init_room_box(clouds)
+    wall = clouds["wall"][np.abs(clouds["wall"][:, 0] - np.median(clouds["wall"][:, 0])) < 0.01]  # a sliver
+    with pytest.raises(ValueError, match="only 0 floor points") as error:
+        init_room_box({"floor": clouds["floor"][:0], "wall": wall})
     assert "\n" not in str(error.value) and "'floor'" in str(error.value)
+    with pytest.raises(ValueError, match="no wall, floor or ceiling point"):
+        init_room_box({})
 
 
 def test_box_iou_3d() -> None:

@@ -9,6 +9,7 @@ planes (:mod:`psdr_room_core.room_box`). Refinement minimises eq. 2 (:func:`room
 from __future__ import annotations
 
 import dataclasses
+import logging
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -27,6 +28,8 @@ from ..rgb_scene import room_quad_indices, room_quads
 if TYPE_CHECKING:
     import torch
 
+log = logging.getLogger("psdr_room")
+
 
 def room_init(ctx: StageContext, cloud: PointCloud) -> RoomBox:
     """Fit the initial room box and the camera pose in the room's frame (params: ``RoomInitParams``)."""
@@ -40,6 +43,9 @@ def room_init(ctx: StageContext, cloud: PointCloud) -> RoomBox:
         fit = init_room_box(points, params)
     except ValueError as exc:
         raise PsdrRoomError(str(exc)) from None
+    if fit.floor_source != "floor":
+        log.warning("room_init: no floor in view; the floor plane is inferred from the %s (camera %.2f above it)",
+                    fit.floor_source, fit.camera_height)
     return RoomBox(
         camera_to_world=fit.camera_to_world,
         center=fit.center,
@@ -48,6 +54,7 @@ def room_init(ctx: StageContext, cloud: PointCloud) -> RoomBox:
         ceiling_visible=fit.ceiling_visible,
         extra={
             "camera_height": float(fit.camera_height),
+            "floor_source": fit.floor_source,
             "floor_plane_camera": np.asarray(fit.floor_plane).tolist(),
             "wall_planes_camera": [np.asarray(p).tolist() for p in fit.wall_planes],
         },
