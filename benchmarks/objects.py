@@ -202,7 +202,7 @@ def evaluate(scene: Scene, retriever: SilhouetteRetrieval, small: SilhouetteRetr
     queries = [q for q in queries if q.segment_id in truth]
     row: dict = {"scene": scene.seed, "objects": len(queries)}
     start = time.perf_counter()
-    unlabelled = [replace(q, category=None) for q in queries]  # rank every category: shape alone decides
+    unlabelled = [replace(q, categories=()) for q in queries]  # rank every category: shape alone decides
     for name, impl, qs in (("full", retriever, queries), ("any", retriever, unlabelled), ("5%", small, unlabelled)):
         ranked = {q.segment_id: impl.rank(q, scene.camera, c2w, 5) for q in qs}
         category = {mid: impl.database.record(mid).category for r in ranked.values() for mid in (c.model_id for c in r)}

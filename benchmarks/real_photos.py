@@ -132,26 +132,27 @@ def read_index(folder: Path) -> list[Entry]:
                  f"laid out as {PHOTOS / 'index.csv'}")
     entries = []
     with index.open(newline="") as fh:
-        for row in csv.DictReader(fh):
-            image = folder / row["image"]
-            if not image.is_file():
-                sys.exit(f"real_photos: {image} (named in {index}) is missing")
-            depth = None
-            if row.get("gt_depth", "").strip().lower() == "yes":
-                file = _beside(image, "*depth*.png") or _beside(image, "*depth*.npy") or _beside(image, "*depth*.exr")
-                if file is not None:
-                    depth = (file, *_depth_format(row.get("gt_depth_format", "")))
-            boxes = None
-            note = row.get("gt_boxes", "")
-            if note.strip().lower() not in ("", "no"):
-                boxes = next((image.parent / w for w in re.findall(r"[\w.\-]+\.(?:json|pkl)", note)
-                              if (image.parent / w).is_file()), None) or _beside(image, "*infos.pkl")
-            fy = row.get("fy", "").strip()
-            name = image.parent.name if image.parent != folder else image.stem
-            if any(e.name == name for e in entries):
-                name = f"{name}_{image.stem}"
-            entries.append(Entry(name=name, image=image, size=(int(row["width"]), int(row["height"])),
-                                 fy=float(fy) if fy else None, depth=depth, boxes=boxes))
+        rows = list(csv.DictReader(fh))
+    folders = [Path(row["image"]).parent for row in rows]
+    for row in rows:
+        image = folder / row["image"]
+        if not image.is_file():
+            sys.exit(f"real_photos: {image} (named in {index}) is missing")
+        depth = None
+        if row.get("gt_depth", "").strip().lower() == "yes":
+            file = _beside(image, "*depth*.png") or _beside(image, "*depth*.npy") or _beside(image, "*depth*.exr")
+            if file is not None:
+                depth = (file, *_depth_format(row.get("gt_depth_format", "")))
+        boxes = None
+        note = row.get("gt_boxes", "")
+        if note.strip().lower() not in ("", "no"):
+            boxes = next((image.parent / w for w in re.findall(r"[\w.\-]+\.(?:json|pkl)", note)
+                          if (image.parent / w).is_file()), None) or _beside(image, "*infos.pkl")
+        fy = row.get("fy", "").strip()
+        shared = folders.count(Path(row["image"]).parent) > 1 or image.parent == folder
+        name = f"{image.parent.name}_{image.stem}" if shared else image.parent.name
+        entries.append(Entry(name=name, image=image, size=(int(row["width"]), int(row["height"])),
+                             fy=float(fy) if fy else None, depth=depth, boxes=boxes))
     return entries
 
 

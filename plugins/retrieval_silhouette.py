@@ -1,6 +1,6 @@
 """``retrieval=silhouette``: offline object retrieval by silhouette and depth agreement under the estimated camera.
 
-For each database model of the segment's category (every model when the label maps to none), the model is
+For each database model of the segment's categories (every model when the label maps to none), the model is
 posed by the occlusion-aware view search (:func:`~psdr_room_core.view_search.fit_view`: a sweep about the
 vertical axis at the object's apparent size and depth, the best rotations refined) and scored by how well its
 visible silhouette and depth match the object's mask and points there.
@@ -8,6 +8,7 @@ visible silhouette and depth match the object's mask and points there.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -46,17 +47,20 @@ def object_mesh(db: Any, model_id: str) -> ObjectMesh:
 
 
 class SilhouetteRetrieval:
-    """Rank models by how well each, posed by the view search, explains the object's mask and depth: score
-    ``1 / (1 + error)`` of :class:`~psdr_room_core.view_search.ViewFit`."""
+    """Rank models by how well each, posed by the view search, explains the object's mask and depth, at about
+    its real size: score ``1 / (1 + error + size_weight · |ln scale|)`` (:class:`~psdr_room_core.view_search.
+    ViewFit`; database models are in metres, so a model that must shrink to a quarter to fit is the wrong one)."""
 
     def __init__(self, database: str = "builtin", fraction: float = 1.0, seed: int = 0, n_yaw: int = 12,
                  refine: int = 2, coarse: int = 1, explore: int = 3, polish: int = 2, halvings: int = 2,
-                 render_width: int = 160, max_pixels: int = 3000) -> None:
+                 render_width: int = 160, max_pixels: int = 3000, size_weight: float = 0.3,
+                 box_weight: float = 0.5) -> None:
         self.spec = (str(database), float(fraction), int(seed))
         self.search = SearchParams(n_yaw=int(n_yaw), refine=int(refine), coarse=int(coarse), explore=int(explore),
-                                   polish=int(polish), halvings=int(halvings), turns=())
+                                   polish=int(polish), halvings=int(halvings), turns=(), box_weight=float(box_weight))
         self.render_width = int(render_width)
         self.max_pixels = int(max_pixels)
+        self.size_weight = float(size_weight)
         self._db: Any = None
 
     @property
@@ -76,19 +80,18 @@ class SilhouetteRetrieval:
         return object_mesh(self.database, model_id)
 
     def rank(self, query: ObjectQuery, camera: Camera, camera_to_world: np.ndarray, k: int) -> list[Candidate]:
-        models = self.database.category(query.category) if query.category else []
-        models = models or list(self.database.records)
+        models = [r for name in query.categories for r in self.database.category(name)] or list(self.database.records)
         target = ViewTarget.build(camera, camera_to_world, query.mask, query.points, query.scene_points,
-                                  self.render_width, self.max_pixels)
+                                  self.render_width, self.max_pixels, query.box)
         scored = []
         for record in models:
             mesh = self.database.mesh(record.id)
             view = fit_view(target, mesh.vertices, mesh.faces, self.search)
-            scored.append(Candidate(record.id, 1.0 / (1.0 + view.error)))
+            scored.append(Candidate(record.id, 1.0 / (1.0 + view.error + self.size_weight * abs(math.log(view.scale)))))
         scored.sort(key=lambda c: (-c.score, c.model_id))
         return scored[:k]
 
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("retrieval", "silhouette", SilhouetteRetrieval)
+    registry.add_implementation("retrieval", "silhouette", SilhouetteRetrieval, version="2")

@@ -269,8 +269,18 @@ class Segment:
     """One of :data:`CATEGORIES`."""
     label: str
     """The class name the segmenter or annotator gave (e.g. ``wardrobe``)."""
+    score: float | None = None
+    """How sure an automatic guess is (the prompt's score, for objects ``segmentation=layout`` discovered):
+    such objects are dropped when no model explains them (``place_objects.prune``). None: a segment a person
+    drew or a dense segmenter labelled, kept whatever the fit."""
+    box: tuple[float, float, float, float] | None = None
+    """The box that prompted an automatic object segment (working-image pixels): the object may reach anywhere
+    in it (a box-prompted cut leaves out thin legs), so a model covering it where the mask does not is not
+    wrong. None: the mask is the whole object."""
 
     def __post_init__(self) -> None:
+        if self.box is not None:
+            object.__setattr__(self, "box", tuple(float(v) for v in self.box))
         if isinstance(self.id, bool) or not isinstance(self.id, (int, np.integer)) or self.id <= 0:
             raise ValueError(f"Segment id must be a positive integer, got {self.id!r}")
         if self.category not in CATEGORIES:
@@ -316,7 +326,8 @@ def write_coco_panoptic(png: Path, json_path: Path, ids: np.ndarray, segments: l
         x0, y0 = int(xs.min()), int(ys.min())
         bbox = [x0, y0, int(xs.max()) - x0 + 1, int(ys.max()) - y0 + 1]
         infos.append({"id": int(s.id), "category_id": cat_id[s.category], "label": s.label, "iscrowd": 0,
-                      "area": int(xs.size), "bbox": bbox})
+                      "area": int(xs.size), "bbox": bbox, **({} if s.score is None else {"score": float(s.score)}),
+                      **({} if s.box is None else {"prompt_box": [float(v) for v in s.box]})})
     _write_json(json_path, {
         "file_name": png.name,
         "image_id": png.stem,
@@ -357,7 +368,8 @@ class Panoptic:
         meta = _read_json(directory / "panoptic.json")
         try:
             names = {c["id"]: c["name"] for c in meta["categories"]}
-            segments = [Segment(int(s["id"]), names[s["category_id"]], s.get("label") or names[s["category_id"]])
+            segments = [Segment(int(s["id"]), names[s["category_id"]], s.get("label") or names[s["category_id"]],
+                                None if s.get("score") is None else float(s["score"]), s.get("prompt_box"))
                         for s in meta["segments_info"]]
         except (KeyError, TypeError, ValueError) as exc:
             raise PsdrRoomError(

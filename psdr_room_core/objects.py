@@ -17,31 +17,47 @@ from .silhouette import mask_l1, silhouette
 OBJECT_CATEGORIES = ("object", "lamp")
 """Segment categories that become retrieved objects (doors and windows are openings of the room)."""
 
-LABEL_TO_CATEGORY: dict[str, str] = {
-    # COCO (the bundled detector), ADE20K and common LabelMe names → object database categories
-    "chair": "chair", "armchair": "chair", "swivel chair": "chair", "stool": "chair", "bench": "sofa",
-    "couch": "sofa", "sofa": "sofa", "ottoman": "sofa",
-    "bed": "bed",
-    "dining table": "table", "table": "table", "coffee table": "table", "side table": "table", "pool table": "table",
-    "desk": "desk",
-    "cabinet": "cabinet", "wardrobe": "cabinet", "chest of drawers": "cabinet", "dresser": "cabinet",
-    "night stand": "cabinet", "nightstand": "cabinet", "sideboard": "cabinet", "refrigerator": "cabinet",
-    "bookcase": "shelf", "shelf": "shelf", "shelves": "shelf",
-    "lamp": "lamp", "floor lamp": "lamp", "table lamp": "lamp", "light": "lamp",
-    "rug": "rug", "carpet": "rug", "mat": "rug",
-    "pillow": "pillow", "cushion": "pillow",
-    "tv": "tv", "tvmonitor": "tv", "television": "tv", "monitor": "tv", "screen": "tv",
-    "potted plant": "plant", "pottedplant": "plant", "plant": "plant", "flower pot": "plant",
+LABEL_TO_CATEGORIES: dict[str, tuple[str, ...]] = {
+    # COCO (the bundled detector), ADE20K, NYU/SUN RGB-D and common LabelMe names → object database categories
+    "chair": ("chair",), "armchair": ("chair",), "swivel chair": ("chair",), "stool": ("chair", "ottoman"),
+    "sofa chair": ("chair", "sofa"),
+    "sofa": ("sofa",), "bench": ("sofa", "table", "ottoman"),
+    "ottoman": ("ottoman",), "pouf": ("ottoman",), "footstool": ("ottoman",),
+    "dining table": ("table", "desk"), "table": ("table",), "coffee table": ("table",),
+    "side table": ("table", "cabinet"), "end table": ("table", "cabinet"), "pool table": ("table",),
+    "desk": ("desk",),
+    "cabinet": ("cabinet",), "wardrobe": ("cabinet",), "chest of drawers": ("cabinet",),
+    "dresser": ("cabinet",), "night stand": ("cabinet", "table"), "nightstand": ("cabinet", "table"),
+    "sideboard": ("cabinet",), "counter": ("cabinet",), "kitchen cabinet": ("cabinet",),
+    "bookcase": ("shelf", "cabinet"), "bookshelf": ("shelf", "cabinet"), "shelf": ("shelf",),
+    "shelves": ("shelf", "cabinet"),
+    "fridge": ("refrigerator",), "appliance": ("appliance",), "washer": ("appliance",), "washing machine": ("appliance",),
+    "dryer": ("appliance",), "dishwasher": ("appliance",), "stove": ("appliance",), "range": ("appliance",),
+    "lamp": ("lamp",), "floor lamp": ("lamp",), "table lamp": ("lamp",), "light": ("lamp",),
+    "rug": ("rug",), "carpet": ("rug",), "mat": ("rug",),
+    "pillow": ("pillow",), "cushion": ("pillow",),
+    "television": ("tv",), "monitor": ("tv",), "screen": ("tv",), "tvmonitor": ("tv", "frame", "cabinet"),
+    "picture": ("frame",), "painting": ("frame",), "poster": ("frame",), "mirror": ("frame",),
+    "whiteboard": ("frame",), "board": ("frame",), "clock": ("frame",), "frame": ("frame",),
+    "box": ("box",), "bin": ("box",), "basket": ("box",), "crate": ("box",), "container": ("box",),
+    "potted plant": ("plant",), "pottedplant": ("plant",), "plant": ("plant",), "flower pot": ("plant",),
+    # COCO classes the bundled detector also gives to what they are not (a dresser is often a "tv" or an
+    # "oven", a kitchen counter a "sink", a row of desks a "bed"): the model search also tries what they may be
+    "tv": ("tv", "frame", "cabinet"), "refrigerator": ("refrigerator", "cabinet", "shelf"),
+    "couch": ("sofa", "chair"), "bed": ("bed", "desk", "table", "sofa"),
+    "oven": ("appliance", "cabinet"), "microwave": ("appliance", "box", "cabinet"), "sink": ("cabinet", "table"),
+    "laptop": ("tv", "box"), "vase": ("plant", "lamp", "box"),
 }
-"""Free-form segment labels → database categories; an unknown label searches every category."""
+"""Free-form segment labels → database categories to search, the most likely first; a database category's
+own name means that category, an unknown label searches every category."""
 
 
-def database_category(label: str, category: str) -> str | None:
-    """The database category for a segment (None: unknown, search them all)."""
+def database_categories(label: str, category: str) -> tuple[str, ...]:
+    """The database categories to search for a segment (empty: unknown, search them all)."""
     name = label.strip().lower()
-    if name in LABEL_TO_CATEGORY:
-        return LABEL_TO_CATEGORY[name]
-    return "lamp" if category == "lamp" else None
+    if name in LABEL_TO_CATEGORIES:
+        return LABEL_TO_CATEGORIES[name]
+    return ("lamp",) if category == "lamp" else ()
 
 
 @dataclass(frozen=True)
@@ -50,8 +66,8 @@ class ObjectQuery:
 
     segment_id: int
     label: str
-    category: str | None
-    """Database category from the label (None: any)."""
+    categories: tuple[str, ...]
+    """Database categories to search, from the label, the most likely first (empty: any)."""
     mask: np.ndarray
     """(H, W) bool at the working image's resolution."""
     points: np.ndarray
@@ -60,6 +76,9 @@ class ObjectQuery:
     """uint8 RGB crop around the mask (square, with context) for image-based retrieval."""
     scene_points: np.ndarray
     """(M, 3) world points of every segment (one array shared by all queries): what may hide the object."""
+    box: tuple[float, float, float, float] | None = None
+    """The segment's prompt box (:attr:`~psdr_room_core.artifacts.Segment.box`): a model may cover it outside the
+    mask without being wrong."""
 
 
 def object_queries(image: Image, panoptic: Panoptic, cloud: PointCloud, room: RoomBox, min_points: int,
@@ -76,8 +95,8 @@ def object_queries(image: Image, panoptic: Panoptic, cloud: PointCloud, room: Ro
         points = scene[cloud.segment == segment.id]
         if mask.sum() < min_pixels or len(points) < min_points:
             continue
-        queries.append(ObjectQuery(segment.id, segment.label, database_category(segment.label, segment.category),
-                                   mask, points, _square_crop(rgb8, mask), scene))
+        queries.append(ObjectQuery(segment.id, segment.label, database_categories(segment.label, segment.category),
+                                   mask, points, _square_crop(rgb8, mask), scene, segment.box))
     return queries
 
 
@@ -215,7 +234,7 @@ def support_relations(queries: list[ObjectQuery], floor_mask: np.ndarray, room: 
             distance = mask_distance(q.mask, p.mask)
             if rows.mean() < p_rows.mean() and over and on_top and distance < params.edge_px:
                 parents.append((distance, p.segment_id))
-        hidden_bottom = q.category in params.grounded and bottom < room.half_size[1]
+        hidden_bottom = bool(q.categories) and q.categories[0] in params.grounded and bottom < room.half_size[1]
         grounded: list[Support] = [("floor", None)] if hidden_bottom else []
         wall, wall_distance = nearest_wall(room, np.median(q.points, axis=0))
         if parents:

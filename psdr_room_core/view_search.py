@@ -53,14 +53,20 @@ class ViewTarget:
     """(h, w) float32 depth of the nearest point of any segment (0: none): what may hide the model."""
     points: np.ndarray
     """(N, 3) world points of the object."""
+    free: np.ndarray
+    """(h, w) bool: pixels the model may cover or not (its prompt box outside the mask)."""
+    box: tuple[int, int, int, int] | None = None
+    """The prompt box at the search resolution (x0, y0, x1, y1): the visible model should span it."""
 
     @classmethod
     def build(cls, camera: Camera, camera_to_world: np.ndarray, mask: np.ndarray, points: np.ndarray,
-              scene_points: np.ndarray, width: int, max_pixels: int = 0) -> "ViewTarget":
+              scene_points: np.ndarray, width: int, max_pixels: int = 0,
+              box: tuple[float, float, float, float] | None = None) -> "ViewTarget":
         """The target of an object with ``mask`` (working-image resolution) and world ``points`` in a scene of
         world ``scene_points`` (every segment's), seen by ``camera`` resized to ``width``, or narrower where
         the mask would have more than ``max_pixels`` pixels (0: no limit; scores are relative, so a cap buys
-        speed for big objects at the cost of their fine detail)."""
+        speed for big objects at the cost of their fine detail). Pixels of the prompt ``box`` (working-image
+        pixels) outside the mask are free: the model may cover them or not."""
         scale = min(int(width), camera.width) / camera.width
         if max_pixels > 0:
             scale = min(scale, math.sqrt(max_pixels / max(int(mask.sum()), 1)))
@@ -69,7 +75,16 @@ class ViewTarget:
         if not small.any():  # a sliver: keep its pixels rather than lose the object
             small = cv2.resize(mask.astype(np.uint8), (cam.width, cam.height), interpolation=cv2.INTER_AREA) > 0
         c2w = np.asarray(camera_to_world, np.float64)
-        return cls(cam, c2w, small, point_depth(cam, c2w, points), point_depth(cam, c2w, scene_points), points)
+        free = np.zeros_like(small)
+        small_box = None
+        if box is not None:
+            s = cam.width / camera.width
+            x0, y0, x1, y1 = (int(round(v * s)) for v in box)
+            small_box = (max(0, x0), max(0, y0), min(cam.width, max(x1, x0 + 1)), min(cam.height, max(y1, y0 + 1)))
+            free[small_box[1]:small_box[3], small_box[0]:small_box[2]] = True
+            free &= ~small
+        return cls(cam, c2w, small, point_depth(cam, c2w, points), point_depth(cam, c2w, scene_points), points, free,
+                   small_box)
 
 
 @dataclass(frozen=True)
@@ -80,10 +95,11 @@ class ViewFit:
     yaw: float
     scale: float
     iou: float
-    """IoU of the model's visible silhouette (hidden pixels left out) with the mask."""
+    """IoU of the model's visible silhouette (hidden and free pixels left out) with the mask."""
     error: float
-    """Mask disagreement (wrong pixels / mask pixels, hidden pixels not wrong) + ``depth_weight`` × the mean
-    relative depth error where the model meets the object's points."""
+    """Mask disagreement (wrong pixels / mask pixels, hidden and free pixels not wrong) + ``depth_weight`` × the
+    mean relative depth error where the model meets the object's points (+ ``box_weight`` × (1 − IoU of the
+    visible model's box with the prompt box), for a prompted segment)."""
 
 
 @dataclass(frozen=True)
@@ -102,6 +118,9 @@ class SearchParams:
     """Best rotations then refined at finer steps."""
     depth_weight: float = 2.0
     """Weight of the mean relative depth error against the mask disagreement."""
+    box_weight: float = 0.5
+    """Weight of 1 − IoU of the visible model's box with the segment's prompt box (where it has one: a
+    detector's box spans the object's thin parts a box-prompted cut loses)."""
     hidden_margin: float = 0.03
     """A model pixel is hidden where the photo sees a surface this much (relative) nearer."""
     halvings: int = 3
@@ -162,17 +181,37 @@ class _Scorer:
         both = visible & (own > 0)
         return float(np.median(own[both] - depth[both])) if both.any() else 0.0
 
+    def counted(self, window: Window, visible: np.ndarray) -> np.ndarray:
+        """The visible model pixels that count: those outside the target's free pixels."""
+        x0, y0, x1, y1 = window
+        return visible & ~self.target.free[y0:y1, x0:x1]
+
     def score(self, to_world: np.ndarray) -> tuple[float, float]:
         """(error, visible IoU) of a pose; see :attr:`ViewFit.error`."""
-        (x0, y0, x1, y1), depth, visible = self.render(to_world)
+        window, depth, visible = self.render(to_world)
+        x0, y0, x1, y1 = window
         mask = self.target.mask[y0:y1, x0:x1]
         overlap = int((visible & mask).sum())
-        wrong = int(visible.sum()) - overlap + self.mask_area - overlap
+        visible_area = int(self.counted(window, visible).sum())
+        wrong = visible_area - overlap + self.mask_area - overlap
         own = self.target.own_depth[y0:y1, x0:x1]
         both = visible & mask & (own > 0)
         depth_error = float(np.abs(depth[both] - own[both]).mean()) / self.median_depth if both.any() else 1.0
         error = wrong / self.mask_area + self.params.depth_weight * depth_error
-        return error, overlap / max(self.mask_area + int(visible.sum()) - overlap, 1)
+        if self.target.box is not None:
+            error += self.params.box_weight * (1.0 - self.box_iou(window, visible))
+        return error, overlap / max(self.mask_area + visible_area - overlap, 1)
+
+    def box_iou(self, window: Window, visible: np.ndarray) -> float:
+        """IoU of the visible model's bounding box with the target's prompt box."""
+        rows, cols = np.flatnonzero(visible.any(axis=1)), np.flatnonzero(visible.any(axis=0))
+        if not rows.size:
+            return 0.0
+        x0, y0 = window[0] + cols[0], window[1] + rows[0]
+        x1, y1 = window[0] + cols[-1] + 1, window[1] + rows[-1] + 1
+        bx0, by0, bx1, by1 = self.target.box
+        inter = max(0, min(x1, bx1) - max(x0, bx0)) * max(0, min(y1, by1) - max(y0, by0))
+        return inter / max((x1 - x0) * (y1 - y0) + (bx1 - bx0) * (by1 - by0) - inter, 1)
 
 
 Hypothesis = tuple[float, float, np.ndarray, float]
@@ -213,7 +252,7 @@ def fit_view(target: ViewTarget, vertices: np.ndarray, faces: np.ndarray, params
             shift = median - np.median(seen, axis=0)
             shift += axis * (scorer.depth_residual(window, depth, visible) - shift @ axis)
             position = supported(position + shift)
-            scale *= math.sqrt(scorer.mask_area / len(seen))
+            scale *= math.sqrt(scorer.mask_area / max(int(scorer.counted(window, visible).sum()), 1))
         error, _ = scorer.score(pose_matrix(position, yaw, scale))
         hypotheses.append((error, float(yaw), position, scale))
     spacing = 2.0 * math.pi / max(params.n_yaw, 1)

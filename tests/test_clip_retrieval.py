@@ -62,7 +62,8 @@ def retrieval(model: Path, tmp_path: Path) -> ClipRetrieval:
 def query(colour: tuple[int, int, int], category: str | None = None) -> ObjectQuery:
     crop = np.full((60, 120, 3), colour, np.uint8)
     crop[:, :10] = 255  # some background context
-    return ObjectQuery(1, "thing", category, np.ones((4, 4), bool), np.zeros((1, 3)), crop, np.zeros((1, 3)))
+    return ObjectQuery(1, "thing", (category,) if category else (), np.ones((4, 4), bool), np.zeros((1, 3)), crop,
+                       np.zeros((1, 3)))
 
 
 def test_clip_input_is_a_centre_crop_with_clip_statistics() -> None:

@@ -112,6 +112,8 @@ def working_image() -> Image:
 
 
 def run(path: Path, **params: object) -> list[tuple[str, tuple[float, ...], float]]:
+    """The fake network's detections at threshold 0.3 without the mirrored run, unless ``params`` say otherwise."""
+    params = {"score_threshold": 0.3, "flip": False, **params}
     detections = NanodetOnnx(path=str(path), intra_op_threads=1, **params).detect(working_image(), PHOTO)
     assert all(d.category == "object" for d in detections.items)
     return [(d.label, d.box, d.score) for d in detections.items]
@@ -126,6 +128,19 @@ def test_decoding_gives_the_constructed_boxes(fake_nanodet: Path) -> None:
     assert boxes["tv"] == pytest.approx(boxes["chair"])  # class-wise NMS: the tv on the chair stays
     assert boxes["couch"] == pytest.approx(to_working((48, 112, 176, 240)), abs=1e-3)
     assert boxes["clock"] == pytest.approx((0.0, 0.0, 48 * 2.0, 48 * 1.5), abs=1e-3)  # clipped to the image
+
+
+def test_flip_adds_the_boxes_of_the_mirrored_photo(fake_nanodet: Path) -> None:
+    """The fake network answers the same boxes whatever the input, so the mirrored run's boxes come back
+    mirrored: each box and its mirror image, merged by class-wise NMS where they overlap."""
+    plain = {(label, box) for label, box, _ in run(fake_nanodet)}
+    flipped = run(fake_nanodet, flip=True)
+    chair = next(box for label, box in plain if label == "chair")
+    mirrored = (WORKING[0] - chair[2], chair[1], WORKING[0] - chair[0], chair[3])
+    assert plain <= {(label, box) for label, box, _ in flipped}
+    assert any(label == "chair" and box == pytest.approx(mirrored, abs=1e-3) for label, box, _ in flipped)
+    scores = [score for _, _, score in flipped]
+    assert scores == sorted(scores, reverse=True)
 
 
 def test_decoding_parameters(fake_nanodet: Path) -> None:
@@ -251,7 +266,7 @@ def test_registered_through_the_entry_point_with_config_files_that_construct() -
         cfg = OmegaConf.to_container(OmegaConf.load(REPO / "conf" / "detector" / f"{name}.yaml"))
         assert cfg["impl"] == name
         implementation = registry.implementation("detector", name)
-        assert implementation.version == "1" and implementation.description
+        assert implementation.version and implementation.description
         instance = implementation.factory(**cfg[name])
         if name == "nanodet_onnx":
             assert instance.path == BUNDLED and [COCO_80[i] for i in instance.class_ids] == list(INDOOR)
@@ -265,7 +280,7 @@ def test_bundled_nanodet_finds_the_chairs_of_a_real_photo() -> None:
         pytest.skip(f"{photo} is not here")
     rgb = read_photo(photo, 10**8)
     image = Image(rgb=resize_to_working(rgb, 800), original_size=(rgb.shape[1], rgb.shape[0]))
-    detector = NanodetOnnx(intra_op_threads=1)
+    detector = NanodetOnnx(intra_op_threads=1, score_threshold=0.3, flip=False)
     assert detector.unavailable(photo) is None and detector.external_files(photo) == [BUNDLED]
     detections = detector.detect(image, photo)
     chairs = np.array([d.box for d in detections.items if d.label == "chair"])

@@ -127,6 +127,11 @@ def test_object_stands_on_the_floor(room: tuple) -> None:
     wall = np.zeros(labels.shape, dtype=bool)
     wall[10:30, 140:170] = True  # above the horizon: no floor contact, just in front of the wall
     assert np.allclose(object_depth(wall, rays, t)[wall], 0.98 * t[wall])
+    seat = np.zeros(labels.shape, dtype=bool)
+    seat[120:170, 140:170] = True  # a box-prompted cut that lost the legs: its prompt box reaches row 199
+    legs = object_depth(seat, rays, t, box=(138.0, 118.0, 172.0, 200.0))
+    assert legs[169, 155] == pytest.approx(depth[169, 155], rel=1e-4)  # the plane of the whole object
+    assert object_depth(seat, rays, t)[169, 155] > 1.05 * legs[169, 155]  # the seat's edge taken for the floor
 
 
 def test_grabcut_cuts_the_object_out_of_its_box() -> None:
@@ -179,3 +184,25 @@ def test_boxes_yaml_replaces_the_detector(tmp_path: Path) -> None:
     assert record.implementations["detector"]["name"] == "boxes_file"
     assert "not" not in record.implementations["detector"]["selected_by"]
     assert [d.label for d in record.artifacts["detections"].items] == ["sofa"]
+
+
+def test_a_bare_photo_without_floor_or_prompts_still_gives_a_room(tmp_path: Path) -> None:
+    """Looking up at a plain room: no floor in view, the detector finds nothing, no proposal stands out. The
+    pipeline stands the room on its ceiling (logged) and places no object, without an error."""
+    from psdr_room_core.cli import compose_config
+    from psdr_room_core.plugins import plugin_system
+    from psdr_room_core.run import execute
+
+    camera = _camera(_rotation(28.0, -25.0))  # pitched up: floor out of view
+    image, labels, _ = _render(camera, frame_from_vanishing_points(camera, camera.extra["vanishing_points"]))
+    assert not (labels == box.FLOOR).any() and (labels == box.CEILING).any()
+    photo = tmp_path / "up.png"
+    cv2.imwrite(str(photo), image.to_uint8()[..., ::-1])
+    plugins = plugin_system()
+    overrides = [f"image={photo}", f"cache_dir={tmp_path / 'cache'}", "run.until=place_objects", "report.enabled=false",
+                 "detector=none", "fov=fixed", "fov.fixed.vfov_deg=55.0", "segmentation=layout", "depth=layout",
+                 "segmentation.layout.n_random=1500", "depth.layout.n_random=1500"]
+    record = execute(compose_config(overrides, plugins), tmp_path / "run", plugins)
+    room = record.artifacts["room_box"]
+    assert room.extra["floor_source"] in ("ceiling", "walls")
+    assert record.artifacts["placements"].objects == []

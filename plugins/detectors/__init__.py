@@ -28,7 +28,7 @@ class NoDetector:
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("detector", "nanodet_onnx", NanodetOnnx, version="1",
+    registry.add_implementation("detector", "nanodet_onnx", NanodetOnnx, version="2",
                                 description="COCO object boxes from the bundled NanoDet-m 416 (onnxruntime, offline)")
     registry.add_implementation("detector", "boxes_file", BoxesFile, version="1",
                                 description="object boxes from <photo stem>.boxes.yaml beside the photo")

@@ -27,8 +27,9 @@ def _depth(**params: object) -> object:
 @hookimpl
 def register_implementations(registry: Registry) -> None:
     registry.add_implementation(
-        "segmentation", "layout", _segmentation,
-        description="walls/floor/ceiling of a box layout fitted to the photo's lines; objects by GrabCut in detector boxes")
+        "segmentation", "layout", _segmentation, version="2",
+        description="walls/floor/ceiling of a box layout fitted to the photo's lines; objects discovered among "
+                    "detector boxes and what the room cannot explain, cut out by GrabCut")
     registry.add_implementation(
-        "depth", "layout", _depth,
+        "depth", "layout", _depth, version="2",
         description="depth of a box room fitted to the segmentation, objects standing on its floor (camera height assumed)")

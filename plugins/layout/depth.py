@@ -15,17 +15,19 @@ from .segmentation import layout_params
 ROOM = ("wall", "floor", "ceiling")
 
 
-def object_depth(mask: np.ndarray, rays: np.ndarray, room_depth: np.ndarray) -> np.ndarray:
+def object_depth(mask: np.ndarray, rays: np.ndarray, room_depth: np.ndarray,
+                 box: tuple[float, float, float, float] | None = None) -> np.ndarray:
     """Z-depth (H, W) of an object's pixels (0 elsewhere) on the vertical plane through its floor contact.
 
-    The contact is the lowest mask pixel (median column of the lowest row), put on the floor ``y = -1``
-    of the frame; the plane faces the camera (normal = the contact ray's horizontal direction). An object
-    whose contact ray misses the floor, or lands beyond the room, lies just in front of the room surface
-    (2% nearer). Depths never exceed the room's.
+    The contact is the lowest mask pixel (median column of the lowest row), or, for a box-prompted segment,
+    that column on its prompt ``box``'s bottom row (a box-prompted cut loses thin legs: the mask ends at the
+    seat, the box at the floor); it is put on the floor ``y = -1`` of the frame; the plane faces the camera
+    (normal = the contact ray's horizontal direction). An object whose contact ray misses the floor, or lands
+    beyond the room, lies just in front of the room surface (2% nearer). Depths never exceed the room's.
     """
     rows = np.flatnonzero(mask.any(axis=1))
-    bottom = rows[-1]
-    col = int(np.median(np.flatnonzero(mask[bottom])))
+    col = int(np.median(np.flatnonzero(mask[rows[-1]])))
+    bottom = rows[-1] if box is None else min(mask.shape[0] - 1, max(rows[-1], int(np.ceil(box[3])) - 1))
     ray = rays[bottom, col]
     depth = np.zeros(mask.shape, dtype=np.float32)
     behind = 0.98 * room_depth
@@ -63,7 +65,7 @@ class LayoutDepth:
                 continue
             mask = panoptic.ids == segment.id
             if mask.any():
-                placed = object_depth(mask, rays, room)
+                placed = object_depth(mask, rays, room, segment.box)
                 depth = np.where(mask, placed, depth)
         valid = np.isfinite(depth) & (depth > 0)
         depth = np.where(valid, depth * self.camera_height_m, 0.0).astype(np.float32)

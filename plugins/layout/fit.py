@@ -27,6 +27,8 @@ class LayoutParams:
     """Segments are swept this fraction of the image diagonal towards/away from the other vanishing points."""
     clutter_weight: float = 0.25
     """Weight of orientation evidence inside object boxes (furniture lines say little about the room)."""
+    box_score: float = 0.3
+    """Object boxes scoring at least this inform the fit (clutter weights, floor prior at their bottoms)."""
     label_weight: float = 1.0
     floor_band: float = 0.08
     """Rows at the bottom of the photo (this fraction of its height) below the horizon that are likely floor ..."""
@@ -121,6 +123,8 @@ def fit_layout(image: Image, camera: Camera, params: LayoutParams, detections: D
     reach = params.sweep_fraction * float(np.hypot(*shape))
     evidence = orientation_map(segments, families, vps, shape, reach)
     if detections is not None:
+        detections = Detections(items=[d for d in detections.items if d.score >= params.box_score],
+                                source=detections.source)
         evidence *= _clutter_weights(detections, image, shape, params.clutter_weight)[None]
     rays = frame.rays(camera, shape[1], shape[0])
     evidence[1] = np.maximum(evidence[1], params.floor_prior * _floor_prior(rays, detections, image, params.floor_band))

@@ -7,7 +7,6 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from psdr_room_core.artifacts import Detection
 
 
 @dataclass(frozen=True)
@@ -19,11 +18,16 @@ class GrabCutParams:
     """Context around the box (fraction of its size) given to GrabCut as known background."""
     min_fill: float = 0.08
     """Masks covering less than this fraction of their box are dropped (GrabCut found no object)."""
+    min_part: float = 0.2
+    """Connected pieces of the mask at least this share of the largest are kept with it (an object's parts
+    that its thin pieces join outside the mask, as a chair's back and seat); smaller ones are noise."""
 
 
-def grabcut_mask(rgb8: np.ndarray, box: tuple[float, float, float, float], params: GrabCutParams) -> np.ndarray | None:
-    """The object's boolean mask (H, W) inside ``box`` (x0, y0, x1, y1 pixels), its largest connected
-    component, or None when GrabCut leaves too little of the box."""
+def grabcut_mask(rgb8: np.ndarray, box: tuple[float, float, float, float], params: GrabCutParams,
+                 taken: np.ndarray | None = None) -> np.ndarray | None:
+    """The object's boolean mask (H, W) inside ``box`` (x0, y0, x1, y1 pixels): its largest connected piece
+    and those ``min_part`` of it, or None when GrabCut leaves too little of the box. Pixels ``taken`` (H, W) by other objects
+    start as probable background: the box's own object must win them by colour."""
     height, width = rgb8.shape[:2]
     x0, y0, x1, y1 = box
     bw, bh = x1 - x0, y1 - y0
@@ -34,29 +38,23 @@ def grabcut_mask(rgb8: np.ndarray, box: tuple[float, float, float, float], param
     rect = (rect[0], rect[1], min(rect[2], crop.shape[1] - rect[0]), min(rect[3], crop.shape[0] - rect[1]))
     if min(crop.shape[:2]) < 4 or rect[2] < 2 or rect[3] < 2:
         return None
-    mask = np.zeros(crop.shape[:2], np.uint8)
+    mask = np.full(crop.shape[:2], cv2.GC_BGD, np.uint8)
+    mask[rect[1]:rect[1] + rect[3], rect[0]:rect[0] + rect[2]] = cv2.GC_PR_FGD
+    if taken is not None:
+        mask[(mask == cv2.GC_PR_FGD) & taken[cy0:cy1, cx0:cx1]] = cv2.GC_PR_BGD
+    if not (mask == cv2.GC_PR_FGD).any():
+        return None
     background, foreground = np.zeros((1, 65), np.float64), np.zeros((1, 65), np.float64)
     cv2.setRNGSeed(0)
-    cv2.grabCut(crop, mask, rect, background, foreground, params.iterations, cv2.GC_INIT_WITH_RECT)
+    cv2.grabCut(crop, mask, None, background, foreground, params.iterations, cv2.GC_INIT_WITH_MASK)
     object_mask = ((mask == cv2.GC_FGD) | (mask == cv2.GC_PR_FGD)).astype(np.uint8)
     n, components, stats, _ = cv2.connectedComponentsWithStats(object_mask, connectivity=4)
     if n <= 1:
         return None
-    largest = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
-    if stats[largest, cv2.CC_STAT_AREA] < params.min_fill * bw * bh:
+    areas = stats[1:, cv2.CC_STAT_AREA]
+    parts = 1 + np.flatnonzero(areas >= params.min_part * areas.max())  # a chair's back and seat, apart
+    if areas[parts - 1].sum() < params.min_fill * bw * bh:
         return None
     full = np.zeros((height, width), dtype=bool)
-    full[cy0:cy1, cx0:cx1] = components == largest
+    full[cy0:cy1, cx0:cx1] = np.isin(components, parts)
     return full
-
-
-def object_masks(rgb8: np.ndarray, detections: list[Detection], params: GrabCutParams) -> list[tuple[Detection, np.ndarray]]:
-    """A mask per box prompt that GrabCut could segment, largest box first (so smaller, usually nearer
-    objects are painted over larger ones by the caller)."""
-    ordered = sorted(detections, key=lambda d: -(d.box[2] - d.box[0]) * (d.box[3] - d.box[1]))
-    found = []
-    for detection in ordered:
-        mask = grabcut_mask(rgb8, detection.box, params)
-        if mask is not None:
-            found.append((detection, mask))
-    return found

@@ -11,8 +11,11 @@ import numpy as np
 from psdr_room_core.artifacts import Camera, Detections, Image, Panoptic, Segment
 
 from . import box
+from .discovery import DiscoveryParams, discover
+from .proposals import ProposalParams
 from .fit import LayoutParams, fit_layout
-from .objects import GrabCutParams, object_masks
+from .objects import GrabCutParams
+from .surfaces import SurfaceColours, unprompted
 
 log = logging.getLogger("psdr_room")
 
@@ -26,12 +29,15 @@ def layout_params(search: dict[str, Any] | None, **params: Any) -> LayoutParams:
 
 
 class LayoutSegmentation:
-    """Box-layout room surfaces (one segment per visible wall) with GrabCut object masks on top."""
+    """Box-layout room surfaces (one segment per visible wall) with the discovered objects on top
+    (:mod:`.discovery`: the prompts GrabCut cuts out and the fitted room finds plausible, far to near)."""
 
-    def __init__(self, grabcut: dict[str, Any] | None = None, min_surface_fraction: float = 0.002,
+    def __init__(self, grabcut: dict[str, Any] | None = None, discovery: dict[str, Any] | None = None,
+                 proposals: dict[str, Any] | None = None, min_surface_fraction: float = 0.002,
                  search: dict[str, Any] | None = None, **layout: Any) -> None:
         self.layout = layout_params(search, **layout)
-        self.grabcut = GrabCutParams(**(grabcut or {}))
+        self.discovery = DiscoveryParams(grabcut=GrabCutParams(**(grabcut or {})), **(discovery or {}))
+        self.proposals = ProposalParams(**proposals) if proposals is not None else None
         self.min_surface_fraction = float(min_surface_fraction)
 
     def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic:
@@ -44,12 +50,17 @@ class LayoutSegmentation:
             if mask.mean() >= self.min_surface_fraction:
                 segments.append(Segment(len(segments) + 1, SURFACE_CATEGORY[surface], box.SURFACES[surface]))
                 ids[mask] = segments[-1].id
-        masks = object_masks(image.to_uint8(), detections.items, self.grabcut)
-        for detection, mask in masks:
-            segments.append(Segment(len(segments) + 1, detection.category, detection.label))
-            ids[mask] = segments[-1].id
+        rays = fitted.frame.rays(camera, image.width, image.height)
+        rgb8 = image.to_uint8()
+        trusted = [d.box for d in detections.items if d.score >= self.discovery.trusted_score]
+        surfaces = SurfaceColours(rgb8, labels, unprompted(labels.shape, trusted))
+        found = discover(rgb8, rays, surfaces, detections.items, self.discovery, self.proposals)
+        for item in found:
+            segments.append(Segment(len(segments) + 1, item.detection.category, item.detection.label,
+                                    item.detection.score, item.detection.box))
+            ids[item.mask] = segments[-1].id
         present = set(np.unique(ids).tolist())
         kept = [s for s in segments if s.id in present]
-        log.info("layout: box %s (score %.3f), %d/%d boxes segmented", np.round(fitted.box, 2).tolist(),
-                 fitted.score, len(masks), len(detections.items))
+        log.info("layout: box %s (score %.3f), %d objects from %d prompts", np.round(fitted.box, 2).tolist(),
+                 fitted.score, len(found), len(detections.items))
         return Panoptic(ids=ids, segments=kept)

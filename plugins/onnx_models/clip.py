@@ -132,7 +132,7 @@ class ClipRetrieval:
         return found
 
     def rank(self, query: ObjectQuery, camera: Camera, camera_to_world: np.ndarray, k: int) -> list[Candidate]:
-        models = self.database.category(query.category) if (self.category_filter and query.category) else []
+        models = [r for name in query.categories for r in self.database.category(name)] if self.category_filter else []
         models = models or list(self.database.records)
         thumbs = self._thumbnail_embeddings([r.id for r in models])
         crop = self.embed([query.crop])[0]

@@ -17,10 +17,10 @@ def register_stages(registry: Registry) -> None:
     registry.add_stage("segment", preprocess.segment, uses=["segmentation"], version="2")
     registry.add_stage("estimate_depth", preprocess.estimate_depth, uses=["depth"], version="2")
     registry.add_stage("point_cloud", preprocess.point_cloud)
-    registry.add_stage("room_init", room.room_init)
+    registry.add_stage("room_init", room.room_init, version="2")
     registry.add_stage("room_fit", room.room_fit, uses=["renderer", "optimizer"], version="2")
-    registry.add_stage("retrieve_objects", objects.retrieve_objects, uses=["retrieval"])
-    registry.add_stage("place_objects", objects.place_objects, uses=["retrieval"])
+    registry.add_stage("retrieve_objects", objects.retrieve_objects, uses=["retrieval"], version="2")
+    registry.add_stage("place_objects", objects.place_objects, uses=["retrieval"], version="2")
     registry.add_stage("fit_objects", objects.fit_objects, uses=["renderer", "optimizer"], version="2")
     registry.add_stage("assign_materials", materials.assign_materials, uses=["renderer", "material_graph", "texture"],
                        sidecars=[CROPS_SUFFIX])

@@ -3,6 +3,7 @@ cloud with support relations, then refine all poses jointly by differentiable re
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, replace
 from collections.abc import Callable
@@ -24,6 +25,8 @@ from ..visualize import plot_curves, segment_overlay
 
 if TYPE_CHECKING:
     import torch
+
+log = logging.getLogger("psdr_room")
 
 
 def _queries(ctx: StageContext, image: Image, panoptic: Panoptic, cloud: PointCloud, room: RoomBox) -> list[ObjectQuery]:
@@ -93,9 +96,15 @@ def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image,
     (:func:`~psdr_room_core.view_search.fit_view`): the yaw is chosen where it can be seen, which the small
     paper start cannot, and an object half hidden behind another keeps its whole size.
 
+    Objects the segmentation guessed (segments with a ``score``: ``segmentation=layout``'s discoveries) are
+    dropped, and logged, when the fit cannot explain them: the posed model's visible silhouette overlaps the
+    mask by less than ``prune.min_iou``, or it needs a scale outside ``prune.scale`` (database models are
+    real size). Segments a person drew are kept whatever the fit.
+
     Params: ``init``, ``pick`` (segment id → rank or model id), ``radius_factor``, ``n_yaw``, ``render_width``,
     ``search`` (:class:`~psdr_room_core.view_search.SearchParams` fields but ``n_yaw``), ``support``
-    (:class:`SupportParams` fields), ``min_points``, ``min_pixels``.
+    (:class:`SupportParams` fields), ``prune`` {``min_iou``, ``scale``: [low, high]}, ``min_points``,
+    ``min_pixels``.
     """
     retriever = ctx.impl("retrieval")
     c2w = np.asarray(room.camera_to_world)
@@ -112,19 +121,27 @@ def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image,
     support = SupportParams(**{k: tuple(v) if k == "grounded" else v for k, v in ctx.params["support"].items()})
     search = SearchParams(n_yaw=int(ctx.params["n_yaw"]), **ctx.params["search"])
     relations = support_relations(queries, panoptic.mask("floor"), room, support)
+    guessed = {s.id for s in panoptic.segments if s.score is not None}
+    min_iou, (low, high) = float(ctx.params["prune"]["min_iou"]), map(float, ctx.params["prune"]["scale"])
     placed: dict[int, Placement] = {}
+    pruned: list[str] = []
     order = sorted(queries, key=lambda q: relations[q.segment_id][0][0] == "parent")  # parents before children
     for q in order:
         model_id = _pick(candidates.ranked[q.segment_id], picks.get(q.segment_id), q.segment_id)
         mesh = retriever.mesh(model_id)
-        if init == "silhouette":  # each support the rules allow; the view search picks
-            target = ViewTarget.build(camera, c2w, q.mask, q.points, q.scene_points, int(ctx.params["render_width"]))
+        supports = [(k, a) for k, a in relations[q.segment_id] if k != "parent" or a in placed] or [("free", None)]
+        if init == "silhouette":  # each support the rules allow (a dropped parent holds nothing); the view search picks
+            target = ViewTarget.build(camera, c2w, q.mask, q.points, q.scene_points, int(ctx.params["render_width"]),
+                                      box=q.box)
             fits = [(fit_view(target, mesh.vertices, mesh.faces, search, _support_height(k, a, placed)), k, a)
-                    for k, a in relations[q.segment_id]]
+                    for k, a in supports]
             view, kind, anchor = min(fits, key=lambda f: f[0].error)
             position, yaw, scale = view.position, view.yaw, view.scale
+            if q.segment_id in guessed and (view.iou < min_iou or not low <= scale <= high):
+                pruned.append(f"{q.segment_id}:{q.label} (IoU {view.iou:.2f}, scale {scale:.2f})")
+                continue
         else:
-            kind, anchor = relations[q.segment_id][0]
+            kind, anchor = supports[0]
             target = cv2.resize(q.mask.astype(np.uint8), (cam.width, cam.height), interpolation=cv2.INTER_AREA) > 0
             position, scale = initial_pose(q.points, mesh.vertices, float(ctx.params["radius_factor"]))
             yaw, _ = best_yaw(cam, c2w, mesh.vertices, mesh.faces, position, scale, target, int(ctx.params["n_yaw"]))
@@ -139,7 +156,10 @@ def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image,
         placed[q.segment_id] = Placement(segment_id=q.segment_id, label=q.label, model_id=model_id, mesh=mesh,
                                          position=tuple(map(float, position)), yaw=float(yaw), scale=float(scale),
                                          support=kind, anchor=anchor)
-    return Placements(objects=[placed[q.segment_id] for q in queries if q.segment_id in placed])
+    if pruned:
+        log.info("place_objects: dropped %d guessed object(s) no model explains: %s", len(pruned), ", ".join(pruned))
+    return Placements(objects=[placed[q.segment_id] for q in queries if q.segment_id in placed],
+                      extra={"pruned": pruned})
 
 
 def _top(p: Placement) -> float:
@@ -160,13 +180,17 @@ class ObjectTargets:
     """[P,h,w] area-filtered masks of the objects' segments."""
     masked_depth: np.ndarray
     """[P,h,w] mask × mean depth of the segment's pixels with valid depth."""
+    weights: np.ndarray
+    """[P,h,w] how much each pixel counts in the object's terms: 0 on the free pixels of a prompted segment
+    (its prompt box outside its mask: the object may reach there or not), 1 elsewhere."""
 
 
 def object_targets(placements: Placements, panoptic: Panoptic, depth: DepthMap, size: tuple[int, int]) -> ObjectTargets:
     def area(x: np.ndarray) -> np.ndarray:
         return cv2.resize(x.astype(np.float32), size, interpolation=cv2.INTER_AREA)
 
-    masks, masked = [], []
+    boxes = {s.id: s.box for s in panoptic.segments}
+    masks, masked, weights = [], [], []
     for p in placements.objects:
         mask = panoptic.ids == p.segment_id
         valid = mask & depth.valid
@@ -175,7 +199,13 @@ def object_targets(placements: Placements, panoptic: Panoptic, depth: DepthMap, 
         coverage = area(mask)
         masks.append(coverage)
         masked.append(coverage * mean_depth)
-    return ObjectTargets(masks=np.stack(masks).astype(np.float32), masked_depth=np.stack(masked).astype(np.float32))
+        free = np.zeros(mask.shape, bool)
+        if boxes.get(p.segment_id) is not None:
+            x0, y0, x1, y1 = (max(0, int(round(v))) for v in boxes[p.segment_id])
+            free[y0:y1, x0:x1] = True
+        weights.append(1.0 - area(free & ~mask))
+    return ObjectTargets(masks=np.stack(masks).astype(np.float32), masked_depth=np.stack(masked).astype(np.float32),
+                         weights=np.stack(weights).astype(np.float32))
 
 
 def gaussian_pyramid_blur(masks: torch.Tensor, sigmas: tuple[float, ...]) -> torch.Tensor:
@@ -267,7 +297,8 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
     """Refine all object poses jointly (§4.3, eq. 3) by differentiable rendering of their masks and depth.
 
     Minimises ``Σ_i L1(M_i^r · D^r, M_i^t · D_i) / d + w_blur · Σ_i L1(G(M_i^r), G(M_i^t))`` with ``d`` the
-    targets' 98th-percentile depth and ``G`` Gaussian blurs of ``blur_sigmas`` pixels, over each object's
+    targets' 98th-percentile depth and ``G`` Gaussian blurs of ``blur_sigmas`` pixels (a prompted segment's free
+    pixels, its prompt box outside its mask, left out: :class:`ObjectTargets`), over each object's
     scale, horizontal translation and yaw under its support constraint (:class:`PoseModel`), with the
     ``renderer`` and the ``optimizer``. Params: ``iterations``, ``render_width``, ``blur_sigmas``,
     ``blur_weight``, ``learning_rates`` {translation (room half-size units), log_scale, yaw (degrees)},
@@ -288,6 +319,7 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
     parts = {name: i for i, name in enumerate(meshes)}
     renderer = ctx.impl("renderer").geometry(cam, np.asarray(room.camera_to_world), meshes, parts)
     t_masks, t_masked = torch.from_numpy(targets.masks), torch.from_numpy(targets.masked_depth)
+    t_weights = torch.from_numpy(targets.weights)
     valid = targets.masked_depth[targets.masks > 0.5] / np.maximum(targets.masks[targets.masks > 0.5], 1e-6)
     depth_scale = float(np.percentile(valid, 98)) if valid.size else 1.0
     sigmas = tuple(float(s) for s in params["blur_sigmas"])
@@ -297,8 +329,8 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
         """Eq. 3's term of each object [P], and the logged terms."""
         masks, weighted_depth, alpha = renderer.render(model.vertices(), iteration)
         rendered_depth = weighted_depth / alpha.clamp_min(1e-3)
-        depth_term = (masks * rendered_depth - t_masked).abs().mean(dim=(1, 2)) / depth_scale
-        blur_term = (gaussian_pyramid_blur(masks, sigmas) - t_blur).abs().mean(dim=(2, 3)).sum(dim=0)
+        depth_term = (t_weights * (masks * rendered_depth - t_masked).abs()).mean(dim=(1, 2)) / depth_scale
+        blur_term = (t_weights * (gaussian_pyramid_blur(masks, sigmas) - t_blur).abs()).mean(dim=(2, 3)).sum(dim=0)
         iou = ((masks * t_masks).sum((1, 2)) / (masks + t_masks - masks * t_masks).sum((1, 2)).clamp_min(1e-6)).mean()
         terms = {"mask_depth_l1": depth_term.sum().item(), "blurred_mask_l1": blur_term.sum().item(),
                  "mean_iou": iou.item()}

@@ -1,0 +1,246 @@
+"""Object discovery of segmentation=layout on a synthetic box room: footings, the prompt rules, proposals."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from psdr_room_core.artifacts import Camera, Detection, Detections, Image
+from psdr_room_core.objects import LABEL_TO_CATEGORIES, database_categories
+from psdr_room_plugins.detectors.coco import INDOOR
+from psdr_room_plugins.layout import box
+from psdr_room_plugins.layout.discovery import (Candidate, DiscoveryParams, Footing, Selection, absorbs, discover,
+                                                footing, group_size, implausible, part_of, vote_labels)
+from psdr_room_plugins.layout.manhattan import frame_from_vanishing_points
+from psdr_room_plugins.layout.proposals import ProposalParams, clutter_proposals
+from psdr_room_plugins.layout.segmentation import LayoutSegmentation
+from psdr_room_plugins.layout.surfaces import SurfaceColours, unprompted
+from psdr_room_plugins.object_db import CATEGORIES
+
+PHOTO = Path("room.png")
+ROOM = np.array([-2.0, 1.6, 0.7, -3.0, 3.2])  # camera heights (psdr_room_plugins.layout.box)
+WIDTH, HEIGHT = 320, 240
+
+
+def _rotation(yaw_deg: float, pitch_deg: float) -> np.ndarray:
+    y, p = math.radians(yaw_deg), math.radians(pitch_deg)
+    yaw = np.array([[math.cos(y), 0, math.sin(y)], [0, 1, 0], [-math.sin(y), 0, math.cos(y)]])
+    pitch = np.array([[1, 0, 0], [0, math.cos(p), -math.sin(p)], [0, math.sin(p), math.cos(p)]])
+    return pitch @ np.diag([-1.0, -1.0, 1.0]) @ yaw
+
+
+@pytest.fixture(scope="module")
+def room() -> dict:
+    """A plain box room (one flat grey per surface, a little noise) seen by a known camera."""
+    rotation = _rotation(25.0, 8.0)
+    camera = Camera.from_vfov(WIDTH, HEIGHT, 55.0)
+    vps = (camera.K @ rotation).T
+    camera = Camera.from_vfov(WIDTH, HEIGHT, 55.0,
+                              extra={"vanishing_points": (vps / np.linalg.norm(vps, axis=1, keepdims=True)).tolist()})
+    frame = frame_from_vanishing_points(camera, camera.extra["vanishing_points"])
+    rays = frame.rays(camera, WIDTH, HEIGHT)
+    labels, t = box.trace(rays.reshape(-1, 3), ROOM[None])
+    labels, t = labels[0].reshape(HEIGHT, WIDTH), t[0].reshape(HEIGHT, WIDTH)
+    shade = np.array([0.55, 0.62, 0.35, 0.85, 0.6, 0.7])[labels]
+    rgb = np.repeat(shade[..., None], 3, axis=2) * np.array([1.0, 0.97, 0.9])
+    rgb = rgb + np.random.default_rng(0).normal(0, 0.01, rgb.shape)
+    return {"camera": camera, "rays": rays, "labels": labels, "t": t, "rgb": np.clip(rgb, 0, 1).astype(np.float32)}
+
+
+def _standing_box(room: dict, left: int, right: int, height_m: float, camera_height_m: float = 1.5,
+                  above_bottom: int = 20) -> np.ndarray:
+    """The mask of a front-facing panel standing on the floor: columns ``left:right``, bottom on the floor
+    ``above_bottom`` rows above the photo's bottom edge, top ``height_m`` above the floor."""
+    rays, labels, t = room["rays"], room["labels"], room["t"]
+    col = (left + right) // 2
+    bottom = HEIGHT - 1 - above_bottom
+    assert labels[bottom, col] == box.FLOOR
+    depth = t[bottom, col]
+    contact = rays[bottom, col] * depth
+    normal = np.array([contact[0], 0.0, contact[2]]) / np.hypot(contact[0], contact[2])
+    top_y = height_m / camera_height_m - 1.0
+    along = rays[:, col] @ normal
+    y_on_plane = rays[:, col, 1] * (contact @ normal) / along
+    top = int(np.flatnonzero(y_on_plane <= top_y)[0])
+    mask = np.zeros(labels.shape, bool)
+    mask[top:bottom + 1, left:right] = True
+    return mask
+
+
+def _candidate(label: str, box_: tuple, score: float, seen: str = "floor") -> Candidate:
+    category = (database_categories(label, "object") or ("object",))[0]
+    return Candidate(Detection(label, "object", box_, score), np.zeros((1, 1), bool), category, Footing(None, seen))
+
+
+# ----------------------------------------------------------------------------------------------- footing
+def test_footing_measures_where_an_object_stands_and_how_tall_it_is(room: dict) -> None:
+    mask = _standing_box(room, 140, 180, height_m=0.8)
+    found = footing(mask, room["rays"], np.zeros_like(mask), camera_height_m=1.5)
+    bottom = np.flatnonzero(mask.any(axis=1))[-1]
+    assert found.seen == "floor" and found.depth == pytest.approx(room["t"][bottom, 160], rel=0.02)
+    assert found.top_m == pytest.approx(0.8, abs=0.04)
+    cut = np.zeros_like(mask)
+    cut[150:, 100:140] = True  # runs off the bottom of the photo
+    assert footing(cut, room["rays"], np.zeros_like(mask), 1.5).seen == "cut"
+    hidden = footing(mask, room["rays"], np.roll(mask, 20, axis=0) & ~mask, 1.5)  # a nearer object below it
+    assert hidden.seen == "hidden" and hidden.top_m is None
+    high = np.zeros_like(mask)
+    high[5:30, 140:170] = True  # above the horizon: on a wall
+    assert footing(high, room["rays"], np.zeros_like(mask), 1.5).floating
+
+
+def test_implausible_footings_and_heights() -> None:
+    params = DiscoveryParams()
+    chair = _candidate("chair", (0, 0, 10, 10), 0.5)
+    assert implausible(chair, params) is None
+    floating = Candidate(chair.detection, chair.mask, "chair", Footing(None, "floating"))
+    assert "floating" in implausible(floating, params)
+    assert implausible(Candidate(chair.detection, chair.mask, "frame", Footing(None, "floating")), params) is None
+    tall = Candidate(chair.detection, chair.mask, "chair", Footing(3.0, "floor", top_m=4.5))
+    assert "4.50 m tall for a chair" in implausible(tall, params)
+    shelf = Candidate(chair.detection, chair.mask, "shelf", Footing(3.0, "floor", top_m=2.2))
+    assert implausible(shelf, params) is None
+
+
+# ----------------------------------------------------------------------------------------------- prompt rules
+def test_a_sofa_keeps_its_seats_whichever_is_found_first() -> None:
+    params = DiscoveryParams()
+    sofa = _candidate("couch", (100, 100, 300, 180), 0.5)
+    seat = _candidate("chair", (190, 110, 290, 180), 0.45)  # the right half, taken for a chair
+    assert part_of(seat, sofa, params)  # the sofa first: the seat is its part
+    assert absorbs(sofa, seat, params)  # the seat first: the sofa takes it back
+    weak_sofa = _candidate("couch", (100, 100, 300, 180), 0.1)
+    assert not absorbs(weak_sofa, seat, params)  # a far weaker "couch" does not swallow a confident chair
+
+
+def test_chairs_behind_chairs_stay_apart_but_second_boxes_on_one_object_merge() -> None:
+    params = DiscoveryParams()
+    near = _candidate("chair", (100, 100, 220, 300), 0.7)
+    behind = _candidate("chair", (130, 110, 200, 220), 0.4)  # inside its box, standing further back (higher)
+    assert not part_of(behind, near, params)
+    second = _candidate("chair", (105, 150, 215, 298), 0.3)  # a second box on the same chair
+    assert part_of(second, near, params)
+    top = _candidate("dining table", (100, 100, 400, 140), 0.5)  # a table's top boxed apart from the table
+    whole = _candidate("dining table", (95, 95, 405, 260), 0.4)
+    assert absorbs(whole, top, params) and not part_of(whole, top, params)
+
+
+def test_a_box_round_two_chairs_is_a_group() -> None:
+    params = DiscoveryParams()
+    both = _candidate("chair", (100, 100, 400, 300), 0.3)
+    left, right = _candidate("chair", (105, 110, 240, 300), 0.6), _candidate("chair", (260, 105, 395, 298), 0.5)
+    assert group_size(both, [both, left, right], params) == 2
+    assert group_size(both, [both, left], params) == 1
+    faint = _candidate("chair", (260, 105, 395, 298), 0.1)
+    assert group_size(both, [both, left, faint], params) == 1  # too faint to count
+    back, seat = _candidate("chair", (110, 100, 300, 190), 0.5), _candidate("chair", (100, 200, 310, 298), 0.5)
+    assert group_size(both, [both, back, seat], params) == 1  # stacked: one chair's back and seat
+
+
+def test_weak_prompts_the_room_explains_are_dropped(room: dict) -> None:
+    rgb = room["rgb"].copy()
+    cabinet = _standing_box(room, 60, 120, height_m=0.9)
+    rgb[cabinet] = [0.55, 0.25, 0.15]
+    rgb8 = (rgb * 255).astype(np.uint8)
+    surfaces = SurfaceColours(rgb8, room["labels"], unprompted(room["labels"].shape, []))
+    rows, cols = np.nonzero(cabinet)
+    around = (cols.min() - 3.0, rows.min() - 3.0, cols.max() + 4.0, rows.max() + 4.0)
+    on_cabinet = Detection("oven", "object", around, 0.2)
+    on_floor = Detection("bed", "object", (180.0, 200.0, 300.0, 238.0), 0.2)  # nothing there but floor
+    found = discover(rgb8, room["rays"], surfaces, [on_cabinet, on_floor], DiscoveryParams(), proposals=None)
+    assert [f.detection.label for f in found] == ["oven"]
+    assert (found[0].mask & cabinet).sum() / (found[0].mask | cabinet).sum() > 0.8
+
+
+def test_nearer_objects_are_painted_over_farther_ones(room: dict) -> None:
+    rgb = room["rgb"].copy()
+    far, near = _standing_box(room, 120, 200, 1.0, above_bottom=50), _standing_box(room, 150, 230, 0.7, above_bottom=8)
+    rgb[far], rgb[near] = [0.2, 0.3, 0.7], [0.7, 0.2, 0.2]
+    rgb8 = (rgb * 255).astype(np.uint8)
+    surfaces = SurfaceColours(rgb8, room["labels"], unprompted(room["labels"].shape, []))
+
+    def around(mask: np.ndarray, label: str, score: float) -> Detection:
+        rows, cols = np.nonzero(mask)
+        return Detection(label, "object", (cols.min() - 2.0, rows.min() - 2.0, cols.max() + 3.0, rows.max() + 3.0),
+                         score)
+
+    found = discover(rgb8, room["rays"], surfaces, [around(near, "chair", 0.8), around(far, "cabinet", 0.6)],
+                     DiscoveryParams(), proposals=None)
+    assert [f.detection.label for f in found] == ["cabinet", "chair"]  # far first
+    assert not (found[0].mask & found[1].mask).any()
+
+
+# ----------------------------------------------------------------------------------------------- proposals
+def test_what_the_room_cannot_explain_becomes_an_object(room: dict) -> None:
+    """No prompt at all: a red cabinet against the plain room is found by its colour alone."""
+    rgb = room["rgb"].copy()
+    cabinet = _standing_box(room, 60, 120, height_m=0.9)
+    rgb[cabinet] = [0.55, 0.25, 0.15]
+    rgb8 = (rgb * 255).astype(np.uint8)
+    surfaces = SurfaceColours(rgb8, room["labels"], unprompted(room["labels"].shape, []))
+    proposals = clutter_proposals(surfaces, np.zeros_like(cabinet), ProposalParams())
+    assert len(proposals) == 1 and proposals[0].label == "object"
+    assert proposals[0].score < DiscoveryParams().trusted_score  # weak: every check applies
+    image = Image(rgb=rgb8.astype(np.float32) / 255.0, source=str(PHOTO), original_size=(WIDTH, HEIGHT))
+    segmentation = LayoutSegmentation(n_random=1500, proposals=vars(ProposalParams()))
+    panoptic = segmentation.segment(image, room["camera"], Detections(items=[]), PHOTO)
+    objects = [s for s in panoptic.segments if s.category == "object"]
+    assert len(objects) == 1 and objects[0].label == "object" and objects[0].score == pytest.approx(0.2)
+    mask = panoptic.ids == objects[0].id
+    assert (mask & cabinet).sum() / (mask | cabinet).sum() > 0.8
+
+
+def test_an_empty_room_gives_no_objects_and_no_error(room: dict) -> None:
+    rgb8 = (room["rgb"] * 255).astype(np.uint8)
+    surfaces = SurfaceColours(rgb8, room["labels"], np.ones(room["labels"].shape, bool))
+    assert clutter_proposals(surfaces, np.zeros(room["labels"].shape, bool), ProposalParams()) == []
+    assert discover(rgb8, room["rays"], surfaces, [], DiscoveryParams(), ProposalParams()) == []
+    selection = Selection(rgb8, room["rays"], surfaces, DiscoveryParams())
+    selection.consider([Detection("chair", "object", (0.0, 0.0, 1.0, 1.0), 0.9)])  # a one-pixel box
+    assert selection.kept == []
+
+
+# ----------------------------------------------------------------------------------------------- categories
+def test_the_category_table_maps_every_detector_class_into_the_database() -> None:
+    for label in INDOOR:
+        assert all(c in CATEGORIES for c in database_categories(label, "object")), label
+    assert all(c in CATEGORIES for cs in LABEL_TO_CATEGORIES.values() for c in cs)
+    for category in CATEGORIES:  # a database category's own name means it (COCO's bed, tv, refrigerator are wider)
+        if category not in ("bed", "tv", "refrigerator", "other"):
+            assert database_categories(category, "object") == (category,), category
+    oven = database_categories("oven", "object")
+    assert oven[0] == "appliance" and "cabinet" in oven
+    assert database_categories("Night Stand ", "object") == ("cabinet", "table")
+    assert database_categories("thing", "object") == () and database_categories("thing", "lamp") == ("lamp",)
+
+
+def test_overlapping_prompts_vote_for_the_label() -> None:
+    tv = Detection("tv", "object", (100.0, 100.0, 200.0, 220.0), 0.3)
+    chairs = [Detection("chair", "object", (102.0, 98.0, 198.0, 222.0), 0.2),
+              Detection("chair", "object", (98.0, 104.0, 204.0, 218.0), 0.18)]
+    far = Detection("tv", "object", (400.0, 100.0, 450.0, 150.0), 0.3)
+    voted = vote_labels([tv, *chairs, far], iou=0.6)
+    assert [d.label for d in voted] == ["chair", "chair", "chair", "tv"]
+    assert voted[0].score == 0.3 and voted[0].box == tv.box
+
+
+def test_a_proposal_inside_a_known_object_joins_it(room: dict) -> None:
+    """A chair whose cut kept its back but not its seat (lit brighter): the seat, which the room cannot explain,
+    is proposed and joined to the chair instead of becoming an object of its own."""
+    rgb = room["rgb"].copy()
+    back, seat = _standing_box(room, 60, 120, height_m=0.9), _standing_box(room, 60, 120, height_m=0.45)
+    back &= ~seat
+    rgb[back], rgb[seat] = [0.55, 0.1, 0.35], [0.95, 0.7, 0.2]
+    rgb8 = (rgb * 255).astype(np.uint8)
+    surfaces = SurfaceColours(rgb8, room["labels"], unprompted(room["labels"].shape, []))
+    whole = back | seat
+    rows, cols = np.nonzero(whole)
+    box = (cols.min() - 2.0, rows.min() - 2.0, cols.max() + 3.0, rows.max() + 3.0)
+    selection = Selection(rgb8, room["rays"], surfaces, DiscoveryParams())
+    selection.kept = [Candidate(Detection("chair", "object", box, 0.8), back.copy(), "chair", Footing(None, "cut"))]
+    selection.consider(clutter_proposals(surfaces, selection.occupied, ProposalParams()))
+    assert len(selection.kept) == 1 and "joined to a chair" in selection.dropped
+    assert (selection.kept[0].mask & whole).sum() / whole.sum() > 0.9
