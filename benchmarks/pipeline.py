@@ -86,6 +86,7 @@ def row(name: str, m: dict, extra: dict[str, float]) -> str:
     stages = m["stages"]
     cols = [name, f"{fit.get('rmse_init', float('nan')):.4f}", f"{fit.get('rmse', float('nan')):.4f}",
             f"{fit.get('ssim_init', float('nan')):.3f}", f"{fit.get('ssim', float('nan')):.3f}",
+            f"{fit.get('flip_init', float('nan')):.3f}", f"{fit.get('flip', float('nan')):.3f}",
             f"{extra['albedo_err']:.3f}" if "albedo_err" in extra else "–",
             f"{extra['light_ratio']:.2f}" if "light_ratio" in extra else "–",
             f"{fit.get('seconds_per_iteration', float('nan')):.2f}",
@@ -107,13 +108,13 @@ def ablations(env: dict[str, str]) -> None:
         shutil.rmtree(sweep)
     run([shutil.which("psdr-room") or "psdr-room", "--multirun", "+experiment=paper_ablations", f"image={EXAMPLE}",
          f"hydra.sweep.dir={sweep}"], env)
-    print("| ablation (Fig. 9) | RMSE init | RMSE fit | SSIM init | SSIM fit | wall s (this run) |")
-    print("|---|---|---|---|---|---|")
+    print("| ablation (Fig. 9) | RMSE init | RMSE fit | SSIM init | SSIM fit | FLIP init | FLIP fit | wall s (this run) |")
+    print("|---|---|---|---|---|---|---|---|")
     for job in ("full", "naive_fov", "naive_poses", "no_transform_search", "direct_light"):
         m = json.loads((sweep / job / "metrics.json").read_text())
         fit = m["fit_appearance_log"]
         print(f"| {job} | {fit['rmse_init']:.4f} | {fit['rmse']:.4f} | {fit['ssim_init']:.3f} | {fit['ssim']:.3f} | "
-              f"{m['total_seconds']:.0f} |")
+              f"{fit['flip_init']:.3f} | {fit['flip']:.3f} | {m['total_seconds']:.0f} |")
     print(f"\nrenders and reports: {sweep}/<ablation>/")
 
 
@@ -139,8 +140,9 @@ def main() -> None:
         scenes.append((f"synth {seed}", folder / "photo.png"))
     if not args.no_example:
         scenes.append(("example (NYU)", EXAMPLE))
-    print("| scene | RMSE init | RMSE fit | SSIM init | SSIM fit | albedo err | light power fit/true | s/it | total s |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| scene | RMSE init | RMSE fit | SSIM init | SSIM fit | FLIP init | FLIP fit | albedo err | light power fit/true "
+          "| s/it | total s |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     runs = {}
     for name, photo in scenes:
         start = time.perf_counter()

@@ -271,7 +271,7 @@ def evaluate(entry: Entry, run_dir: Path, db: ObjectDatabase, seconds: float, sh
         depth = DepthMap.load(art / "depth")
         row["silog"], row["absrel"] = depth_errors(depth.depth, truth, valid & depth.valid & (depth.depth > 0))
     fit = metrics.get("fit_appearance_log", {})
-    for key in ("rmse_init", "rmse", "ssim_init", "ssim"):
+    for key in ("rmse_init", "rmse", "ssim_init", "ssim", "flip_init", "flip", "denoiser"):
         if key in fit:
             row[key] = fit[key]
     render = art / "appearance" / "render.png"
@@ -319,14 +319,15 @@ def _ratio(row: dict, key: str) -> str:
 
 def format_table(rows: list[dict]) -> str:
     header = (f"{'photo':<24} {'FoV err':>7} {'segs':>4} {'fit':>4} {'seg rec':>7} {'obj rec':>7} {'si-log':>6} "
-              f"{'AbsRel':>6} {'RMSE init→fit':>15} {'SSIM init→fit':>13} {'s':>5}")
+              f"{'AbsRel':>6} {'RMSE init→fit':>15} {'SSIM init→fit':>13} {'FLIP init→fit':>13} {'s':>5}")
     lines = [header, "-" * len(header)]
     for r in rows:
         rmse = f"{r['rmse_init']:.3f}→{r['rmse']:.3f}" if "rmse" in r else "-"
         ssim = f"{r['ssim_init']:.3f}→{r['ssim']:.3f}" if "ssim" in r else "-"
+        flip = f"{r['flip_init']:.3f}→{r['flip']:.3f}" if "flip" in r else "-"
         lines.append(f"{r['photo']:<24} {_cell(r.get('fov_error'), '+.2f', 7)} {r['segments']:>4} {r['fitted']:>4} "
                      f"{_ratio(r, 'seg_recall'):>7} {_ratio(r, 'obj_recall'):>7} {_cell(r.get('silog'), '.3f', 6)} "
-                     f"{_cell(r.get('absrel'), '.3f', 6)} {rmse:>15} {ssim:>13} {r['seconds']:5.0f}")
+                     f"{_cell(r.get('absrel'), '.3f', 6)} {rmse:>15} {ssim:>13} {flip:>13} {r['seconds']:5.0f}")
     boxed = [r for r in rows if "references" in r]
     fov = [abs(r["fov_error"]) for r in rows if "fov_error" in r]
     refs = sum(r["references"] for r in boxed)
@@ -339,9 +340,9 @@ def format_table(rows: list[dict]) -> str:
         f"{(str(sum(r['obj_recall'] for r in boxed)) + '/' + str(refs)) if boxed else '-':>7} "
         f"{_cell(_median(rows, 'silog'), '.3f', 6)} {_cell(_median(rows, 'absrel'), '.3f', 6)} "
         f"{_better(improved, 'rmse', lower=True):>15} {_better(improved, 'ssim', lower=False):>13} "
-        f"{sum(r['seconds'] for r in rows):5.0f}")
-    lines.append("(FoV err: median |error| in the total row; si-log, AbsRel: medians; RMSE/SSIM: photos improved by "
-                 "the fit; recall at box IoU >= 0.5)")
+        f"{_better([r for r in improved if 'flip' in r], 'flip', lower=True):>13} {sum(r['seconds'] for r in rows):5.0f}")
+    lines.append("(FoV err: median |error| in the total row; si-log, AbsRel: medians; RMSE/SSIM/FLIP: photos improved by "
+                 "the fit (renders denoised unless denoiser=none); recall at box IoU >= 0.5)")
     unmapped = sorted({n for r in boxed for n in r.get("unmapped", [])})
     if unmapped:
         lines.append(f"reference classes not in REFERENCE_CLASSES (ignored): {', '.join(unmapped)}")
@@ -373,7 +374,7 @@ def compare_table(before: list[dict], after: list[dict]) -> str:
     """Recall and fit columns of an earlier run (``before``) beside this one's, per photo."""
     old = {r["photo"]: r for r in before}
     header = (f"{'photo':<24} {'segs':>9} {'fit':>9} {'seg rec':>13} {'obj rec':>13} {'RMSE fit':>13} "
-              f"{'SSIM fit':>13}")
+              f"{'SSIM fit':>13} {'FLIP fit':>13}")
     lines = [header, "-" * len(header)]
 
     def pair(a: dict | None, b: dict, key: str, fmt: str = "") -> str:
@@ -387,7 +388,7 @@ def compare_table(before: list[dict], after: list[dict]) -> str:
         o = old.get(r["photo"])
         lines.append(f"{r['photo']:<24} {pair(o, r, 'segments'):>9} {pair(o, r, 'fitted'):>9} "
                      f"{pair(o, r, 'seg_recall'):>13} {pair(o, r, 'obj_recall'):>13} {pair(o, r, 'rmse', '.3f'):>13} "
-                     f"{pair(o, r, 'ssim', '.3f'):>13}")
+                     f"{pair(o, r, 'ssim', '.3f'):>13} {pair(o, r, 'flip', '.3f'):>13}")
     return "\n".join(lines)
 
 

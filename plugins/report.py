@@ -127,8 +127,11 @@ def render_report(run: RunRecord, alpha: float) -> str:
         s = fit.summary
         perceptual = (f"LPIPS {s['lpips_init']:.3f} → {s['lpips']:.3f}" if "lpips" in s else
                       "LPIPS: not computed (psdr-room-models download alexnet_imagenet lpips_alex_v01 installs it)")
+        flip = f", ꟻLIP {s['flip_init']:.3f} → {s['flip']:.3f}" if "flip" in s else ""
         facts.append(f"RMSE (1/8 size) {s['rmse_init']:.4f} → {s['rmse']:.4f}, SSIM {s['ssim_init']:.3f} → "
-                     f"{s['ssim']:.3f}; {perceptual}")
+                     f"{s['ssim']:.3f}{flip}; {perceptual}")
+        if "denoiser" in s:
+            facts.append(f"renders denoised by: {s['denoiser']}")
     figures = "".join(
         f'<figure><img src="{_png(img)}" alt="{html.escape(title)}"><figcaption>{html.escape(title)}</figcaption></figure>'
         for title, img in _figures(run, alpha)

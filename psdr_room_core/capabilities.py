@@ -31,6 +31,7 @@ CAPABILITIES: tuple[str, ...] = (
     "material_graph",
     "texture",
     "optimizer",
+    "denoiser",
 )
 """Every capability, in pipeline order. Protocols below exist for those the pipeline calls today."""
 
@@ -44,6 +45,7 @@ DESCRIPTIONS: dict[str, str] = {
     "material_graph": "differentiable procedural material node graphs (§3.2, §4.4)",
     "texture": "texture descriptors for crop-to-crop losses (§3.2)",
     "optimizer": "gradient-based optimiser with per-parameter learning rates",
+    "denoiser": "removes Monte-Carlo noise from finished renders (pictures and metrics, never a loss)",
 }
 
 
@@ -155,6 +157,25 @@ class GeometryRenderer(Protocol):
                    iteration: int = 0, spp: int = 0, grad_spp: int = 0) -> torch.Tensor:
         """Linear RGB [H,W,3] with global illumination, differentiable with respect to the surfaces'
         parameters (constant or maps, as given at construction) and the emitters' radiance."""
+        ...
+
+    def render_guides(self, base_color: dict[str, torch.Tensor] | None = None,
+                      roughness: dict[str, torch.Tensor] | None = None, specular: dict[str, torch.Tensor] | None = None,
+                      radiance: dict[str, torch.Tensor] | None = None, spp: int = 16) -> tuple[np.ndarray, np.ndarray]:
+        """A denoiser's auxiliary images of what :meth:`render_rgb` shows with the same arguments: albedo and
+        shading normal, float32 [H,W,3] each (not differentiable)."""
+        ...
+
+
+@runtime_checkable
+class Denoiser(Protocol):
+    """``denoiser``: a finished linear render [H,W,3] without its Monte-Carlo noise, guided by the render's
+    albedo and normal when given. Used on pictures and metric images only, never inside a loss."""
+
+    def denoise(self, rgb: np.ndarray, albedo: np.ndarray | None = None, normal: np.ndarray | None = None) -> np.ndarray: ...
+
+    def describe(self) -> str:
+        """What ran, in a few words (``oidn 2.5.1 (high)``, or ``none`` and why)."""
         ...
 
 

@@ -16,7 +16,8 @@ Edits (``KEY=VALUE``, values in YAML):
 * ``camera.fov=<degrees>``: the vertical field of view.
 
 The edited scene is written to ``--out`` (default ``<scene>-edited``) as a complete scene folder (XML,
-meshes, maps, ``scene.glb``, ``appearance.json``), and rendered to ``render.png`` there.
+meshes, maps, ``scene.glb``, ``appearance.json``), and rendered to ``render.png`` there (denoised by
+``--denoiser``, default ``oidn``).
 """
 
 from __future__ import annotations
@@ -38,7 +39,8 @@ import yaml
 from .artifacts import Light, PartAppearance, appearance_fields, write_png
 from .errors import PsdrRoomError
 from .geometry import TriangleMesh
-from .rgb_scene import build_scene, to_srgb8
+from .plugins import plugin_system
+from .rgb_scene import GUIDE_SPP, build_scene, to_srgb8
 from .stages.export import read_mesh_ply, scene_folder
 
 HOMOGENEOUS_KEYS = ("base_color", "roughness", "specular")
@@ -170,8 +172,9 @@ def rebuild(scene_dir: Path, state: dict[str, Any], library: Any) -> Any:
                        int(state["texture_size"]))
 
 
-def render_folder(folder: Path, spp: int) -> np.ndarray:
-    """``scene.xml`` of a folder rendered by Mitsuba (sRGB uint8)."""
+def render_folder(folder: Path, spp: int, denoiser: Any) -> np.ndarray:
+    """``scene.xml`` of a folder rendered by Mitsuba and cleaned by ``denoiser`` (guided by the scene's albedo
+    and normal), as sRGB uint8."""
     import mitsuba as mi
 
     from psdr_room_plugins.mitsuba_renderer.llvm import resolve_variant
@@ -180,7 +183,10 @@ def render_folder(folder: Path, spp: int) -> np.ndarray:
     if mi.variant() != variant:
         mi.set_variant(variant)
     scene = mi.load_file(str(folder / "scene.xml"), spp=spp)
-    return to_srgb8(np.array(mi.render(scene, spp=spp)))
+    rgb = np.array(mi.render(scene, spp=spp), dtype=np.float32)
+    guides = mi.load_dict({"type": "aov", "aovs": "albedo:albedo,normal:sh_normal"})
+    aux = np.array(mi.render(scene, integrator=guides, spp=GUIDE_SPP), dtype=np.float32)
+    return to_srgb8(denoiser.denoise(rgb, aux[..., :3], aux[..., 3:6]))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -192,11 +198,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, help="where the edited scene goes (default: <scene>-edited)")
     parser.add_argument("--spp", type=int, default=64, help="samples per pixel of render.png (default 64)")
     parser.add_argument("--max-depth", type=int, default=3, help="path length in the written scene.xml (default 3)")
+    parser.add_argument("--denoiser", default="oidn", help="a denoiser implementation for render.png (default oidn; "
+                        "none: the path tracer's noisy image)")
     args = parser.parse_args(argv)
     out = args.out or args.scene.with_name(args.scene.name + "-edited")
     try:
         from psdr_room_plugins.material_graph.library import TorchGraphLibrary
 
+        denoiser = plugin_system().registry.implementation("denoiser", args.denoiser).factory()
         scene_dir = args.scene.resolve()
         if out.resolve() == scene_dir:
             raise PsdrRoomError(f"--out {out}: must differ from the scene folder it edits")
@@ -215,7 +224,7 @@ def main(argv: list[str] | None = None) -> int:
             for name, data in files.items():
                 (staging / name).parent.mkdir(parents=True, exist_ok=True)
                 (staging / name).write_bytes(data)
-            write_png(staging / "render.png", render_folder(staging, args.spp))
+            write_png(staging / "render.png", render_folder(staging, args.spp, denoiser))
             if out.exists():
                 shutil.rmtree(out)
             os.replace(staging, out)

@@ -1,5 +1,6 @@
-"""Image agreement between a render and the photo: RMSE on down-sampled images and SSIM (Wang et al. 2004),
-both on sRGB values in [0, 1]; and the differentiable pieces of the losses (luma, area down-sampling)."""
+"""Image agreement between a render and the photo: RMSE on down-sampled images, SSIM (Wang et al. 2004) and
+NVIDIA ꟻLIP (Andersson et al. 2020), all on sRGB values in [0, 1]; and the differentiable pieces of the losses
+(luma, area down-sampling)."""
 
 from __future__ import annotations
 
@@ -32,6 +33,16 @@ def ssim(a: np.ndarray, b: np.ndarray, sigma: float = 1.5) -> float:
     vx, vy, cxy = blur(x * x) - mx * mx, blur(y * y) - my * my, blur(x * y) - mx * my
     index = ((2 * mx * my + c1) * (2 * cxy + c2)) / ((mx * mx + my * my + c1) * (vx + vy + c2))
     return float(index.mean())
+
+
+def flip(test: np.ndarray, reference: np.ndarray) -> float:
+    """Mean ꟻLIP error of ``test`` against ``reference`` ([H, W, 3] sRGB in [0, 1]; LDR, the default 67 pixels
+    per degree): 0 for identical images, towards 1 for maximally different ones. Needs no weights."""
+    import flip_evaluator
+
+    as32 = lambda x: np.ascontiguousarray(np.clip(x, 0.0, 1.0), dtype=np.float32)  # noqa: E731
+    _, mean, _ = flip_evaluator.evaluate(as32(reference), as32(test), "LDR", inputsRGB=True, applyMagma=False)
+    return float(mean)
 
 
 def luminance(rgb: torch.Tensor) -> torch.Tensor:

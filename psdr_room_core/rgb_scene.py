@@ -164,6 +164,21 @@ def build_scene(meshes: Mapping[str, TriangleMesh], parts: Iterable[PartAppearan
     return scene
 
 
+GUIDE_SPP = 16
+"""Samples per pixel of a denoiser's albedo and normal guides (OIDN prefilters them)."""
+
+
+def finished_render(geometry: Any, denoiser: Any, inputs: Mapping[str, Any], spp: int,
+                    iteration: int) -> tuple[np.ndarray, np.ndarray]:
+    """A picture of ``geometry``'s RGB scene (``inputs``: :meth:`render_rgb` keyword arguments, no gradients):
+    linear (noisy, denoised) float32 [H, W, 3], the second by ``denoiser`` guided by the scene's albedo and
+    normal."""
+    with torch.no_grad():
+        noisy = geometry.render_rgb(**inputs, iteration=iteration, spp=spp).numpy()
+        albedo, normal = geometry.render_guides(**inputs, spp=GUIDE_SPP)
+    return noisy, denoiser.denoise(noisy, albedo, normal)
+
+
 def to_srgb8(linear: torch.Tensor | np.ndarray) -> np.ndarray:
     """A linear RGB render [H, W, 3] as displayable sRGB uint8."""
     array = linear.detach().cpu().numpy() if isinstance(linear, torch.Tensor) else np.asarray(linear)

@@ -26,6 +26,7 @@ from psdr_room_core.shading import linear_to_srgb, srgb_to_linear
 from psdr_room_core.stages.appearance import fit_appearance
 from psdr_room_core.stages.export import export_scene
 from psdr_room_core.stages.lighting import init_lights
+from psdr_room_plugins.denoisers import OidnDenoiser
 from psdr_room_plugins.material_graph import TorchGraphLibrary
 from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
 from psdr_room_plugins.optimizer_adam import Adam
@@ -65,7 +66,7 @@ def library() -> TorchGraphLibrary:
 
 def _implementations(library: TorchGraphLibrary) -> dict:
     return {"renderer": MitsubaRenderer(spp=4), "material_graph": library, "texture": RandomCnnDescriptor(),
-            "optimizer": Adam()}
+            "optimizer": Adam(), "denoiser": OidnDenoiser(quality="fast")}
 
 
 def _assignment(albedo: dict[str, tuple[float, float, float]]) -> MaterialAssignment:
@@ -156,6 +157,8 @@ def test_fit_appearance_matches_the_photo_better(fitted: dict, library: TorchGra
     log = fitted["out"]["log"]
     s = log.summary
     assert s["rmse"] < 0.3 * s["rmse_init"], s  # (SSIM: the flat photo floor against a textured one decides it)
+    assert s["flip"] < s["flip_init"] and s["denoiser"].startswith("oidn"), s
+    assert s["ssim"] > s["ssim_noisy"], s  # the denoised picture is the closer one
     first, last = log.history[0], log.history[-1]
     assert last["image"] < first["image"] and last["colour"] < first["colour"]
     appearance = fitted["out"]["appearance"]
@@ -237,6 +240,10 @@ def test_edits_rerender_without_optimising(exported: Path, tmp_path: Path, capsy
     a, b = (cv2.imread(str(d / "render.png")).astype(float) for d in (base, brighter))
     assert b.mean() > 1.3 * a.mean()
     assert (brighter / "textures" / "floor_base_color.png").is_file() and (brighter / "scene.glb").is_file()
+    noisy = tmp_path / "noisy"  # render.png is denoised unless --denoiser none
+    assert edit_main([str(exported), "--out", str(noisy), "--spp", "32", "--denoiser", "none"]) == 0
+    grain = lambda img: float(np.abs(img - cv2.medianBlur(img.astype(np.uint8), 3)).mean())  # noqa: E731
+    assert grain(a) < 0.6 * grain(cv2.imread(str(noisy / "render.png")).astype(float))
     capsys.readouterr()
     assert edit_main([str(exported), "material.sofa=red_brick", "--out", str(tmp_path / "bad")]) == 2
     err = capsys.readouterr().err

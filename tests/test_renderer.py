@@ -352,3 +352,32 @@ def test_unknown_shape_and_bad_vertices_are_one_line_errors(renderer_cls) -> Non
         renderer.render({"object": torch.zeros(4, 3)})
     with pytest.raises(PsdrRoomError, match="not in meshes"):
         renderer_cls().geometry(camera, c2w, _meshes(), {"sofa": 4})
+
+
+def test_render_guides_show_the_given_surfaces(renderer_cls) -> None:
+    import torch
+
+    geometry = _rgb_geometry(renderer_cls, rgb_spp=4)
+    albedo, normal = geometry.render_guides(base_color={"object": torch.tensor([0.1, 0.9, 0.2])}, spp=4)
+    assert albedo.shape == normal.shape == (geometry.height, geometry.width, 3)
+    covered = np.linalg.norm(normal, axis=-1) > 0.5
+    assert covered.mean() > 0.9  # a closed room: every pixel sees a surface
+    unit = np.abs(np.linalg.norm(normal[covered], axis=-1) - 1.0) < 1e-3
+    assert unit.mean() > 0.9  # unit normals, but where a pixel's samples straddle a crease
+    assert np.any(np.all(np.abs(albedo - [0.1, 0.9, 0.2]) < 1e-3, axis=-1))  # the new colour shows...
+    assert not np.any(np.all(np.abs(albedo - [0.8, 0.3, 0.2]) < 1e-3, axis=-1))  # ...instead of the old one
+
+
+def test_oidn_brings_a_noisy_render_towards_the_converged_one(renderer_cls) -> None:
+    import torch
+
+    from psdr_room_plugins.denoisers import OidnDenoiser
+
+    geometry = _rgb_geometry(renderer_cls, rgb_spp=4)
+    with torch.no_grad():
+        noisy = geometry.render_rgb(spp=4, iteration=1).numpy()
+        converged = geometry.render_rgb(spp=1024, iteration=2).numpy()
+    clean = OidnDenoiser(quality="fast").denoise(noisy, *geometry.render_guides(spp=8))
+    error = lambda x: float(np.sqrt(np.mean((np.clip(x, 0, 1) - np.clip(converged, 0, 1)) ** 2)))  # noqa: E731
+    assert clean.shape == noisy.shape and clean.dtype == np.float32
+    assert error(clean) < 0.5 * error(noisy)

@@ -362,18 +362,7 @@ class MitsubaGeometryRenderer:
         import torch
 
         scene = self._rgb_scene()
-        inputs = self._inputs(vertices)
-        for channel, values in (("base_color", base_color), ("roughness", roughness), ("specular", specular)):
-            for name, value in (values or {}).items():
-                if name not in self.shapes:
-                    raise PsdrRoomError(f"renderer.render_rgb: {channel} for unknown shape '{name}'")
-                key = scene.surface_keys[name][channel]
-                inputs.append((key, _as_input(value, scene.params[key], f"{channel}['{name}']")))
-        for name, value in (radiance or {}).items():
-            if name not in self.emitters:
-                raise PsdrRoomError(f"renderer.render_rgb: radiance for unknown emitter '{name}'")
-            key = scene.radiance_keys[name]
-            inputs.append((key, _as_input(value, scene.params[key], f"radiance['{name}']")))
+        inputs = self._inputs(vertices) + self._surface_inputs(scene, base_color, roughness, specular, radiance)
         if self.renderer.variant == "scalar_rgb" and any(t.requires_grad for _, t in inputs):
             raise PsdrRoomError(
                 "renderer.mitsuba.variant=scalar_rgb has no gradients; use variant=auto or llvm_ad_rgb, or pass "
@@ -391,6 +380,44 @@ class MitsubaGeometryRenderer:
                                          self._seed(iteration), (int(spp), int(grad_spp or spp)),
                                          *[t for _, t in inputs])
         return image if image.dtype == torch.float32 else image.float()
+
+    def render_guides(
+        self,
+        base_color: Mapping[str, "torch.Tensor"] | None = None,
+        roughness: Mapping[str, "torch.Tensor"] | None = None,
+        specular: Mapping[str, "torch.Tensor"] | None = None,
+        radiance: Mapping[str, "torch.Tensor"] | None = None,
+        spp: int = 16,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Albedo (the principled BSDF's base colour; black on emitters) and shading normal (world space) of
+        the RGB scene with the surfaces :meth:`render_rgb` would get from the same arguments, float32
+        [H,W,3] each, ``spp`` samples per pixel of Mitsuba's ``aov`` integrator: a denoiser's guides."""
+        scene = self._rgb_scene()
+        mi = self.renderer.activate()
+        inputs = self._surface_inputs(scene, base_color, roughness, specular, radiance)
+        scene.set_inputs([k for k, _ in inputs], [t.detach().to("cpu").float().numpy() for _, t in inputs])
+        if scene.guides is None:
+            scene.guides = mi.load_dict({"type": "aov", "aovs": "albedo:albedo,normal:sh_normal"})
+        image = np.array(scene.guides.render(scene.scene, sensor=0, seed=_opaque_seed(0), spp=int(spp)), dtype=np.float32)
+        return image[..., :3], image[..., 3:6]
+
+    def _surface_inputs(self, scene: "_MitsubaScene", base_color: Mapping[str, Any] | None,
+                        roughness: Mapping[str, Any] | None, specular: Mapping[str, Any] | None,
+                        radiance: Mapping[str, Any] | None) -> list[tuple[str, "torch.Tensor"]]:
+        """(parameter key, tensor) of every surface and emitter value given, checked against the scene."""
+        inputs = []
+        for channel, values in (("base_color", base_color), ("roughness", roughness), ("specular", specular)):
+            for name, value in (values or {}).items():
+                if name not in self.shapes:
+                    raise PsdrRoomError(f"renderer.render_rgb: {channel} for unknown shape '{name}'")
+                key = scene.surface_keys[name][channel]
+                inputs.append((key, _as_input(value, scene.params[key], f"{channel}['{name}']")))
+        for name, value in (radiance or {}).items():
+            if name not in self.emitters:
+                raise PsdrRoomError(f"renderer.render_rgb: radiance for unknown emitter '{name}'")
+            key = scene.radiance_keys[name]
+            inputs.append((key, _as_input(value, scene.params[key], f"radiance['{name}']")))
+        return inputs
 
 
 def _as_input(value: Any, current: Any, what: str) -> "torch.Tensor":
@@ -426,6 +453,7 @@ class _MitsubaScene:
         self._projective = projective or passes
         self.surface_keys: dict[str, dict[str, str]] = {}
         self.radiance_keys: dict[str, str] = {}
+        self.guides: Any = None  # the aov integrator of render_guides, made on first use
 
     def with_mode(self, mode: str) -> "_MitsubaScene":
         self.passes = self._projective if mode == "projective" else self._plain

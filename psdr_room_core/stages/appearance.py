@@ -14,8 +14,8 @@ from ..artifacts import (Camera, Image, Lights, MaterialAssignment, Optimization
                          RoomBox, SceneAppearance)
 from .. import lpips
 from ..dag import StageContext
-from ..image_metrics import downsampled, rmse, ssim
-from ..rgb_scene import build_scene, graph_maps, initial_parts, part_meshes, render_part_ids
+from ..image_metrics import downsampled, flip, rmse, ssim
+from ..rgb_scene import build_scene, finished_render, graph_maps, initial_parts, part_meshes, render_part_ids
 from ..shading import linear_to_srgb
 from ..visualize import plot_curves
 
@@ -118,8 +118,10 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     colour term, and are not optimised), ``crops_per_part`` (largest first), ``max_crop_aspect`` (see
     :func:`squarish`) and ``radiance_range`` (how far each light may move from its initial radiance).
 
-    The log's summary has RMSE (1/8 size) and SSIM of the init and final renders (``final_spp``) against the
-    photo, and LPIPS when its weights are installed (:mod:`psdr_room_core.lpips`).
+    The init and final renders (``final_spp``) are pictures, not loss terms: the ``denoiser`` cleans them with
+    the scene's albedo and normal. The log's summary has their RMSE (1/8 size), SSIM and ꟻLIP against the photo
+    (``*_noisy``: the same before denoising; ``denoiser``: what ran), and LPIPS when its weights are installed
+    (:mod:`psdr_room_core.lpips`).
     """
     params = ctx.params
     library, descriptor, renderer = ctx.impl("material_graph"), ctx.impl("texture"), ctx.impl("renderer")
@@ -178,20 +180,22 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     rates = {name: float(params["learning_rates"][group]) for name, group in model.group.items()}
     history = ctx.impl("optimizer").minimize(model.theta, rates, loss, int(params["iterations"]),
                                              lambda it: ctx.progress(it, total=int(params["iterations"])))
-    final_spp = int(params["final_spp"])
+    final_spp, denoiser = int(params["final_spp"]), ctx.impl("denoiser")
     with torch.no_grad():
-        start = linear_to_srgb(geometry.render_rgb(**AppearanceModel(parts, lights, library, model.map_size, seen).inputs(),
-                                                   iteration=10**6, spp=final_spp)).numpy()
-        final = linear_to_srgb(geometry.render_rgb(**model.inputs(), iteration=10**6 + 1, spp=final_spp)).numpy()
+        initial = AppearanceModel(parts, lights, library, model.map_size, seen).inputs()
+        start_noisy, start = (linear_to_srgb(x) for x in finished_render(geometry, denoiser, initial, final_spp, 10**6))
+        final_noisy, final = (linear_to_srgb(x) for x in finished_render(geometry, denoiser, model.inputs(), final_spp,
+                                                                        10**6 + 1))
     parts, radiance = model.result()
-    metrics = {"rmse_init": rmse(start, photo), "rmse": rmse(final, photo), "ssim_init": ssim(start, photo),
-               "ssim": ssim(final, photo), "iterations": len(history), "fitted_parts": sorted(seen),
+    metrics = {**_agreement(start, final, photo), **_agreement(start_noisy, final_noisy, photo, "_noisy"),
+               "denoiser": denoiser.describe(), "iterations": len(history), "fitted_parts": sorted(seen),
                "seconds_per_iteration": float(np.median([h["seconds"] for h in history])) if history else 0.0}
     scorer = lpips.installed()
     if scorer is not None:  # the paper's perceptual metric, only with its real weights
         metrics.update(lpips_init=scorer(start, photo), lpips=scorer(final, photo))
-    log.info("fit_appearance: RMSE %.4f -> %.4f, SSIM %.3f -> %.3f", metrics["rmse_init"], metrics["rmse"],
-             metrics["ssim_init"], metrics["ssim"])
+    log.info("fit_appearance: RMSE %.4f -> %.4f, SSIM %.3f -> %.3f, FLIP %.3f -> %.3f (denoiser: %s)",
+             metrics["rmse_init"], metrics["rmse"], metrics["ssim_init"], metrics["ssim"], metrics["flip_init"],
+             metrics["flip"], metrics["denoiser"])
     as8 = lambda x: (np.clip(x, 0, 1) * 255 + 0.5).astype(np.uint8)  # noqa: E731
     curves = {k: [h[k] for h in history] for k in ("loss", "image", "colour", "texture") if history and k in history[0]}
     images = {"photo_init_final": np.hstack([as8(photo), as8(start), as8(final)])}
@@ -201,6 +205,14 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
         images["loss"] = plot_curves(curves, title="fit_appearance (eq. 4)")
     appearance = SceneAppearance(parts=parts, radiance=radiance, images={"render": as8(final)})
     return {"appearance": appearance, "log": OptimizationLog(history=history, images=images, summary=metrics)}
+
+
+def _agreement(start: np.ndarray, final: np.ndarray, photo: np.ndarray, suffix: str = "") -> dict[str, float]:
+    """RMSE (1/8 size), SSIM and FLIP of the initial and final sRGB renders against the photo."""
+    out = {}
+    for name, metric in (("rmse", rmse), ("ssim", ssim), ("flip", flip)):
+        out[f"{name}_init{suffix}"], out[f"{name}{suffix}"] = metric(start, photo), metric(final, photo)
+    return out
 
 
 def squarish(rect: list[int], max_aspect: float) -> list[int]:

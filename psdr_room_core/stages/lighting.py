@@ -14,7 +14,7 @@ from ..dag import StageContext
 from ..geometry import TriangleMesh, quad_mesh
 from ..image_metrics import downsampled, luminance
 from ..lighting import behind_camera_light, ceiling_lights, wall_window_light, window_panel
-from ..rgb_scene import build_scene, initial_parts, part_meshes, render_part_ids, room_quads, to_srgb8
+from ..rgb_scene import GUIDE_SPP, build_scene, initial_parts, part_meshes, render_part_ids, room_quads, to_srgb8
 from ..shading import linear_to_srgb
 from ..visualize import plot_curves
 
@@ -72,8 +72,9 @@ def init_lights(ctx: StageContext, image: Image, panoptic: Panoptic, camera: Cam
     scene = build_scene(meshes, initial_parts(materials, ctx.impl("material_graph")), lights, fixtures,
                         ctx.impl("material_graph"), 64)
     width = min(int(params["render_width"]), camera.width)
+    geometry = scene.renderer(ctx.impl("renderer"), camera, c2w, width)
     with torch.no_grad():
-        unit = scene.renderer(ctx.impl("renderer"), camera, c2w, width).render_rgb(spp=int(params["spp"]))
+        unit = geometry.render_rgb(spp=int(params["spp"]))
     photo = torch.from_numpy(np.asarray(image.rgb, np.float32))
     photo = F.interpolate(photo.permute(2, 0, 1)[None], size=unit.shape[:2], mode="area")[0].permute(1, 2, 0)
     factor = int(params["downsample"])
@@ -85,10 +86,11 @@ def init_lights(ctx: StageContext, image: Image, panoptic: Panoptic, camera: Cam
         sweep.append((float(value), float((render - target).abs().mean())))
     best = min(sweep, key=lambda s: s[1])[0]
     lights = [Light(l.name, l.kind, l.mesh, (best, best, best), l.part) for l in lights]
+    picture = ctx.impl("denoiser").denoise(unit.numpy() * best, *geometry.render_guides(spp=GUIDE_SPP))
     curve = plot_curves({"L1 luminance vs log radiance": [s[1] for s in sweep]},
                         title=f"initial radiance sweep: {best:.3g} chosen of {low:g}..{high:g}")
     log.info("%d lights (%s); initial radiance %.3g", len(lights),
                  ", ".join(f"{k} {sum(l.kind == k for l in lights)}" for k in dict.fromkeys(l.kind for l in lights)), best)
     return Lights(lights=lights, fixtures=fixtures, sweep=sweep,
-                  images={"initial_render": np.hstack([to_srgb8(unit * best), (photo.numpy() * 255 + 0.5).astype(np.uint8)]),
+                  images={"initial_render": np.hstack([to_srgb8(picture), (photo.numpy() * 255 + 0.5).astype(np.uint8)]),
                           "radiance_sweep": curve})
