@@ -172,9 +172,9 @@ def rebuild(scene_dir: Path, state: dict[str, Any], library: Any) -> Any:
                        int(state["texture_size"]))
 
 
-def render_folder(folder: Path, spp: int, denoiser: Any) -> np.ndarray:
-    """``scene.xml`` of a folder rendered by Mitsuba and cleaned by ``denoiser`` (guided by the scene's albedo
-    and normal), as sRGB uint8."""
+def render_with_guides(xml: Path, spp: int, **size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A scene file rendered by Mitsuba (``size``: ``width``/``height`` overriding its defaults): linear RGB,
+    and the albedo and normal a denoiser is guided by, float32 [H, W, 3] each."""
     import mitsuba as mi
 
     from psdr_room_plugins.mitsuba_renderer.llvm import resolve_variant
@@ -182,11 +182,16 @@ def render_folder(folder: Path, spp: int, denoiser: Any) -> np.ndarray:
     variant = resolve_variant("auto")
     if mi.variant() != variant:
         mi.set_variant(variant)
-    scene = mi.load_file(str(folder / "scene.xml"), spp=spp)
+    scene = mi.load_file(str(xml), spp=spp, **size)
     rgb = np.array(mi.render(scene, spp=spp), dtype=np.float32)
     guides = mi.load_dict({"type": "aov", "aovs": "albedo:albedo,normal:sh_normal"})
     aux = np.array(mi.render(scene, integrator=guides, spp=GUIDE_SPP), dtype=np.float32)
-    return to_srgb8(denoiser.denoise(rgb, aux[..., :3], aux[..., 3:6]))
+    return rgb, aux[..., :3], aux[..., 3:6]
+
+
+def render_folder(folder: Path, spp: int, denoiser: Any) -> np.ndarray:
+    """``scene.xml`` of a folder rendered by Mitsuba and cleaned by ``denoiser``, as sRGB uint8."""
+    return to_srgb8(denoiser.denoise(*render_with_guides(folder / "scene.xml", spp)))
 
 
 def main(argv: list[str] | None = None) -> int:
