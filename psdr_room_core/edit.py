@@ -178,14 +178,14 @@ def render_with_guides(xml: Path, spp: int, **size: int) -> tuple[np.ndarray, np
     import mitsuba as mi
 
     from psdr_room_plugins.mitsuba_renderer.llvm import resolve_variant
+    from psdr_room_plugins.mitsuba_renderer.session import GUIDES
 
     variant = resolve_variant("auto")
     if mi.variant() != variant:
         mi.set_variant(variant)
     scene = mi.load_file(str(xml), spp=spp, **size)
     rgb = np.array(mi.render(scene, spp=spp), dtype=np.float32)
-    guides = mi.load_dict({"type": "aov", "aovs": "albedo:albedo,normal:sh_normal"})
-    aux = np.array(mi.render(scene, integrator=guides, spp=GUIDE_SPP), dtype=np.float32)
+    aux = np.array(mi.render(scene, integrator=mi.load_dict(GUIDES), spp=GUIDE_SPP), dtype=np.float32)
     return rgb, aux[..., :3], aux[..., 3:6]
 
 

@@ -33,6 +33,9 @@ from .llvm import VARIANTS, resolve_variant
 if TYPE_CHECKING:
     import torch
 
+GUIDES = {"type": "aov", "aovs": "albedo:albedo,normal:sh_normal"}
+"""Mitsuba's ``aov`` integrator giving a denoiser's guides: albedo (channels 0-2) and shading normal (3-5)."""
+
 CV_TO_MITSUBA = np.diag([-1.0, -1.0, 1.0, 1.0])
 """OpenCV camera axes (x right, y down, z forward) → Mitsuba's (x left, y up, z forward)."""
 
@@ -397,7 +400,7 @@ class MitsubaGeometryRenderer:
         inputs = self._surface_inputs(scene, base_color, roughness, specular, radiance)
         scene.set_inputs([k for k, _ in inputs], [t.detach().to("cpu").float().numpy() for _, t in inputs])
         if scene.guides is None:
-            scene.guides = mi.load_dict({"type": "aov", "aovs": "albedo:albedo,normal:sh_normal"})
+            scene.guides = mi.load_dict(GUIDES)
         image = np.array(scene.guides.render(scene.scene, sensor=0, seed=_opaque_seed(0), spp=int(spp)), dtype=np.float32)
         return image[..., :3], image[..., 3:6]
 
