@@ -11,7 +11,13 @@ in [−45°, 90°], offset, crop aspect). A query's rank is that of its material
 their nearest database crop; we report top-1 and top-5 accuracy over all queries, and the quantiles of the
 best match's similarity, on which the stage's ``min_similarity`` is calibrated.
 
-    python benchmarks/materials.py [--queries 4] [--sigma 0.5] [--texture random_cnn] [--fit] [--json out.json]
+Flatness. The same queries' :func:`~psdr_room_core.surface_colours.texture_energy`, per material, beside
+that of the room sides' crops of real photos run bare (``--real-runs``: a ``benchmarks/real_photos.py``
+output's ``runs`` folder, crops as ``assign_materials`` chose them): the stage's ``flat_energy`` sits above
+the real plain surfaces and the library's paints, plasters, glass and plastics, and below its wood, tiles,
+stone, brick and carpets.
+
+    python benchmarks/materials.py [--queries 4] [--sigma 0.5] [--fit] [--real-runs DIR] [--json out.json]
 
 Timings are wall-clock seconds on this machine with ``torch.set_num_threads(--threads)`` (default 1).
 """
@@ -25,16 +31,22 @@ import statistics
 import time
 from collections.abc import Callable
 
+from pathlib import Path
+
+import cv2
 import numpy as np
 import torch
+import yaml
 
 from psdr_room_core.material_search import MaterialIndex
+from psdr_room_core.surface_colours import texture_energy
 from psdr_room_plugins.material_graph import TorchGraphLibrary
 from psdr_room_plugins.material_graph.nodes.ops import sample_tiled
 from psdr_room_plugins.material_graph.thumbnails import shade
 from psdr_room_plugins.texture import RandomCnnDescriptor
 
 CROP = 128
+STAGE_CONF = Path(__file__).resolve().parents[1] / "conf" / "stage" / "assign_materials.yaml"
 
 
 def timed(fn: Callable[[], object], repeat: int = 3) -> float:
@@ -68,6 +80,7 @@ def retrieval(library: TorchGraphLibrary, descriptor: RandomCnnDescriptor, queri
     names = index.names
     ranks: list[int] = []
     similarities: list[float] = []
+    energies: dict[str, list[float]] = {}
     confusions: dict[str, list[str]] = {}
     start = time.perf_counter()
     with torch.no_grad():
@@ -84,6 +97,7 @@ def retrieval(library: TorchGraphLibrary, descriptor: RandomCnnDescriptor, queri
                 size = (CROP, max(64, round(CROP * aspect)))
                 offset = (float(torch.rand((), generator=generator)), float(torch.rand((), generator=generator)))
                 crop = sample_tiled(image, size, scale=scale, rotation_deg=rotation, offset=offset)
+                energies.setdefault(name, []).append(texture_energy(crop.clamp(0, 1).permute(1, 2, 0).numpy()))
                 distances = index.distances(descriptor, descriptor.describe(crop))
                 order = torch.argsort(distances).tolist()
                 rank = order.index(number)
@@ -100,7 +114,36 @@ def retrieval(library: TorchGraphLibrary, descriptor: RandomCnnDescriptor, queri
         "worst": sorted(((sum(r == 0 for r in v) / len(v), n) for n, v in per_material.items()))[:8],
         "confusions": confusions, "database_s": db_seconds, "query_s": query_seconds,
         "similarity": quantiles, "spacing": index.spacing,
+        "energy": {name: float(np.median(values)) for name, values in energies.items()},
     }
+
+
+def real_energies(runs: Path) -> dict[str, list[float]]:
+    """Texture energy of every room side's crop (floor, ceiling, walls) in each run under ``runs``, by side."""
+    out: dict[str, list[float]] = {}
+    for run in sorted(p for p in runs.iterdir() if (p / "artifacts" / "materials" / "materials.json").is_file()):
+        rgb = cv2.imread(str(run / "artifacts" / "image" / "image.png"))[..., ::-1].astype(np.float32) / 255.0
+        for part in json.loads((run / "artifacts" / "materials" / "materials.json").read_text())["parts"]:
+            if not part["part"].startswith("object"):
+                for x0, y0, x1, y1 in part["crops"]:
+                    out.setdefault(part["part"].split("_")[0], []).append(texture_energy(rgb[y0:y1, x0:x1]))
+    return out
+
+
+def flatness_table(library_energy: dict[str, float], real: dict[str, list[float]], threshold: float) -> None:
+    """Print the flatness calibration (see the module docstring)."""
+    print(f"\n## Flatness (texture energy; assign_materials.flat_energy = {threshold:g})\n")
+    print("| population | crops | p10 | median | p90 | max | under flat_energy |\n| --- | --- | --- | --- | --- | --- | --- |")
+    rows = [("library materials (median of their queries)", list(library_energy.values()))]
+    rows += [(f"real photos: {side} crops", values) for side, values in sorted(real.items())]
+    for label, values in rows:
+        q = np.percentile(values, [10, 50, 90])
+        print(f"| {label} | {len(values)} | {q[0]:.3f} | {q[1]:.3f} | {q[2]:.3f} | {max(values):.3f} | "
+              f"{sum(v < threshold for v in values)}/{len(values)} |")
+    plain = sorted((v, n) for n, v in library_energy.items() if v < threshold)
+    print("Library materials a flat colour stands in for: " + ", ".join(f"{n} {v:.3f}" for v, n in plain))
+    textured = sorted((v, n) for n, v in library_energy.items() if v >= threshold)[:6]
+    print("Least textured of the rest: " + ", ".join(f"{n} {v:.3f}" for v, n in textured))
 
 
 def timings(library: TorchGraphLibrary, descriptor: RandomCnnDescriptor) -> dict[str, object]:
@@ -169,6 +212,7 @@ def main() -> None:
     parser.add_argument("--fit", action="store_true", help="also fit every graph to a target made by itself")
     parser.add_argument("--fit-size", type=int, default=96)
     parser.add_argument("--fit-iterations", type=int, default=100)
+    parser.add_argument("--real-runs", type=Path, help="runs/ of a real_photos.py output: calibrate flatness on it")
     parser.add_argument("--json", default=None, help="write the results to this JSON file")
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
@@ -186,6 +230,10 @@ def main() -> None:
     print(f"Similarity of each query's best match (1 − d / library spacing {r['spacing']:.4f}): "
           + ", ".join(f"{k} {v:.3f}" for k, v in q.items()) + " (assign_materials.min_similarity is calibrated on p10)")
     print("Confused with: " + "; ".join(f"{k} -> {', '.join(v)}" for k, v in r["confusions"].items()))  # type: ignore[union-attr]
+    real = real_energies(args.real_runs) if args.real_runs else {}
+    results["real_energy"] = real
+    flat_energy = float(yaml.safe_load(STAGE_CONF.read_text())["flat_energy"])
+    flatness_table(r["energy"], real, flat_energy)  # type: ignore[arg-type]
 
     if not args.no_timings:
         t = timings(library, descriptor)

@@ -411,6 +411,8 @@ def main() -> None:
             sys.exit(f"real_photos: --only {', '.join(sorted(unknown))}: not in {args.photos / 'index.csv'}; "
                      f"names: {', '.join(e.name for e in entries)}")
         entries = [e for e in entries if e.name in args.only]
+    if args.compare and not args.compare.is_file():
+        sys.exit(f"real_photos: --compare {args.compare}: no such file; give the rows.json an earlier run wrote")
     cache = (args.cache or args.out / "cache").resolve()
     os.environ.setdefault("PSDR_ROOM_CACHE_DIR", str(cache))  # the object database's own records and thumbnails
     db = ObjectDatabase.builtin()

@@ -25,9 +25,11 @@ from .errors import PsdrRoomError
 CROPS_SUFFIX = ".crops.yaml"
 
 
-def largest_rectangle(mask: np.ndarray) -> tuple[Rect, int]:
-    """The axis-aligned rectangle of largest area inside a boolean mask, ``((x0, y0, x1, y1), area)``
-    (area 0 for an empty mask): row by row, the largest rectangle under the histogram of run heights."""
+def largest_rectangle(mask: np.ndarray, min_side: int = 1) -> tuple[Rect, int]:
+    """The axis-aligned rectangle of largest area inside a boolean mask with both sides at least
+    ``min_side``, ``((x0, y0, x1, y1), area)`` (area 0 when there is none): row by row, the largest rectangle
+    under the histogram of run heights (every maximal rectangle is met, and a constrained optimum grows
+    into one, so filtering them by side is exact)."""
     ys, xs = np.nonzero(mask)
     if not len(ys):
         return (0, 0, 0, 0), 0
@@ -44,7 +46,7 @@ def largest_rectangle(mask: np.ndarray) -> tuple[Rect, int]:
             while stack and row[stack[-1]] >= row[x]:
                 height = row[stack.pop()]
                 left = stack[-1] + 1 if stack else 0
-                if height * (x - left) > best[1]:
+                if height * (x - left) > best[1] and min(height, x - left) >= min_side:
                     best = ((ox + left, oy + y + 1 - height, ox + x, oy + y + 1), height * (x - left))
             stack.append(x)
     return best
@@ -52,13 +54,13 @@ def largest_rectangle(mask: np.ndarray) -> tuple[Rect, int]:
 
 def crop_windows(region: np.ndarray, max_crops: int, min_side: int, min_area: int) -> list[Rect]:
     """Up to ``max_crops`` disjoint rectangles inside ``region``, largest first: each is the largest rectangle
-    of what the previous ones left, kept while its shorter side is at least ``min_side`` pixels and its area
-    at least ``min_area``."""
+    with both sides at least ``min_side`` pixels in what the previous ones left, kept while its area is at
+    least ``min_area``."""
     left = region.copy()
     windows: list[Rect] = []
     while len(windows) < max_crops:
-        (x0, y0, x1, y1), area = largest_rectangle(left)
-        if area < min_area or min(x1 - x0, y1 - y0) < min_side:
+        (x0, y0, x1, y1), area = largest_rectangle(left, min_side)
+        if area < min_area or area == 0:
             break
         windows.append((x0, y0, x1, y1))
         left[y0:y1, x0:x1] = False

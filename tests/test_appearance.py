@@ -14,6 +14,7 @@ import cv2
 import numpy as np
 import pytest
 import torch
+import yaml
 
 from psdr_room_core.artifacts import (Camera, Image, Light, Lights, MaterialAssignment, Panoptic,
                                       PartMaterial, Placements, PointCloud, RoomBox, Segment)
@@ -25,7 +26,7 @@ from psdr_room_core.rgb_scene import build_scene, initial_parts, part_meshes, re
 from psdr_room_core.shading import linear_to_srgb, srgb_to_linear
 from psdr_room_core.stages.appearance import fit_appearance
 from psdr_room_core.stages.export import export_scene
-from psdr_room_core.stages.lighting import init_lights
+from psdr_room_core.stages.lighting import init_lights, white_balance
 from psdr_room_plugins.denoisers import OidnDenoiser
 from psdr_room_plugins.material_graph import TorchGraphLibrary
 from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
@@ -50,9 +51,8 @@ CAMERA = Camera.from_vfov(96, 72, 60.0)
 TRUE_SRGB = {"floor": (0.45, 0.36, 0.30), "ceiling": (0.85, 0.85, 0.82), "wall_x_neg": (0.70, 0.55, 0.40),
              "wall_x_pos": (0.40, 0.55, 0.70), "wall_z_neg": (0.6, 0.6, 0.6), "wall_z_pos": (0.55, 0.65, 0.45)}
 TRUE_RADIANCE = 2.5
-LIGHT_PARAMS = {"ceiling_grid": [3, 3], "cell_ratio": 0.8, "behind_ratio": 0.8, "window_ratio": 0.5, "hidden_wall_px": 1,
-                "frame_width": 0.05, "drop": 0.01, "render_width": 96, "spp": 64, "downsample": 8,
-                "sweep": {"min": 0.05, "max": 200.0, "count": 49}}
+LIGHT_PARAMS = {**{k: v for k, v in yaml.safe_load((ROOT / "conf" / "stage" / "init_lights.yaml").read_text()).items()
+                   if not k.startswith("_")}, "render_width": 96}
 FIT_PARAMS = {"iterations": 40, "render_width": 96, "spp": 8, "grad_spp": 4, "final_spp": 128, "map_size": 32,
               "downsample": 8, "min_region_px": 16, "weights": {"image": 1.0, "colour": 1.0, "texture": 0.05},
               "learning_rates": {"graph": 0.05, "base_color": 0.05, "roughness": 0.05, "specular": 0.05, "radiance": 0.05},
@@ -122,10 +122,13 @@ def test_initial_radiance_is_recovered_from_one_render(library: TorchGraphLibrar
     image, panoptic, _ = photo
     ctx = StageContext("init_lights", LIGHT_PARAMS, 0, Path("photo.png"), _implementations(library))
     lights = init_lights(ctx, image, panoptic, CAMERA, ROOM, Placements(objects=[]), _assignment(TRUE_SRGB))
-    chosen = lights.lights[0].radiance[0]
-    step = (200.0 / 0.05) ** (1 / 48)
+    radiances = {l.radiance for l in lights.lights}
+    assert len(radiances) == 1
+    rgb = np.array(radiances.pop())
+    chosen = float(rgb @ [0.2126, 0.7152, 0.0722])
+    step = (LIGHT_PARAMS["sweep"]["max"] / LIGHT_PARAMS["sweep"]["min"]) ** (1 / (LIGHT_PARAMS["sweep"]["count"] - 1))
     assert 1 / step <= chosen / TRUE_RADIANCE <= step, chosen
-    assert {l.radiance for l in lights.lights} == {(chosen,) * 3}
+    assert np.allclose(rgb / chosen, 1.0, atol=0.03), rgb  # white lights made the photo: white lights come back
     assert set(lights.images) == {"initial_render", "radiance_sweep"}
 
 
@@ -252,6 +255,18 @@ def test_edits_rerender_without_optimising(exported: Path, tmp_path: Path, capsy
         from psdr_room_core.edit import apply_edit, load_state
 
         apply_edit(load_state(exported), "material.floor", "no_such_graph", TorchGraphLibrary(use_plugins=False))
+
+
+def test_white_balance_gives_a_warm_photo_warm_lights() -> None:
+    rng = np.random.default_rng(3)
+    render = torch.from_numpy(rng.uniform(0.02, 0.3, (40, 50, 3)).astype(np.float32))
+    render[:5] = 0.0  # pixels the render does not cover do not count
+    warm = np.array([1.25, 1.0, 0.7])
+    photo = linear_to_srgb(render * 2.0 * torch.tensor(warm, dtype=torch.float32))
+    photo[:5] = 1.0
+    gains = white_balance(render, photo, max_gain=2.0)
+    assert gains == pytest.approx(warm / (warm @ [0.2126, 0.7152, 0.0722]), rel=0.01)
+    assert white_balance(render, photo, max_gain=1.1) == pytest.approx(np.clip(gains, 1 / 1.1, 1.1))
 
 
 def test_srgb_curves_invert_each_other() -> None:

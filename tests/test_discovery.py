@@ -17,7 +17,7 @@ from psdr_room_plugins.layout.discovery import (Candidate, DiscoveryParams, Foot
 from psdr_room_plugins.layout.manhattan import frame_from_vanishing_points
 from psdr_room_plugins.layout.proposals import ProposalParams, clutter_proposals
 from psdr_room_plugins.layout.segmentation import LayoutSegmentation
-from psdr_room_plugins.layout.surfaces import SurfaceColours, unprompted
+from psdr_room_core.surface_colours import SurfaceColours, unprompted
 from psdr_room_plugins.object_db import CATEGORIES
 
 PHOTO = Path("room.png")

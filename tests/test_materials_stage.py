@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
+import yaml
 
 from psdr_room_core.artifacts import Camera, Image, MaterialAssignment, Panoptic, Placements, RoomBox, Segment
 from psdr_room_core.crops import crop_windows, largest_rectangle, read_crops
@@ -18,10 +19,12 @@ from psdr_room_core.material_search import (MaterialIndex, luminance, search_tra
                                             surface_view, tiled_view, vote)
 from psdr_room_core.rgb_scene import render_part_ids
 from psdr_room_core.stages.materials import assign_materials, scene_parts
+from psdr_room_core.surface_colours import dominant_colour, texture_energy
 from psdr_room_plugins.material_graph import TorchGraphLibrary
 from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
 from psdr_room_plugins.texture import RandomCnnDescriptor
 
+CONF = Path(__file__).resolve().parents[1] / "conf"
 C2W = np.eye(4)
 C2W[:3, :3] = np.diag([-1.0, -1.0, 1.0])  # OpenCV camera looking along world +Z, Y up ...
 tilt = math.radians(-25)  # ... pitched down to see the floor
@@ -30,9 +33,10 @@ C2W[:3, 3] = [0.0, 1.5, -2.5]
 ROOM = RoomBox(camera_to_world=C2W, center=np.array([0.0, 1.5, 0.0]), half_size=np.array([3.0, 1.5, 3.0]), yaw=0.0)
 CAMERA = Camera.from_vfov(200, 150, 60.0)
 WALL = (0.62, 0.52, 0.40)
-PARAMS = {"render_width": 200, "erode_px": 2, "max_crops": 3, "min_crop_px": 24, "top_k": 10, "min_similarity": 0.33,
-          "scales": [0.5, 1.0, 2.0, 4.0, 8.0], "rotations": [-45.0, 0.0, 45.0, 90.0], "map_size": 128,
-          "roughness": 0.5, "room_colours": {"floor": [0.4, 0.4, 0.4], "ceiling": [0.8, 0.8, 0.8], "wall": [0.7, 0.7, 0.7]}}
+PARAMS = {**{k: v for k, v in yaml.safe_load((CONF / "stage" / "assign_materials.yaml").read_text()).items()
+             if not k.startswith("_")}, "render_width": 200, "map_size": 128}
+SHELF = (slice(20, 52), slice(70, 130))
+"""Rows and columns of the photo where a bookshelf the segmentation calls wall stands before the far wall."""
 
 
 @pytest.fixture(scope="module")
@@ -46,17 +50,20 @@ def descriptor() -> RandomCnnDescriptor:
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_largest_rectangle_matches_brute_force(seed: int) -> None:
-    mask = np.random.default_rng(seed).random((30, 40)) > 0.15
+@pytest.mark.parametrize("min_side", [1, 3])
+def test_largest_rectangle_matches_brute_force(seed: int, min_side: int) -> None:
+    mask = np.random.default_rng(seed).random((30, 40)) > 0.08
     best = 0
     for y0 in range(30):
-        for y1 in range(y0 + 1, 31):
+        for y1 in range(y0 + min_side, 31):
             run = 0
             for full in mask[y0:y1].all(axis=0):
                 run = run + 1 if full else 0
-                best = max(best, run * (y1 - y0))
-    (x0, y0, x1, y1), area = largest_rectangle(mask)
+                if run >= min_side:
+                    best = max(best, run * (y1 - y0))
+    (x0, y0, x1, y1), area = largest_rectangle(mask, min_side)
     assert area == best == (x1 - x0) * (y1 - y0) and mask[y0:y1, x0:x1].all()
+    assert min(x1 - x0, y1 - y0) >= min_side
 
 
 def test_crop_windows_are_disjoint_inside_and_large_enough() -> None:
@@ -126,10 +133,12 @@ def test_transform_search_recovers_the_scale_and_rotation(library: TorchGraphLib
     assert luminance(fit.views[0]) == pytest.approx(luminance(crops[0][0]), rel=0.05)
 
 
-def _rendered_room(tmp_path: Path, library: TorchGraphLibrary, material: str, scale: float
+def _rendered_room(tmp_path: Path, library: TorchGraphLibrary, material: str, scale: float, shelf: bool = False
                    ) -> tuple[StageContext, Image, Panoptic]:
     """A photo of the room: the floor wears ``material`` (planar x/z mapping, ``scale``), the walls and
-    ceiling flat colours with a little noise; the panoptic labels come from the same render."""
+    ceiling flat colours with a little noise; the panoptic labels come from the same render. With ``shelf``,
+    a dark bookshelf with pale shelves stands at :data:`SHELF`, labelled wall (clutter the segmentation
+    missed)."""
     ctx = StageContext("assign_materials", PARAMS, 0, tmp_path / "photo.png",
                        {"renderer": MitsubaRenderer(spp=4), "material_graph": library, "texture": RandomCnnDescriptor()})
     empty = Panoptic(ids=np.zeros((150, 200), np.int32), segments=[])
@@ -154,6 +163,9 @@ def _rendered_room(tmp_path: Path, library: TorchGraphLibrary, material: str, sc
     texture = torch.nn.functional.avg_pool2d(texture[None], sub)[0].permute(1, 2, 0).numpy()
     floor = panoptic_ids == 1
     rgb[floor] = texture[floor]
+    if shelf:
+        rgb[SHELF] = (0.25, 0.16, 0.10)
+        rgb[SHELF[0].start:SHELF[0].stop:8, SHELF[1]] = (0.80, 0.74, 0.60)
     panoptic = Panoptic(ids=panoptic_ids, segments=[Segment(1, "floor", "floor"), Segment(2, "ceiling", "ceiling"),
                                                     Segment(3, "wall", "wall")])
     return ctx, Image(rgb=np.clip(rgb, 0, 1), original_size=(200, 150)), panoptic
@@ -189,3 +201,42 @@ def test_user_crops_replace_the_automatic_ones(tmp_path: Path, library: TorchGra
     (tmp_path / "photo.crops.yaml").write_text("crops:\n  - {image: [60, 120, 140, 148], part: sofa}\n")
     with pytest.raises(PsdrRoomError, match="part 'sofa' is not in the scene"):
         assign_materials(ctx, image, panoptic, CAMERA, ROOM, Placements(objects=[]))
+
+
+def test_crops_and_colours_avoid_clutter_the_segmentation_called_wall(tmp_path: Path, library: TorchGraphLibrary
+                                                                      ) -> None:
+    ctx, image, panoptic = _rendered_room(tmp_path, library, "herringbone_oak", 2.0, shelf=True)
+    assert set(np.unique(panoptic.ids[SHELF])) == {3}  # the shelf is all "wall" in the segmentation
+    out = assign_materials(ctx, image, panoptic, CAMERA, ROOM, Placements(objects=[]))
+    far = out.part("wall_z_pos")
+    assert far is not None and far.crops and far.kind == "homogeneous"
+    rows, cols = SHELF
+    for x0, y0, x1, y1 in (c for p in out.parts for c in p.crops):
+        assert x1 <= cols.start or x0 >= cols.stop or y1 <= rows.start or y0 >= rows.stop, (x0, y0, x1, y1)
+    assert np.allclose(far.albedo, WALL, atol=0.02)  # the clean pixels' median, not pulled by the shelf
+    hidden = out.part("wall_z_neg")
+    assert hidden is not None and np.allclose(hidden.albedo, WALL, atol=0.02)
+
+
+def test_flatness_tells_plain_paint_from_texture(library: TorchGraphLibrary) -> None:
+    """Plain crops (a colour, a shading gradient, sensor noise) measure under ``flat_energy``; library
+    textures seen as a camera would (64-px crops of the material's appearance) above it."""
+    rng = np.random.default_rng(1)
+    threshold = PARAMS["flat_energy"]
+    ys, xs = np.mgrid[0:80, 0:120] / 120.0
+    for colour in ((0.85, 0.82, 0.75), (0.45, 0.5, 0.55), (0.12, 0.1, 0.1)):
+        shading = (0.7 + 0.3 * xs + 0.1 * ys)[..., None]
+        plain = np.clip(np.asarray(colour) * shading + rng.normal(0, 0.01, (80, 120, 3)), 0, 1)
+        assert texture_energy(plain) < threshold, colour
+    for name in ("herringbone_oak", "wool_basketweave", "white_square_tiles", "white_painted_brick"):
+        look = library.appearance(name, 128)
+        crop = look.clamp(0, 1).permute(1, 2, 0).numpy()[:96, :96]
+        assert texture_energy(crop) > threshold, name
+
+
+def test_dominant_colour_is_the_colour_most_pixels_share() -> None:
+    rgb8 = np.zeros((10, 10, 3), np.uint8)
+    rgb8[:6] = (230, 225, 210)  # a pale wall ...
+    rgb8[6:8] = (200, 120, 60)  # ... a cork board ...
+    rgb8[8:] = (20, 20, 25)     # ... a dark desk front: the channel medians would mix them
+    assert dominant_colour(rgb8, np.ones((10, 10), bool)) == pytest.approx((230 / 255, 225 / 255, 210 / 255))

@@ -20,7 +20,7 @@ STAGES = ["load_image", "estimate_fov", "detect", "segment", "estimate_depth", "
           "fit_appearance", "export_scene"]
 SMALL = ["room_fit.iterations=8", "room_fit.render_width=64", "fit_objects.iterations=4", "fit_objects.render_width=64",
          "assign_materials.map_size=128", "init_lights.render_width=64", "init_lights.spp=16", "fit_appearance.iterations=3",
-         "fit_appearance.render_width=64", "fit_appearance.final_spp=16", "fit_appearance.map_size=32",
+         "fit_appearance.render_width=160", "fit_appearance.final_spp=16", "fit_appearance.map_size=32",
          "export_scene.texture_size=64"]
 """Short fits: these tests are about the engine; the stages' own tests check the fits themselves."""
 

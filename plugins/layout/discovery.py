@@ -36,7 +36,7 @@ from psdr_room_core.objects import database_categories
 
 from .objects import GrabCutParams, grabcut_mask
 from .proposals import ProposalParams, clutter_proposals
-from .surfaces import SurfaceColours
+from psdr_room_core.surface_colours import SurfaceColours
 
 log = logging.getLogger("psdr_room")
 

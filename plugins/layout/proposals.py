@@ -1,6 +1,6 @@
 """Class-agnostic object proposals: what the fitted room cannot explain.
 
-Pixels whose colour the room's surfaces do not explain (:class:`~.surfaces.SurfaceColours`) and that no object
+Pixels whose colour the room's surfaces do not explain (:class:`~psdr_room_core.surface_colours.SurfaceColours`) and that no object
 found so far holds are opened morphologically (thin edges, texture and noise go) and split into connected
 regions; each region of a plausible size becomes a weak prompt (label ``object``: the model search tries every
 category), judged like the detector's by :mod:`.discovery`. This finds what COCO has no class for (a
@@ -16,7 +16,7 @@ import numpy as np
 
 from psdr_room_core.artifacts import Detection
 
-from .surfaces import SurfaceColours
+from psdr_room_core.surface_colours import SurfaceColours
 
 
 @dataclass(frozen=True)

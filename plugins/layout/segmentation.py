@@ -15,7 +15,7 @@ from .discovery import DiscoveryParams, discover
 from .proposals import ProposalParams
 from .fit import LayoutParams, fit_layout
 from .objects import GrabCutParams
-from .surfaces import SurfaceColours, unprompted
+from psdr_room_core.surface_colours import SurfaceColours, unprompted
 
 log = logging.getLogger("psdr_room")
 

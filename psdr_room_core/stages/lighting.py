@@ -15,7 +15,7 @@ from ..geometry import TriangleMesh, quad_mesh
 from ..image_metrics import downsampled, luminance
 from ..lighting import behind_camera_light, ceiling_lights, wall_window_light, window_panel
 from ..rgb_scene import GUIDE_SPP, build_scene, initial_parts, part_meshes, render_part_ids, room_quads, to_srgb8
-from ..shading import linear_to_srgb
+from ..shading import linear_to_srgb, srgb_to_linear
 from ..visualize import plot_curves
 
 log = logging.getLogger("psdr_room")
@@ -32,7 +32,9 @@ def init_lights(ctx: StageContext, image: Image, panoptic: Panoptic, camera: Cam
     metres); the largest visible part of each ``lamp`` object emits. Every light gets one uniform radiance:
     the scene is rendered once at unit radiance (``render_width``, ``spp``), and of the ``sweep`` values
     {min, max, count} (geometric) the one whose scaled render has the least L1 to the photo's luminance at
-    1/``downsample`` size is kept. Params also: ``drop`` (metres lights sit off their surface).
+    1/``downsample`` size is kept. The lights' colour then matches the photo's white balance:
+    :func:`white_balance` of the unit render against the photo (each channel within ``max_balance`` of grey).
+    Params also: ``drop`` (metres lights sit off their surface).
     """
     params = ctx.params
     c2w = np.asarray(room.camera_to_world)
@@ -85,12 +87,32 @@ def init_lights(ctx: StageContext, image: Image, panoptic: Panoptic, camera: Cam
         render = luminance(downsampled(linear_to_srgb(unit * float(value)), factor))
         sweep.append((float(value), float((render - target).abs().mean())))
     best = min(sweep, key=lambda s: s[1])[0]
-    lights = [Light(l.name, l.kind, l.mesh, (best, best, best), l.part) for l in lights]
-    picture = ctx.impl("denoiser").denoise(unit.numpy() * best, *geometry.render_guides(spp=GUIDE_SPP))
+    balance = white_balance(unit, photo, float(params["max_balance"]))
+    radiance = tuple(best * float(b) for b in balance)
+    lights = [Light(l.name, l.kind, l.mesh, radiance, l.part) for l in lights]  # type: ignore[arg-type]
+    picture = ctx.impl("denoiser").denoise(unit.numpy() * np.asarray(radiance, np.float32),
+                                           *geometry.render_guides(spp=GUIDE_SPP))
     curve = plot_curves({"L1 luminance vs log radiance": [s[1] for s in sweep]},
                         title=f"initial radiance sweep: {best:.3g} chosen of {low:g}..{high:g}")
-    log.info("%d lights (%s); initial radiance %.3g", len(lights),
-                 ", ".join(f"{k} {sum(l.kind == k for l in lights)}" for k in dict.fromkeys(l.kind for l in lights)), best)
+    log.info("%d lights (%s); initial radiance %.3g, colour (%.2f, %.2f, %.2f)", len(lights),
+             ", ".join(f"{k} {sum(l.kind == k for l in lights)}" for k in dict.fromkeys(l.kind for l in lights)), best,
+             *balance)
     return Lights(lights=lights, fixtures=fixtures, sweep=sweep,
                   images={"initial_render": np.hstack([to_srgb8(picture), (photo.numpy() * 255 + 0.5).astype(np.uint8)]),
                           "radiance_sweep": curve})
+
+
+def white_balance(render: torch.Tensor, photo: torch.Tensor, max_gain: float) -> np.ndarray:
+    """The light colour (RGB, unit luminance) that gives an (H, W, 3) linear ``render`` the colour cast of the
+    sRGB ``photo``: per channel, the ratio of the photo's linear mean to the render's over the pixels the
+    render covers, divided by its luminance; each gain is clamped to [1/``max_gain``, ``max_gain``]. A warm
+    photo gives warm lights, and colour the albedos already carry (they are the photo's own medians) or that
+    interreflection adds is not counted twice."""
+    covered = render.sum(-1) > 0
+    if not bool(covered.any()):
+        return np.ones(3)
+    target = srgb_to_linear(photo[covered]).mean(0).double().numpy()
+    rendered = render[covered].mean(0).double().numpy()
+    gains = target / np.maximum(rendered, 1e-8)
+    gains = gains / max(float(luminance(torch.from_numpy(gains))), 1e-8)
+    return np.clip(gains, 1.0 / max_gain, max_gain)

@@ -15,6 +15,7 @@ from ..dag import StageContext
 from ..errors import PsdrRoomError
 from ..geometry import TriangleMesh
 from ..rgb_scene import object_parts, render_part_ids, room_quads
+from ..surface_colours import clean_pixels, dominant_colour, texture_energy
 
 if TYPE_CHECKING:
     import torch
@@ -33,6 +34,8 @@ class ScenePart:
     """sRGB colour when the photo shows nothing of it (the model's own, or the room default)."""
     region: np.ndarray | None = None
     """(H, W) bool: rendered part ∩ target."""
+    clean: np.ndarray | None = None
+    """(H, W) bool: the region's pixels that show the surface itself (no clutter, no strong edge)."""
     crops: tuple[Rect, ...] = ()
 
 
@@ -55,14 +58,22 @@ def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera
                      placements: Placements) -> MaterialAssignment:
     """Initial material of every scene part (§4.4).
 
-    Crop pairs are the largest rectangles inside each part's rendered mask ∩ its target mask (eroded by
-    ``erode_px``; up to ``max_crops`` per part, none with a side under ``min_crop_px``), unless the user's
-    ``<photo>.crops.yaml`` gives them (:mod:`..crops`). A part with no crop, or whose best retrieved graph
-    has a similarity under ``min_similarity``, is homogeneous: albedo the median colour of its mesh-mask
-    intersection (else of its whole segment), roughness ``roughness``. Otherwise each crop ranks the
-    ``material_graph`` library by ``texture`` descriptor distance (``top_k`` kept), the ranks are voted
-    across crops, and the winner's texture transform is searched over ``scales`` × ``rotations``; the part
-    stays homogeneous when a flat colour matches its crops better. Params also: ``render_width``,
+    A part's *region* is its rendered mask ∩ its target segment; its *clean* pixels are those of the region
+    its own colour model explains and no strong edge crosses (:func:`~..surface_colours.clean_pixels` with
+    ``clean``: ``coverage``, ``edge_ratio``, ``edge_floor``, ``open_px``), so clutter the segmentation left
+    on a wall is neither cropped nor averaged. Crop pairs are the largest rectangles inside the clean pixels
+    eroded by ``erode_px`` (up to ``max_crops``, none with a side under ``min_crop_px``), unless the user's
+    ``<photo>.crops.yaml`` gives them (:mod:`..crops`). The albedo is the median colour of the clean pixels
+    (else of the region, else of the segment); a wall or the ceiling the photo does not show takes the
+    colour most clean wall pixels share (:func:`~..surface_colours.dominant_colour`), and only with no wall
+    in view the ``room_colours`` default.
+
+    A part is homogeneous (roughness ``roughness``) when it has no crop, when its crops are plain (median
+    :func:`~..surface_colours.texture_energy` under ``flat_energy``), when its best retrieved graph's
+    similarity is under ``min_similarity``, or when a flat colour matches its crops better than the
+    retrieved graph at its best transform. Otherwise each crop ranks the ``material_graph`` library by
+    ``texture`` descriptor distance (``top_k`` kept), the ranks are voted across crops, and the winner's
+    texture transform is searched over ``scales`` × ``rotations``. Params also: ``render_width``,
     ``map_size`` (texture side evaluated for the search).
     """
     import torch
@@ -73,72 +84,110 @@ def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera
     parts = scene_parts(room, placements, panoptic, dict(params["room_colours"]))
     ids, depth = render_part_ids(ctx.impl("renderer"), camera, room.camera_to_world, {p.name: p.mesh for p in parts},
                                  int(params["render_width"]))
-    kernel = np.ones((2 * int(params["erode_px"]) + 1,) * 2, np.uint8)
+    rgb8 = image.to_uint8()
+    labels = np.full(ids.shape, -1, np.int64)
     for k, part in enumerate(parts):
         part.region = (ids == k) & part.target
-        eroded = cv2.erode(part.region.astype(np.uint8), kernel) > 0
-        side = int(params["min_crop_px"])
+        labels[part.region] = k
+    knobs = params["clean"]
+    clean = clean_pixels(rgb8, labels, float(knobs["coverage"]), float(knobs["edge_ratio"]), float(knobs["edge_floor"]),
+                         int(knobs["open_px"]))
+    kernel = np.ones((2 * int(params["erode_px"]) + 1,) * 2, np.uint8)
+    side = int(params["min_crop_px"])
+    for part in parts:
+        part.clean = part.region & clean  # type: ignore[operator]
+        eroded = cv2.erode(part.clean.astype(np.uint8), kernel) > 0
         part.crops = tuple(crop_windows(eroded, int(params["max_crops"]), side, side * side))
     _apply_user_crops(ctx, image, parts, ids)
 
-    rgb = image.to_uint8().astype(np.float32) / 255.0
+    rgb = rgb8.astype(np.float32) / 255.0
     photo = torch.from_numpy(rgb).permute(2, 0, 1).contiguous()
     library, descriptor = ctx.impl("material_graph"), ctx.impl("texture")
     map_size = int(params["map_size"])
-    index = MaterialIndex.build(library, descriptor, map_size) if any(p.crops for p in parts) else None
+    index = None
     c2w = np.asarray(room.camera_to_world)
+    walls_clean = np.zeros(labels.shape, bool)
+    for part in parts:
+        if part.name.startswith("wall"):
+            walls_clean |= part.clean
+    upper = walls_clean & (heights(camera, c2w, depth) > float(params["clear_height"]))
+    walls = dominant_colour(rgb8, upper if upper.sum() >= side * side else walls_clean) if walls_clean.any() else None
+    roughness = float(params["roughness"])
     assigned, sheet_rows = [], []
     for part in ctx.progress(parts, total=len(parts)):
-        albedo = _median_colour(rgb, part)
+        unseen_side = part.name.startswith(("wall", "ceiling")) and not part.region.any()  # type: ignore[union-attr]
+        albedo = (walls if unseen_side and walls else
+                  median_colour(rgb, [part.clean, part.region, part.target], part.fallback))
         crops = []
         for rect in part.crops:
             coords = surface_coordinates(camera, c2w, depth, rect)
             if coords is not None:
                 x0, y0, x1, y1 = rect
-                crop = photo[:, y0:y1, x0:x1]
-                crops.append((crop, descriptor.describe(crop), coords))
-        if not crops or index is None:
-            reason = "no rendered depth in its crops" if part.crops else "no crop: the photo shows too little of it"
-            assigned.append(PartMaterial(part.name, "homogeneous", albedo, float(params["roughness"]), reason=reason))
+                crops.append((photo[:, y0:y1, x0:x1], rgb[y0:y1, x0:x1], coords))
+        if not crops:
+            reason = ("no rendered depth in its crops" if part.crops else
+                      "unseen: the visible walls' colour" if unseen_side and walls else
+                      "no crop: the photo shows too little of it")
+            assigned.append(PartMaterial(part.name, "homogeneous", albedo, roughness, reason=reason))
             continue
+        energy = float(np.median([texture_energy(c) for _, c, _ in crops]))
+        common = dict(part=part.name, albedo=albedo, roughness=roughness, crops=tuple(part.crops))
+        if energy < float(params["flat_energy"]):
+            assigned.append(PartMaterial(kind="homogeneous", scores={"texture_energy": energy},
+                                         reason=f"plain: texture energy {energy:.3f} < flat_energy", **common))
+            continue
+        if index is None:
+            index = MaterialIndex.build(library, descriptor, map_size)
         with torch.no_grad():
-            flats = [float(descriptor.distance(descriptor.describe(flat_image(albedo, c.shape[1:])), d)) for c, d, _ in crops]
+            described = [(crop, descriptor.describe(crop), coords) for crop, _, coords in crops]
+            flats = [float(descriptor.distance(descriptor.describe(flat_image(albedo, c.shape[1:])), d))
+                     for c, d, _ in described]
             per_crop = []
-            for _, target, _ in crops:
+            for _, target, _ in described:
                 distances = index.distances(descriptor, target)
                 order = torch.argsort(distances)[: int(params["top_k"])].tolist()
                 per_crop.append([(index.names[i], index.similarity(float(distances[i]))) for i in order])
         ranked = vote(per_crop)
         name, best_similarity = ranked[0]
         homogeneous_loss = float(np.mean(flats))
-        common = dict(part=part.name, albedo=albedo, roughness=float(params["roughness"]), crops=tuple(part.crops),
-                      candidates=tuple((n, round(s, 4)) for n, s in ranked[:5]))
+        common["candidates"] = tuple((n, round(s, 4)) for n, s in ranked[:5])
+        scores = {"texture_energy": energy, "similarity": best_similarity, "homogeneous_loss": homogeneous_loss}
         if best_similarity < float(params["min_similarity"]):
-            assigned.append(PartMaterial(kind="homogeneous", scores={"similarity": best_similarity,
-                                                                     "homogeneous_loss": homogeneous_loss},
+            assigned.append(PartMaterial(kind="homogeneous", scores=scores,
                                          reason=f"best similarity {best_similarity:.3f} < min_similarity", **common))
             continue
         material = library.material(name)
         fit = search_transform(library, descriptor, library.appearance(name, map_size), float(material.tile_size),
-                               crops, [float(s) for s in params["scales"]], [float(r) for r in params["rotations"]])
-        scores = {"similarity": best_similarity, "texture_loss": fit.loss, "homogeneous_loss": homogeneous_loss}
+                               described, [float(s) for s in params["scales"]], [float(r) for r in params["rotations"]])
+        scores["texture_loss"] = fit.loss
         if fit.loss >= homogeneous_loss:
             assigned.append(PartMaterial(kind="homogeneous", scores=scores, reason=f"a flat colour matches better than {name}",
                                          **common))
         else:
             assigned.append(PartMaterial(kind="procedural", material=name, scale=fit.scale, rotation=fit.rotation,
                                          scores=scores, reason="retrieved", **common))
-        sheet_rows += [(part.name, crop, view, albedo, assigned[-1]) for (crop, _, _), view in zip(crops, fit.views)]
-    return MaterialAssignment(parts=assigned, images={"crops": crop_overlay(image.to_uint8(), parts),
+        sheet_rows += [(part.name, crop, view, albedo, assigned[-1]) for (crop, _, _), view in zip(described, fit.views)]
+    return MaterialAssignment(parts=assigned, images={"crops": crop_overlay(rgb8, parts),
                                                       **({"crop_pairs": crop_sheet(sheet_rows)} if sheet_rows else {})})
 
 
-def _median_colour(rgb: np.ndarray, part: ScenePart) -> tuple[float, float, float]:
-    """§4.4: the median colour of the mesh-mask intersection, else of the whole segment, else the fallback."""
-    for mask in (part.region, part.target):
+def heights(camera: Camera, camera_to_world: np.ndarray, depth: np.ndarray) -> np.ndarray:
+    """(H, W) height above the floor (world y, metres) of the surface seen in each pixel from the rendered
+    z-depth; NaN where nothing is rendered."""
+    ys, xs = np.mgrid[0:depth.shape[0], 0:depth.shape[1]] + 0.5
+    rotation, origin = camera_to_world[:3, :3], camera_to_world[:3, 3]
+    y = (rotation[1, 0] * (xs - camera.cx) / camera.fx + rotation[1, 1] * (ys - camera.cy) / camera.fy
+         + rotation[1, 2]) * depth + origin[1]
+    return np.where(depth > 0, y, np.nan)
+
+
+def median_colour(rgb: np.ndarray, masks: list[np.ndarray | None], fallback: tuple[float, float, float]
+                  ) -> tuple[float, float, float]:
+    """The median colour of the first non-empty mask, else ``fallback``."""
+    for mask in masks:
         if mask is not None and mask.any():
             return tuple(float(c) for c in np.median(rgb[mask], axis=0))  # type: ignore[return-value]
-    return part.fallback
+    return fallback
 
 
 def _apply_user_crops(ctx: StageContext, image: Image, parts: list[ScenePart], ids: np.ndarray) -> None:
@@ -168,8 +217,13 @@ def _apply_user_crops(ctx: StageContext, image: Image, parts: list[ScenePart], i
 
 # ------------------------------------------------------------------------------------------ pictures
 def crop_overlay(rgb8: np.ndarray, parts: list[ScenePart]) -> np.ndarray:
-    """The photo with every crop window outlined and named."""
+    """The photo with every crop window outlined and named, and the pixels of the parts' regions that are
+    not clean (clutter, strong edges) tinted red."""
     out = rgb8.copy()
+    for part in parts:
+        if part.region is not None and part.clean is not None:
+            dirty = part.region & ~part.clean
+            out[dirty] = (0.5 * out[dirty] + [127, 0, 0]).astype(np.uint8)
     for k, part in enumerate(p for p in parts if p.crops):
         colour = tuple(int(c) for c in cv2.applyColorMap(np.uint8([[53 * k % 255]]), cv2.COLORMAP_HSV)[0, 0][::-1])
         for x0, y0, x1, y1 in part.crops:
