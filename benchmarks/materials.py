@@ -30,7 +30,6 @@ import math
 import statistics
 import time
 from collections.abc import Callable
-
 from pathlib import Path
 
 import cv2

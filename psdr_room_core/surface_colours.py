@@ -26,16 +26,20 @@ BINS = (8, 12, 12)
 """Histogram bins along L*, a*, b*."""
 
 
+def colour_bins(rgb8: np.ndarray) -> np.ndarray:
+    """The flat index of each pixel's L*a*b* histogram bin (:data:`BINS`), same shape as the image's pixels."""
+    lab = cv2.cvtColor(np.ascontiguousarray(rgb8), cv2.COLOR_RGB2LAB)
+    bins = np.minimum((lab * (np.array(BINS) / 256.0)).astype(np.int64), np.array(BINS) - 1)
+    return (bins[..., 0] * BINS[1] + bins[..., 1]) * BINS[2] + bins[..., 2]
+
+
 class SurfaceColours:
     """Colour histograms of the fitted room's surfaces: ``labels`` (H, W) surface index per pixel (box.trace),
     ``background`` (H, W) the pixels that may train them (no object prompt on them)."""
 
     def __init__(self, rgb8: np.ndarray, labels: np.ndarray, background: np.ndarray, coverage: float = 0.75,
                  min_pixels: int = 200) -> None:
-        lab = cv2.cvtColor(np.ascontiguousarray(rgb8), cv2.COLOR_RGB2LAB)
-        scale = np.array(BINS) / 256.0
-        self.bins = np.minimum((lab * scale).astype(np.int64), np.array(BINS) - 1)
-        self.index = (self.bins[..., 0] * BINS[1] + self.bins[..., 1]) * BINS[2] + self.bins[..., 2]
+        self.index = colour_bins(rgb8)
         self.labels = labels
         self.likelihood = np.zeros(labels.shape, np.float32)
         self.explained = np.zeros(labels.shape, bool)
@@ -69,9 +73,7 @@ def dominant_colour(rgb8: np.ndarray, mask: np.ndarray) -> tuple[float, float, f
     """The sRGB colour (0..1) most of ``mask``'s pixels share: the median of the pixels in its commonest
     L*a*b* histogram bin (:data:`BINS`). Unlike a per-channel median it never mixes a white wall, a cork board
     and a dark desk front into a colour none of them has."""
-    lab = cv2.cvtColor(np.ascontiguousarray(rgb8), cv2.COLOR_RGB2LAB)[mask]
-    bins = np.minimum((lab * (np.array(BINS) / 256.0)).astype(np.int64), np.array(BINS) - 1)
-    index = (bins[:, 0] * BINS[1] + bins[:, 1]) * BINS[2] + bins[:, 2]
+    index = colour_bins(rgb8)[mask]
     modal = index == np.bincount(index).argmax()
     return tuple(float(c) / 255.0 for c in np.median(rgb8[mask][modal], axis=0))  # type: ignore[return-value]
 

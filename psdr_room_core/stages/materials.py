@@ -174,10 +174,7 @@ def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera
 def heights(camera: Camera, camera_to_world: np.ndarray, depth: np.ndarray) -> np.ndarray:
     """(H, W) height above the floor (world y, metres) of the surface seen in each pixel from the rendered
     z-depth; NaN where nothing is rendered."""
-    ys, xs = np.mgrid[0:depth.shape[0], 0:depth.shape[1]] + 0.5
-    rotation, origin = camera_to_world[:3, :3], camera_to_world[:3, 3]
-    y = (rotation[1, 0] * (xs - camera.cx) / camera.fx + rotation[1, 1] * (ys - camera.cy) / camera.fy
-         + rotation[1, 2]) * depth + origin[1]
+    y = (camera.pixel_rays() @ camera_to_world[1, :3]) * depth + camera_to_world[1, 3]
     return np.where(depth > 0, y, np.nan)
 
 
