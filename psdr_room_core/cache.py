@@ -6,6 +6,10 @@ directory ``<root>/entries/<key[:2]>/<key>/`` with one sub-directory per output 
 ``manifest.json`` naming each output's kind and content digest. Entries are written into
 ``<root>/tmp/`` and renamed into place, so a reader sees a complete entry or none; a per-key file lock
 lets concurrent processes (a multirun, or two users on a shared cache) compute each entry once.
+
+A hit is verified before use: each output is re-hashed against its manifest digest. An entry whose files
+changed on disk is logged in one line and moved aside to ``<root>/quarantine/`` (kept for inspection, never
+trusted), and the stage recomputes. ``psdr-room-cache`` verifies, measures and prunes a cache.
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ import contextlib
 import fcntl
 import hashlib
 import json
+import logging
 import os
 import shutil
 import socket
@@ -26,6 +31,8 @@ from typing import Any
 
 from .artifacts import ARTIFACT_TYPES, Artifact
 from .errors import PsdrRoomError
+
+log = logging.getLogger("psdr_room")
 
 SCHEMA = 1
 CACHE_MODES = ("off", "read", "readwrite")
@@ -122,13 +129,45 @@ class Store:
     def _entry_path(self, key: str) -> Path:
         return self.root / "entries" / key[:2] / key
 
-    def lookup(self, key: str) -> Entry | None:
+    def _read(self, key: str) -> Entry | None:
         path = self._entry_path(key)
         try:
             manifest = json.loads((path / "manifest.json").read_text())
-        except (FileNotFoundError, json.JSONDecodeError):
+        except FileNotFoundError:
             return None
-        return Entry(key=key, path=path, manifest=manifest)
+        except (json.JSONDecodeError, UnicodeDecodeError):
+            manifest = None
+        return Entry(key=key, path=path, manifest=manifest if isinstance(manifest, dict) else {"outputs": None})
+
+    def lookup(self, key: str) -> Entry | None:
+        """The verified entry for ``key``; None when there is none, or it was damaged (then moved aside)."""
+        entry = self._read(key)
+        if entry is None:
+            return None
+        problem = damage(entry)
+        if problem is None:
+            return entry
+        self.quarantine(entry, problem)
+        return None
+
+    def entries(self) -> Iterator[Entry]:
+        """Every committed entry (unverified)."""
+        for path in sorted((self.root / "entries").glob("*/*")):
+            entry = self._read(path.name)
+            if entry is not None:
+                yield entry
+
+    def quarantine(self, entry: Entry, problem: str) -> None:
+        """Move a damaged entry aside to ``<root>/quarantine/`` (logged in one line); it is never served again."""
+        target = self.root / "quarantine" / f"{entry.key}-{int(time.time())}"
+        try:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            os.rename(entry.path, target)
+            where = f"moved to {target}"
+        except OSError as exc:  # a read-only shared cache: not served, left in place
+            where = f"left in place ({exc.strerror})"
+        log.warning("cache entry %s (%s) is damaged: %s; %s, recomputing", entry.key[:12],
+                    entry.manifest.get("stage", "?"), problem, where)
 
     @contextlib.contextmanager
     def lock(self, key: str) -> Iterator[None]:
@@ -158,7 +197,7 @@ class Store:
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise
-        entry = self.lookup(key)
+        entry = self._read(key)
         assert entry is not None
         return entry
 
@@ -169,6 +208,21 @@ class Store:
             parts = path.name.split("@")
             if len(parts) == 4 and parts[1] == host and parts[2].isdigit() and not _pid_alive(int(parts[2])):
                 shutil.rmtree(path, ignore_errors=True)
+
+
+def damage(entry: Entry) -> str | None:
+    """What is wrong with an entry's files (an unreadable manifest, a missing output, an output whose digest
+    differs from the manifest's), or None when they are as committed."""
+    outputs = entry.manifest.get("outputs")
+    if not isinstance(outputs, dict) or entry.manifest.get("schema") != SCHEMA:
+        return "unreadable manifest.json"
+    for name, described in outputs.items():
+        directory = entry.path / name
+        if not directory.is_dir():
+            return f"output {name} is missing"
+        if digest_dir(directory) != described.get("digest"):
+            return f"output {name} changed on disk"
+    return None
 
 
 def _pid_alive(pid: int) -> bool:

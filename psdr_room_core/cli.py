@@ -72,6 +72,10 @@ def preflight(argv: list[str], plugins: PluginSystem) -> None:
     try:
         parsed: list[Override] = OverridesParser.create().parse_overrides(overrides)
     except OverrideParseException as exc:
+        photo = next((o for o in overrides if o.startswith("image=")), None)
+        if photo is not None and not _parses(photo):
+            raise PsdrRoomError(f"{photo}: the path holds characters Hydra's override grammar reserves (such as "
+                                f"'=' or brackets); quote it: image=\"'{photo[6:]}'\"") from None
         raise PsdrRoomError(f"invalid override: {str(exc).splitlines()[0]}") from None
     for override in parsed:
         group = override.key_or_group
@@ -81,6 +85,10 @@ def preflight(argv: list[str], plugins: PluginSystem) -> None:
     if flags & ({"--multirun", "-m"} | _INFO_FLAGS):
         return  # sweeps are composed per job by Hydra; info flags need no image
     image = [o for o in parsed if o.key_or_group == "image"]
+    if image and image[0].is_sweep_override():
+        raw = next(o for o in overrides if o.startswith("image="))
+        raise PsdrRoomError(f"{raw}: the ',' makes this a list of photos; quote the path: image=\"'{raw[6:]}'\" "
+                            "(or add --multirun to run each)")
     if image and all(o.key_or_group == "image" or o.key_or_group.startswith("hydra.") for o in parsed):
         _check_photo(str(image[0].value()))  # only the photo can be wrong: skip a second composition
         return
@@ -94,7 +102,17 @@ def preflight(argv: list[str], plugins: PluginSystem) -> None:
     _check_photo(str(resolve_config(cfg)["image"]))
 
 
+def _parses(override: str) -> bool:
+    try:
+        OverridesParser.create().parse_overrides([override])
+    except OverrideParseException:
+        return False
+    return True
+
+
 def _check_photo(path: str) -> None:
+    if Path(path).expanduser().is_dir():
+        raise PsdrRoomError(f"{path}: is a directory; pass image=PATH to a photo file")
     if not Path(path).expanduser().is_file():
         raise PsdrRoomError(f"{path}: no such file; pass image=PATH to an existing photo")
 

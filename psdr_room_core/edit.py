@@ -39,6 +39,7 @@ import yaml
 from .artifacts import Light, PartAppearance, appearance_fields, write_png
 from .errors import PsdrRoomError
 from .geometry import TriangleMesh
+from .ownership import check_replaceable, claim, plain_name
 from .plugins import plugin_system
 from .rgb_scene import GUIDE_SPP, build_scene, to_srgb8
 from .stages.export import read_mesh_ply, scene_folder
@@ -59,6 +60,10 @@ def load_state(scene_dir: Path) -> dict[str, Any]:
     if missing:
         raise PsdrRoomError(f"{path}: missing {', '.join(missing)}; re-export the scene with this version")
     appearance_fields({"parts": state["parts"], "radiance": {}}, path)
+    for field, names in (("part", [p.get("part") for p in state["parts"]]),
+                         ("light", [light.get("name") for light in state["lights"]]), ("fixture", state["fixtures"])):
+        for name in names:
+            plain_name(name, path, field)  # each names a file under meshes/
     return state
 
 
@@ -214,6 +219,7 @@ def main(argv: list[str] | None = None) -> int:
         scene_dir = args.scene.resolve()
         if out.resolve() == scene_dir:
             raise PsdrRoomError(f"--out {out}: must differ from the scene folder it edits")
+        check_replaceable(out, "--out")
         state = load_state(scene_dir)
         library = TorchGraphLibrary()
         for edit in args.edits:
@@ -230,6 +236,8 @@ def main(argv: list[str] | None = None) -> int:
                 (staging / name).parent.mkdir(parents=True, exist_ok=True)
                 (staging / name).write_bytes(data)
             write_png(staging / "render.png", render_folder(staging, args.spp, denoiser))
+            claim(staging)
+            check_replaceable(out, "--out")
             if out.exists():
                 shutil.rmtree(out)
             os.replace(staging, out)

@@ -13,6 +13,9 @@ from .errors import PsdrRoomError
 FORMATS = ("JPEG", "PNG", "TIFF", "WEBP", "MPO")
 """Formats accepted (MPO: the multi-picture JPEG some phones write)."""
 
+MIN_SIDE = 64
+"""Photos (and working images) with a shorter side than this hold too little to reconstruct a room from."""
+
 _EXIF_ORIENTATION = 0x0112
 
 
@@ -59,6 +62,8 @@ def read_photo(path: Path, max_pixels: int) -> np.ndarray:
     Raises :class:`PsdrRoomError` with a one-line message for a missing file, a non-image or
     unsupported format, a truncated file, or more than ``max_pixels`` pixels.
     """
+    if path.is_dir():
+        raise PsdrRoomError(f"{path}: is a directory; pass image=PATH to a photo file")
     if not path.is_file():
         raise PsdrRoomError(f"{path}: no such file; pass image=PATH to an existing photo")
     PIL.Image.MAX_IMAGE_PIXELS = None  # the limit below replaces PIL's decompression-bomb guard
@@ -72,6 +77,9 @@ def read_photo(path: Path, max_pixels: int) -> np.ndarray:
                     f"{path}: {width}x{height} is {width * height / 1e6:.1f} MP, over load_image.max_pixels="
                     f"{max_pixels}; downscale the photo or raise load_image.max_pixels"
                 )
+            if min(width, height) < MIN_SIDE:
+                raise PsdrRoomError(f"{path}: {width}x{height} is too small to reconstruct a room from; give a photo "
+                                    f"at least {MIN_SIDE} px on its short side")
             orientation = int(pil.getexif().get(_EXIF_ORIENTATION, 1))
             pil.load()  # decodes fully: raises on truncated or corrupt data
     except PIL.UnidentifiedImageError:
@@ -81,11 +89,17 @@ def read_photo(path: Path, max_pixels: int) -> np.ndarray:
     data = cv2.imdecode(np.fromfile(path, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
     if data is None:
         raise PsdrRoomError(f"{path}: OpenCV cannot decode this {pil.format} file; re-save it as PNG or JPEG")
-    return _to_rgb_float(_orient(data, orientation))
+    rgb = _to_rgb_float(_orient(data, orientation))
+    if float(np.ptp(rgb)) == 0.0:
+        raise PsdrRoomError(f"{path}: every pixel has the same colour, there is no room to see; give a photo of a room")
+    return rgb
 
 
 def resize_to_working(rgb: np.ndarray, max_side: int) -> np.ndarray:
     """Downscale (area filter) so the long side is at most ``max_side``; never upscale."""
+    if max_side < MIN_SIDE:
+        raise PsdrRoomError(f"load_image.max_side={max_side}: the working image needs at least {MIN_SIDE} px; "
+                            "set it to 320 or more (default 800)")
     height, width = rgb.shape[:2]
     scale = max_side / max(height, width)
     if scale >= 1.0:

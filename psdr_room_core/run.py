@@ -18,10 +18,13 @@ from .artifacts import Artifact
 from .cache import CACHE_MODES, Store
 from .dag import Pipeline, RunRecord, Runner
 from .errors import PsdrRoomError
+from .ownership import check_writable_into, claim
 from .plugins import PluginSystem, plugin_system
 
 PUBLISH_AS = {"scene_files": "scene"}
 """Artifact kinds that are also published at the top of the run directory, under this name."""
+PUBLISHED = ("artifacts", *PUBLISH_AS.values(), "metrics.json", "run.json")
+"""What :func:`publish` writes (and replaces) in the run directory."""
 
 
 def resolve_config(cfg: DictConfig) -> dict[str, Any]:
@@ -45,6 +48,7 @@ def execute(cfg: DictConfig, run_dir: Path, plugins: PluginSystem | None = None)
     mode = str(data["cache"])
     if mode not in CACHE_MODES:
         raise PsdrRoomError(f"cache={mode} is not a cache mode; use one of {', '.join(CACHE_MODES)}")
+    check_writable_into(run_dir, PUBLISHED, "run directory")
     photo = Path(str(data["image"])).expanduser().absolute()
     injected = {name: Path(str(path)).expanduser().absolute() for name, path in (data.get("inject") or {}).items()}
     pipeline = Pipeline.from_config(data, provided=injected)
@@ -97,8 +101,11 @@ def metrics(record: RunRecord) -> dict[str, Any]:
 
 def publish(record: RunRecord, run_dir: Path, data: Mapping[str, Any]) -> None:
     """Write every artifact under ``artifacts/<name>/``, the scene under ``scene/``, ``metrics.json`` and
-    ``run.json``; all of it appears at once (staged in a hidden directory, then moved into place)."""
+    ``run.json``; all of it appears at once (staged in a hidden directory, then moved into place). The run
+    directory is marked as ours (:mod:`~psdr_room_core.ownership`): a rerun into it may replace these."""
     run_dir.mkdir(parents=True, exist_ok=True)
+    check_writable_into(run_dir, PUBLISHED, "run directory")
+    claim(run_dir)
     staging = Path(tempfile.mkdtemp(prefix=".publishing-", dir=run_dir))
     try:
         for name, artifact in record.artifacts.items():

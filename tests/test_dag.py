@@ -107,6 +107,54 @@ def test_implementation_version_change_invalidates_its_users(tmp_path: Path, pho
     assert recomputed(run(BASE, photo, store, tmp_path)) == {"b"}
 
 
+@pytest.mark.parametrize("damage", ["edit", "delete", "manifest"])
+def test_a_damaged_cache_entry_is_moved_aside_and_recomputed(tmp_path: Path, photo: Path, damage: str,
+                                                             caplog: pytest.LogCaptureFixture) -> None:
+    store = Store(tmp_path / "cache")
+    first = run(BASE, photo, store, tmp_path)
+    entry = store.lookup(next(r.key for r in first.stages if r.name == "b"))
+    assert entry is not None
+    target = next(p for p in (entry.path / "b").rglob("*") if p.is_file())
+    if damage == "edit":  # same size, other bytes
+        data = bytearray(target.read_bytes())
+        data[0] ^= 0xFF
+        target.write_bytes(bytes(data))
+    elif damage == "delete":
+        target.unlink()
+    else:
+        (entry.path / "manifest.json").write_text("{ not json")
+    with caplog.at_level("WARNING", logger="psdr_room"):
+        second = run(BASE, photo, store, tmp_path)
+    assert recomputed(second) == {"b"}  # c is keyed by b's digest, which is the same again
+    assert second.digests == first.digests
+    assert [r.getMessage() for r in caplog.records if "damaged" in r.getMessage()][0].count("\n") == 0
+    quarantined = list((store.root / "quarantine").iterdir())
+    assert len(quarantined) == 1 and quarantined[0].name.startswith(entry.key)
+    assert recomputed(run(BASE, photo, store, tmp_path)) == set()
+
+
+def test_cache_tool_reports_verifies_and_prunes(tmp_path: Path, photo: Path, capsys: pytest.CaptureFixture) -> None:
+    from psdr_room_core.cache_cli import main as cache_main
+
+    store = Store(tmp_path / "cache")
+    run(BASE, photo, store, tmp_path)
+    root = str(store.root)
+    assert cache_main(["du", "--cache-dir", root]) == 0
+    table = capsys.readouterr().out
+    assert "total" in table and " 4 " in table.splitlines()[-2]
+    assert cache_main(["verify", "--cache-dir", root]) == 0
+    victim = next(store.entries())
+    (victim.path / "manifest.json").write_text("[]")
+    assert cache_main(["verify", "--cache-dir", root]) == 1
+    out = capsys.readouterr().out
+    assert "4 entries checked in" in out and "1 damaged" in out
+    assert cache_main(["prune", "--cache-dir", root, "--max-size", "0"]) == 0
+    assert "removed 3 entries" in capsys.readouterr().out
+    assert not list(store.entries()) and not (store.root / "quarantine").exists()
+    assert cache_main(["du", "--cache-dir", str(tmp_path / "nowhere")]) == 2
+    assert "not a psdr-room cache" in capsys.readouterr().err
+
+
 def test_failing_stage_leaves_no_entry(tmp_path: Path, photo: Path) -> None:
     store = Store(tmp_path / "cache")
     cfg = copy.deepcopy(BASE)
