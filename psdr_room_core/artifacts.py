@@ -734,6 +734,9 @@ class MaterialAssignment:
     parts: list[PartMaterial]
     images: dict[str, np.ndarray] = field(default_factory=dict)
     """Name → RGB uint8 picture (crop windows over the photo, crop pairs sheet)."""
+    samples: np.ndarray | None = None
+    """(H, W) int16 at the working image's size: the index in ``parts`` of the part whose colour target this
+    pixel gave (its clean pixels, else its region), -1 elsewhere."""
 
     def part(self, name: str) -> PartMaterial | None:
         return next((p for p in self.parts if p.part == name), None)
@@ -741,6 +744,8 @@ class MaterialAssignment:
     def save(self, directory: Path) -> None:
         for name, picture in self.images.items():
             write_png(directory / f"{name}.png", picture)
+        if self.samples is not None:
+            np.save(directory / "samples.npy", self.samples.astype(np.int16))
         _write_json(directory / "materials.json", {"images": sorted(self.images), "parts": [
             {**asdict(p), "crops": [list(c) for c in p.crops], "candidates": [list(c) for c in p.candidates]}
             for p in self.parts]})
@@ -755,7 +760,9 @@ class MaterialAssignment:
                      for p in data["parts"]]
         except (KeyError, TypeError, ValueError) as exc:
             raise PsdrRoomError(f"{directory / 'materials.json'}: not as psdr-room writes it ({exc}); fix or regenerate it") from None
-        return cls(parts=parts, images={n: _read_png(directory / f"{n}.png") for n in data.get("images", [])})
+        samples = _read_npy(directory / "samples.npy") if (directory / "samples.npy").is_file() else None
+        return cls(parts=parts, images={n: _read_png(directory / f"{n}.png") for n in data.get("images", [])},
+                   samples=samples)
 
 
 # ------------------------------------------------------------------------------------------- lighting

@@ -53,10 +53,10 @@ TRUE_SRGB = {"floor": (0.45, 0.36, 0.30), "ceiling": (0.85, 0.85, 0.82), "wall_x
 TRUE_RADIANCE = 2.5
 LIGHT_PARAMS = {**{k: v for k, v in yaml.safe_load((ROOT / "conf" / "stage" / "init_lights.yaml").read_text()).items()
                    if not k.startswith("_")}, "render_width": 96}
-FIT_PARAMS = {"iterations": 40, "render_width": 96, "spp": 8, "grad_spp": 4, "final_spp": 128, "map_size": 32,
-              "downsample": 8, "min_region_px": 16, "weights": {"image": 1.0, "colour": 1.0, "texture": 0.05},
-              "learning_rates": {"graph": 0.05, "base_color": 0.05, "roughness": 0.05, "specular": 0.05, "radiance": 0.05},
-              "crops_per_part": 2, "max_crop_aspect": 2.0, "radiance_range": 16.0}
+FIT_PARAMS = {**{k: v for k, v in yaml.safe_load((ROOT / "conf" / "stage" / "fit_appearance.yaml").read_text()).items()
+                 if not k.startswith("_")},
+              "iterations": 40, "render_width": 96, "spp": 8, "grad_spp": 4, "final_spp": 128, "map_size": 32,
+              "min_region_px": 16}
 
 
 @pytest.fixture(scope="module")
@@ -167,6 +167,8 @@ def test_fit_appearance_matches_the_photo_better(fitted: dict, library: TorchGra
     appearance = fitted["out"]["appearance"]
     radiance = np.mean([v[0] for v in appearance.radiance.values()])
     assert radiance > 1.2  # the dim start brightens towards the truth (2.5)
+    chroma = np.array([np.asarray(v) / np.sum(v) for v in appearance.radiance.values()])
+    assert len(chroma) > 1 and np.ptp(chroma, axis=0).max() < 1e-5  # intensities differ, the colour is shared
     floor = appearance.part("floor")
     start = library.material("herringbone_oak").bounds
     moved = [k for k, v in floor.params.items() if not np.allclose(v, start[k].value.numpy(), atol=1e-4)]
@@ -255,6 +257,42 @@ def test_edits_rerender_without_optimising(exported: Path, tmp_path: Path, capsy
         from psdr_room_core.edit import apply_edit, load_state
 
         apply_edit(load_state(exported), "material.floor", "no_such_graph", TorchGraphLibrary(use_plugins=False))
+
+
+def test_edit_never_replaces_a_folder_it_did_not_write(exported: Path, tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture) -> None:
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "thesis.tex").write_text("years of work")
+    capsys.readouterr()
+    assert edit_main([str(exported), "light.scale=1.2", "--out", str(mine), "--spp", "4"]) == 2
+    err = capsys.readouterr().err
+    assert "psdr-room did not write" in err and str(mine) in err and err.count("\n") == 1
+    assert [p.name for p in mine.iterdir()] == ["thesis.tex"] and not list(tmp_path.glob(".edit-*"))
+    ours = tmp_path / "ours"  # an earlier edit's folder (marked) may be replaced
+    assert edit_main([str(exported), "--out", str(ours), "--spp", "4"]) == 0
+    assert edit_main([str(exported), "light.scale=1.2", "--out", str(ours), "--spp", "4"]) == 0
+    assert (ours / ".psdr-room").is_file() and (ours / "render.png").is_file()
+
+
+@pytest.mark.parametrize("field", ["part", "light", "fixture"])
+def test_edit_refuses_names_that_leave_the_scene_folder(exported: Path, tmp_path: Path, field: str,
+                                                        capsys: pytest.CaptureFixture) -> None:
+    scene = tmp_path / "scene"
+    shutil.copytree(exported, scene)
+    state = json.loads((scene / "appearance.json").read_text())
+    if field == "part":
+        state["parts"][0]["part"] = "../../outside"
+    elif field == "light":
+        state["lights"][0]["name"] = "/etc/passwd"
+    else:
+        state["fixtures"] = [*state["fixtures"], "../x"]
+    (scene / "appearance.json").write_text(json.dumps(state))
+    capsys.readouterr()
+    assert edit_main([str(scene), "--out", str(tmp_path / "out"), "--spp", "4"]) == 2
+    err = capsys.readouterr().err
+    assert f"{field} " in err and "not a plain name" in err and err.count("\n") == 1
+    assert not (tmp_path / "out").exists()
 
 
 def test_white_balance_gives_a_warm_photo_warm_lights() -> None:

@@ -23,8 +23,8 @@ def register_stages(registry: Registry) -> None:
     registry.add_stage("place_objects", objects.place_objects, uses=["retrieval"], version="2")
     registry.add_stage("fit_objects", objects.fit_objects, uses=["renderer", "optimizer"], version="2")
     registry.add_stage("assign_materials", materials.assign_materials, uses=["renderer", "material_graph", "texture"],
-                       sidecars=[CROPS_SUFFIX], version="2")
+                       sidecars=[CROPS_SUFFIX], version="3")
     registry.add_stage("init_lights", lighting.init_lights, uses=["renderer", "material_graph", "denoiser"], version="3")
     registry.add_stage("fit_appearance", appearance.fit_appearance,
-                       uses=["renderer", "optimizer", "material_graph", "texture", "denoiser"], version="2")
+                       uses=["renderer", "optimizer", "material_graph", "texture", "denoiser"], version="4")
     registry.add_stage("export_scene", export.export_scene, uses=["material_graph"], version="4")

@@ -16,7 +16,7 @@ from .. import lpips
 from ..dag import StageContext
 from ..image_metrics import downsampled, flip, rmse, ssim
 from ..rgb_scene import build_scene, finished_render, graph_maps, initial_parts, part_meshes, render_part_ids
-from ..shading import linear_to_srgb
+from ..shading import linear_to_srgb, srgb_to_linear
 from ..visualize import plot_curves
 
 log = logging.getLogger("psdr_room")
@@ -30,17 +30,22 @@ def _logit(x: float) -> torch.Tensor:
 class AppearanceModel:
     """The optimised parameters of eq. 4: per optimised homogeneous part a base colour, roughness and specular
     (each through a sigmoid); per optimised procedural part its graph's free unconstrained parameters and a
-    specular; per light an RGB radiance within a factor ``radiance_range`` of its initial value either way
-    (``r0 · exp(ln(range) · tanh(u))``). Parts not in ``free`` keep their initial material."""
+    specular; per light an intensity within a factor ``radiance_range`` of its initial radiance either way,
+    and one colour all lights share, each channel within a factor ``colour_range`` of the initial colour
+    (``r0_l · exp(ln(range) · tanh(u_l)) · exp(ln(colour_range) · tanh(v))``, ``v`` of zero mean). A colour per
+    light would let each ceiling panel tint the surfaces under it (green on one chair, yellow on the next):
+    the photo's lights share one white balance, and the surfaces carry the colour. Parts not in ``free`` keep
+    their initial material."""
 
     def __init__(self, parts: list[PartAppearance], lights: Lights, library: Any, map_size: int,
-                 free: set[str] | None = None, radiance_range: float = 16.0) -> None:
+                 free: set[str] | None = None, radiance_range: float = 16.0, colour_range: float = 2.0) -> None:
         self.parts = parts
         self.lights = lights
         self.library = library
         self.map_size = map_size
         self.free = {p.part for p in parts} if free is None else set(free)
         self.log_range = float(np.log(max(radiance_range, 1.0 + 1e-6)))
+        self.log_colour_range = float(np.log(max(colour_range, 1.0 + 1e-6)))
         self.theta: dict[str, torch.Tensor] = {}
         self.group: dict[str, str] = {}
         for p in self.optimised():
@@ -54,7 +59,9 @@ class AppearanceModel:
                 self._add(f"{p.part}/roughness", _logit(p.roughness), "roughness")
             self._add(f"{p.part}/specular", _logit(p.specular), "specular")
         for light in lights.lights:
-            self._add(f"{light.name}/radiance", torch.zeros(3), "radiance")
+            self._add(f"{light.name}/radiance", torch.zeros(1), "radiance")
+        if lights.lights:
+            self._add("lights/colour", torch.zeros(3), "light_colour")
 
     def optimised(self) -> list[PartAppearance]:
         return [p for p in self.parts if p.part in self.free]
@@ -77,8 +84,13 @@ class AppearanceModel:
             else:
                 base[p.part] = torch.sigmoid(self.theta[f"{p.part}/base_color"])
                 rough[p.part] = torch.sigmoid(self.theta[f"{p.part}/roughness"])
-        radiance = {l.name: torch.tensor(l.radiance, dtype=torch.float32)
-                    * torch.exp(self.log_range * torch.tanh(self.theta[f"{l.name}/radiance"])) for l in self.lights.lights}
+        radiance = {}
+        if self.lights.lights:
+            v = torch.tanh(self.theta["lights/colour"])
+            colour = torch.exp(self.log_colour_range * (v - v.mean()))  # a tint, not a brightness
+            radiance = {l.name: torch.tensor(l.radiance, dtype=torch.float32) * colour
+                        * torch.exp(self.log_range * torch.tanh(self.theta[f"{l.name}/radiance"]))
+                        for l in self.lights.lights}
         return {"base_color": base, "roughness": rough, "specular": spec, "radiance": radiance}
 
     def result(self) -> tuple[list[PartAppearance], dict[str, tuple[float, float, float]]]:
@@ -107,16 +119,21 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     """Optimise all materials and light radiances jointly (§4.4, eq. 4) by path tracing (``renderer``, its
     ``max_depth`` bounces) at ``render_width``:
 
-    ``w_image · L1(R↓, I↓) + w_colour · mean_i L1(μ(R on part i's rendered mask), C_i)
+    ``w_image · L1(R↓, I↓) + w_colour · mean_i L1(μ(R on part i's sampled mask), C_i)
     + w_texture · mean_crops d(T(R crop), T(I crop))``
 
     with ↓ an area down-sampling by ``downsample``, ``C_i`` the part's median photo colour from
-    ``assign_materials``, ``T`` the ``texture`` descriptor on the crop pairs, all in sRGB. Parameters: see
+    ``assign_materials`` and its sampled mask the rendered part's pixels that median was taken over (the
+    assignment's ``samples``; the whole rendered mask when that leaves fewer than ``min_region_px``): the
+    paper's mean over the whole mask also averages the clutter in front of a wall, which ``C_i`` leaves out,
+    and pulls the wall towards a colour it does not have. ``T`` is the ``texture`` descriptor on the crop
+    pairs, all in sRGB. Parameters: see
     :class:`AppearanceModel` (procedural maps evaluated at ``map_size``); ``learning_rates`` per group
     (graph, base_color, roughness, specular, radiance), ``iterations``, ``spp`` / ``grad_spp`` (primal and
     gradient samples per pixel), ``final_spp`` (the final render), ``min_region_px`` (smaller parts get no
     colour term, and are not optimised), ``crops_per_part`` (largest first), ``max_crop_aspect`` (see
-    :func:`squarish`) and ``radiance_range`` (how far each light may move from its initial radiance).
+    :func:`squarish`), ``radiance_range`` (how far each light's intensity may move from its initial one) and
+    ``colour_range`` (how far the lights' shared colour may move from its initial one, per channel).
 
     The init and final renders (``final_spp``) are pictures, not loss terms: the ``denoiser`` cleans them with
     the scene's albedo and normal. The log's summary has their RMSE (1/8 size), SSIM and ꟻLIP against the photo
@@ -138,20 +155,25 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     photo = cv2.resize(np.asarray(image.rgb, np.float32), (width, height), interpolation=cv2.INTER_AREA)
     target = torch.from_numpy(photo)
     factor = int(params["downsample"])
-    target_small = downsampled(target, factor)
+    target_small = linear_to_srgb(downsampled(srgb_to_linear(target), factor))
     ids, _ = render_part_ids(renderer, camera.resized(width), c2w, meshes, width)
     names = list(meshes)
+    samples = (cv2.resize(materials.samples, (width, height), interpolation=cv2.INTER_NEAREST)
+               if materials.samples is not None else np.full(ids.shape, -1, np.int16))
     regions, seen = [], set()
-    for p in materials.parts:
+    min_px = int(params["min_region_px"])
+    for k, p in enumerate(materials.parts):
         if p.part in names and p.part in scene.meshes:
-            mask = torch.from_numpy(ids == names.index(p.part))
-            if int(mask.sum()) >= int(params["min_region_px"]):
+            rendered = ids == names.index(p.part)
+            if int(rendered.sum()) >= min_px:
+                sampled = rendered & (samples == k)  # where C_i was measured: not the clutter in front
+                mask = torch.from_numpy(sampled if int(sampled.sum()) >= min_px else rendered)
                 regions.append((mask, torch.tensor(p.albedo, dtype=torch.float32)))
                 seen.add(p.part)
     # Parts the camera does not see keep their initial material: only indirect light shows them, and it
     # trades off freely against the lights' radiance.
     model = AppearanceModel(parts, lights, library, int(params["map_size"]), free=seen,
-                            radiance_range=float(params["radiance_range"]))
+                            radiance_range=float(params["radiance_range"]), colour_range=float(params["colour_range"]))
     crops = []
     for p in materials.parts:
         for rect in p.crops[: int(params["crops_per_part"])]:
@@ -162,18 +184,21 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     weights = {k: float(v) for k, v in params["weights"].items()}
     spp, grad_spp = int(params["spp"]), int(params["grad_spp"])
 
-    def terms(srgb: torch.Tensor) -> dict[str, torch.Tensor]:
-        out = {"image": (downsampled(srgb, factor) - target_small).abs().mean()}
+    def terms(linear: torch.Tensor) -> dict[str, torch.Tensor]:
+        # Averages (the 1/8 image, a part's mean) are taken on linear radiance, then encoded: the sRGB curve is
+        # concave, so averaging encoded noisy samples reads darker than the light is, and the fit brightens the
+        # scene to make up for its own Monte-Carlo noise.
+        srgb = linear_to_srgb(linear)
+        out = {"image": (linear_to_srgb(downsampled(linear, factor)) - target_small).abs().mean()}
         if regions:
-            out["colour"] = torch.stack([(srgb[m].mean(0) - c).abs().mean() for m, c in regions]).mean()
+            out["colour"] = torch.stack([(linear_to_srgb(linear[m].mean(0)) - c).abs().mean() for m, c in regions]).mean()
         if crops:
             out["texture"] = torch.stack([descriptor.distance(descriptor.describe(srgb[y0:y1, x0:x1].permute(2, 0, 1)), d)
                                           .reshape(()) for (x0, y0, x1, y1), d in crops]).mean()
         return out
 
     def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
-        srgb = linear_to_srgb(geometry.render_rgb(**model.inputs(), iteration=iteration, spp=spp, grad_spp=grad_spp))
-        parts = terms(srgb)
+        parts = terms(geometry.render_rgb(**model.inputs(), iteration=iteration, spp=spp, grad_spp=grad_spp))
         total = sum(weights[k] * v for k, v in parts.items())
         return total, {k: float(v.detach()) for k, v in parts.items()}
 

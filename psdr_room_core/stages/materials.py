@@ -66,7 +66,8 @@ def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera
     ``<photo>.crops.yaml`` gives them (:mod:`..crops`). The albedo is the median colour of the clean pixels
     (else of the region, else of the segment); a wall or the ceiling the photo does not show takes the
     colour most clean wall pixels share (:func:`~..surface_colours.dominant_colour`), and only with no wall
-    in view the ``room_colours`` default.
+    in view the ``room_colours`` default. The assignment's ``samples`` map keeps which pixels each median was
+    taken over: ``fit_appearance`` compares the render with it there.
 
     A part is homogeneous (roughness ``roughness``) when it has no crop, when its crops are plain (median
     :func:`~..surface_colours.texture_energy` under ``flat_energy``), when its best retrieved graph's
@@ -114,10 +115,14 @@ def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera
     walls = dominant_colour(rgb8, upper if upper.sum() >= side * side else walls_clean) if walls_clean.any() else None
     roughness = float(params["roughness"])
     assigned, sheet_rows = [], []
-    for part in ctx.progress(parts, total=len(parts)):
+    samples = np.full(labels.shape, -1, np.int16)
+    for k, part in enumerate(ctx.progress(parts, total=len(parts))):
         unseen_side = part.name.startswith(("wall", "ceiling")) and not part.region.any()  # type: ignore[union-attr]
+        source = next((m for m in (part.clean, part.region) if m is not None and m.any()), None)
+        if source is not None:
+            samples[source] = k  # regions are disjoint
         albedo = (walls if unseen_side and walls else
-                  median_colour(rgb, [part.clean, part.region, part.target], part.fallback))
+                  median_colour(rgb, [source, part.target], part.fallback))
         crops = []
         for rect in part.crops:
             coords = surface_coordinates(camera, c2w, depth, rect)
@@ -168,7 +173,8 @@ def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera
                                          scores=scores, reason="retrieved", **common))
         sheet_rows += [(part.name, crop, view, albedo, assigned[-1]) for (crop, _, _), view in zip(described, fit.views)]
     return MaterialAssignment(parts=assigned, images={"crops": crop_overlay(rgb8, parts),
-                                                      **({"crop_pairs": crop_sheet(sheet_rows)} if sheet_rows else {})})
+                                                      **({"crop_pairs": crop_sheet(sheet_rows)} if sheet_rows else {})},
+                              samples=samples)
 
 
 def heights(camera: Camera, camera_to_world: np.ndarray, depth: np.ndarray) -> np.ndarray:
