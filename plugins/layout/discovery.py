@@ -55,7 +55,7 @@ class DiscoveryParams:
     trusted_score: float = 0.3
     """Prompts scoring less are weak: the room must not explain their mask ..."""
     max_explained: float = 0.6
-    """... more than this share of it (:mod:`.surfaces`): a weak prompt on what looks like the floor is floor."""
+    """... more than this share of it (:mod:`psdr_room_core.surface_colours`): a weak prompt on what looks like the floor is floor."""
     nms_iou: float = 0.6
     """Boxes overlapping more than this are one object (the better prompt is kept), whatever their labels."""
     part_overlap: float = 0.85
