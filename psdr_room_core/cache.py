@@ -38,6 +38,12 @@ SCHEMA = 1
 CACHE_MODES = ("off", "read", "readwrite")
 
 
+def default_cache_dir() -> Path:
+    """``$PSDR_ROOM_CACHE_DIR`` or ``~/.cache/psdr-room``: the pipeline's default ``cache_dir``, and where the
+    plugins keep their own caches (database index, thumbnails, CLIP embeddings)."""
+    return Path(os.environ.get("PSDR_ROOM_CACHE_DIR") or Path.home() / ".cache" / "psdr-room")
+
+
 def canonical_json(value: Any) -> str:
     """Deterministic JSON for hashing (sorted keys, no whitespace, tuples as lists)."""
     return json.dumps(value, sort_keys=True, separators=(",", ":"), default=str)

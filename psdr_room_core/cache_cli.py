@@ -13,20 +13,14 @@ which every hit reads.
 from __future__ import annotations
 
 import argparse
-import os
 import shutil
 import sys
 import time
 from collections import defaultdict
 from pathlib import Path
 
-from .cache import Entry, Store, damage
+from .cache import Entry, Store, damage, default_cache_dir
 from .errors import PsdrRoomError
-
-
-def default_cache_dir() -> Path:
-    """The pipeline's default ``cache_dir``."""
-    return Path(os.environ.get("PSDR_ROOM_CACHE_DIR") or Path.home() / ".cache" / "psdr-room")
 
 
 def size_of(path: Path) -> int:

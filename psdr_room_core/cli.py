@@ -23,6 +23,7 @@ from omegaconf import DictConfig
 from .capabilities import CAPABILITIES, DESCRIPTIONS
 from .dag import AUTO
 from .errors import PsdrRoomError
+from .photo import require_file
 from .plugins import PluginSystem, plugin_system
 from .run import execute, resolve_config
 
@@ -90,7 +91,7 @@ def preflight(argv: list[str], plugins: PluginSystem) -> None:
         raise PsdrRoomError(f"{raw}: the ',' makes this a list of photos; quote the path: image=\"'{raw[6:]}'\" "
                             "(or add --multirun to run each)")
     if image and all(o.key_or_group == "image" or o.key_or_group.startswith("hydra.") for o in parsed):
-        _check_photo(str(image[0].value()))  # only the photo can be wrong: skip a second composition
+        require_file(Path(str(image[0].value())).expanduser())  # only the photo can be wrong: skip a second composition
         return
     try:
         cfg = compose_config(overrides, plugins)
@@ -99,7 +100,7 @@ def preflight(argv: list[str], plugins: PluginSystem) -> None:
     except Exception as exc:  # Hydra/OmegaConf composition errors are multi-line: keep the first lines
         lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
         raise PsdrRoomError(f"invalid override: {' '.join(lines[:2])}") from None
-    _check_photo(str(resolve_config(cfg)["image"]))
+    require_file(Path(str(resolve_config(cfg)["image"])).expanduser())
 
 
 def _parses(override: str) -> bool:
@@ -108,13 +109,6 @@ def _parses(override: str) -> bool:
     except OverrideParseException:
         return False
     return True
-
-
-def _check_photo(path: str) -> None:
-    if Path(path).expanduser().is_dir():
-        raise PsdrRoomError(f"{path}: is a directory; pass image=PATH to a photo file")
-    if not Path(path).expanduser().is_file():
-        raise PsdrRoomError(f"{path}: no such file; pass image=PATH to an existing photo")
 
 
 def main() -> None:

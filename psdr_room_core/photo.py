@@ -56,16 +56,21 @@ def _to_rgb_float(data: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(rgb, dtype=np.float32)
 
 
+def require_file(path: Path) -> None:
+    """One line for a photo path that is a directory or does not exist."""
+    if path.is_dir():
+        raise PsdrRoomError(f"{path}: is a directory; pass image=PATH to a photo file")
+    if not path.is_file():
+        raise PsdrRoomError(f"{path}: no such file; pass image=PATH to an existing photo")
+
+
 def read_photo(path: Path, max_pixels: int) -> np.ndarray:
     """Read ``path`` as upright float32 RGB in [0, 1] at full resolution.
 
     Raises :class:`PsdrRoomError` with a one-line message for a missing file, a non-image or
     unsupported format, a truncated file, or more than ``max_pixels`` pixels.
     """
-    if path.is_dir():
-        raise PsdrRoomError(f"{path}: is a directory; pass image=PATH to a photo file")
-    if not path.is_file():
-        raise PsdrRoomError(f"{path}: no such file; pass image=PATH to an existing photo")
+    require_file(path)
     PIL.Image.MAX_IMAGE_PIXELS = None  # the limit below replaces PIL's decompression-bomb guard
     try:
         with PIL.Image.open(path) as pil:

@@ -104,8 +104,7 @@ def publish(record: RunRecord, run_dir: Path, data: Mapping[str, Any]) -> None:
     ``run.json``; all of it appears at once (staged in a hidden directory, then moved into place). The run
     directory is marked as ours (:mod:`~psdr_room_core.ownership`): a rerun into it may replace these."""
     run_dir.mkdir(parents=True, exist_ok=True)
-    check_writable_into(run_dir, PUBLISHED, "run directory")
-    claim(run_dir)
+    claim(run_dir)  # execute() refused a run directory holding files of the user's before any stage ran
     staging = Path(tempfile.mkdtemp(prefix=".publishing-", dir=run_dir))
     try:
         for name, artifact in record.artifacts.items():

@@ -14,9 +14,9 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
-import os
 from pathlib import Path
 
+from psdr_room_core.cache import default_cache_dir
 from psdr_room_core.errors import PsdrRoomError
 
 from .database import ObjectMesh, ModelRecord, ObjectDatabase, mesh_from_obj
@@ -126,11 +126,6 @@ def library_digest() -> str:
     return h.hexdigest()
 
 
-def cache_root() -> Path:
-    """``$PSDR_ROOM_CACHE_DIR`` or ``~/.cache/psdr-room``, as the pipeline's ``cache_dir``."""
-    return Path(os.environ.get("PSDR_ROOM_CACHE_DIR") or Path.home() / ".cache" / "psdr-room")
-
-
 def _extent(mesh: ObjectMesh) -> tuple[float, float, float]:
     """The mesh's extent as the index stores it (micrometres), so fresh and cached records are equal."""
     x, y, z = (round(e, 6) for e in mesh.extent)
@@ -163,7 +158,7 @@ def builtin_records() -> list[ModelRecord]:
 def builtin_database() -> ObjectDatabase:
     """The built-in library (records from the cache when this library version has been seen before)."""
     digest = library_digest()
-    cached = cache_root() / "object_db" / f"builtin-{digest[:16]}.json"
+    cached = default_cache_dir() / "object_db" / f"builtin-{digest[:16]}.json"
     records = None
     if cached.is_file():
         try:

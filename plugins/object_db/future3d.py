@@ -125,7 +125,7 @@ def read_3dfuture(root: Path, front_axis: str = "+z", workers: int | None = None
     Models listed in ``model_info.json`` whose ``raw_model.obj`` is missing or unreadable are skipped with
     a warning on stderr (an error with ``strict``). ``workers`` processes parse meshes on the first read
     (default: the CPU count, at most 8); ``progress`` shows a bar (default: when many meshes are parsed)."""
-    from .builtin import cache_root
+    from psdr_room_core.cache import default_cache_dir
 
     root = Path(root)
     info_path = root / "model_info.json"
@@ -135,7 +135,7 @@ def read_3dfuture(root: Path, front_axis: str = "+z", workers: int | None = None
         raise PsdrRoomError(f"{models_dir}: not found; unpack 3D-FUTURE-model.zip into {root}")
     loader = Future3dLoader(models_dir, front_axis)
     root_key = hashlib.sha256(str(root.resolve()).encode()).hexdigest()[:16]
-    cache_path = cache_root() / "object_db" / f"3dfuture-{root_key}.json"
+    cache_path = default_cache_dir() / "object_db" / f"3dfuture-{root_key}.json"
     try:
         cache = json.loads(cache_path.read_text(encoding="utf-8")) if cache_path.is_file() else {}
         if cache.get("version") != READER_VERSION or cache.get("front_axis") != front_axis:

@@ -129,11 +129,11 @@ def default_renderer() -> ThumbnailRenderer:
 
 def cache_dir(db: "ObjectDatabase", renderer: ThumbnailRenderer | None = None) -> Path:
     """Where ``db``'s thumbnails live: ``<cache>/object_db/<digest of db and renderer settings>``."""
-    from .builtin import cache_root
+    from psdr_room_core.cache import default_cache_dir
 
     renderer = renderer or default_renderer()
     key = hashlib.sha256(f"{db.digest}\0{renderer.settings_key()}".encode()).hexdigest()[:20]
-    return cache_root() / "object_db" / key
+    return default_cache_dir() / "object_db" / key
 
 
 def _view_paths(folder: Path, model_id: str, count: int) -> list[Path]:

@@ -18,6 +18,7 @@ import cv2
 import numpy as np
 
 from psdr_room_core.artifacts import Camera, Candidate, ObjectMesh
+from psdr_room_core.cache import default_cache_dir
 from psdr_room_core.objects import ObjectQuery
 
 from .network import InputSpec, ModelFile, OnnxNetwork, missing_reason, resolve_model, to_network
@@ -51,7 +52,7 @@ class ClipRetrieval:
         self.batch = max(1, int(batch))
         self.threads = int(intra_op_threads)
         self.providers = tuple(providers or ())
-        self.cache_dir = Path(cache_dir or os.environ.get("PSDR_ROOM_CACHE_DIR") or Path.home() / ".cache/psdr-room")
+        self.cache_dir = Path(cache_dir) if cache_dir else default_cache_dir()
         self._network: OnnxNetwork | None = None
         self._db: Any = None
 

@@ -127,9 +127,10 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     assignment's ``samples``; the whole rendered mask when that leaves fewer than ``min_region_px``): the
     paper's mean over the whole mask also averages the clutter in front of a wall, which ``C_i`` leaves out,
     and pulls the wall towards a colour it does not have. ``T`` is the ``texture`` descriptor on the crop
-    pairs, all in sRGB. Parameters: see
+    pairs. All terms compare sRGB values; the down-sampled image and the means are averaged in linear light
+    first. Parameters: see
     :class:`AppearanceModel` (procedural maps evaluated at ``map_size``); ``learning_rates`` per group
-    (graph, base_color, roughness, specular, radiance), ``iterations``, ``spp`` / ``grad_spp`` (primal and
+    (graph, base_color, roughness, specular, radiance, light_colour), ``iterations``, ``spp`` / ``grad_spp`` (primal and
     gradient samples per pixel), ``final_spp`` (the final render), ``min_region_px`` (smaller parts get no
     colour term, and are not optimised), ``crops_per_part`` (largest first), ``max_crop_aspect`` (see
     :func:`squarish`), ``radiance_range`` (how far each light's intensity may move from its initial one) and
