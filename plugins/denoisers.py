@@ -7,12 +7,14 @@ and metrics), the report's and ``psdr-room-edit``'s images. Gradients never flow
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from psdr_room_core.hookspecs import hookimpl
 from psdr_room_core.plugins import Registry
+from psdr_room_core.settings import NoSettings, setting
 
 log = logging.getLogger(__name__)
 
@@ -62,6 +64,11 @@ class OidnDenoiser:
         return np.asarray(module.denoise(colour, hdr=True, quality=self.quality, **guides), dtype=np.float32)
 
 
+@dataclass
+class OidnSettings:
+    quality: str = setting(choices=QUALITIES)
+
+
 class NoDenoiser:
     """Renders as they come out of the path tracer (for ablations and noise measurements)."""
 
@@ -83,5 +90,5 @@ def _distribution_version(name: str) -> str:
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("denoiser", "oidn", OidnDenoiser)
-    registry.add_implementation("denoiser", "none", NoDenoiser)
+    registry.add_implementation("denoiser", "oidn", OidnDenoiser, params=OidnSettings)
+    registry.add_implementation("denoiser", "none", NoDenoiser, params=NoSettings)

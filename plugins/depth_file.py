@@ -7,7 +7,9 @@ else from ``<photo stem>.depth.json`` (``{"encoding": "png16", "scale": 1000}``)
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Optional
 
 import cv2
 import numpy as np
@@ -16,8 +18,9 @@ from psdr_room_core.artifacts import Camera, DepthMap, Image, Panoptic
 from psdr_room_core.errors import PsdrRoomError
 from psdr_room_core.hookspecs import hookimpl
 from psdr_room_core.plugins import Registry
+from psdr_room_core.settings import setting
 
-from .sidecar_depth import DEPTH_SUFFIXES, SidecarError, find_depth_sidecar, read_depth, read_depth_options
+from .sidecar_depth import DEPTH_ENCODINGS, DEPTH_SUFFIXES, SidecarError, find_depth_sidecar, read_depth, read_depth_options
 
 
 class FileDepth:
@@ -70,6 +73,13 @@ class FileDepth:
         return DepthMap(depth=depth, valid=valid, metric=path.suffix.lower() == ".png", source=str(path))
 
 
+@dataclass
+class FileDepthSettings:
+    path: Optional[str] = setting()
+    encoding: str = setting(choices=("auto", *DEPTH_ENCODINGS))
+    scale: Optional[float] = setting(gt=0)
+
+
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("depth", "file", FileDepth)
+    registry.add_implementation("depth", "file", FileDepth, params=FileDepthSettings)

@@ -2,20 +2,21 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 from psdr_room_core.artifacts import Camera, Image
 from psdr_room_core.hookspecs import hookimpl
 from psdr_room_core.plugins import Registry
+from psdr_room_core.settings import setting
 
+from .vanishing_points import VanishingPointParams
 
 
 class VanishingPointsFov:
     """Focal length from orthogonal vanishing points of the photo's line segments (fallback: a fixed FoV)."""
 
     def __init__(self, **params: object) -> None:
-        from .vanishing_points import VanishingPointParams  # scipy is slow to import: only when selected
-
         self.params = VanishingPointParams(**params)
 
     def estimate(self, image: Image, photo: Path) -> Camera:
@@ -36,6 +37,11 @@ class VanishingPointsFov:
         )
 
 
+@dataclass
+class FixedFovSettings:
+    vfov_deg: float = setting(gt=0, lt=180)
+
+
 class FixedFov:
     """A fixed vertical field of view (square pixels, centred principal point)."""
 
@@ -48,5 +54,5 @@ class FixedFov:
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("fov", "vanishing_points", VanishingPointsFov)
-    registry.add_implementation("fov", "fixed", FixedFov)
+    registry.add_implementation("fov", "vanishing_points", VanishingPointsFov, params=VanishingPointParams)
+    registry.add_implementation("fov", "fixed", FixedFov, params=FixedFovSettings)

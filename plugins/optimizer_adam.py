@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from collections.abc import Callable, Iterable
 from typing import Any
 
 from psdr_room_core.hookspecs import hookimpl
 from psdr_room_core.plugins import Registry
+from psdr_room_core.settings import setting
 
 
 class Adam:
@@ -45,6 +47,14 @@ class Adam:
         return history
 
 
+@dataclass
+class AdamSettings:
+    beta1: float = setting(ge=0, lt=1)
+    beta2: float = setting(ge=0, lt=1)
+    eps: float = setting(gt=0)
+    decay: float = setting(gt=0, le=1)
+
+
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("optimizer", "adam", Adam)
+    registry.add_implementation("optimizer", "adam", Adam, params=AdamSettings)

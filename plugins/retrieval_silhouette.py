@@ -9,6 +9,7 @@ visible silhouette and depth match the object's mask and points there.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +20,7 @@ from psdr_room_core.errors import PsdrRoomError
 from psdr_room_core.hookspecs import hookimpl
 from psdr_room_core.objects import ObjectQuery
 from psdr_room_core.plugins import Registry
+from psdr_room_core.settings import setting
 from psdr_room_core.view_search import SearchParams, ViewTarget, fit_view
 
 
@@ -92,6 +94,23 @@ class SilhouetteRetrieval:
         return scored[:k]
 
 
+@dataclass
+class SilhouetteSettings:
+    database: str = setting()
+    fraction: float = setting(gt=0, le=1)
+    seed: int = setting()
+    n_yaw: int = setting(ge=1)
+    refine: int = setting(ge=0)
+    coarse: int = setting(ge=0)
+    explore: int = setting(ge=1)
+    polish: int = setting(ge=0)
+    halvings: int = setting(ge=0)
+    render_width: int = setting(ge=16)
+    max_pixels: int = setting(ge=0)
+    size_weight: float = setting(ge=0)
+    box_weight: float = setting(ge=0)
+
+
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("retrieval", "silhouette", SilhouetteRetrieval, version="2")
+    registry.add_implementation("retrieval", "silhouette", SilhouetteRetrieval, version="2", params=SilhouetteSettings)

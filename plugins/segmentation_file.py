@@ -7,7 +7,9 @@ Class names are mapped to the room categories (wall, floor, ceiling, window, doo
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Optional
 
 import cv2
 import numpy as np
@@ -16,6 +18,7 @@ from psdr_room_core.artifacts import Camera, Detections, Image, Panoptic
 from psdr_room_core.errors import PsdrRoomError
 from psdr_room_core.hookspecs import hookimpl
 from psdr_room_core.plugins import Registry
+from psdr_room_core.settings import setting
 
 from .sidecar_depth import SidecarError
 from .sidecar_segmentation import find_segmentation_sidecar, panoptic_json_for, read_coco_panoptic, read_labelme
@@ -67,6 +70,11 @@ class FileSegmentation:
         return Panoptic(ids=ids.astype(np.int32), segments=[s for s in segments if s.id in present])
 
 
+@dataclass
+class FileSegmentationSettings:
+    path: Optional[str] = setting()
+
+
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("segmentation", "file", FileSegmentation)
+    registry.add_implementation("segmentation", "file", FileSegmentation, params=FileSegmentationSettings)

@@ -32,6 +32,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from psdr_room_core.settings import setting
+
 
 @dataclass(frozen=True)
 class VanishingPointParams:
@@ -93,7 +95,7 @@ class VanishingPointParams:
     """A VP counts as observed when at least this many segments support it."""
     prior_sigma_deg: float = 20.0
     """Std of the Gaussian prior on the vertical FoV, centred on ``fallback_vfov_deg``."""
-    fallback_vfov_deg: float = 55.0
+    fallback_vfov_deg: float = setting(55.0, gt=0, lt=180)
     """Used when the photo has too few lines for an estimate; also the prior's centre."""
     seed: int = 0
     """Seed of the random generator (segment-pair sampling and bootstrap)."""

@@ -57,11 +57,13 @@ def _to_rgb_float(data: np.ndarray) -> np.ndarray:
 
 
 def require_file(path: Path) -> None:
-    """One line for a photo path that is a directory or does not exist."""
+    """One line for a photo path that is a directory, does not exist or is empty."""
     if path.is_dir():
         raise PsdrRoomError(f"{path}: is a directory; pass image=PATH to a photo file")
     if not path.is_file():
         raise PsdrRoomError(f"{path}: no such file; pass image=PATH to an existing photo")
+    if path.stat().st_size == 0:
+        raise PsdrRoomError(f"{path}: the file is empty; copy the photo again")
 
 
 def read_photo(path: Path, max_pixels: int) -> np.ndarray:

@@ -49,6 +49,8 @@ class Implementation:
     version: str
     description: str
     origin: Origin
+    params: type | None = None
+    """The schema of its config node (:mod:`psdr_room_core.settings`); None: not checked."""
 
 
 @dataclass(frozen=True)
@@ -67,6 +69,8 @@ class StageDef:
     or their absence, are part of the cache key)."""
     description: str
     origin: Origin
+    params: type | None = None
+    """The schema of its parameters (:mod:`psdr_room_core.settings`); None: not checked."""
 
 
 @dataclass
@@ -88,10 +92,13 @@ class Registry:
         *,
         version: str = "1",
         description: str = "",
+        params: type | None = None,
     ) -> None:
         """Register ``factory`` as implementation ``name`` of ``capability`` (one of ``CAPABILITIES``).
 
         Bump ``version`` whenever the implementation's results change: it is part of every cache key.
+        ``params``: the dataclass schema of ``factory``'s keyword arguments (:mod:`psdr_room_core.settings`),
+        checked against ``<capability>.<name>`` before any stage runs.
         """
         if capability not in CAPABILITIES:
             raise ValueError(f"unknown capability '{capability}'; expected one of {', '.join(CAPABILITIES)}")
@@ -100,7 +107,7 @@ class Registry:
             self.conflicts.setdefault(key, [self.implementations[key].origin]).append(self._origin)
             return
         description = description or (inspect.getdoc(factory) or "").split("\n")[0]
-        self.implementations[key] = Implementation(capability, name, factory, version, description, self._origin)
+        self.implementations[key] = Implementation(capability, name, factory, version, description, self._origin, params)
 
     def add_stage(
         self,
@@ -111,17 +118,19 @@ class Registry:
         uses: Iterable[str] = (),
         reads_photo: bool = False,
         sidecars: Iterable[str] = (),
+        params: type | None = None,
     ) -> None:
         """Register stage function ``fn`` under ``name`` (a later plugin's stage of the same name wins,
         so a plugin can replace a built-in stage; bump ``version`` when its results change). ``uses``: the
         capabilities it calls; ``reads_photo`` and ``sidecars`` (suffixes of files beside the photo): the
-        files it reads itself, whose bytes join its cache key."""
+        files it reads itself, whose bytes join its cache key; ``params``: the dataclass schema of its config
+        node's parameters (:mod:`psdr_room_core.settings`), checked before any stage runs."""
         uses = tuple(uses)
         for capability in uses:
             if capability not in CAPABILITIES:
                 raise ValueError(f"stage '{name}' uses unknown capability '{capability}'")
         description = (inspect.getdoc(fn) or "").split("\n")[0]
-        self.stages[name] = StageDef(name, fn, version, uses, reads_photo, tuple(sidecars), description, self._origin)
+        self.stages[name] = StageDef(name, fn, version, uses, reads_photo, tuple(sidecars), description, self._origin, params)
 
     # ------------------------------------------------------------------ lookups used by the runner
     def implementation(self, capability: str, name: str) -> Implementation:

@@ -34,6 +34,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .settings import setting
+
 _MIN_FLOOR_POINTS = 50
 """Fewer (valid) floor points than this cannot give a trustworthy floor plane."""
 _MIN_PLANE_POINTS = 30
@@ -52,28 +54,28 @@ _WALL_AXIS_TOLERANCE_DEG = 20.0
 class RoomInitParams:
     """Tuning knobs of :func:`init_room_box`; lengths are fractions of the scene scale."""
 
-    ransac_threshold: float = 0.02
+    ransac_threshold: float = setting(0.02, gt=0)
     """Plane inlier distance, as a fraction of the median point distance to the camera."""
-    ransac_iterations: int = 1000
+    ransac_iterations: int = setting(1000, ge=1)
     """RANSAC hypotheses per plane."""
-    max_walls: int = 4
+    max_walls: int = setting(4, ge=0)
     """Planes extracted sequentially from the wall points."""
-    min_wall_inliers: float = 0.05
+    min_wall_inliers: float = setting(0.05, gt=0, le=1)
     """Fraction of the wall points a wall plane needs; extraction stops at the first smaller plane."""
-    vertical_tolerance_deg: float = 20.0
+    vertical_tolerance_deg: float = setting(20.0, ge=0, le=90)
     """A wall plane's normal must be within this of horizontal (else it is dropped); an estimated depth's
     smooth error tilts real walls by 10-15 degrees."""
-    ceiling_margin: float = 1.2
+    ceiling_margin: float = setting(1.2, ge=1)
     """Room height = this x the top of the room points when no ceiling is visible (paper §4.2) ..."""
-    height_ratio: float = 1.85
+    height_ratio: float = setting(1.85, gt=0)
     """... but at least this many camera heights (the walls go on above the frame: a camera held at 1.5 m
     sees rooms about 2.8 m high)."""
-    size_ratio: float = 3.0
+    size_ratio: float = setting(3.0, gt=0)
     """A side that no wall bounds and that the camera does not turn its back to lies beyond the frame: at
     least this many camera heights from the opposite side (rooms about 4.5 m across for a camera at 1.5 m)."""
-    extent_percentile: float = 98.0
+    extent_percentile: float = setting(98.0, gt=50, le=100)
     """Robust 'maximum' of point coordinates (ceiling height, top of points, box sides without a wall)."""
-    behind_margin: float = 0.15
+    behind_margin: float = setting(0.15, ge=0)
     """Minimum camera clearance of box sides that no wall bounds (e.g. the unseen back wall). Photos are
     typically taken 0.5-1 m in front of the back wall with a median point distance of 2.5-3.5 m."""
     seed: int = 0

@@ -20,6 +20,7 @@ from .dag import Pipeline, RunRecord, Runner
 from .errors import PsdrRoomError
 from .ownership import check_writable_into, claim
 from .plugins import PluginSystem, plugin_system
+from .settings import check_config
 
 PUBLISH_AS = {"scene_files": "scene"}
 """Artifact kinds that are also published at the top of the run directory, under this name."""
@@ -52,6 +53,7 @@ def execute(cfg: DictConfig, run_dir: Path, plugins: PluginSystem | None = None)
     photo = Path(str(data["image"])).expanduser().absolute()
     injected = {name: Path(str(path)).expanduser().absolute() for name, path in (data.get("inject") or {}).items()}
     pipeline = Pipeline.from_config(data, provided=injected)
+    check_config(data, pipeline.nodes, plugins.registry)
     run = data["run"]
     selection = pipeline.select(only=run.get("only"), start=run.get("from"), until=run.get("until"))
     store = Store(Path(str(data["cache_dir"])))

@@ -115,3 +115,16 @@ def test_third_party_plugin_selected_from_the_cli(third_party: Path, cli_env: di
     assert metrics["camera"]["method"] == "exif"
     # 28 mm on a 43.27 mm diagonal, 4:3 frame: vertical FoV = 2 atan(0.5 * 0.6 * 43.27 / 28)
     assert metrics["vfov_deg"] == pytest.approx(49.7, abs=0.2)
+
+
+def test_third_party_settings_are_checked(third_party: Path, cli_env: dict[str, str], tmp_path: Path) -> None:
+    """The plugin's declared schema (ExifSettings) refuses an impossible value before any stage runs."""
+    result = subprocess.run(
+        [shutil.which("psdr-room") or "psdr-room", f"image={EXAMPLE}", "fov=exif", "fov.exif.fallback_vfov_deg=200",
+         f"hydra.run.dir={tmp_path / 'run'}", f"cache_dir={tmp_path / 'cache'}"],
+        env=_env(cli_env, third_party), capture_output=True, text=True,
+    )
+    assert result.returncode != 0
+    assert result.stderr.strip().splitlines() == [
+        "psdr-room: error: fov.exif.fallback_vfov_deg=200.0 is out of range; allowed: a number > 0 and < 180"]
+    assert not (tmp_path / "cache").exists() and not (tmp_path / "run" / "metrics.json").exists()

@@ -9,14 +9,34 @@ Their parameters are in ``conf/detector/*.yaml``.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Optional
 
 from psdr_room_core.artifacts import Detections, Image
 from psdr_room_core.hookspecs import hookimpl
 from psdr_room_core.plugins import Registry
+from psdr_room_core.settings import NoSettings, setting
 
 from .boxes_file import BoxesFile
 from .nanodet import NanodetOnnx
+
+
+@dataclass
+class NanodetSettings:
+    path: Optional[str] = setting()
+    score_threshold: float = setting(ge=0, le=1)
+    nms_iou: float = setting(ge=0, le=1)
+    max_detections: int = setting(ge=1)
+    classes: Optional[list[str]] = setting()
+    flip: bool = setting()
+    intra_op_threads: int = setting(ge=0)
+    providers: list[str] = setting()
+
+
+@dataclass
+class BoxesFileSettings:
+    path: Optional[str] = setting()
 
 
 class NoDetector:
@@ -28,8 +48,9 @@ class NoDetector:
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("detector", "nanodet_onnx", NanodetOnnx, version="2",
+    registry.add_implementation("detector", "nanodet_onnx", NanodetOnnx, version="2", params=NanodetSettings,
                                 description="COCO object boxes from the bundled NanoDet-m 416 (onnxruntime, offline)")
-    registry.add_implementation("detector", "boxes_file", BoxesFile, version="1",
+    registry.add_implementation("detector", "boxes_file", BoxesFile, version="1", params=BoxesFileSettings,
                                 description="object boxes from <photo stem>.boxes.yaml beside the photo")
-    registry.add_implementation("detector", "none", NoDetector, version="1", description="no object boxes")
+    registry.add_implementation("detector", "none", NoDetector, version="1", description="no object boxes",
+                                params=NoSettings)

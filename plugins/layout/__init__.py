@@ -11,6 +11,8 @@ from __future__ import annotations
 from psdr_room_core.hookspecs import hookimpl
 from psdr_room_core.plugins import Registry
 
+from .settings import LayoutDepthSettings, LayoutSegmentationSettings
+
 
 def _segmentation(**params: object) -> object:
     from .segmentation import LayoutSegmentation  # scipy (via the VP code) is slow to import: only when used
@@ -27,9 +29,9 @@ def _depth(**params: object) -> object:
 @hookimpl
 def register_implementations(registry: Registry) -> None:
     registry.add_implementation(
-        "segmentation", "layout", _segmentation, version="2",
+        "segmentation", "layout", _segmentation, version="2", params=LayoutSegmentationSettings,
         description="walls/floor/ceiling of a box layout fitted to the photo's lines; objects discovered among "
                     "detector boxes and what the room cannot explain, cut out by GrabCut")
     registry.add_implementation(
-        "depth", "layout", _depth, version="2",
+        "depth", "layout", _depth, version="2", params=LayoutDepthSettings,
         description="depth of a box room fitted to the segmentation, objects standing on its floor (camera height assumed)")

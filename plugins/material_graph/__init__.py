@@ -14,8 +14,11 @@ bounded parameters with a sigmoid reparameterisation (:mod:`.params`), graph fil
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from psdr_room_core.hookspecs import hookimpl
 from psdr_room_core.plugins import Registry
+from psdr_room_core.settings import setting
 
 from .graph import GraphError, ProceduralMaterial, load_graph, parse_graph
 from .library import TorchGraphLibrary
@@ -26,6 +29,13 @@ __all__ = ["TorchGraphLibrary", "ProceduralMaterial", "GraphError", "load_graph"
            "Int", "Seed", "Choice", "Float", "Color", "Floats", "Ramp"]
 
 
+@dataclass
+class TorchGraphSettings:
+    extra_dirs: list[str] = setting()
+    use_plugins: bool = setting()
+    device: str = setting()
+
+
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("material_graph", "torch_graph", TorchGraphLibrary)
+    registry.add_implementation("material_graph", "torch_graph", TorchGraphLibrary, params=TorchGraphSettings)

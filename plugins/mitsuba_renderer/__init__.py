@@ -7,12 +7,15 @@ that any later ``import drjit`` in the process, by this plugin or another, gets 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from psdr_room_core.errors import PsdrRoomError
 from psdr_room_core.hookspecs import hookimpl
 from psdr_room_core.plugins import Registry
+from psdr_room_core.settings import setting
 
-from .llvm import ensure_llvm
-from .session import MitsubaGeometryRenderer, MitsubaRenderer
+from .llvm import VARIANTS, ensure_llvm
+from .session import GUIDING, MitsubaGeometryRenderer, MitsubaRenderer
 
 __all__ = ["MitsubaRenderer", "MitsubaGeometryRenderer"]
 
@@ -22,6 +25,20 @@ except PsdrRoomError:  # reported when the renderer is used, not when plugins lo
     pass
 
 
+@dataclass
+class MitsubaSettings:
+    variant: str = setting(choices=VARIANTS)
+    spp: int = setting(ge=1)
+    spp_boundary: int = setting(ge=0)
+    rgb_spp: int = setting(ge=1)
+    max_depth: int = setting(ge=1)
+    rgb_sppi: int = setting(ge=0)
+    rgb_guiding: str = setting(choices=GUIDING)
+    rgb_geometry_gradients: bool = setting()
+    seed: int = setting()
+    threads: int = setting(ge=0)
+
+
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("renderer", "mitsuba", MitsubaRenderer)
+    registry.add_implementation("renderer", "mitsuba", MitsubaRenderer, params=MitsubaSettings)

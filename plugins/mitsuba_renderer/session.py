@@ -30,6 +30,9 @@ from psdr_room_core.shading import Surface
 
 from .llvm import VARIANTS, resolve_variant
 
+GUIDING = ("none", "grid", "octree")
+"""How ``rgb_sppi`` samples find indirect silhouettes."""
+
 if TYPE_CHECKING:
     import torch
 
@@ -126,8 +129,8 @@ class MitsubaRenderer:
         self.rgb_spp = int(rgb_spp)
         self.max_depth = int(max_depth)
         self.rgb_sppi = int(rgb_sppi)
-        if rgb_guiding not in ("none", "grid", "octree"):
-            raise PsdrRoomError(f"renderer.mitsuba.rgb_guiding={rgb_guiding!r} must be one of none, grid, octree")
+        if rgb_guiding not in GUIDING:
+            raise PsdrRoomError(f"renderer.mitsuba.rgb_guiding={rgb_guiding!r} must be one of {', '.join(GUIDING)}")
         self.rgb_guiding = str(rgb_guiding)
         self.rgb_geometry_gradients = bool(rgb_geometry_gradients)
         self.seed = int(seed)

@@ -15,16 +15,54 @@ graph with a fixed signature to support; ``fov=vanishing_points`` stays the esti
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Optional
+
 from psdr_room_core.hookspecs import hookimpl
 from psdr_room_core.plugins import Registry
+from psdr_room_core.settings import setting
 
 from .clip import ClipRetrieval
 from .depth import OnnxDepth
 from .segmentation import OnnxSegmentation
 
 
+@dataclass
+class OnnxModelSettings:
+    """Which network file and how onnxruntime runs it (shared by the three implementations)."""
+
+    model: str = setting()
+    path: Optional[str] = setting()
+    family: Optional[str] = setting()
+    models_dir: str = setting()
+    intra_op_threads: int = setting(ge=0)
+    providers: list[str] = setting()
+
+
+@dataclass
+class OnnxDepthSettings(OnnxModelSettings):
+    input_size: Optional[int] = setting(ge=32)
+    disparity_eps: float = setting(ge=0, lt=1)
+
+
+@dataclass
+class OnnxSegmentationSettings(OnnxModelSettings):
+    input_size: Optional[int] = setting(ge=32)
+    min_segment_fraction: float = setting(ge=0, lt=1)
+
+
+@dataclass
+class ClipSettings(OnnxModelSettings):
+    database: str = setting()
+    fraction: float = setting(gt=0, le=1)
+    seed: int = setting()
+    category_filter: bool = setting()
+    batch: int = setting(ge=1)
+    cache_dir: str = setting()
+
+
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("depth", "onnx", OnnxDepth)
-    registry.add_implementation("segmentation", "onnx", OnnxSegmentation)
-    registry.add_implementation("retrieval", "clip_onnx", ClipRetrieval)
+    registry.add_implementation("depth", "onnx", OnnxDepth, params=OnnxDepthSettings)
+    registry.add_implementation("segmentation", "onnx", OnnxSegmentation, params=OnnxSegmentationSettings)
+    registry.add_implementation("retrieval", "clip_onnx", ClipRetrieval, params=ClipSettings)

@@ -8,8 +8,12 @@ and reads torchvision's VGG19 weights (``psdr-room-models download vgg19_imagene
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Optional
+
 from psdr_room_core.hookspecs import hookimpl
 from psdr_room_core.plugins import Registry
+from psdr_room_core.settings import setting
 
 from .common import colour_stats, gram
 from .random_cnn import RandomCnnDescriptor
@@ -18,7 +22,30 @@ from .vgg19 import Vgg19Descriptor
 __all__ = ["RandomCnnDescriptor", "Vgg19Descriptor", "colour_stats", "gram"]
 
 
+@dataclass
+class RandomCnnSettings:
+    seed: int = setting()
+    channels: int = setting(ge=1)
+    kernel: int = setting(ge=1)
+    levels: int = setting(ge=1)
+    size: Optional[int] = setting(ge=16)
+    power: float = setting(gt=0)
+    colour_weight: float = setting(ge=0)
+    device: str = setting()
+
+
+@dataclass
+class Vgg19Settings:
+    model: str = setting()
+    path: Optional[str] = setting()
+    models_dir: str = setting()
+    layers: list[str] = setting()
+    size: Optional[int] = setting(ge=16)
+    colour_weight: float = setting(ge=0)
+    device: str = setting()
+
+
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("texture", "random_cnn", RandomCnnDescriptor)
-    registry.add_implementation("texture", "vgg19", Vgg19Descriptor)
+    registry.add_implementation("texture", "random_cnn", RandomCnnDescriptor, params=RandomCnnSettings)
+    registry.add_implementation("texture", "vgg19", Vgg19Descriptor, params=Vgg19Settings)

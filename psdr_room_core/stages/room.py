@@ -33,11 +33,7 @@ log = logging.getLogger("psdr_room")
 
 def room_init(ctx: StageContext, cloud: PointCloud) -> RoomBox:
     """Fit the initial room box and the camera pose in the room's frame (params: ``RoomInitParams``)."""
-    fields = {f.name for f in dataclasses.fields(RoomInitParams)} - {"seed"}
-    unknown = set(ctx.params) - fields
-    if unknown:
-        raise PsdrRoomError(f"room_init: unknown parameter(s) {', '.join(sorted(unknown))}; known: {', '.join(sorted(fields))}")
-    params = RoomInitParams(**ctx.params, seed=ctx.seed)
+    params = RoomInitParams(**{**ctx.params, "seed": ctx.seed})
     points = {c: cloud.category_points(c).astype(np.float64) for c in ROOM_CATEGORIES}
     try:
         fit = init_room_box(points, params)

@@ -1,15 +1,24 @@
 """psdr-room plugin: the vertical field of view from the photo's EXIF 35 mm-equivalent focal length."""
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import PIL.Image
 
 from psdr_room_core.artifacts import Camera, Image
 from psdr_room_core.hookspecs import hookimpl
+from psdr_room_core.settings import setting
 
 FOCAL_35MM = 0xA405  # EXIF FocalLengthIn35mmFilm, in the Exif sub-IFD
 FULL_FRAME_DIAGONAL_MM = math.hypot(36.0, 24.0)
+
+
+@dataclass
+class ExifSettings:
+    """Checked against ``fov.exif`` before any stage runs."""
+
+    fallback_vfov_deg: float = setting(gt=0, lt=180)
 
 
 class ExifFov:
@@ -33,7 +42,7 @@ class ExifFov:
 
 @hookimpl
 def register_implementations(registry):
-    registry.add_implementation("fov", "exif", ExifFov)
+    registry.add_implementation("fov", "exif", ExifFov, params=ExifSettings)
 
 
 @hookimpl

@@ -1,0 +1,255 @@
+"""The bad-input corpus: photos, sidecars of every kind, overrides, run and cache paths, scene folders for
+``psdr-room-edit``. Each case must end with a non-zero exit and exactly one error line on stderr that names
+the file or key, no traceback, no published output, no damaged or half-written cache entry, and every file
+outside the run directory and the cache exactly as it was (the case's own files and a sentinel folder are
+hashed before and after)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+import subprocess
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from conftest import EXAMPLE
+from psdr_room_core.cache import Store, damage
+from psdr_room_core.ownership import claim
+
+RNG_PHOTO = np.random.default_rng(0).integers(0, 255, (120, 160, 3), np.uint8)
+
+
+@dataclass(frozen=True)
+class Case:
+    setup: Callable[[Path], list[str]]
+    """Writes the case's files under the given folder; returns the command line after the program."""
+    expected: str
+    """Part of the one error line: the file or key it names and what is wrong."""
+    program: str = "psdr-room"
+
+
+# ------------------------------------------------------------------------------------------ helpers
+def png(folder: Path, rgb: np.ndarray, name: str = "photo.png") -> Path:
+    path = folder / name
+    cv2.imwrite(str(path), rgb[..., ::-1])
+    return path
+
+
+def example(folder: Path, sidecars: dict[str, bytes | str] | None = None, photo: bytes | None = None) -> Path:
+    """The bundled example photo, alone in ``folder/photo`` (with ``sidecars``: suffix → content)."""
+    (folder / "photo").mkdir()
+    target = folder / "photo" / EXAMPLE.name
+    target.write_bytes(EXAMPLE.read_bytes() if photo is None else photo)
+    for suffix, content in (sidecars or {}).items():
+        path = target.with_name(target.stem + suffix)
+        path.write_bytes(content if isinstance(content, bytes) else content.encode())
+    return target
+
+
+def with_sidecar(suffix: str, content: bytes | str | Callable[[], bytes],
+                 beside: tuple[str, ...] = ()) -> Callable[[Path], list[str]]:
+    """The example with one broken sidecar (and the example's own sidecars with the suffixes ``beside``);
+    its LabelMe file (unless that is the broken one) and no detector unless boxes are tested keep the
+    stages before the failing one quick; ``run.until`` stops a run that missed the fault."""
+    def setup(folder: Path) -> list[str]:
+        data = content() if callable(content) else content
+        sidecars = {s: EXAMPLE.with_name(EXAMPLE.stem + s).read_bytes() for s in beside}
+        if suffix.startswith(".depth"):
+            sidecars[".labelme.json"] = LABELME_TEXT
+        photo = example(folder, {**sidecars, suffix: data})
+        return [f"image={photo}", "fov=fixed", "run.until=estimate_depth",
+                *([] if suffix == ".boxes.yaml" else ["detector=none"])]
+    return setup
+
+
+def overrides(*args: str) -> Callable[[Path], list[str]]:
+    return lambda folder: [f"image={example(folder)}", *args]
+
+
+def encoded(array: np.ndarray, ext: str = ".png") -> bytes:
+    return cv2.imencode(ext, array)[1].tobytes()
+
+
+def npy(array: np.ndarray) -> bytes:
+    import io
+
+    buffer = io.BytesIO()
+    np.save(buffer, array)
+    return buffer.getvalue()
+
+
+LABELME_TEXT = EXAMPLE.with_name(EXAMPLE.stem + ".labelme.json").read_text()
+LABELME = json.loads(LABELME_TEXT)
+
+
+def labelme(**changes: object) -> str:
+    return json.dumps({**LABELME, **changes})
+
+
+def scene_folder(folder: Path, appearance: dict | str | None = None) -> Path:
+    """A scene folder as psdr-room-edit reads it: ``appearance.json`` (edits are refused before meshes are read)."""
+    scene = folder / "scene"
+    scene.mkdir()
+    state = {
+        "camera": {"width": 160, "height": 120, "fx": 150.0, "fy": 150.0, "cx": 79.5, "cy": 59.5},
+        "camera_to_world": np.eye(4).tolist(),
+        "parts": [{"part": "floor", "kind": "homogeneous", "base_color": [0.5, 0.4, 0.3], "roughness": 0.5,
+                   "specular": 0.5, "material": None, "scale": 1.0, "rotation": 0.0, "params": {}}],
+        "lights": [{"name": "light_ceiling_1", "kind": "ceiling", "part": None, "radiance": [5.0, 5.0, 5.0]}],
+        "fixtures": [],
+        "texture_size": 64,
+    }
+    if isinstance(appearance, dict):
+        state.update(appearance)
+    text = appearance if isinstance(appearance, str) else json.dumps(state)
+    (scene / "appearance.json").write_text(text)
+    claim(scene)
+    return scene
+
+
+def edit(*args: str, appearance: dict | str | None = None) -> Callable[[Path], list[str]]:
+    return lambda folder: [str(scene_folder(folder, appearance)), *args, "--out", str(folder / "edited")]
+
+
+def edit_into_users_folder(folder: Path) -> list[str]:
+    (folder / "mine").mkdir()
+    (folder / "mine" / "notes.txt").write_text("the user's")
+    return [str(scene_folder(folder)), "light.scale=2", "--out", str(folder / "mine")]
+
+
+def users_files_in_run_dir(folder: Path) -> list[str]:
+    (folder / "run" / "scene").mkdir(parents=True)
+    (folder / "run" / "scene" / "mine.blend").write_text("the user's")
+    return [f"image={example(folder)}"]
+
+
+def cache_dir_is_a_file(folder: Path) -> list[str]:
+    (folder / "not_a_dir").write_text("the user's")
+    return [f"image={example(folder)}", f"cache_dir={folder / 'not_a_dir'}"]
+
+
+# ------------------------------------------------------------------------------------------ the corpus
+CASES: dict[str, Case] = {
+    # photos
+    "photo_missing": Case(lambda f: [f"image={f / 'nope.jpg'}"], "nope.jpg: no such file"),
+    "photo_empty": Case(lambda f: [f"image={example(f, photo=b'')}"], "photo.jpg: the file is empty"),
+    "photo_not_an_image": Case(lambda f: [f"image={example(f, photo=b'hello, not a JPEG')}"], "photo.jpg: not an image"),
+    "photo_truncated": Case(lambda f: [f"image={example(f, photo=EXAMPLE.read_bytes()[:20000])}"],
+                            "photo.jpg: damaged or truncated"),
+    "photo_directory": Case(lambda f: [f"image={f}"], "is a directory"),
+    "photo_gif": Case(lambda f: [f"image={_gif(f)}"], "photo.gif: GIF images are not supported"),
+    "photo_too_small": Case(lambda f: [f"image={png(f, RNG_PHOTO[:40])}"], "photo.png: 160x40 is too small"),
+    "photo_one_pixel": Case(lambda f: [f"image={png(f, RNG_PHOTO[:1, :1])}"], "photo.png: 1x1 is too small"),
+    "photo_one_colour": Case(lambda f: [f"image={png(f, np.full((120, 160, 3), 90, np.uint8))}"], "same colour"),
+    "photo_too_many_pixels": Case(overrides("load_image.max_pixels=1000"), "over load_image.max_pixels=1000"),
+    "photo_path_with_equals": Case(lambda f: [f"image={f / 'my,room=1.jpg'}"], "quote it: image=\"'"),
+    "photo_path_with_comma": Case(lambda f: [f"image={f / 'my,room.jpg'}"], "quote the path"),
+    # sidecars beside the photo
+    "boxes_not_yaml": Case(with_sidecar(".boxes.yaml", "boxes: [a, b"), "photo.boxes.yaml: not valid YAML"),
+    "boxes_not_a_list": Case(with_sidecar(".boxes.yaml", "boxes: 5"), "photo.boxes.yaml: expected a single key 'boxes'"),
+    "boxes_three_numbers": Case(with_sidecar(".boxes.yaml", "boxes:\n  - {label: sofa, box: [1, 2, 3]}"),
+                                "box [1, 2, 3] is not four numbers"),
+    "boxes_outside_photo": Case(with_sidecar(".boxes.yaml", "boxes:\n  - {label: sofa, box: [10, 10, 900, 900]}"),
+                                "is outside the 640x480 photo"),
+    "boxes_unknown_category": Case(with_sidecar(".boxes.yaml", "boxes:\n  - {label: x, category: spaceship, box: [1, 1, 9, 9]}"),
+                                   "category 'spaceship' is unknown"),
+    "boxes_unknown_key": Case(with_sidecar(".boxes.yaml", "boxes:\n  - {label: sofa, bx: [1, 1, 9, 9]}"),
+                              "has unknown key(s) bx"),
+    "labelme_not_json": Case(with_sidecar(".labelme.json", "{not json"), "photo.labelme.json: not valid JSON"),
+    "labelme_bad_polygon": Case(with_sidecar(".labelme.json", lambda: labelme(shapes=[
+        {"label": "wall", "points": [[0, 0], [10, 10]], "shape_type": "polygon"}]).encode()), "photo.labelme.json"),
+    "panoptic_not_png": Case(with_sidecar(".panoptic.png", b"not a png"), "photo.panoptic.png"),
+    "depth_rgb_8bit": Case(with_sidecar(".depth.png", lambda: encoded(RNG_PHOTO)), "photo.depth.png"),
+    "depth_wrong_aspect": Case(with_sidecar(".depth.png", lambda: encoded(np.full((100, 400), 2000, np.uint16))),
+                               "depth is 400x100 but the photo is 640x480"),
+    "depth_npy_strings": Case(with_sidecar(".depth.npy", lambda: npy(np.array([["a", "b"]]))), "photo.depth.npy"),
+    "depth_json_bad_encoding": Case(with_sidecar(".depth.json", '{"encoding": "jpeg"}', beside=(".depth.png",)),
+                                    "photo.depth.json"),
+    # settings
+    "iterations_not_a_number": Case(overrides("room_fit.iterations=abc"), "room_fit.iterations=abc is invalid"),
+    "iterations_negative": Case(overrides("room_fit.iterations=-3"), "room_fit.iterations=-3 is out of range"),
+    "learning_rate_negative": Case(overrides("fit_appearance.learning_rates.graph=-1"),
+                                   "fit_appearance.learning_rates.graph=-1.0 is out of range; allowed: a number >= 0"),
+    "max_side_zero": Case(overrides("load_image.max_side=0"), "load_image.max_side=0 is out of range"),
+    "probability_over_one": Case(overrides("place_objects.prune.min_iou=1.5"), "place_objects.prune.min_iou=1.5"),
+    "list_of_wrong_length": Case(overrides("init_lights.ceiling_grid=[3]"), "init_lights.ceiling_grid=[3] is invalid"),
+    "word_not_a_choice": Case(overrides("renderer.mitsuba.variant=gpu"), "renderer.mitsuba.variant=gpu is not one"),
+    "mistyped_key": Case(overrides("room_init.ransac_treshold=0.1"), "ransac_treshold"),
+    "added_unknown_key": Case(overrides("+room_fit.lr=0.1"), "room_fit.lr is not a setting of room_fit"),
+    "unknown_implementation": Case(overrides("fov=nope"), "unknown fov implementation 'nope'"),
+    "empty_auto_order": Case(overrides("depth.auto.order=[]"), "depth.auto.order=[] is invalid"),
+    "bad_override_syntax": Case(overrides("room_init.ransac_threshold=[0.1"), "invalid override"),
+    "no_image": Case(lambda f: [], "image is required; add image=PATH/TO/photo.jpg"),
+    "bad_cache_mode": Case(overrides("cache=sometimes"), "cache=sometimes is not a cache mode"),
+    "unknown_stage_in_until": Case(overrides("run.until=nope"), "nope"),
+    "injected_folder_missing": Case(lambda f: [f"image={example(f)}", f"+inject.depth={f / 'nowhere'}"], "nowhere"),
+    # run and cache paths
+    "run_dir_not_ours": Case(users_files_in_run_dir, "psdr-room did not write"),
+    "cache_dir_is_a_file": Case(cache_dir_is_a_file, "not_a_dir"),
+    # scene folders for psdr-room-edit
+    "edit_no_scene": Case(lambda f: [str(f / "nothing"), "light.scale=2"], "nothing: no appearance.json",
+                          "psdr-room-edit"),
+    "edit_invalid_json": Case(edit("light.scale=2", appearance="{"), "appearance.json: invalid JSON", "psdr-room-edit"),
+    "edit_incomplete_json": Case(edit("light.scale=2", appearance='{"parts": []}'), "appearance.json: missing camera",
+                                 "psdr-room-edit"),
+    "edit_name_escapes": Case(edit("light.scale=2", appearance={"fixtures": ["../../etc/passwd"]}),
+                              "appearance.json", "psdr-room-edit"),
+    "edit_out_users_folder": Case(edit_into_users_folder, "--out", "psdr-room-edit"),
+    "edit_unknown_key": Case(edit("colour.floor=1"), "edit colour.floor: unknown", "psdr-room-edit"),
+    "edit_not_a_number": Case(edit("light.scale=bright"), "edit light.scale: expected a number", "psdr-room-edit"),
+    "edit_unknown_part": Case(edit("material.sofa=oak_planks"), "edit material.sofa: no part 'sofa'", "psdr-room-edit"),
+    "edit_not_key_value": Case(edit("brighter"), "edit 'brighter': expected KEY=VALUE", "psdr-room-edit"),
+}
+
+
+def _gif(folder: Path) -> Path:
+    import PIL.Image
+
+    path = folder / "photo.gif"
+    PIL.Image.fromarray(RNG_PHOTO).save(path)
+    return path
+
+
+def snapshot(folder: Path, skip: tuple[Path, ...]) -> dict[str, str]:
+    """Content digest of every file under ``folder`` outside ``skip``."""
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(folder.rglob("*")) if p.is_file() and not any(p.is_relative_to(s) for s in skip)}
+
+
+def test_corpus_is_large() -> None:
+    assert len(CASES) >= 40
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_bad_input_gets_one_line(name: str, tmp_path: Path, cli_env: dict[str, str], cache_dir: Path) -> None:
+    case = CASES[name]
+    files = tmp_path / "user"
+    files.mkdir()
+    (files / "sentinel").mkdir()
+    (files / "sentinel" / "keep.txt").write_text("must not change")
+    run_dir = files / "run"
+    args = case.setup(files)
+    if case.program == "psdr-room":
+        args.append(f"hydra.run.dir={run_dir}")
+    hydra_own = (run_dir / ".hydra", run_dir / "psdr-room.log")
+    before = snapshot(files, hydra_own)
+    result = subprocess.run([shutil.which(case.program) or case.program, *args], env=cli_env,
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode != 0, result.stdout + result.stderr
+    lines = [line for line in result.stderr.splitlines() if any(w in line.lower() for w in ("error", "warn", "traceback"))]
+    assert len(lines) == 1, result.stderr  # besides the progress lines (▶ ✓ ✗) and the log's choices
+    assert lines[0].startswith(f"{case.program}: error: ") and case.expected in lines[0], lines[0]
+    assert "Traceback" not in result.stderr + result.stdout
+    assert snapshot(files, hydra_own) == before  # nothing of the user's changed (run_dir_not_ours: run/scene/)
+    assert not (run_dir / "metrics.json").exists() and not (files / "edited").exists()
+    if run_dir.is_dir():
+        assert not [p for p in run_dir.iterdir() if p.name.startswith(".publishing-")]
+    if cache_dir.is_dir():
+        assert not [e for e in Store(cache_dir).entries() if damage(e)]
+        assert not list((cache_dir / "tmp").glob("*"))
