@@ -207,6 +207,28 @@ def test_two_runs_at_once_on_one_cache(first_run: tuple[Path, dict[str, str]], t
     assert len(list((tmp_path / "cache" / "entries").glob("*/*"))) == len(STAGES)
 
 
+def test_every_damaged_entry_is_caught_and_recomputed(first_run: tuple[Path, dict[str, str]], tmp_path: Path) -> None:
+    """One file changed in each cached entry up to room_fit (a different file each time, bytes flipped in
+    place): the next run trusts none of them, moves each aside, and recomputes the same results."""
+    root, _ = first_run
+    shutil.copytree(root / "cache", tmp_path / "cache")
+    env = {**os.environ, "PSDR_ROOM_CACHE_DIR": str(tmp_path / "cache")}
+    upstream = STAGES[:STAGES.index("room_fit") + 1]
+    keys = [metrics(root / "run1")["stages"][stage]["key"] for stage in upstream]
+    for i, key in enumerate(keys):
+        files = sorted(p for p in (tmp_path / "cache" / "entries" / key[:2] / key).rglob("*") if p.is_file())
+        victim = files[i % len(files)]
+        data = bytearray(victim.read_bytes())
+        data[len(data) // 2] ^= 0x01
+        victim.write_bytes(bytes(data))
+    result = psdr_room(f"image={EXAMPLE}", "run.until=room_fit", f"hydra.run.dir={tmp_path / 'run'}", env=env)
+    assert computed(tmp_path / "run") == set(upstream)
+    damaged = [line for line in result.stderr.splitlines() if "is damaged" in line]
+    assert sorted(line.split("(")[1].split(")")[0] for line in damaged) == sorted(upstream), result.stderr
+    assert len(list((tmp_path / "cache" / "quarantine").iterdir())) == len(upstream)
+    assert_same_results(tmp_path / "run", root / "run1")
+
+
 @pytest.mark.slow
 def test_demo_with_default_settings(tmp_path: Path) -> None:
     """The README's demo as it runs (full room_fit): the fit improves the masks' agreement."""
