@@ -8,11 +8,12 @@ and ``registry.add_implementation(..., params=S)``; :func:`check_config` checks 
 against every registered schema before any stage runs, and the first problem ends the run in one line
 naming the key, the value and what is allowed::
 
-    room_fit.iterations=-3 is out of range: allowed an integer >= 1
+    room_fit.iterations=-3 is out of range; allowed: an integer >= 1
 """
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import operator
 import typing
@@ -41,7 +42,7 @@ def setting(default: Any = MISSING, *, ge: float | None = None, gt: float | None
     (``choices``) or a list ``length``; ``default`` only for keys a config may leave out."""
     rules = {k: v for k, v in dict(ge=ge, gt=gt, le=le, lt=lt, choices=choices, length=length).items() if v is not None}
     if isinstance(default, (list, dict)):
-        return dataclasses.field(default_factory=lambda: default, metadata=rules)
+        return dataclasses.field(default_factory=lambda: copy.deepcopy(default), metadata=rules)
     return dataclasses.field(default=default, metadata=rules)
 
 
