@@ -164,7 +164,7 @@ CASES: dict[str, Case] = {
     "labelme_not_json": Case(with_sidecar(".labelme.json", "{not json"), "photo.labelme.json: not valid JSON"),
     "labelme_bad_polygon": Case(with_sidecar(".labelme.json", lambda: labelme(shapes=[
         {"label": "wall", "points": [[0, 0], [10, 10]], "shape_type": "polygon"}]).encode()), "photo.labelme.json"),
-    "panoptic_not_png": Case(with_sidecar(".panoptic.png", b"not a png"), "photo.panoptic.png"),
+    "panoptic_without_json": Case(with_sidecar(".panoptic.png", b"not a png"), "photo.panoptic.png: no segment JSON"),
     "depth_rgb_8bit": Case(with_sidecar(".depth.png", lambda: encoded(RNG_PHOTO)), "photo.depth.png"),
     "depth_wrong_aspect": Case(with_sidecar(".depth.png", lambda: encoded(np.full((100, 400), 2000, np.uint16))),
                                "depth is 400x100 but the photo is 640x480"),
