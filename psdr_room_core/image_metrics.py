@@ -22,6 +22,11 @@ def rmse(a: np.ndarray, b: np.ndarray, factor: int = 8) -> float:
 def ssim(a: np.ndarray, b: np.ndarray, sigma: float = 1.5) -> float:
     """Mean structural similarity of the Rec. 709 luma of two [H, W, 3] images in [0, 1] (Gaussian window of
     ``sigma`` pixels, the standard constants K1 = 0.01, K2 = 0.03)."""
+    return float(ssim_map(a, b, sigma).mean())
+
+
+def ssim_map(a: np.ndarray, b: np.ndarray, sigma: float = 1.5) -> np.ndarray:
+    """The per-pixel structural similarity index [H, W] that :func:`ssim` averages."""
     weights = np.array([0.2126, 0.7152, 0.0722], np.float64)
     x, y = np.asarray(a, np.float64) @ weights, np.asarray(b, np.float64) @ weights
     c1, c2 = 0.01 ** 2, 0.03 ** 2
@@ -31,8 +36,7 @@ def ssim(a: np.ndarray, b: np.ndarray, sigma: float = 1.5) -> float:
 
     mx, my = blur(x), blur(y)
     vx, vy, cxy = blur(x * x) - mx * mx, blur(y * y) - my * my, blur(x * y) - mx * my
-    index = ((2 * mx * my + c1) * (2 * cxy + c2)) / ((mx * mx + my * my + c1) * (vx + vy + c2))
-    return float(index.mean())
+    return ((2 * mx * my + c1) * (2 * cxy + c2)) / ((mx * mx + my * my + c1) * (vx + vy + c2))
 
 
 def flip(test: np.ndarray, reference: np.ndarray) -> float:

@@ -24,7 +24,7 @@ from psdr_room_core.errors import PsdrRoomError
 from psdr_room_core.lighting import behind_camera, in_view
 from psdr_room_core.rgb_scene import build_scene, initial_parts, part_meshes, render_part_ids, room_quads
 from psdr_room_core.shading import linear_to_srgb, srgb_to_linear
-from psdr_room_core.stages.appearance import fit_appearance
+from psdr_room_core.stages.appearance import AppearanceModel, fit_appearance, picture, plain_parts
 from psdr_room_core.stages.export import export_scene
 from psdr_room_core.stages.lighting import init_lights, white_balance
 from psdr_room_plugins.denoisers import OidnDenoiser
@@ -56,7 +56,7 @@ LIGHT_PARAMS = {**{k: v for k, v in yaml.safe_load((ROOT / "conf" / "stage" / "i
 FIT_PARAMS = {**{k: v for k, v in yaml.safe_load((ROOT / "conf" / "stage" / "fit_appearance.yaml").read_text()).items()
                  if not k.startswith("_")},
               "iterations": 40, "render_width": 96, "spp": 8, "grad_spp": 4, "final_spp": 128, "map_size": 32,
-              "min_region_px": 16}
+              "min_region_px": 16, "plain_check": False}  # the graph's own fit; the plain check has its own test
 
 
 @pytest.fixture(scope="module")
@@ -183,6 +183,33 @@ def test_fit_appearance_matches_the_photo_better(fitted: dict, library: TorchGra
     for hidden in ("wall_x_neg", "wall_x_pos", "wall_z_neg"):
         assert appearance.part(hidden) == start[hidden]
     assert set(log.images) == {"photo_init_final", "crop_pairs", "loss"}
+
+
+@pytest.mark.parametrize("photo_pattern", [False, True], ids=["plain photo floor", "patterned photo floor"])
+def test_a_pattern_the_photo_does_not_show_is_made_plain(library: TorchGraphLibrary,
+                                                         photo: tuple[Image, Panoptic, Lights], photo_pattern: bool) -> None:
+    image, _, layout = photo
+    lights = Lights(lights=[Light(l.name, l.kind, l.mesh, (TRUE_RADIANCE,) * 3, l.part) for l in layout.lights],
+                    fixtures=layout.fixtures)
+    floor = PartMaterial("floor", "procedural", TRUE_SRGB["floor"], material="herringbone_oak", scale=2.0)
+    assignment = MaterialAssignment(parts=[floor] + [PartMaterial(n, "homogeneous", TRUE_SRGB[n]) for n in TRUE_SRGB
+                                                     if n != "floor"])
+    parts = initial_parts(assignment, library)
+    meshes = part_meshes(ROOM, Placements(objects=[]))
+    geometry = build_scene(meshes, parts, lights.lights, lights.fixtures, library, 32).renderer(MitsubaRenderer(),
+                                                                                                  CAMERA, C2W, 96)
+    model, denoiser = AppearanceModel(parts, lights, library, 32), OidnDenoiser(quality="fast")
+    patterned = picture(geometry, denoiser, model.inputs(), 128, 1)
+    # the photo: the same room with a plain floor, or with the pattern (independent samples)
+    target = picture(geometry, denoiser, model.inputs(), 512, 7)[1] if photo_pattern else image.rgb
+    ids, _ = render_part_ids(MitsubaRenderer(spp=4), CAMERA, C2W, meshes, 96)
+    final = plain_parts(model, geometry, denoiser, 128, target, patterned, {n: ids == k for k, n in enumerate(meshes)})
+    assert model.plain == (set() if photo_pattern else {"floor"})
+    floor_pixels = ids == list(meshes).index("floor")
+    spread = final[1][floor_pixels].std(0).max()
+    assert (spread > 0.03) if photo_pattern else (spread < patterned[1][floor_pixels].std(0).max())
+    written = {p.part: p for p in model.result()[0]}["floor"]
+    assert written.kind == ("procedural" if photo_pattern else "homogeneous")
 
 
 @pytest.fixture(scope="module")

@@ -33,7 +33,7 @@ def register_stages(registry: Registry) -> None:
     registry.add_stage("init_lights", lighting.init_lights, uses=["renderer", "material_graph", "denoiser"], version="3",
                        params=settings.InitLights)
     registry.add_stage("fit_appearance", appearance.fit_appearance,
-                       uses=["renderer", "optimizer", "material_graph", "texture", "denoiser"], version="4",
+                       uses=["renderer", "optimizer", "material_graph", "texture", "denoiser"], version="5",
                        params=settings.FitAppearance)
     registry.add_stage("export_scene", export.export_scene, uses=["material_graph"], version="4",
                        params=settings.ExportScene)

@@ -14,7 +14,7 @@ from ..artifacts import (Camera, Image, Lights, MaterialAssignment, Optimization
                          RoomBox, SceneAppearance)
 from .. import lpips
 from ..dag import StageContext
-from ..image_metrics import downsampled, flip, rmse, ssim
+from ..image_metrics import downsampled, flip, rmse, ssim, ssim_map
 from ..rgb_scene import build_scene, finished_render, graph_maps, initial_parts, part_meshes, render_part_ids
 from ..shading import linear_to_srgb, srgb_to_linear
 from ..visualize import plot_curves
@@ -35,7 +35,8 @@ class AppearanceModel:
     (``r0_l · exp(ln(range) · tanh(u_l)) · exp(ln(colour_range) · tanh(v))``, ``v`` of zero mean). A colour per
     light would let each ceiling panel tint the surfaces under it (green on one chair, yellow on the next):
     the photo's lights share one white balance, and the surfaces carry the colour. Parts not in ``free`` keep
-    their initial material."""
+    their initial material. Procedural parts in ``plain`` are drawn with their maps' mean colour and roughness
+    and written as homogeneous (see :func:`plain_parts`)."""
 
     def __init__(self, parts: list[PartAppearance], lights: Lights, library: Any, map_size: int,
                  free: set[str] | None = None, radiance_range: float = 16.0, colour_range: float = 2.0) -> None:
@@ -44,6 +45,7 @@ class AppearanceModel:
         self.library = library
         self.map_size = map_size
         self.free = {p.part for p in parts} if free is None else set(free)
+        self.plain: set[str] = set()
         self.log_range = float(np.log(max(radiance_range, 1.0 + 1e-6)))
         self.log_colour_range = float(np.log(max(colour_range, 1.0 + 1e-6)))
         self.theta: dict[str, torch.Tensor] = {}
@@ -81,6 +83,9 @@ class AppearanceModel:
             spec[p.part] = torch.sigmoid(self.theta[f"{p.part}/specular"])
             if p.kind == "procedural":
                 base[p.part], rough[p.part] = graph_maps(self.library, p, self.map_size, self._graph(p.part))
+                if p.part in self.plain:
+                    base[p.part], rough[p.part] = (m.mean((0, 1), keepdim=True).expand_as(m).contiguous()
+                                                   for m in (base[p.part], rough[p.part]))
             else:
                 base[p.part] = torch.sigmoid(self.theta[f"{p.part}/base_color"])
                 rough[p.part] = torch.sigmoid(self.theta[f"{p.part}/roughness"])
@@ -106,6 +111,9 @@ class AppearanceModel:
                 mean_base = tuple(float(v) for v in base.reshape(-1, 3).mean(0))
                 common = dict(base_color=mean_base, roughness=float(values["roughness"][p.part].mean()),
                               specular=float(values["specular"][p.part]))
+                if p.part in self.plain:
+                    parts.append(PartAppearance(p.part, "homogeneous", **common))
+                    continue
                 if p.kind == "procedural":
                     constrained = self.library.material(p.material).values(self._graph(p.part))
                     common["params"] = {k: v.tolist() for k, v in constrained.items()}
@@ -209,12 +217,15 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     final_spp, denoiser = int(params["final_spp"]), ctx.impl("denoiser")
     with torch.no_grad():
         initial = AppearanceModel(parts, lights, library, model.map_size, seen).inputs()
-        start_noisy, start = (linear_to_srgb(x) for x in finished_render(geometry, denoiser, initial, final_spp, 10**6))
-        final_noisy, final = (linear_to_srgb(x) for x in finished_render(geometry, denoiser, model.inputs(), final_spp,
-                                                                        10**6 + 1))
+        start_noisy, start = picture(geometry, denoiser, initial, final_spp, 10**6)
+        final_noisy, final = picture(geometry, denoiser, model.inputs(), final_spp, 10**6 + 1)
+        if params["plain_check"]:
+            final_noisy, final = plain_parts(model, geometry, denoiser, final_spp, photo, (final_noisy, final),
+                                             {name: ids == k for k, name in enumerate(names)})
     parts, radiance = model.result()
     metrics = {**_agreement(start, final, photo), **_agreement(start_noisy, final_noisy, photo, "_noisy"),
                "denoiser": denoiser.describe(), "iterations": len(history), "fitted_parts": sorted(seen),
+               "plain_parts": sorted(model.plain),
                "seconds_per_iteration": float(np.median([h["seconds"] for h in history])) if history else 0.0}
     scorer = lpips.installed()
     if scorer is not None:  # the paper's perceptual metric, only with its real weights
@@ -231,6 +242,39 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
         images["loss"] = plot_curves(curves, title="fit_appearance (eq. 4)")
     appearance = SceneAppearance(parts=parts, radiance=radiance, images={"render": as8(final)})
     return {"appearance": appearance, "log": OptimizationLog(history=history, images=images, summary=metrics)}
+
+
+def plain_parts(model: AppearanceModel, geometry: Any, denoiser: Any, spp: int, photo: np.ndarray,
+                final: tuple[np.ndarray, np.ndarray], masks: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Plain stays plain, judged after the fit: each fitted procedural part is drawn once more with its maps'
+    mean colour and roughness, and becomes homogeneous (``model.plain``) where that render's SSIM against the
+    photo, averaged over the part's own pixels, is higher than the patterned one's. A pattern the photo does not
+    show (a stone graph on a blurred wall, a weave fitted to clutter) costs structure that no colour term sees.
+    Returns the (noisy, denoised) sRGB final render of the chosen materials."""
+    candidates = {p.part for p in model.optimised() if p.kind == "procedural" and masks.get(p.part, np.zeros(1)).any()}
+    if not candidates:
+        return final
+    model.plain = set(candidates)
+    plain = picture(geometry, denoiser, model.inputs(), spp, 10**6 + 2)
+    patterned_ssim, plain_ssim = ssim_map(final[1], photo), ssim_map(plain[1], photo)
+    chosen = {part for part in candidates if plain_ssim[masks[part]].mean() > patterned_ssim[masks[part]].mean()}
+    for part in sorted(candidates):
+        log.info("fit_appearance: %s %s (SSIM on its pixels: pattern %.3f, plain %.3f)", part,
+                 "made plain" if part in chosen else "keeps its pattern", patterned_ssim[masks[part]].mean(),
+                 plain_ssim[masks[part]].mean())
+    model.plain = chosen
+    if chosen == candidates:
+        return plain
+    if not chosen:
+        return final
+    return picture(geometry, denoiser, model.inputs(), spp, 10**6 + 3)
+
+
+def picture(geometry: Any, denoiser: Any, inputs: dict[str, Any], spp: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """(noisy, denoised) sRGB [H, W, 3] of :func:`~psdr_room_core.rgb_scene.finished_render` (``seed``: its
+    sample stream, as ``iteration``)."""
+    noisy, clean = finished_render(geometry, denoiser, inputs, spp, seed)
+    return linear_to_srgb(noisy), linear_to_srgb(clean)
 
 
 def _agreement(start: np.ndarray, final: np.ndarray, photo: np.ndarray, suffix: str = "") -> dict[str, float]:

@@ -204,6 +204,7 @@ class FitAppearance:
     max_crop_aspect: float = setting(ge=1)
     radiance_range: float = setting(ge=1)
     colour_range: float = setting(ge=1)
+    plain_check: bool = setting()
 
 
 @dataclass
