@@ -16,10 +16,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from psdr_room_core.edit import render_with_guides
 from psdr_room_core.image_metrics import flip, rmse, ssim
 from psdr_room_core.shading import linear_to_srgb
 from psdr_room_plugins.denoisers import QUALITIES, OidnDenoiser
+from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
 
 
 def agreement(render: np.ndarray, photo: np.ndarray) -> tuple[float, float, float]:
@@ -36,7 +36,7 @@ def main() -> None:
     runs = [r for r in args.runs if (r / "scene" / "scene.xml").is_file() and (r / "artifacts/image/image.png").is_file()]
     if not runs:
         sys.exit("denoiser.py: no run folder with scene/scene.xml and artifacts/image/image.png among the arguments")
-    denoisers = {q: OidnDenoiser(quality=q) for q in QUALITIES}
+    renderer, denoisers = MitsubaRenderer(), {q: OidnDenoiser(quality=q) for q in QUALITIES}
     for denoiser in denoisers.values():  # load the library and each filter before timing
         denoiser.denoise(np.zeros((16, 16, 3), np.float32))
     print(f"denoisers: {denoisers['high'].describe()} and its other qualities; metrics against the photo "
@@ -51,7 +51,7 @@ def main() -> None:
         height = round(photo8.shape[0] * args.width / photo8.shape[1])
         photo = cv2.resize(photo8, (args.width, height), interpolation=cv2.INTER_AREA).astype(np.float32) / 255.0
         for spp in args.spp:
-            rgb, albedo, normal = render_with_guides(run / "scene" / "scene.xml", spp, width=args.width, height=height)
+            rgb, albedo, normal = renderer.render_file(run / "scene" / "scene.xml", spp, width=args.width, height=height)
             seconds, clean = {}, None
             for quality, denoiser in denoisers.items():
                 start = time.perf_counter()

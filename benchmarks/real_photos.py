@@ -53,7 +53,7 @@ from psdr_room_core.objects import OBJECT_CATEGORIES
 from psdr_room_core.silhouette import silhouette
 from psdr_room_core.visualize import segment_overlay
 from psdr_room_plugins.detectors.nanodet import box_iou
-from psdr_room_plugins.object_db.database import ObjectDatabase
+from psdr_room_plugins.object_db import ObjectDatabase, builtin_database
 from psdr_room_plugins.sidecar_depth import read_depth
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -415,7 +415,7 @@ def main() -> None:
         sys.exit(f"real_photos: --compare {args.compare}: no such file; give the rows.json an earlier run wrote")
     cache = (args.cache or args.out / "cache").resolve()
     os.environ.setdefault("PSDR_ROOM_CACHE_DIR", str(cache))  # the object database's own records and thumbnails
-    db = ObjectDatabase.builtin()
+    db = builtin_database()
     rows = []
     for entry in entries:
         run_dir = args.out / "runs" / entry.name

@@ -27,10 +27,10 @@ from psdr_room_core.view_search import SearchParams, ViewTarget, fit_view
 def open_database(database: str, fraction: float, seed: int) -> Any:
     """The object database: ``builtin`` (shipped with the package) or a folder in our format, optionally a
     random ``fraction`` of it per category (the paper's Fig. 10 database-size ablation)."""
-    from psdr_room_plugins.object_db.database import ObjectDatabase
+    from psdr_room_plugins.object_db import ObjectDatabase, builtin_database
 
     if database == "builtin":
-        db = ObjectDatabase.builtin()
+        db = builtin_database()
     else:
         root = Path(database).expanduser()
         if not (root / "index.json").is_file():

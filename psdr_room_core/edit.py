@@ -41,7 +41,7 @@ from .errors import PsdrRoomError
 from .geometry import TriangleMesh
 from .ownership import check_replaceable, claim, plain_name
 from .plugins import plugin_system
-from .rgb_scene import GUIDE_SPP, build_scene, to_srgb8
+from .rgb_scene import build_scene, to_srgb8
 from .stages.export import read_mesh_ply, scene_folder
 
 HOMOGENEOUS_KEYS = ("base_color", "roughness", "specular")
@@ -177,26 +177,10 @@ def rebuild(scene_dir: Path, state: dict[str, Any], library: Any) -> Any:
                        int(state["texture_size"]))
 
 
-def render_with_guides(xml: Path, spp: int, **size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A scene file rendered by Mitsuba (``size``: ``width``/``height`` overriding its defaults): linear RGB,
-    and the albedo and normal a denoiser is guided by, float32 [H, W, 3] each."""
-    import mitsuba as mi
-
-    from psdr_room_plugins.mitsuba_renderer.llvm import resolve_variant
-    from psdr_room_plugins.mitsuba_renderer.session import GUIDES
-
-    variant = resolve_variant("auto")
-    if mi.variant() != variant:
-        mi.set_variant(variant)
-    scene = mi.load_file(str(xml), spp=spp, **size)
-    rgb = np.array(mi.render(scene, spp=spp), dtype=np.float32)
-    aux = np.array(mi.render(scene, integrator=mi.load_dict(GUIDES), spp=GUIDE_SPP), dtype=np.float32)
-    return rgb, aux[..., :3], aux[..., 3:6]
-
-
-def render_folder(folder: Path, spp: int, denoiser: Any) -> np.ndarray:
-    """``scene.xml`` of a folder rendered by Mitsuba and cleaned by ``denoiser``, as sRGB uint8."""
-    return to_srgb8(denoiser.denoise(*render_with_guides(folder / "scene.xml", spp)))
+def render_folder(folder: Path, spp: int, renderer: Any, denoiser: Any) -> np.ndarray:
+    """``scene.xml`` of a folder rendered by ``renderer.mitsuba`` (its ``render_file``) and cleaned by
+    ``denoiser``, as sRGB uint8."""
+    return to_srgb8(denoiser.denoise(*renderer.render_file(folder / "scene.xml", spp)))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -213,15 +197,14 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     out = args.out or args.scene.with_name(args.scene.name + "-edited")
     try:
-        from psdr_room_plugins.material_graph.library import TorchGraphLibrary
-
-        denoiser = plugin_system().registry.implementation("denoiser", args.denoiser).factory()
+        registry = plugin_system().registry
+        denoiser = registry.implementation("denoiser", args.denoiser).factory()
         scene_dir = args.scene.resolve()
         if out.resolve() == scene_dir:
             raise PsdrRoomError(f"--out {out}: must differ from the scene folder it edits")
         check_replaceable(out, "--out")
         state = load_state(scene_dir)
-        library = TorchGraphLibrary()
+        library = registry.implementation("material_graph", "torch_graph").factory()
         for edit in args.edits:
             key, sep, raw = edit.partition("=")
             if not sep:
@@ -235,7 +218,7 @@ def main(argv: list[str] | None = None) -> int:
             for name, data in files.items():
                 (staging / name).parent.mkdir(parents=True, exist_ok=True)
                 (staging / name).write_bytes(data)
-            write_png(staging / "render.png", render_folder(staging, args.spp, denoiser))
+            write_png(staging / "render.png", render_folder(staging, args.spp, registry.implementation("renderer", "mitsuba").factory(), denoiser))
             claim(staging)
             check_replaceable(out, "--out")
             if out.exists():

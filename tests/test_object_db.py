@@ -21,7 +21,7 @@ FURNITURE = ("chair", "table", "sofa", "bed", "cabinet", "shelf", "desk", "lamp"
 
 @pytest.fixture(scope="module")
 def db() -> ObjectDatabase:
-    return ObjectDatabase.builtin()
+    return builtin_database()
 
 
 def _signed_volume(vertices: np.ndarray, faces: np.ndarray) -> float:

@@ -15,7 +15,8 @@ from psdr_room_core.room_box import box_iou_3d
 from psdr_room_core.run import execute
 from psdr_room_plugins.synth import write_scene
 from psdr_room_plugins.synth.raycast import raycast
-from psdr_room_plugins.synth.scene import HARD_CASES, camera_pose, generate
+from psdr_room_plugins.synth.room import camera_pose
+from psdr_room_plugins.synth.scene import HARD_CASES, generate
 
 
 def test_camera_pose_convention() -> None:

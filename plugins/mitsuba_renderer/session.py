@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -26,6 +27,7 @@ import numpy as np
 from psdr_room_core.artifacts import Camera
 from psdr_room_core.errors import PsdrRoomError
 from psdr_room_core.geometry import TriangleMesh
+from psdr_room_core.rgb_scene import GUIDE_SPP
 from psdr_room_core.shading import Surface
 
 from .llvm import VARIANTS, resolve_variant
@@ -169,6 +171,16 @@ class MitsubaRenderer:
     def device(self) -> str:
         """torch device of the returned tensors."""
         return "cuda" if self.variant.startswith("cuda") else "cpu"
+
+    def render_file(self, xml: Path, spp: int, **size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A Mitsuba scene file (an exported ``scene.xml``) rendered at ``spp`` (``size``: ``width`` /
+        ``height`` overriding its own): linear RGB, and the albedo and normal a denoiser is guided by,
+        float32 [H, W, 3] each."""
+        mi = self.activate()
+        scene = mi.load_file(str(xml), spp=spp, **size)
+        rgb = np.array(mi.render(scene, spp=spp), dtype=np.float32)
+        aux = np.array(mi.render(scene, integrator=mi.load_dict(GUIDES), spp=GUIDE_SPP), dtype=np.float32)
+        return rgb, aux[..., :3], aux[..., 3:6]
 
     def geometry(
         self,

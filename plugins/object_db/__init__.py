@@ -1,6 +1,6 @@
 """The object model database (§4.3 "Model database"): furniture meshes with material groups, for retrieval.
 
-    db = ObjectDatabase.builtin()              # Kenney Furniture Kit (CC0) + parametric furniture
+    db = builtin_database()                    # Kenney Furniture Kit (CC0) + parametric furniture
     sofas = db.category("sofa")                # [ModelRecord, ...]
     mesh = db.mesh(sofas[0].id)                # ObjectMesh: canonical frame, metres, +Y up, front +Z
     views = db.thumbnails(sofas[0].id)         # uint8 RGB renders, cached
@@ -12,9 +12,10 @@ library), :mod:`.future3d` (the 3D-FUTURE layout), :mod:`.thumbnails` (Mitsuba v
 
 from __future__ import annotations
 
+from .builtin import builtin_database
 from .database import CATEGORIES, ObjectMesh, ModelRecord, ObjectDatabase
 
-__all__ = ["CATEGORIES", "ObjectMesh", "ModelRecord", "ObjectDatabase", "read_3dfuture"]
+__all__ = ["CATEGORIES", "ObjectMesh", "ModelRecord", "ObjectDatabase", "builtin_database", "read_3dfuture"]
 
 
 def read_3dfuture(root, **kwargs):  # type: ignore[no-untyped-def]

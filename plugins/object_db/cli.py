@@ -58,6 +58,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def open_database(root: Path | None = None, future: Path | None = None, subset: float | None = None,
                   seed: int = 0) -> "ObjectDatabase":  # noqa: F821
+    from .builtin import builtin_database
     from .database import ObjectDatabase
 
     if root is not None:
@@ -67,7 +68,7 @@ def open_database(root: Path | None = None, future: Path | None = None, subset: 
 
         db = read_3dfuture(future)
     else:
-        db = ObjectDatabase.builtin()
+        db = builtin_database()
     return db.subset(subset, seed) if subset is not None else db
 
 

@@ -14,7 +14,7 @@ material groups and size. A mesh (:class:`ObjectMesh`) is always given in the *c
 +Y up, bottom at y = 0, bounding box centred on x = z = 0, front facing +Z, triangles counter-clockwise seen
 from outside. Readers convert to it (:func:`canonical_vertices`) from the file's up/front axes and unit.
 
-:meth:`ObjectDatabase.builtin` is the library shipped with the package (:mod:`.builtin`: the CC0 Kenney
+:func:`~.builtin.builtin_database` is the library shipped with the package (:mod:`.builtin`: the CC0 Kenney
 Furniture Kit and the parametric furniture of :mod:`.parametric`); :func:`.future3d.read_3dfuture` reads the
 3D-FUTURE layout; :meth:`ObjectDatabase.thumbnails` renders and caches views (:mod:`.thumbnails`).
 """
@@ -277,14 +277,6 @@ class ObjectDatabase:
         records = [ModelRecord.from_json(item, f"{index} models[{i}]") for i, item in enumerate(models)]
         return cls(records, _FolderLoader(root, {r.id: r for r in records}),
                    digest=hashlib.sha256(b"folder\0" + raw).hexdigest(), label=str(root / "index.json"))
-
-    @classmethod
-    def builtin(cls) -> "ObjectDatabase":
-        """The library shipped with the package (Kenney Furniture Kit + parametric furniture); ids are
-        stable across runs."""
-        from .builtin import builtin_database
-
-        return builtin_database()
 
     # -- queries
     def __len__(self) -> int:

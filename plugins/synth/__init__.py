@@ -22,7 +22,8 @@ from psdr_room_core import artifacts
 
 from .raycast import raycast
 from .render import render_photo
-from .scene import HARD_CASES, SyntheticRoom, generate
+from .room import SyntheticRoom
+from .scene import HARD_CASES, generate
 
 
 def estimated_depth(depth: np.ndarray, noise: float, seed: int) -> np.ndarray:

@@ -10,7 +10,7 @@ import numpy as np
 
 from psdr_room_core.artifacts import Segment, rotation_y
 
-from .scene import Box, SyntheticRoom
+from .room import Box, SyntheticRoom
 
 ROOM_SIDES = {1: ("floor", "floor"), 2: ("ceiling", "ceiling"), 3: ("wall", "wall -x"), 4: ("wall", "wall +x"),
               5: ("wall", "wall -z"), 6: ("wall", "wall +z")}

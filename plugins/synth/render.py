@@ -8,7 +8,7 @@ from psdr_room_core.artifacts import RoomBox, rotation_y
 from psdr_room_core.rgb_scene import room_quads
 from psdr_room_core.stages.export import CV_TO_MITSUBA
 
-from .scene import Box, SyntheticRoom
+from .room import Box, SyntheticRoom
 
 
 def _rectangle_frame(quad: np.ndarray) -> np.ndarray:

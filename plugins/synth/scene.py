@@ -1,88 +1,22 @@
-"""Random room layouts with exact ground truth: a room box, box-built furniture, ceiling lights, a camera.
-
-World frame as everywhere in psdr-room: Y up, floor y = 0, the camera centre at (0, h, 0) and world +Z the
-optical axis projected on the floor, so a reconstruction's room box is directly comparable with the truth.
+"""Random room layouts with exact ground truth (:mod:`.room`): a room box, box-built furniture, ceiling lights
+and a camera, drawn so that the photo shows what each case asks for; in the world frame of :mod:`.room`, so a
+reconstruction's room box is directly comparable with the truth.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
 from psdr_room_core.artifacts import rotation_y
 
+from .raycast import raycast
+from .room import Box, Furniture, Light, SyntheticRoom, camera_pose
+
 HARD_CASES = ("no_ceiling", "cut_wall", "strong_perspective")
 """Cases the benchmark must also cover: ceiling out of view, a wall cut by the frame, a wide close-up view."""
-
-
-@dataclass(frozen=True)
-class Box:
-    """An oriented box: world corner = center + R_y(yaw) @ (±half)."""
-
-    center: tuple[float, float, float]
-    half: tuple[float, float, float]
-    yaw: float
-
-
-@dataclass(frozen=True)
-class Furniture:
-    """One object made of boxes (a table's top and legs, ...), with one diffuse colour."""
-
-    id: int
-    label: str
-    parts: tuple[Box, ...]
-    albedo: tuple[float, float, float]
-
-
-@dataclass(frozen=True)
-class Light:
-    """A downward-facing rectangular area light just below the ceiling."""
-
-    center: tuple[float, float, float]
-    half: tuple[float, float]
-    yaw: float
-    radiance: float
-
-
-@dataclass
-class SyntheticRoom:
-    """Everything needed to render the photo and to score a reconstruction."""
-
-    seed: int
-    case: str
-    width: int
-    height: int
-    vfov_deg: float
-    camera_to_world: list[list[float]]
-    room: Box
-    furniture: list[Furniture]
-    lights: list[Light]
-    albedo: dict[str, tuple[float, float, float]] = field(default_factory=dict)
-
-    @property
-    def fy(self) -> float:
-        return 0.5 * self.height / math.tan(math.radians(self.vfov_deg) / 2)
-
-    def to_json(self) -> dict:
-        data = asdict(self)
-        data["intrinsics"] = {"fx": self.fy, "fy": self.fy, "cx": self.width / 2, "cy": self.height / 2,
-                              "width": self.width, "height": self.height}
-        data["room"] = {"center": list(self.room.center), "half_size": list(self.room.half), "yaw": self.room.yaw}
-        return data
-
-
-def camera_pose(height: float, pitch_deg: float, roll_deg: float) -> np.ndarray:
-    """Camera-to-world (OpenCV camera) at (0, height, 0) looking along +Z, pitched (+ = up) and rolled."""
-    p, r = math.radians(pitch_deg), math.radians(roll_deg)
-    rx = np.array([[1, 0, 0], [0, math.cos(p), -math.sin(p)], [0, math.sin(p), math.cos(p)]])
-    rz = np.array([[math.cos(r), -math.sin(r), 0], [math.sin(r), math.cos(r), 0], [0, 0, 1]])
-    pose = np.eye(4)
-    pose[:3, :3] = np.diag([-1.0, -1.0, 1.0]) @ rx @ rz
-    pose[1, 3] = height
-    return pose
 
 
 def _furniture_parts(kind: str, rng: np.random.Generator) -> tuple[tuple[float, float, float], list[tuple]]:
@@ -164,8 +98,6 @@ def generate(seed: int, case: str = "random", width: int = 320, height: int = 24
     """A random room for ``seed`` whose photo shows the floor, the walls and ceiling ``case`` asks for
     (``random`` or one of :data:`HARD_CASES`): an unseen side cannot be reconstructed, so default scenes
     are well observed and the hard cases are explicit."""
-    from .raycast import raycast  # a low-resolution ray cast checks what the camera sees
-
     if case not in VISIBLE:
         raise ValueError(f"unknown case '{case}'; choose random or one of {', '.join(HARD_CASES)}")
     rng = np.random.default_rng(seed)

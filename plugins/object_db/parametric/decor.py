@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from ..database import ObjectMesh
+from psdr_room_core.artifacts import ObjectMesh
 from ..primitives import MeshBuilder, box, cylinder, lathe, rot_x, rot_y, sphere, transform
 from .common import FABRICS, METALS, WOODS, colour
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from ..database import ObjectMesh
+from psdr_room_core.artifacts import ObjectMesh
 from ..primitives import MeshBuilder, box, cylinder, tube
 from .common import METALS, WOODS, colour
 

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from ..database import ObjectMesh
+from psdr_room_core.artifacts import ObjectMesh
 from ..primitives import MeshBuilder, box, lathe, rounded_box, sphere
 from .common import FABRICS, METALS, WOODS, add_legs, colour
 

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from ..database import ObjectMesh
+from psdr_room_core.artifacts import ObjectMesh
 from ..primitives import MeshBuilder, box, lathe, rot_x, rot_z, rounded_box, sphere, torus, transform, tube
 from .common import FABRICS, colour
 
