@@ -7,6 +7,7 @@ and plugin config directories (the ``conf_searchpath`` hook) are added to Hydra'
 
 from __future__ import annotations
 
+import logging
 import sys
 import traceback
 from pathlib import Path
@@ -129,13 +130,22 @@ def _app(cfg: DictConfig) -> None:
     try:
         execute(cfg, run_dir)
     except PsdrRoomError as exc:
-        _fail(str(exc), exc.exit_code)
+        _fail_run(str(exc), exc.exit_code)
     except KeyboardInterrupt:
-        _fail("interrupted; finished stages are cached, rerun the same command to resume", 130)
+        _fail_run("interrupted; finished stages are cached, rerun the same command to resume", 130)
     except Exception as exc:
         log = run_dir / "error.log"
         log.write_text(traceback.format_exc())
-        _fail(f"internal error: {type(exc).__name__}: {exc} (traceback in {log}; please report it)", 1)
+        _fail_run(f"internal error: {type(exc).__name__}: {exc} (traceback in {log}; please report it)", 1)
+
+
+def _fail_run(message: str, code: int) -> NoReturn:
+    """:func:`_fail`, with the line also in the run folder's log file (``psdr-room-summary`` reads it there)."""
+    record = logging.LogRecord("psdr_room", logging.ERROR, __file__, 0, message, None, None)
+    for handler in logging.getLogger().handlers:
+        if isinstance(handler, logging.FileHandler):
+            handler.handle(record)
+    _fail(message, code)
 
 
 def plugins_main() -> None:

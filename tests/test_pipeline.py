@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import os
 import shutil
@@ -144,6 +145,29 @@ def test_multirun_shares_the_cache(first_run: tuple[Path, dict[str, str]]) -> No
     for job in (vp, fixed):  # stages upstream of the FoV were computed by the first run: shared cache
         assert job["stages"]["load_image"]["cached"] and job["stages"]["detect"]["cached"]
     assert not fixed["stages"]["estimate_fov"]["cached"]
+
+
+def test_summary_lists_each_run_and_why_one_failed(first_run: tuple[Path, dict[str, str]], tmp_path: Path) -> None:
+    root, env = first_run
+    failed = tmp_path / "failed"
+    assert psdr_room(f"image={EXAMPLE}", f"hydra.run.dir={failed}", "fit_appearance.spp=0", env=env,
+                     check=False).returncode == 2
+    summary = shutil.which("psdr-room-summary") or "psdr-room-summary"
+    result = subprocess.run([summary, str(root / "run1"), str(tmp_path), "--out", str(tmp_path)], capture_output=True,
+                            text=True, env=env)
+    assert result.returncode == 0, result.stderr
+    assert "2 runs (1 ok, 1 failed)" in result.stdout
+    rows = list(csv.DictReader((tmp_path / "summary.csv").open()))
+    assert [r["status"] for r in rows] == ["ok", "failed"]
+    ok, bad = rows
+    assert "fit_appearance.spp=0 is out of range" in bad["error"] and bad["rmse"] == ""
+    assert ok["photo"] == str(EXAMPLE) and "renderer=mitsuba" in ok["implementations"]
+    assert float(ok["vfov_deg"]) == pytest.approx(metrics(root / "run1")["vfov_deg"], rel=1e-3)
+    assert all(ok[f"{s}_s"] != "" for s in STAGES) and float(ok["ssim"]) > 0 and int(ok["objects"]) > 0
+    page = (tmp_path / "summary.html").read_text()
+    assert page.count("data:image/png;base64,") == 1 and "fit_appearance.spp=0 is out of range" in page
+    missing = subprocess.run([summary, str(tmp_path / "nowhere")], capture_output=True, text=True, env=env)
+    assert missing.returncode == 2 and missing.stderr.count("\n") == 1 and "not a folder" in missing.stderr
 
 
 def test_paper_ablations_are_one_sweep(first_run: tuple[Path, dict[str, str]]) -> None:
