@@ -199,6 +199,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         registry = plugin_system().registry
         denoiser = registry.implementation("denoiser", args.denoiser).factory()
+        renderer = registry.implementation("renderer", "mitsuba").factory()  # the scene is a Mitsuba file
         scene_dir = args.scene.resolve()
         if out.resolve() == scene_dir:
             raise PsdrRoomError(f"--out {out}: must differ from the scene folder it edits")
@@ -218,7 +219,7 @@ def main(argv: list[str] | None = None) -> int:
             for name, data in files.items():
                 (staging / name).parent.mkdir(parents=True, exist_ok=True)
                 (staging / name).write_bytes(data)
-            write_png(staging / "render.png", render_folder(staging, args.spp, registry.implementation("renderer", "mitsuba").factory(), denoiser))
+            write_png(staging / "render.png", render_folder(staging, args.spp, renderer, denoiser))
             claim(staging)
             check_replaceable(out, "--out")
             if out.exists():
