@@ -79,9 +79,14 @@ COLUMNS = ("run", "photo", "status", "error", "implementations", "vfov_deg", "ob
            "ssim_init", "ssim", "flip_init", "flip", "total_seconds")
 
 
+def _stage_names(rows: list[dict[str, Any]]) -> list[str]:
+    """Every stage any row has, in the order the runs met them."""
+    return list(dict.fromkeys(name for row in rows for name in row["stages"]))
+
+
 def csv_text(rows: list[dict[str, Any]]) -> str:
     """The rows as CSV: :data:`COLUMNS`, then one ``<stage>_s`` column per stage any run has."""
-    stages = list(dict.fromkeys(name for row in rows for name in row["stages"]))
+    stages = _stage_names(rows)
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
     writer.writerow([*COLUMNS, *(f"{s}_s" for s in stages)])
@@ -108,7 +113,7 @@ def _thumbnail(run: Path) -> str:
 
 def html_text(rows: list[dict[str, Any]]) -> str:
     """The rows as one self-contained HTML page, each with its photo | render thumbnail."""
-    stages = list(dict.fromkeys(name for row in rows for name in row["stages"]))
+    stages = _stage_names(rows)
 
     def pair(row: dict[str, Any], key: str) -> str:
         a, b = row.get(f"{key}_init"), row.get(key)

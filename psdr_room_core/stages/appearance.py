@@ -257,11 +257,12 @@ def plain_parts(model: AppearanceModel, geometry: Any, denoiser: Any, spp: int, 
     model.plain = set(candidates)
     plain = picture(geometry, denoiser, model.inputs(), spp, 10**6 + 2)
     patterned_ssim, plain_ssim = ssim_map(final[1], photo), ssim_map(plain[1], photo)
-    chosen = {part for part in candidates if plain_ssim[masks[part]].mean() > patterned_ssim[masks[part]].mean()}
-    for part in sorted(candidates):
+    scores = {part: (float(patterned_ssim[masks[part]].mean()), float(plain_ssim[masks[part]].mean()))
+              for part in sorted(candidates)}
+    chosen = {part for part, (patterned, flat) in scores.items() if flat > patterned}
+    for part, (patterned, flat) in scores.items():
         log.info("fit_appearance: %s %s (SSIM on its pixels: pattern %.3f, plain %.3f)", part,
-                 "made plain" if part in chosen else "keeps its pattern", patterned_ssim[masks[part]].mean(),
-                 plain_ssim[masks[part]].mean())
+                 "made plain" if part in chosen else "keeps its pattern", patterned, flat)
     model.plain = chosen
     if chosen == candidates:
         return plain
