@@ -8,6 +8,7 @@ and plugin config directories (the ``conf_searchpath`` hook) are added to Hydra'
 from __future__ import annotations
 
 import logging
+import re
 import sys
 import traceback
 from pathlib import Path
@@ -18,13 +19,15 @@ from hydra import compose, initialize_config_module
 from hydra.core.hydra_config import HydraConfig
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.core.override_parser.types import Override
+from hydra.types import RunMode
 from hydra.errors import OverrideParseException
 from omegaconf import DictConfig
 
+from . import threads
 from .capabilities import CAPABILITIES, DESCRIPTIONS
 from .dag import AUTO
 from .errors import PsdrRoomError
-from .photo import require_file
+from .photo import find_photos, require_file
 from .plugins import PluginSystem, plugin_system
 from .run import execute, resolve_config
 
@@ -59,6 +62,33 @@ def split_arguments(argv: list[str]) -> tuple[list[str], set[str]]:
         else:
             overrides.append(arg)
     return overrides, flags
+
+
+def expand_photos(argv: list[str]) -> list[str]:
+    """``photos=DIR`` (or a glob) → ``image=`` with every photo found as a sweep list, for ``--multirun``.
+
+    Each photo becomes one job of the sweep with its own run folder; the quoting keeps commas, spaces and
+    quotes in file names out of Hydra's override grammar.
+    """
+    given = [arg for arg in argv if arg.startswith("photos=")]
+    if not given:
+        return argv
+    _, flags = split_arguments(argv)
+    if not flags & {"--multirun", "-m"}:
+        raise PsdrRoomError(f"{given[0]}: a folder of photos runs one job per photo; add --multirun "
+                            "(or give image=PATH for one photo)")
+    if len(given) > 1 or any(arg.startswith("image=") for arg in argv):
+        raise PsdrRoomError(f"{given[0]}: give one photos=DIR or image=PATH, not both")
+    photos = find_photos(given[0].removeprefix("photos="))
+    images = ",".join(hydra_quote(str(photo)) for photo in photos)
+    return [f"image={images}" if arg == given[0] else arg for arg in argv]
+
+
+def hydra_quote(text: str) -> str:
+    """``text`` as a single-quoted value of Hydra's override grammar (quotes, the backslashes before them and
+    ``${`` escaped), so that it parses back to exactly ``text``."""
+    text = re.sub(r"(\\*)('|$)", lambda m: m.group(1) * 2 + ("\\'" if m.group(2) else ""), text)
+    return "'" + text.replace("${", "\\${") + "'"
 
 
 def compose_config(overrides: list[str], plugins: PluginSystem | None = None) -> DictConfig:
@@ -114,8 +144,8 @@ def _parses(override: str) -> bool:
 
 def main() -> None:
     """Entry point of ``psdr-room``."""
-    argv = sys.argv[1:]
     try:
+        argv = expand_photos(sys.argv[1:])
         plugins = plugin_system()
         preflight(argv, plugins)
     except PsdrRoomError as exc:
@@ -126,26 +156,38 @@ def main() -> None:
 
 @hydra.main(version_base="1.3", config_path=f"pkg://{CONFIG_MODULE}", config_name="config")
 def _app(cfg: DictConfig) -> None:
-    run_dir = Path(HydraConfig.get().runtime.output_dir)
+    hydra_cfg = HydraConfig.get()
+    run_dir = Path(hydra_cfg.runtime.output_dir)
+    sweeping = hydra_cfg.mode == RunMode.MULTIRUN
     try:
+        count, source = threads.allotment(cfg.run.get("threads"), hydra_cfg.launcher)
+        threads.apply(count)
+        logging.getLogger("psdr_room").info("threads: %d (%s)", count, source)
         execute(cfg, run_dir)
     except PsdrRoomError as exc:
-        _fail_run(str(exc), exc.exit_code)
+        _fail_run(str(exc), exc.exit_code, sweeping)
     except KeyboardInterrupt:
-        _fail_run("interrupted; finished stages are cached, rerun the same command to resume", 130)
+        _fail_run("interrupted; finished stages are cached, rerun the same command to resume", 130, False)
     except Exception as exc:
         log = run_dir / "error.log"
+        log.parent.mkdir(parents=True, exist_ok=True)
         log.write_text(traceback.format_exc())
-        _fail_run(f"internal error: {type(exc).__name__}: {exc} (traceback in {log}; please report it)", 1)
+        _fail_run(f"internal error: {type(exc).__name__}: {exc} (traceback in {log}; please report it)", 1, sweeping)
 
 
-def _fail_run(message: str, code: int) -> NoReturn:
-    """:func:`_fail`, with the line also in the run folder's log file (``psdr-room-summary`` reads it there)."""
+def _fail_run(message: str, code: int, sweeping: bool) -> None:
+    """:func:`_fail`, with the line also in the run folder's log file (``psdr-room-summary`` reads it there).
+
+    In a sweep the job ends normally instead, so the other jobs go on; the sweep's summary
+    (:class:`~psdr_room_core.summary.SweepSummary`) lists it and makes the sweep's exit status 1.
+    """
     record = logging.LogRecord("psdr_room", logging.ERROR, __file__, 0, message, None, None)
     for handler in logging.getLogger().handlers:
         if isinstance(handler, logging.FileHandler):
             handler.handle(record)
-    _fail(message, code)
+    if not sweeping:
+        _fail(message, code)
+    print(f"psdr-room: error: {message}", file=sys.stderr)
 
 
 def plugins_main() -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import glob
 from pathlib import Path
 
 import cv2
@@ -12,6 +13,9 @@ from .errors import PsdrRoomError
 
 FORMATS = ("JPEG", "PNG", "TIFF", "WEBP", "MPO")
 """Formats accepted (MPO: the multi-picture JPEG some phones write)."""
+
+EXTENSIONS = (".jpg", ".jpeg", ".png", ".tif", ".tiff", ".webp", ".mpo")
+"""File name endings (any case) that :func:`find_photos` takes for photos."""
 
 MIN_SIDE = 64
 """Photos (and working images) with a shorter side than this hold too little to reconstruct a room from."""
@@ -64,6 +68,32 @@ def require_file(path: Path) -> None:
         raise PsdrRoomError(f"{path}: no such file; pass image=PATH to an existing photo")
     if path.stat().st_size == 0:
         raise PsdrRoomError(f"{path}: the file is empty; copy the photo again")
+
+
+def find_photos(spec: str) -> list[Path]:
+    """The photos of ``photos=spec``: the images directly in a folder, or those a glob matches (``**``
+    descends), sorted. An image named ``<stem>.<anything>.<ext>`` beside a photo ``<stem>.<ext>`` is one
+    of its sidecars (``photo.depth.png``, ``photo.panoptic.png``) and left out."""
+    path = Path(spec).expanduser()
+    if path.is_dir():
+        candidates = [p for p in path.iterdir() if p.is_file()]
+    elif glob.has_magic(spec):
+        candidates = [Path(p) for p in glob.glob(str(path), recursive=True) if Path(p).is_file()]
+    else:
+        raise PsdrRoomError(f"photos={spec}: no such folder; give photos=DIR (the images in it) or a quoted glob "
+                            "such as photos='rooms/*/photo.png'")
+    images = sorted(p for p in candidates if p.suffix.lower() in EXTENSIONS)
+    stems = {(p.parent, p.stem) for p in images}
+    photos = [p for p in images if not _is_sidecar(p, stems)]
+    if not photos:
+        raise PsdrRoomError(f"photos={spec}: no photos in it (looked for {', '.join(EXTENSIONS)}, sidecars left "
+                            "out); point it at a folder of room photos")
+    return photos
+
+
+def _is_sidecar(image: Path, stems: set[tuple[Path, str]]) -> bool:
+    parts = image.name.split(".")
+    return any((image.parent, ".".join(parts[:i])) in stems for i in range(1, len(parts) - 1))
 
 
 def read_photo(path: Path, max_pixels: int) -> np.ndarray:

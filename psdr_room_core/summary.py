@@ -4,7 +4,8 @@ Each run folder (one holding ``run.json`` or ``psdr-room.log``; a folder holding
 so a ``--multirun`` sweep folder names all its jobs) becomes a row: photo, status (``ok``, or ``failed`` with
 the log's last error), the implementations chosen, FoV, fitted objects, RMSE / SSIM / ꟻLIP at init → after the
 fit, total and per-stage compute seconds. Written as ``summary.csv`` and a self-contained ``summary.html`` with
-each photo | render thumbnail.
+each photo | render thumbnail. Every ``psdr-room --multirun`` sweep writes them into its sweep folder too
+(:class:`SweepSummary`, a Hydra callback).
 """
 
 from __future__ import annotations
@@ -22,6 +23,9 @@ from typing import Any
 
 import cv2
 import numpy as np
+import yaml
+from hydra.experimental.callback import Callback
+from omegaconf import DictConfig
 
 from .errors import PsdrRoomError
 
@@ -56,6 +60,8 @@ def summarise(run: Path) -> dict[str, Any]:
     row: dict[str, Any] = {"run": str(run)}
     if (run / "run.json").is_file():
         row["photo"] = json.loads((run / "run.json").read_text()).get("photo", "")
+    elif (run / ".hydra" / "config.yaml").is_file():  # a failed run publishes no run.json; Hydra kept its config
+        row["photo"] = str((yaml.safe_load((run / ".hydra" / "config.yaml").read_text()) or {}).get("image", ""))
     if not metrics_file.is_file():
         return {**row, "status": "failed", "error": _last_error(run / "psdr-room.log"), "stages": {}}
     try:
@@ -141,6 +147,40 @@ def html_text(rows: list[dict[str, Any]]) -> str:
         "<tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in head) + "</tr>" + "".join(body) + "</table>\n")
 
 
+def write_summary(rows: list[dict[str, Any]], out: Path) -> str:
+    """Write ``summary.csv`` and ``summary.html`` into ``out`` (both made before either is written); return
+    the line that reports them, with one more line per failed run."""
+    if not out.is_dir():
+        raise PsdrRoomError(f"--out {out}: not a folder; create it or pick another")
+    texts = {"summary.csv": csv_text(rows), "summary.html": html_text(rows)}
+    for name, text in texts.items():
+        (out / name).write_text(text, encoding="utf-8")
+    failed = [row for row in rows if row["status"] != "ok"]
+    return "\n".join([f"{len(rows)} runs ({len(rows) - len(failed)} ok, {len(failed)} failed) → "
+                      f"{out / 'summary.csv'}, {out / 'summary.html'}",
+                      *(f"  failed: {row.get('photo') or row['run']}: {row.get('error', '')}" for row in failed)])
+
+
+class SweepSummary(Callback):
+    """Hydra callback: at the end of a ``--multirun`` sweep, the summary of its jobs in the sweep folder.
+
+    Jobs catch their own errors (a failed photo does not stop the others, see ``psdr_room_core.cli``), so
+    this is where a sweep with a failed job ends with exit status 1.
+    """
+
+    def on_multirun_end(self, config: DictConfig, **kwargs: Any) -> None:
+        sweep_dir = Path(str(config.hydra.sweep.dir))
+        try:
+            rows = [summarise(run) for run in find_runs([sweep_dir])]
+            report = write_summary(rows, sweep_dir)
+        except PsdrRoomError as error:
+            print(f"psdr-room: sweep summary: {error}", file=sys.stderr)
+            sys.exit(1)
+        print(f"psdr-room: sweep: {report}", file=sys.stderr)
+        if any(row["status"] != "ok" for row in rows):
+            sys.exit(1)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``psdr-room-summary``."""
     parser = argparse.ArgumentParser(prog="psdr-room-summary", description=__doc__.split("\n\n")[0])
@@ -149,20 +189,10 @@ def main(argv: list[str] | None = None) -> int:
                         "(default: the current folder)")
     args = parser.parse_args(argv)
     try:
-        rows = [summarise(run) for run in find_runs(args.runs)]
-        if not args.out.is_dir():
-            raise PsdrRoomError(f"--out {args.out}: not a folder; create it or pick another")
-        texts = {"summary.csv": csv_text(rows), "summary.html": html_text(rows)}  # both made before either is written
-        for name, text in texts.items():
-            (args.out / name).write_text(text, encoding="utf-8")
+        print(write_summary([summarise(run) for run in find_runs(args.runs)], args.out))
     except PsdrRoomError as error:
         print(f"psdr-room-summary: {error}", file=sys.stderr)
         return 2
-    failed = [row for row in rows if row["status"] != "ok"]
-    print(f"{len(rows)} runs ({len(rows) - len(failed)} ok, {len(failed)} failed) → {args.out / 'summary.csv'}, "
-          f"{args.out / 'summary.html'}")
-    for row in failed:
-        print(f"  failed: {row['run']}: {row.get('error', '')}")
     return 0
 
 

@@ -134,7 +134,7 @@ class NanodetOnnx:
 
     def __init__(self, path: str | None = None, score_threshold: float = 0.15, nms_iou: float = 0.5,
                  max_detections: int = 100, classes: Sequence[str] | None = INDOOR, flip: bool = True,
-                 intra_op_threads: int = 2, providers: Sequence[str] = ("CPUExecutionProvider",)) -> None:
+                 intra_op_threads: int = 0, providers: Sequence[str] = ("CPUExecutionProvider",)) -> None:
         file = Path(path).expanduser() if path else BUNDLED
         fix = ("check detector.nanodet_onnx.path names a NanoDet export" if path
                else "reinstall psdr-room (the bundled model is missing or damaged) or set detector.nanodet_onnx.path")

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from psdr_room_core.artifacts import Camera
+from psdr_room_core import threads as run_threads
 from psdr_room_core.errors import PsdrRoomError
 from psdr_room_core.geometry import TriangleMesh
 from psdr_room_core.rgb_scene import GUIDE_SPP
@@ -117,7 +118,7 @@ class MitsubaRenderer:
         rgb_geometry_gradients: allow vertex gradients through :meth:`MitsubaGeometryRenderer.render_rgb`
             (``prb_projective``), knowing they are biased for flat-shaded meshes.
         seed: base seed; each render uses a seed derived from it and the iteration number.
-        threads: Dr.Jit worker threads (0: leave Dr.Jit's default, one per core).
+        threads: Dr.Jit worker threads (0: the run's ``run.threads``, see :mod:`psdr_room_core.threads`).
         """
         for name, value, low in (("spp", spp, 1), ("spp_boundary", spp_boundary, 1), ("rgb_spp", rgb_spp, 1),
                                  ("max_depth", max_depth, 1), ("rgb_sppi", rgb_sppi, 0), ("threads", threads, 0)):
@@ -163,8 +164,9 @@ class MitsubaRenderer:
             from . import integrator
 
             integrator.register()
-        if self.threads:
-            dr.set_thread_count(self.threads)
+        wanted = self.threads or run_threads.count()
+        if dr.thread_count() != wanted:
+            dr.set_thread_count(wanted)
         return mi
 
     @property

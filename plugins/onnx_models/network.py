@@ -23,6 +23,7 @@ import cv2
 import numpy as np
 
 from psdr_room_core import models
+from psdr_room_core import threads as run_threads
 from psdr_room_core.errors import PsdrRoomError
 
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
@@ -188,7 +189,7 @@ class OnnxNetwork:
             raise self.error(f"model file of '{self.model.name}' not found; {self.model.fix}, "
                              "or set models_dir to the directory that holds it")
         options = ort.SessionOptions()
-        options.intra_op_num_threads = max(0, self.threads)
+        options.intra_op_num_threads = self.threads or run_threads.count()
         options.inter_op_num_threads = 1
         options.log_severity_level = 3
         available = set(ort.get_available_providers())
