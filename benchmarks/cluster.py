@@ -30,7 +30,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from psdr_room_core.cache import Store
+from psdr_room_core.engine.cache import Store
 from psdr_room_plugins.synth import write_scene
 from psdr_room_plugins.synth.scene import generate
 

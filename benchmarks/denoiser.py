@@ -16,8 +16,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from psdr_room_core.image_metrics import flip, rmse, ssim
-from psdr_room_core.shading import linear_to_srgb
+from psdr_room_core.method.image_metrics import flip, rmse, ssim
+from psdr_room_core.method.shading import linear_to_srgb
 from psdr_room_plugins.denoisers import QUALITIES, OidnDenoiser
 from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
 

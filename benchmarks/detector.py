@@ -23,9 +23,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from psdr_room_core.artifacts import Detections, Image
-from psdr_room_core.capabilities import Detector
-from psdr_room_core.photo import read_photo, resize_to_working
+from psdr_room_core.method.artifacts import Detections, Image
+from psdr_room_core.method.capabilities import Detector
+from psdr_room_core.method.photo import read_photo, resize_to_working
 from psdr_room_plugins.detectors.nanodet import NanodetOnnx, box_iou
 
 REPO_ROOT = Path(__file__).resolve().parents[1]

@@ -2,7 +2,7 @@
 texture descriptor, the cost of graph evaluations and descriptor calls, and (``--fit``) how far fitting a
 graph's parameters to a target made by the same graph cuts the descriptor loss.
 
-Retrieval. The database is the ``assign_materials`` stage's :class:`~psdr_room_core.material_search.MaterialIndex`:
+Retrieval. The database is the ``assign_materials`` stage's :class:`~psdr_room_core.method.material_search.MaterialIndex`:
 for every library material at its own parameter values, views of its appearance (``thumbnails.shade``, a fixed
 light) at 3 scales × 3 rotations. Each query
 is a crop of the same material with its continuous parameters perturbed (unconstrained u + N(0, σ)), under a
@@ -11,7 +11,7 @@ in [−45°, 90°], offset, crop aspect). A query's rank is that of its material
 their nearest database crop; we report top-1 and top-5 accuracy over all queries, and the quantiles of the
 best match's similarity, on which the stage's ``min_similarity`` is calibrated.
 
-Flatness. The same queries' :func:`~psdr_room_core.surface_colours.texture_energy`, per material, beside
+Flatness. The same queries' :func:`~psdr_room_core.method.surface_colours.texture_energy`, per material, beside
 that of the room sides' crops of real photos run bare (``--real-runs``: a ``benchmarks/real_photos.py``
 output's ``runs`` folder, crops as ``assign_materials`` chose them): the stage's ``flat_energy`` sits above
 the real plain surfaces and the library's paints, plasters, glass and plastics, and below its wood, tiles,
@@ -37,8 +37,8 @@ import numpy as np
 import torch
 import yaml
 
-from psdr_room_core.material_search import MaterialIndex
-from psdr_room_core.surface_colours import texture_energy
+from psdr_room_core.method.material_search import MaterialIndex
+from psdr_room_core.method.surface_colours import texture_energy
 from psdr_room_plugins.material_graph import TorchGraphLibrary
 from psdr_room_plugins.material_graph.nodes.ops import sample_tiled
 from psdr_room_plugins.material_graph.thumbnails import shade

@@ -31,14 +31,25 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from psdr_room_core.artifacts import (Camera, Candidate, DepthMap, Image, ObjectCandidates, ObjectMesh, Panoptic,
-                                      Placement, PointCloud, RoomBox, Segment)
-from psdr_room_core.dag import StageContext
-from psdr_room_core.geometry import TriangleMesh, weld
-from psdr_room_core.objects import object_queries, pose_matrix, transform
-from psdr_room_core.rgb_scene import room_quads
-from psdr_room_core.stages.objects import fit_objects, footprint, place_objects
-from psdr_room_core.stages.preprocess import backproject
+from psdr_room_core.engine.dag import StageContext
+from psdr_room_core.method.artifacts import (
+    Camera,
+    Candidate,
+    DepthMap,
+    Image,
+    ObjectCandidates,
+    ObjectMesh,
+    Panoptic,
+    Placement,
+    PointCloud,
+    RoomBox,
+    Segment,
+)
+from psdr_room_core.method.geometry import TriangleMesh, weld
+from psdr_room_core.method.objects import object_queries, pose_matrix, transform
+from psdr_room_core.method.rgb_scene import room_quads
+from psdr_room_core.method.stages.objects import fit_objects, footprint, place_objects
+from psdr_room_core.method.stages.preprocess import backproject
 from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
 from psdr_room_plugins.optimizer_adam import Adam
 from psdr_room_plugins.retrieval_silhouette import SilhouetteRetrieval, object_mesh

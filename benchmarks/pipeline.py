@@ -68,7 +68,7 @@ def ground_truth_errors(run_dir: Path, truth: dict, seen: list[str]) -> dict[str
         scale = float(np.median(t) / max(np.median(f), 1e-6))
         out["albedo_err"] = float(np.abs(f * scale - t).mean())
         out["albedo_scale"] = scale
-    import psdr_room_core.stages.export as export
+    import psdr_room_core.method.stages.export as export
 
     power = 0.0
     for light in state["lights"]:

@@ -32,11 +32,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from psdr_room_core.artifacts import ROOM_CATEGORIES, Panoptic
-from psdr_room_core.cli import compose_config
-from psdr_room_core.plugins import plugin_system
-from psdr_room_core.run import execute
-from psdr_room_core.visualize import depth_colormap, segment_overlay
+from psdr_room_core.engine.cli import compose_config
+from psdr_room_core.engine.plugins import plugin_system
+from psdr_room_core.engine.run import execute
+from psdr_room_core.method.artifacts import ROOM_CATEGORIES, Panoptic
+from psdr_room_core.method.visualize import depth_colormap, segment_overlay
 from psdr_room_plugins.sidecar_depth import read_depth
 from psdr_room_plugins.sidecar_segmentation import read_labelme
 

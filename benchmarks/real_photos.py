@@ -48,10 +48,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from psdr_room_core.artifacts import Camera, DepthMap, Image, Panoptic, Placements, RoomBox
-from psdr_room_core.objects import OBJECT_CATEGORIES
-from psdr_room_core.silhouette import silhouette
-from psdr_room_core.visualize import segment_overlay
+from psdr_room_core.method.artifacts import Camera, DepthMap, Image, Panoptic, Placements, RoomBox
+from psdr_room_core.method.objects import OBJECT_CATEGORIES
+from psdr_room_core.method.silhouette import silhouette
+from psdr_room_core.method.visualize import segment_overlay
 from psdr_room_plugins.detectors.nanodet import box_iou
 from psdr_room_plugins.object_db import ObjectDatabase, builtin_database
 from psdr_room_plugins.sidecar_depth import read_depth

@@ -20,10 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from psdr_room_core.artifacts import RoomBox
-from psdr_room_core.cli import compose_config
-from psdr_room_core.run import execute
-from psdr_room_core.stages.room import room_iou
+from psdr_room_core.engine.cli import compose_config
+from psdr_room_core.engine.run import execute
+from psdr_room_core.method.artifacts import RoomBox
+from psdr_room_core.method.stages.room import room_iou
 from psdr_room_plugins.synth import write_scene
 from psdr_room_plugins.synth.scene import HARD_CASES, generate
 

@@ -6,8 +6,8 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from psdr_room_core.dag import RunRecord, StageRecord
-from psdr_room_core.hookspecs import hookimpl
+from psdr_room_core.engine.dag import RunRecord, StageRecord
+from psdr_room_core.engine.hookspecs import hookimpl
 
 log = logging.getLogger("psdr_room")
 

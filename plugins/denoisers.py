@@ -12,9 +12,9 @@ from typing import Any
 
 import numpy as np
 
-from psdr_room_core.hookspecs import hookimpl
-from psdr_room_core.plugins import Registry
-from psdr_room_core.settings import NoSettings, setting
+from psdr_room_core.engine.hookspecs import hookimpl
+from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.settings import NoSettings, setting
 
 log = logging.getLogger(__name__)
 

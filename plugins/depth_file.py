@@ -14,13 +14,20 @@ from typing import Optional
 import cv2
 import numpy as np
 
-from psdr_room_core.artifacts import Camera, DepthMap, Image, Panoptic
-from psdr_room_core.errors import PsdrRoomError
-from psdr_room_core.hookspecs import hookimpl
-from psdr_room_core.plugins import Registry
-from psdr_room_core.settings import setting
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.hookspecs import hookimpl
+from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.settings import setting
+from psdr_room_core.method.artifacts import Camera, DepthMap, Image, Panoptic
 
-from .sidecar_depth import DEPTH_ENCODINGS, DEPTH_SUFFIXES, SidecarError, find_depth_sidecar, read_depth, read_depth_options
+from .sidecar_depth import (
+    DEPTH_ENCODINGS,
+    DEPTH_SUFFIXES,
+    SidecarError,
+    find_depth_sidecar,
+    read_depth,
+    read_depth_options,
+)
 
 
 class FileDepth:

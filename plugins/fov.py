@@ -5,10 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from psdr_room_core.artifacts import Camera, Image
-from psdr_room_core.hookspecs import hookimpl
-from psdr_room_core.plugins import Registry
-from psdr_room_core.settings import setting
+from psdr_room_core.engine.hookspecs import hookimpl
+from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.settings import setting
+from psdr_room_core.method.artifacts import Camera, Image
 
 from .vanishing_points import VanishingPointParams
 

@@ -10,15 +10,14 @@ import base64
 import html
 import os
 from pathlib import Path
-from typing import Any
 
 import cv2
 import numpy as np
 
-from psdr_room_core.dag import RunRecord
-from psdr_room_core.hookspecs import hookimpl
-from psdr_room_core.run import metrics
-from psdr_room_core.visualize import depth_colormap, legend, room_edges_overlay, segment_overlay
+from psdr_room_core.engine.dag import RunRecord
+from psdr_room_core.engine.hookspecs import hookimpl
+from psdr_room_core.method.artifacts import OptimizationLog
+from psdr_room_core.method.visualize import depth_colormap, legend, room_edges_overlay, segment_overlay
 
 PICTURE_KINDS = ("optimization_log", "materials", "lights")
 """Artifact kinds whose ``images`` the report shows."""
@@ -93,10 +92,12 @@ def _comparison(run: RunRecord) -> str:
             '<label>render ◀ ▶ photo <input id="slider" type="range" min="0" max="100" value="50"></label>')
 
 
-def _metric_rows(numbers: dict[str, Any]) -> str:
+def _metric_rows(run: RunRecord) -> str:
+    """One row per optimisation log of the run: its summary's numbers."""
     rows = []
-    for stage, summary in numbers.items():
-        if isinstance(summary, dict) and stage.endswith("_log"):
+    for stage, artifact in run.artifacts.items():
+        if isinstance(artifact, OptimizationLog):
+            summary = artifact.summary
             cells = ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in summary.items()
                               if isinstance(v, (int, float, str)))
             rows.append(f"<tr><td>{html.escape(stage)}</td><td>{html.escape(cells)}</td></tr>")
@@ -153,7 +154,7 @@ def render_report(run: RunRecord, alpha: float) -> str:
 <h2>stages</h2>
 {figures}
 <h2>optimisation summaries</h2>
-<table><tr><th>log</th><th>summary</th></tr>{_metric_rows(metrics(run))}</table>
+<table><tr><th>log</th><th>summary</th></tr>{_metric_rows(run)}</table>
 <h2>timings</h2>
 <table><tr><th>stage</th><th>this run (s)</th><th>compute (s)</th><th>cache</th><th>implementations</th><th>key</th></tr>
 {rows}<tr><td><b>total</b></td><td>{total:.2f}</td><td></td><td></td><td></td><td></td></tr></table>

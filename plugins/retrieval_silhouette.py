@@ -1,7 +1,7 @@
 """``retrieval=silhouette``: offline object retrieval by silhouette and depth agreement under the estimated camera.
 
 For each database model of the segment's categories (every model when the label maps to none), the model is
-posed by the occlusion-aware view search (:func:`~psdr_room_core.view_search.fit_view`: a sweep about the
+posed by the occlusion-aware view search (:func:`~psdr_room_core.method.view_search.fit_view`: a sweep about the
 vertical axis at the object's apparent size and depth, the best rotations refined) and scored by how well its
 visible silhouette and depth match the object's mask and points there.
 """
@@ -15,13 +15,13 @@ from typing import Any
 
 import numpy as np
 
-from psdr_room_core.artifacts import Camera, Candidate, ObjectMesh
-from psdr_room_core.errors import PsdrRoomError
-from psdr_room_core.hookspecs import hookimpl
-from psdr_room_core.objects import ObjectQuery
-from psdr_room_core.plugins import Registry
-from psdr_room_core.settings import setting
-from psdr_room_core.view_search import SearchParams, ViewTarget, fit_view
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.hookspecs import hookimpl
+from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.settings import setting
+from psdr_room_core.method.artifacts import Camera, Candidate, ObjectMesh
+from psdr_room_core.method.objects import ObjectQuery
+from psdr_room_core.method.view_search import SearchParams, ViewTarget, fit_view
 
 
 def open_database(database: str, fraction: float, seed: int) -> Any:
@@ -50,7 +50,7 @@ def object_mesh(db: Any, model_id: str) -> ObjectMesh:
 
 class SilhouetteRetrieval:
     """Rank models by how well each, posed by the view search, explains the object's mask and depth, at about
-    its real size: score ``1 / (1 + error + size_weight · |ln scale|)`` (:class:`~psdr_room_core.view_search.
+    its real size: score ``1 / (1 + error + size_weight · |ln scale|)`` (:class:`~psdr_room_core.method.view_search.
     ViewFit`; database models are in metres, so a model that must shrink to a quarter to fit is the wrong one)."""
 
     def __init__(self, database: str = "builtin", fraction: float = 1.0, seed: int = 0, n_yaw: int = 12,

@@ -14,11 +14,11 @@ from typing import Optional
 import cv2
 import numpy as np
 
-from psdr_room_core.artifacts import Camera, Detections, Image, Panoptic
-from psdr_room_core.errors import PsdrRoomError
-from psdr_room_core.hookspecs import hookimpl
-from psdr_room_core.plugins import Registry
-from psdr_room_core.settings import setting
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.hookspecs import hookimpl
+from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.settings import setting
+from psdr_room_core.method.artifacts import Camera, Detections, Image, Panoptic
 
 from .sidecar_depth import SidecarError
 from .sidecar_segmentation import find_segmentation_sidecar, panoptic_json_for, read_coco_panoptic, read_labelme

@@ -4,11 +4,11 @@ Two formats:
 
 - COCO panoptic: an RGB PNG whose pixel id is ``R + 256*G + 256**2*B`` (0 = unlabelled) plus a JSON with
   ``segments_info`` and ``categories`` (one annotation, or a whole COCO file with ``annotations``). What
-  :func:`psdr_room_core.artifacts.write_coco_panoptic` writes is one such annotation.
+  :func:`psdr_room_core.method.artifacts.write_coco_panoptic` writes is one such annotation.
 - LabelMe: a JSON of polygons / rectangles / circles / masks, rasterised in file order.
 
-Class names are mapped to the room categories :data:`~psdr_room_core.artifacts.CATEGORIES` by
-:func:`category_of`. The id map returned is int32 HxW; each core :class:`~psdr_room_core.artifacts.Segment`
+Class names are mapped to the room categories :data:`~psdr_room_core.method.artifacts.CATEGORIES` by
+:func:`category_of`. The id map returned is int32 HxW; each core :class:`~psdr_room_core.method.artifacts.Segment`
 names its id, category and original label. Problems raise :class:`SidecarError` with a one-line message
 naming the file and the fix.
 """
@@ -28,7 +28,7 @@ import cv2
 import numpy as np
 from PIL import Image
 
-from psdr_room_core.artifacts import Segment, panoptic_ids
+from psdr_room_core.method.artifacts import Segment, panoptic_ids
 
 from .sidecar_depth import SidecarError
 

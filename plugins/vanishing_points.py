@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from psdr_room_core.settings import setting
+from psdr_room_core.engine.settings import setting
 
 
 @dataclass(frozen=True)

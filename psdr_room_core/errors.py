@@ -1,16 +1,4 @@
-"""The one error type users see: a one-line message naming the file or setting and the fix."""
+"""Kept for plugins written before the engine/method split: ``psdr_room_core.errors`` is now
+:mod:`psdr_room_core.engine.errors` (import it from there in new code)."""
 
-from __future__ import annotations
-
-
-class PsdrRoomError(Exception):
-    """A problem with the user's input or configuration.
-
-    The CLI prints ``str(error)`` as a single line and exits non-zero, without a traceback, so the message
-    must say what is wrong, where (file or config key), and how to fix it.
-    """
-
-    exit_code = 2
-
-    def __init__(self, message: str) -> None:
-        super().__init__(" ".join(message.split()))
+from psdr_room_core.engine.errors import *  # noqa: F403

@@ -16,17 +16,28 @@ import pytest
 import torch
 import yaml
 
-from psdr_room_core.artifacts import (Camera, Image, Light, Lights, MaterialAssignment, Panoptic,
-                                      PartMaterial, Placements, PointCloud, RoomBox, Segment)
-from psdr_room_core.dag import StageContext
-from psdr_room_core.edit import main as edit_main
-from psdr_room_core.errors import PsdrRoomError
-from psdr_room_core.lighting import behind_camera, in_view
-from psdr_room_core.rgb_scene import build_scene, initial_parts, part_meshes, render_part_ids, room_quads
-from psdr_room_core.shading import linear_to_srgb, srgb_to_linear
-from psdr_room_core.stages.appearance import AppearanceModel, fit_appearance, picture, plain_parts
-from psdr_room_core.stages.export import export_scene
-from psdr_room_core.stages.lighting import init_lights, white_balance
+from psdr_room_core.engine.dag import StageContext
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method.artifacts import (
+    Camera,
+    Image,
+    Light,
+    Lights,
+    MaterialAssignment,
+    Panoptic,
+    PartMaterial,
+    Placements,
+    PointCloud,
+    RoomBox,
+    Segment,
+)
+from psdr_room_core.method.edit import main as edit_main
+from psdr_room_core.method.lighting import behind_camera, in_view
+from psdr_room_core.method.rgb_scene import build_scene, initial_parts, part_meshes, render_part_ids, room_quads
+from psdr_room_core.method.shading import linear_to_srgb, srgb_to_linear
+from psdr_room_core.method.stages.appearance import AppearanceModel, fit_appearance, picture, plain_parts
+from psdr_room_core.method.stages.export import export_scene
+from psdr_room_core.method.stages.lighting import init_lights, white_balance
 from psdr_room_plugins.denoisers import OidnDenoiser
 from psdr_room_plugins.material_graph import TorchGraphLibrary
 from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
@@ -281,7 +292,7 @@ def test_edits_rerender_without_optimising(exported: Path, tmp_path: Path, capsy
     err = capsys.readouterr().err
     assert "no part 'sofa'" in err and err.count("\n") == 1 and not (tmp_path / "bad").exists()
     with pytest.raises(PsdrRoomError, match="not a library material"):
-        from psdr_room_core.edit import apply_edit, load_state
+        from psdr_room_core.method.edit import apply_edit, load_state
 
         apply_edit(load_state(exported), "material.floor", "no_such_graph", TorchGraphLibrary(use_plugins=False))
 
@@ -346,8 +357,8 @@ def test_a_lamp_emits_from_its_largest_visible_part(library: TorchGraphLibrary, 
                                                      ) -> None:
     """A lamp object's most visible material group becomes an emitter (§4.4), and the appearance fit runs
     with it as a light rather than a surface."""
-    from psdr_room_core.artifacts import ObjectMesh, Placement
-    from psdr_room_core.geometry import box_mesh
+    from psdr_room_core.method.artifacts import ObjectMesh, Placement
+    from psdr_room_core.method.geometry import box_mesh
 
     shade, base = box_mesh(np.array([0.0, 0.6, 0.0]), np.array([0.25, 0.2, 0.25])), \
         box_mesh(np.array([0.0, 0.2, 0.0]), np.array([0.05, 0.2, 0.05]))

@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 from conftest import EXAMPLE
-from psdr_room_core.cache import Store, damage
-from psdr_room_core.ownership import claim
+from psdr_room_core.engine.cache import Store, damage
+from psdr_room_core.engine.ownership import claim
 
 RNG_PHOTO = np.random.default_rng(0).integers(0, 255, (120, 160, 3), np.uint8)
 

@@ -10,9 +10,9 @@ import onnx
 import pytest
 from onnx import TensorProto, helper, numpy_helper
 
-from psdr_room_core.artifacts import Camera
-from psdr_room_core.errors import PsdrRoomError
-from psdr_room_core.objects import ObjectQuery
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method.artifacts import Camera
+from psdr_room_core.method.objects import ObjectQuery
 from psdr_room_plugins.onnx_models.clip import ClipRetrieval, clip_input
 
 COLOURS = {"red_sofa": (200, 30, 30), "green_chair": (30, 180, 40), "blue_bed": (40, 50, 210)}

@@ -9,17 +9,17 @@ from typing import Any
 import pytest
 
 import toy_plugin
-from psdr_room_core.cache import Store
-from psdr_room_core.dag import Pipeline, RunRecord, Runner
-from psdr_room_core.errors import PsdrRoomError
-from psdr_room_core.hookspecs import hookimpl
-from psdr_room_core.plugins import Origin, load_plugins
+from psdr_room_core.engine.cache import Store
+from psdr_room_core.engine.dag import Pipeline, Runner, RunRecord
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.hookspecs import hookimpl
+from psdr_room_core.engine.plugins import Origin, load_plugins
 
 TOY = Origin("toy", "tests", "toy = toy_plugin")
 
 BASE: dict[str, Any] = {
     "seed": 0,
-    "optimizer": {"impl": "toy", "toy": {"factor": 2.0}},
+    "scaler": {"impl": "toy", "toy": {"factor": 2.0}},
     "a": {"_stage_": "toy_source", "_inputs_": {}, "_outputs_": ["a"], "start": 1.0},
     "b": {"_stage_": "toy_scale", "_inputs_": {"x": "a"}, "_outputs_": ["b"]},
     "c": {"_stage_": "toy_add", "_inputs_": {"x": "a", "y": "b"}, "_outputs_": {"total": "c"}},
@@ -77,7 +77,7 @@ def test_rerun_is_fully_cached_and_same_digests(tmp_path: Path, photo: Path) -> 
     ("change", "expected"),
     [
         (lambda c: c["a"].update(start=3.0), {"a", "b", "c"}),          # a stage's config
-        (lambda c: c["optimizer"]["toy"].update(factor=3.0), {"b", "c"}),  # an implementation's params
+        (lambda c: c["scaler"]["toy"].update(factor=3.0), {"b", "c"}),  # an implementation's params
         (lambda c: c.update(seed=1), {"a", "b", "c", "d"}),             # the seed is in every key
         (lambda c: c["b"].update(note="x"), {"b"}),                     # b's output is unchanged: c stays cached
     ],
@@ -134,7 +134,7 @@ def test_a_damaged_cache_entry_is_moved_aside_and_recomputed(tmp_path: Path, pho
 
 
 def test_cache_tool_reports_verifies_and_prunes(tmp_path: Path, photo: Path, capsys: pytest.CaptureFixture) -> None:
-    from psdr_room_core.cache_cli import main as cache_main
+    from psdr_room_core.engine.cache_cli import main as cache_main
 
     store = Store(tmp_path / "cache")
     run(BASE, photo, store, tmp_path)
@@ -221,24 +221,24 @@ def test_injected_artifact_replaces_its_producer(tmp_path: Path, photo: Path) ->
     assert record.artifacts["c"].value == 10.0 + 20.0
 
 
-AUTO = {**BASE, "optimizer": {"impl": "auto", "auto": {"order": ["toy_sidecar", "toy"]}, "toy_sidecar": {},
+AUTO = {**BASE, "scaler": {"impl": "auto", "auto": {"order": ["toy_sidecar", "toy"]}, "toy_sidecar": {},
                               "toy": {"factor": 2.0}}}
 
 
 def test_auto_selects_the_first_usable_implementation_and_keys_the_choice(tmp_path: Path, photo: Path) -> None:
     store = Store(tmp_path / "cache")
     first = run(AUTO, photo, store, tmp_path)
-    assert first.implementations["optimizer"]["name"] == "toy"
-    assert "not toy_sidecar: no .factor file" in first.implementations["optimizer"]["selected_by"]
+    assert first.implementations["scaler"]["name"] == "toy"
+    assert "not toy_sidecar: no .factor file" in first.implementations["scaler"]["selected_by"]
     assert first.artifacts["b"].value == 2.0
     photo.with_suffix(".factor").write_text("3")  # now the sidecar implementation is usable: b is recomputed
     second = run(AUTO, photo, store, tmp_path)
-    assert second.implementations["optimizer"]["name"] == "toy_sidecar" and second.artifacts["b"].value == 3.0
+    assert second.implementations["scaler"]["name"] == "toy_sidecar" and second.artifacts["b"].value == 3.0
     assert recomputed(second) == {"b", "c"}
     assert recomputed(run(AUTO, photo, store, tmp_path)) == set()
 
 
 def test_auto_with_nothing_usable_names_the_candidates(tmp_path: Path, photo: Path) -> None:
-    cfg = {**AUTO, "optimizer": {**AUTO["optimizer"], "auto": {"order": ["toy_sidecar"]}}}
+    cfg = {**AUTO, "scaler": {**AUTO["scaler"], "auto": {"order": ["toy_sidecar"]}}}
     with pytest.raises(PsdrRoomError, match="none of toy_sidecar is usable.*no .factor file"):
         run(cfg, photo, Store(tmp_path / "cache"), tmp_path)

@@ -9,8 +9,8 @@ import cv2
 import numpy as np
 import pytest
 
-from psdr_room_core.image_metrics import flip
-from psdr_room_core.plugins import plugin_system
+from psdr_room_core.engine.plugins import plugin_system
+from psdr_room_core.method.image_metrics import flip
 from psdr_room_plugins.denoisers import NoDenoiser, OidnDenoiser
 
 

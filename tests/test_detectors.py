@@ -20,10 +20,10 @@ from omegaconf import OmegaConf
 from onnx import TensorProto, helper, numpy_helper
 
 from conftest import REPO, SHARED_DATA
-from psdr_room_core.artifacts import Image
-from psdr_room_core.errors import PsdrRoomError
-from psdr_room_core.photo import read_photo, resize_to_working
-from psdr_room_core.plugins import Registry
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.method.artifacts import Image
+from psdr_room_core.method.photo import read_photo, resize_to_working
 from psdr_room_plugins.detectors import BoxesFile, NanodetOnnx, NoDetector, register_implementations
 from psdr_room_plugins.detectors.coco import COCO_80, INDOOR
 from psdr_room_plugins.detectors.nanodet import BUNDLED, box_iou, to_input

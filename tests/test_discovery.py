@@ -8,16 +8,27 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from psdr_room_core.artifacts import Camera, Detection, Detections, Image
-from psdr_room_core.objects import LABEL_TO_CATEGORIES, database_categories
+from psdr_room_core.method.artifacts import Camera, Detection, Detections, Image
+from psdr_room_core.method.objects import LABEL_TO_CATEGORIES, database_categories
+from psdr_room_core.method.surface_colours import SurfaceColours, unprompted
 from psdr_room_plugins.detectors.coco import INDOOR
 from psdr_room_plugins.layout import box
-from psdr_room_plugins.layout.discovery import (Candidate, DiscoveryParams, Footing, Selection, absorbs, discover,
-                                                footing, group_size, implausible, part_of, vote_labels)
+from psdr_room_plugins.layout.discovery import (
+    Candidate,
+    DiscoveryParams,
+    Footing,
+    Selection,
+    absorbs,
+    discover,
+    footing,
+    group_size,
+    implausible,
+    part_of,
+    vote_labels,
+)
 from psdr_room_plugins.layout.manhattan import frame_from_vanishing_points
 from psdr_room_plugins.layout.proposals import ProposalParams, clutter_proposals
 from psdr_room_plugins.layout.segmentation import LayoutSegmentation
-from psdr_room_core.surface_colours import SurfaceColours, unprompted
 from psdr_room_plugins.object_db import CATEGORIES
 
 PHOTO = Path("room.png")

@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
-from psdr_room_core.artifacts import Camera, Detection, Detections, Image, Panoptic, Segment
+from psdr_room_core.method.artifacts import Camera, Detection, Detections, Image, Panoptic, Segment
 from psdr_room_plugins.layout import box
 from psdr_room_plugins.layout.depth import LayoutDepth, object_depth
 from psdr_room_plugins.layout.manhattan import ManhattanFrame, frame_from_vanishing_points
@@ -167,9 +167,9 @@ def test_box_prompts_become_object_segments(room: tuple) -> None:
 
 def test_boxes_yaml_replaces_the_detector(tmp_path: Path) -> None:
     """With detector=auto a boxes file beside the photo is used instead of NanoDet (cached by its content)."""
-    from psdr_room_core.cli import compose_config
-    from psdr_room_core.plugins import plugin_system
-    from psdr_room_core.run import execute
+    from psdr_room_core.engine.cli import compose_config
+    from psdr_room_core.engine.plugins import plugin_system
+    from psdr_room_core.engine.run import execute
 
     photo = tmp_path / "room.png"
     camera = _camera(_rotation(28.0, 6.0))
@@ -189,9 +189,9 @@ def test_boxes_yaml_replaces_the_detector(tmp_path: Path) -> None:
 def test_a_bare_photo_without_floor_or_prompts_still_gives_a_room(tmp_path: Path) -> None:
     """Looking up at a plain room: no floor in view, the detector finds nothing, no proposal stands out. The
     pipeline stands the room on its ceiling (logged) and places no object, without an error."""
-    from psdr_room_core.cli import compose_config
-    from psdr_room_core.plugins import plugin_system
-    from psdr_room_core.run import execute
+    from psdr_room_core.engine.cli import compose_config
+    from psdr_room_core.engine.plugins import plugin_system
+    from psdr_room_core.engine.run import execute
 
     camera = _camera(_rotation(28.0, -25.0))  # pitched up: floor out of view
     image, labels, _ = _render(camera, frame_from_vanishing_points(camera, camera.extra["vanishing_points"]))

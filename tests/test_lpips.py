@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import torch
 
-from psdr_room_core import lpips
-from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method import lpips
 
 
 def _write_weights(directory: Path, seed: int = 0) -> None:

@@ -10,17 +10,24 @@ from types import SimpleNamespace
 import pytest
 import torch
 import yaml
+from test_material_nodes import seam_ratio
 
 from conftest import REPO
-from psdr_room_core.errors import PsdrRoomError
-from psdr_room_core.hookspecs import hookimpl
-from psdr_room_core.plugins import Origin, load_plugins
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.hookspecs import hookimpl
+from psdr_room_core.engine.plugins import Origin, load_plugins
 from psdr_room_plugins.material_graph import (
-    Float, GraphError, Input, NodeType, TorchGraphLibrary, load_graph, parse_graph)
+    Float,
+    GraphError,
+    Input,
+    NodeType,
+    TorchGraphLibrary,
+    load_graph,
+    parse_graph,
+)
 from psdr_room_plugins.material_graph.nodes import builtin_node_types
 from psdr_room_plugins.material_graph.thumbnails import contact_sheet, shade
 from psdr_room_plugins.texture import RandomCnnDescriptor
-from test_material_nodes import seam_ratio
 
 torch.set_num_threads(1)
 
@@ -221,7 +228,7 @@ def test_plugins_add_graphs_and_node_types(tmp_path: Path, monkeypatch: pytest.M
     system = load_plugins(extra=[(_plugin(material_graphs=lambda: [str(tmp_path)], material_nodes=lambda: [gain]),
                                   Origin("extra_materials", "extra 1.0", "extra = extra"))])
     assert not system.registry.failures
-    monkeypatch.setattr("psdr_room_core.plugins.plugin_system", lambda: system)
+    monkeypatch.setattr("psdr_room_core.engine.plugins.plugin_system", lambda: system)
     library = TorchGraphLibrary()
     assert "gain" in library.node_types and "plugin_bricks" in library.names()
     assert library.material("oak_planks").category == "wood floor"
@@ -233,7 +240,7 @@ def test_plugins_add_graphs_and_node_types(tmp_path: Path, monkeypatch: pytest.M
 
 
 def test_registered_and_configured_like_every_capability() -> None:
-    from psdr_room_core.capabilities import MaterialGraph, ProceduralMaterial
+    from psdr_room_core.method.capabilities import MaterialGraph, ProceduralMaterial
 
     assert isinstance(LIBRARY, MaterialGraph) and isinstance(LIBRARY.material("oak_planks"), ProceduralMaterial)
     registry = load_plugins().registry

@@ -12,7 +12,16 @@ from psdr_room_plugins.material_graph.nodes import Context, NodeType, builtin_no
 from psdr_room_plugins.material_graph.nodes.noise import fbm_sum
 from psdr_room_plugins.material_graph.nodes.ops import fft_blur, hash01, sample_periodic, sample_tiled
 from psdr_room_plugins.material_graph.params import (
-    Choice, Color, Continuous, Float, Floats, Int, ParamError, Ramp, to_unconstrained)
+    Choice,
+    Color,
+    Continuous,
+    Float,
+    Floats,
+    Int,
+    ParamError,
+    Ramp,
+    to_unconstrained,
+)
 
 torch.set_num_threads(1)
 

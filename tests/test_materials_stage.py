@@ -11,15 +11,22 @@ import pytest
 import torch
 import yaml
 
-from psdr_room_core.artifacts import Camera, Image, MaterialAssignment, Panoptic, Placements, RoomBox, Segment
-from psdr_room_core.crops import crop_windows, largest_rectangle, read_crops
-from psdr_room_core.dag import StageContext
-from psdr_room_core.errors import PsdrRoomError
-from psdr_room_core.material_search import (MaterialIndex, luminance, search_transform, surface_coordinates,
-                                            surface_view, tiled_view, vote)
-from psdr_room_core.rgb_scene import render_part_ids
-from psdr_room_core.stages.materials import assign_materials, scene_parts
-from psdr_room_core.surface_colours import dominant_colour, texture_energy
+from psdr_room_core.engine.dag import StageContext
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method.artifacts import Camera, Image, MaterialAssignment, Panoptic, Placements, RoomBox, Segment
+from psdr_room_core.method.crops import crop_windows, largest_rectangle, read_crops
+from psdr_room_core.method.material_search import (
+    MaterialIndex,
+    luminance,
+    search_transform,
+    surface_coordinates,
+    surface_view,
+    tiled_view,
+    vote,
+)
+from psdr_room_core.method.rgb_scene import render_part_ids
+from psdr_room_core.method.stages.materials import assign_materials, scene_parts
+from psdr_room_core.method.surface_colours import dominant_colour, texture_energy
 from psdr_room_plugins.material_graph import TorchGraphLibrary
 from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
 from psdr_room_plugins.texture import RandomCnnDescriptor

@@ -13,11 +13,12 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from psdr_room_core import models, models_cli
-from psdr_room_core.models import USES
-from psdr_room_core.errors import PsdrRoomError
-from psdr_room_core.hookspecs import hookimpl
-from psdr_room_core.plugins import Origin, load_plugins
+
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.hookspecs import hookimpl
+from psdr_room_core.engine.plugins import Origin, load_plugins
+from psdr_room_core.method import models, models_cli
+from psdr_room_core.method.models import USES
 
 CONTENT = b"tiny model weights\n" * 4096
 SHA = hashlib.sha256(CONTENT).hexdigest()

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_plugins.object_db import CATEGORIES, ObjectDatabase, parametric
 from psdr_room_plugins.object_db.builtin import builtin_database
 from psdr_room_plugins.object_db.database import build_index, write_model

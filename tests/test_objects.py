@@ -10,14 +10,33 @@ import numpy as np
 import pytest
 import torch
 
-from psdr_room_core.artifacts import Camera, DepthMap, Image, ObjectMesh, Panoptic, Placement, Placements, RoomBox, Segment
-from psdr_room_core.dag import StageContext
-from psdr_room_core.geometry import TriangleMesh, box_mesh, weld
-from psdr_room_core.objects import (ObjectQuery, SupportParams, best_yaw, initial_pose, mesh_radius, pose_matrix,
-                                    support_relations, transform, wall_frame)
-from psdr_room_core.silhouette import MeshCaster, depth_map, silhouette
-from psdr_room_core.view_search import ViewTarget, fit_view
-from psdr_room_core.stages.objects import PoseModel, find_overlaps, fit_objects, object_targets, try_yaw_turns
+from psdr_room_core.engine.dag import StageContext
+from psdr_room_core.method.artifacts import (
+    Camera,
+    DepthMap,
+    Image,
+    ObjectMesh,
+    Panoptic,
+    Placement,
+    Placements,
+    RoomBox,
+    Segment,
+)
+from psdr_room_core.method.geometry import TriangleMesh, box_mesh, weld
+from psdr_room_core.method.objects import (
+    ObjectQuery,
+    SupportParams,
+    best_yaw,
+    initial_pose,
+    mesh_radius,
+    pose_matrix,
+    support_relations,
+    transform,
+    wall_frame,
+)
+from psdr_room_core.method.silhouette import MeshCaster, depth_map, silhouette
+from psdr_room_core.method.stages.objects import PoseModel, find_overlaps, fit_objects, object_targets, try_yaw_turns
+from psdr_room_core.method.view_search import ViewTarget, fit_view
 from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
 from psdr_room_plugins.optimizer_adam import Adam
 
@@ -332,8 +351,8 @@ def test_guessed_objects_no_model_explains_are_dropped_drawn_ones_kept(tmp_path:
     """place_objects.prune: a segment the layout segmentation guessed (it has a score) that no posed model
     explains (a flat patch of floor) is dropped; the same patch drawn by a person (no score) is kept, and a
     guessed chair the chair model explains stays."""
-    from psdr_room_core.artifacts import Candidate, ObjectCandidates, PointCloud
-    from psdr_room_core.stages.objects import place_objects
+    from psdr_room_core.method.artifacts import Candidate, ObjectCandidates, PointCloud
+    from psdr_room_core.method.stages.objects import place_objects
     from psdr_room_plugins.retrieval_silhouette import SilhouetteRetrieval
 
     chair_id = "parametric/chair_004"

@@ -19,8 +19,9 @@ import onnx
 import onnxruntime as ort
 import pytest
 from onnx import TensorProto, helper, numpy_helper
-from psdr_room_core.artifacts import Camera, DepthMap, Detections, Image, Panoptic
-from psdr_room_core.errors import PsdrRoomError
+
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method.artifacts import Camera, DepthMap, Detections, Image, Panoptic
 from psdr_room_plugins.onnx_models import ade20k
 from psdr_room_plugins.onnx_models.depth import OnnxDepth, disparity_to_depth
 from psdr_room_plugins.onnx_models.network import INPUTS, network_size, to_network
@@ -430,9 +431,8 @@ def test_segmentation_missing_registry_model(tmp_path: Path) -> None:
 
 # ================================================================================ in the pipeline
 def _plugins():
-    from psdr_room_core.plugins import Origin, load_plugins
-
     import psdr_room_plugins.onnx_models as onnx_models
+    from psdr_room_core.engine.plugins import Origin, load_plugins
 
     installed = any(ep.value == onnx_models.__name__ for ep in importlib.metadata.entry_points(group="psdr_room"))
     extra = [] if installed else [(onnx_models, Origin("onnx_models", "tests", "onnx_models (test)"))]
@@ -442,8 +442,9 @@ def _plugins():
 def test_run_with_onnx_models_and_weights_in_the_cache_key(tmp_path: Path) -> None:
     """``depth=onnx segmentation=onnx`` through the real runner; new weights recompute only their stage."""
     import cv2
-    from psdr_room_core.cli import compose_config
-    from psdr_room_core.run import execute
+
+    from psdr_room_core.engine.cli import compose_config
+    from psdr_room_core.engine.run import execute
 
     photo = tmp_path / "photo.png"
     image = colour_photo()

@@ -15,10 +15,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from psdr_room_core.artifacts import Camera, RoomBox
-from psdr_room_core.errors import PsdrRoomError
-from psdr_room_core.geometry import TriangleMesh, box_mesh, quad_mesh
-from psdr_room_core.shading import Surface
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method.artifacts import Camera, RoomBox
+from psdr_room_core.method.geometry import TriangleMesh, box_mesh, quad_mesh
+from psdr_room_core.method.shading import Surface
 from psdr_room_plugins.mitsuba_renderer.llvm import ensure_llvm, find_llvm, llvm_version
 from psdr_room_plugins.mitsuba_renderer.session import weld_map
 
@@ -170,7 +170,7 @@ def _camera() -> tuple[Camera, np.ndarray]:
 
 def _vertices(theta: "torch.Tensor") -> dict[str, "torch.Tensor"]:
     """The scene's vertex tensors as a function of the 10 parameters (float64 in, float32 out)."""
-    from psdr_room_core.rgb_scene import room_quad_indices
+    from psdr_room_core.method.rgb_scene import room_quad_indices
 
     signs = torch.tensor([[(i >> 0) & 1, (i >> 1) & 1, (i >> 2) & 1] for i in range(8)], dtype=torch.float64) * 2 - 1
     zero = torch.zeros((), dtype=torch.float64)
@@ -297,7 +297,7 @@ def test_rgb_map_and_roughness_gradients_match_finite_differences(renderer_cls) 
     """A UV-mapped base colour (the floor wears an 8×8 map, two repeats) and a constant roughness and
     specular: the derivative of an image loss along a random direction of all of them matches central
     differences."""
-    from psdr_room_core.shading import planar_uv
+    from psdr_room_core.method.shading import planar_uv
 
     floor = _meshes()["floor"]
     split, uv_metres = planar_uv(floor)

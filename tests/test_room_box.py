@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from psdr_room_core.room_box import RoomInitParams, RoomInitResult, box_iou_3d, fit_floor_plane, init_room_box
+from psdr_room_core.method.room_box import RoomInitParams, RoomInitResult, box_iou_3d, fit_floor_plane, init_room_box
 
 # Ground-truth room (truth frame: Y up, floor y = 0): 5 x 2.8 x 4 m, yawed 20 degrees.
 BOX_CENTER = np.array([0.7, 1.4, -0.4])

@@ -1,4 +1,4 @@
-"""Typed settings (psdr_room_core.settings): every built-in stage and implementation declares a schema, the
+"""Typed settings (psdr_room_core.engine.settings): every built-in stage and implementation declares a schema, the
 shipped config fits every one of them, and a bad value or key is refused in one line naming it."""
 
 from __future__ import annotations
@@ -9,12 +9,12 @@ from typing import Optional
 
 import pytest
 
-from psdr_room_core.cli import compose_config
-from psdr_room_core.dag import Pipeline
-from psdr_room_core.errors import PsdrRoomError
-from psdr_room_core.plugins import plugin_system
-from psdr_room_core.run import resolve_config
-from psdr_room_core.settings import check_config, check_settings, setting
+from psdr_room_core.engine.cli import compose_config
+from psdr_room_core.engine.dag import Pipeline
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.plugins import plugin_system
+from psdr_room_core.engine.run import resolve_config
+from psdr_room_core.engine.settings import check_config, check_settings, setting
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
 GROUPS = ("fov", "detector", "segmentation", "depth", "retrieval", "renderer", "optimizer", "material_graph",

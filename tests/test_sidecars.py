@@ -11,8 +11,9 @@ import mitsuba as mi
 import numpy as np
 import pytest
 from PIL import Image
-from psdr_room_core.artifacts import CATEGORIES, Panoptic, Segment, write_coco_panoptic
-from psdr_room_core.errors import PsdrRoomError
+
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method.artifacts import CATEGORIES, Panoptic, Segment, write_coco_panoptic
 from psdr_room_plugins.sidecar_depth import (
     DEPTH_ENCODINGS,
     SidecarError,

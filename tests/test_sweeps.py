@@ -15,10 +15,10 @@ import pytest
 from hydra.core.override_parser.overrides_parser import OverridesParser
 
 from conftest import EXAMPLE
-from psdr_room_core.cache import Store, damage
-from psdr_room_core.cli import expand_photos, hydra_quote
-from psdr_room_core.errors import PsdrRoomError
-from psdr_room_core.photo import find_photos
+from psdr_room_core.engine.cache import Store, damage
+from psdr_room_core.engine.cli import expand_photos, hydra_quote
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.inputs import find_photos
 from psdr_room_plugins.synth import write_scene
 from psdr_room_plugins.synth.scene import generate
 

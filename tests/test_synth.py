@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from psdr_room_core.artifacts import Panoptic
-from psdr_room_core.cli import compose_config
-from psdr_room_core.room_box import box_iou_3d
-from psdr_room_core.run import execute
+from psdr_room_core.engine.cli import compose_config
+from psdr_room_core.engine.run import execute
+from psdr_room_core.method.artifacts import Panoptic
+from psdr_room_core.method.room_box import box_iou_3d
 from psdr_room_plugins.synth import write_scene
 from psdr_room_plugins.synth.raycast import raycast
 from psdr_room_plugins.synth.room import camera_pose

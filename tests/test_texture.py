@@ -13,8 +13,8 @@ import torch.nn as nn
 import yaml
 
 from conftest import REPO, SHARED_DATA
-from psdr_room_core.errors import PsdrRoomError
-from psdr_room_core.plugins import load_plugins
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.plugins import load_plugins
 from psdr_room_plugins.texture import RandomCnnDescriptor, Vgg19Descriptor, colour_stats
 from psdr_room_plugins.texture.common import gram
 from psdr_room_plugins.texture.vgg19 import BLOCKS, CONV_INDICES, layer_names
@@ -209,7 +209,7 @@ def test_vgg19_rejects_damaged_files_and_unknown_layers(tmp_path: Path) -> None:
 
 # --------------------------------------------------------------------------------------- registry
 def test_registered_and_constructible_from_their_config_files(tmp_path: Path) -> None:
-    from psdr_room_core.capabilities import TextureDescriptor
+    from psdr_room_core.method.capabilities import TextureDescriptor
 
     registry = load_plugins().registry
     for name in ("random_cnn", "vgg19"):

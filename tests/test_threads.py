@@ -8,8 +8,8 @@ import sys
 
 import pytest
 
-from psdr_room_core import threads
-from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.engine import threads
+from psdr_room_core.engine.errors import PsdrRoomError
 
 
 def test_an_explicit_count_wins_over_everything() -> None:
@@ -42,7 +42,7 @@ def test_a_bad_count_is_one_line(bad: object) -> None:
 def test_apply_limits_every_library_in_a_fresh_process() -> None:
     """After apply(1), torch (loaded later), Dr.Jit, OpenCV and new onnxruntime sessions use one thread."""
     code = (
-        "from psdr_room_core import threads; import drjit, cv2\n"
+        "from psdr_room_core.engine import threads; import drjit, cv2\n"
         "threads.apply(1)\n"
         "import torch\n"
         "print(torch.get_num_threads(), drjit.thread_count(), cv2.getNumThreads(), threads.count(), "

@@ -1,4 +1,5 @@
-"""A tiny plugin for engine tests: number artifacts, three stages, and an ``optimizer`` implementation."""
+"""A tiny plugin for engine tests, on the engine alone: its own artifact type (numbers), its own capability
+(``scaler``) with two implementations, and three stages."""
 
 from __future__ import annotations
 
@@ -8,10 +9,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import ClassVar
 
-from psdr_room_core.artifacts import ARTIFACT_TYPES
-from psdr_room_core.dag import StageContext
-from psdr_room_core.hookspecs import hookimpl
-from psdr_room_core.plugins import Registry
+from psdr_room_core.engine.dag import StageContext
+from psdr_room_core.engine.hookspecs import hookimpl
+from psdr_room_core.engine.plugins import Registry
 
 CALLS: Counter[str] = Counter()
 VERSION = {"toy": "1"}
@@ -30,8 +30,6 @@ class Number:
     def load(cls, directory: Path) -> "Number":
         return cls(json.loads((directory / "number.json").read_text())["value"])
 
-
-ARTIFACT_TYPES[Number.kind] = Number
 
 
 class Multiplier:
@@ -68,7 +66,7 @@ def scale(ctx: StageContext, x: Number) -> Number:
     CALLS[ctx.stage] += 1
     if ctx.params.get("fail"):
         raise RuntimeError("toy failure")
-    return Number(ctx.impl("optimizer").apply(x.value, ctx.photo))
+    return Number(ctx.impl("scaler").apply(x.value, ctx.photo))
 
 
 def add(ctx: StageContext, x: Number, y: Number) -> dict[str, Number]:
@@ -77,13 +75,23 @@ def add(ctx: StageContext, x: Number, y: Number) -> dict[str, Number]:
 
 
 @hookimpl
+def register_capabilities(registry: Registry) -> None:
+    registry.add_capability("scaler", "multiplies a number")
+
+
+@hookimpl
+def register_artifacts(registry: Registry) -> None:
+    registry.add_artifact(Number)
+
+
+@hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("optimizer", "toy", Multiplier, version=VERSION["toy"])
-    registry.add_implementation("optimizer", "toy_sidecar", SidecarMultiplier)
+    registry.add_implementation("scaler", "toy", Multiplier, version=VERSION["toy"])
+    registry.add_implementation("scaler", "toy_sidecar", SidecarMultiplier)
 
 
 @hookimpl
 def register_stages(registry: Registry) -> None:
     registry.add_stage("toy_source", source, reads_photo=True)
-    registry.add_stage("toy_scale", scale, uses=["optimizer"])
+    registry.add_stage("toy_scale", scale, uses=["scaler"])
     registry.add_stage("toy_add", add)

@@ -13,10 +13,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
-from psdr_room_core.artifacts import Detections, Image
-from psdr_room_core.hookspecs import hookimpl
-from psdr_room_core.plugins import Registry
-from psdr_room_core.settings import NoSettings, setting
+from psdr_room_core.engine.hookspecs import hookimpl
+from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.settings import NoSettings, setting
+from psdr_room_core.method.artifacts import Detections, Image
 
 from .boxes_file import BoxesFile
 from .nanodet import NanodetOnnx

@@ -19,8 +19,8 @@ from typing import Any
 
 import yaml
 
-from psdr_room_core.artifacts import CATEGORIES, Detection, Detections, Image
-from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method.artifacts import CATEGORIES, Detection, Detections, Image
 
 KEYS = ("label", "category", "box")
 EXAMPLE = "boxes: [{label: sofa, category: object, box: [x0, y0, x1, y1]}]"

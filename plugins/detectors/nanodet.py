@@ -32,8 +32,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from psdr_room_core.artifacts import Detection, Detections, Image
-from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method.artifacts import Detection, Detections, Image
 
 from ..onnx_models.network import ModelFile, OnnxNetwork
 from .coco import COCO_80, INDOOR

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from psdr_room_core.artifacts import Camera, DepthMap, Image, Panoptic
+from psdr_room_core.method.artifacts import Camera, DepthMap, Image, Panoptic
 
 from .fit import Layout, fit_layout
 from .segmentation import layout_params

@@ -31,12 +31,12 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from psdr_room_core.artifacts import Detection
-from psdr_room_core.objects import database_categories
+from psdr_room_core.method.artifacts import Detection
+from psdr_room_core.method.objects import database_categories
+from psdr_room_core.method.surface_colours import SurfaceColours
 
 from .objects import GrabCutParams, grabcut_mask
 from .proposals import ProposalParams, clutter_proposals
-from psdr_room_core.surface_colours import SurfaceColours
 
 log = logging.getLogger("psdr_room")
 
@@ -55,7 +55,7 @@ class DiscoveryParams:
     trusted_score: float = 0.3
     """Prompts scoring less are weak: the room must not explain their mask ..."""
     max_explained: float = 0.6
-    """... more than this share of it (:mod:`psdr_room_core.surface_colours`): a weak prompt on what looks like the floor is floor."""
+    """... more than this share of it (:mod:`psdr_room_core.method.surface_colours`): a weak prompt on what looks like the floor is floor."""
     nms_iou: float = 0.6
     """Boxes overlapping more than this are one object (the better prompt is kept), whatever their labels."""
     part_overlap: float = 0.85

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from psdr_room_core.artifacts import Camera, Detections, Image, Panoptic
+from psdr_room_core.method.artifacts import Camera, Detections, Image, Panoptic
 
 from ..vanishing_points import VanishingPointParams, estimate_camera, line_segments
 from . import box

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from psdr_room_core.artifacts import Camera
+from psdr_room_core.method.artifacts import Camera
 
 
 @dataclass(frozen=True)

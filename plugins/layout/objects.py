@@ -8,7 +8,6 @@ import cv2
 import numpy as np
 
 
-
 @dataclass(frozen=True)
 class GrabCutParams:
     """Knobs of the box-prompted GrabCut."""

@@ -1,6 +1,6 @@
 """Class-agnostic object proposals: what the fitted room cannot explain.
 
-Pixels whose colour the room's surfaces do not explain (:class:`~psdr_room_core.surface_colours.SurfaceColours`) and that no object
+Pixels whose colour the room's surfaces do not explain (:class:`~psdr_room_core.method.surface_colours.SurfaceColours`) and that no object
 found so far holds are opened morphologically (thin edges, texture and noise go) and split into connected
 regions; each region of a plausible size becomes a weak prompt (label ``object``: the model search tries every
 category), judged like the detector's by :mod:`.discovery`. This finds what COCO has no class for (a
@@ -14,9 +14,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from psdr_room_core.artifacts import Detection
-
-from psdr_room_core.surface_colours import SurfaceColours
+from psdr_room_core.method.artifacts import Detection
+from psdr_room_core.method.surface_colours import SurfaceColours
 
 
 @dataclass(frozen=True)

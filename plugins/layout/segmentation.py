@@ -8,14 +8,14 @@ from typing import Any
 
 import numpy as np
 
-from psdr_room_core.artifacts import Camera, Detections, Image, Panoptic, Segment
+from psdr_room_core.method.artifacts import Camera, Detections, Image, Panoptic, Segment
+from psdr_room_core.method.surface_colours import SurfaceColours, unprompted
 
 from . import box
 from .discovery import DiscoveryParams, discover
-from .proposals import ProposalParams
 from .fit import LayoutParams, fit_layout
 from .objects import GrabCutParams
-from psdr_room_core.surface_colours import SurfaceColours, unprompted
+from .proposals import ProposalParams
 
 log = logging.getLogger("psdr_room")
 

@@ -1,4 +1,4 @@
-"""Settings of ``segmentation=layout`` and ``depth=layout``: types and ranges (:mod:`psdr_room_core.settings`);
+"""Settings of ``segmentation=layout`` and ``depth=layout``: types and ranges (:mod:`psdr_room_core.engine.settings`);
 the values and what they mean are in ``conf/segmentation/layout.yaml`` and ``conf/depth/layout.yaml``."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Optional
 
-from psdr_room_core.settings import setting
+from psdr_room_core.engine.settings import setting
 
 
 @dataclass

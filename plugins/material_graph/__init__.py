@@ -16,9 +16,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from psdr_room_core.hookspecs import hookimpl
-from psdr_room_core.plugins import Registry
-from psdr_room_core.settings import setting
+from psdr_room_core.engine.hookspecs import hookimpl
+from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.settings import setting
 
 from .graph import GraphError, ProceduralMaterial, load_graph, parse_graph
 from .library import TorchGraphLibrary

@@ -19,9 +19,9 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from psdr_room_core.artifacts import write_png
-from psdr_room_core.errors import PsdrRoomError
-from psdr_room_core.models_cli import text_table
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method.artifacts import write_png
+from psdr_room_core.method.models_cli import text_table
 
 PROG = "psdr-room-materials"
 DEFAULT_OUT = Path("materials")

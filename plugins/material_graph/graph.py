@@ -43,7 +43,7 @@ from typing import Any
 
 import torch
 
-from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.engine.errors import PsdrRoomError
 
 from .nodes import Context, NodeType, to_channels
 from .outputs import OUTPUTS, flat_normal, normal_from_height

@@ -16,7 +16,7 @@ from typing import Any
 
 import torch
 
-from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.engine.errors import PsdrRoomError
 
 from .graph import GRAPH_SUFFIXES, ProceduralMaterial, load_graph
 from .nodes import KINDS, NodeType, builtin_node_types
@@ -29,7 +29,7 @@ LIBRARY_DIR = Path(__file__).with_name("library")
 
 
 def _plugin_results(hook_name: str) -> list[Any]:
-    from psdr_room_core.plugins import plugin_system
+    from psdr_room_core.engine.plugins import plugin_system
 
     results: list[Any] = []
     for result in getattr(plugin_system().hook, hook_name)():

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from psdr_room_core.shading import linear_to_srgb, srgb_to_linear
+from psdr_room_core.method.shading import linear_to_srgb, srgb_to_linear
 
 DEFAULT_LIGHT = (-0.45, 0.55, 0.70)
 """Direction towards the light in the patch's tangent frame (x right, y up the image, z out)."""

@@ -24,12 +24,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from psdr_room_core.artifacts import Camera
-from psdr_room_core import threads as run_threads
-from psdr_room_core.errors import PsdrRoomError
-from psdr_room_core.geometry import TriangleMesh
-from psdr_room_core.rgb_scene import GUIDE_SPP
-from psdr_room_core.shading import Surface
+from psdr_room_core.engine import threads as run_threads
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method.artifacts import Camera
+from psdr_room_core.method.geometry import TriangleMesh
+from psdr_room_core.method.rgb_scene import GUIDE_SPP
+from psdr_room_core.method.shading import Surface
 
 from .llvm import VARIANTS, resolve_variant
 
@@ -63,7 +63,7 @@ class _Shape:
 
 def weld_map(mesh: TriangleMesh, tolerance: float = 1e-6, uv: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(first, faces): indices of the vertices kept when welding ``mesh`` (the first of each group of
-    coincident vertices, as :func:`psdr_room_core.geometry.weld`; with ``uv``, of coincident position and
+    coincident vertices, as :func:`psdr_room_core.method.geometry.weld`; with ``uv``, of coincident position and
     texture coordinates), and the faces renumbered onto them with degenerate ones dropped. Split vertices
     would double boundary gradients (``RENDERING-NOTES.md``)."""
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
@@ -118,7 +118,7 @@ class MitsubaRenderer:
         rgb_geometry_gradients: allow vertex gradients through :meth:`MitsubaGeometryRenderer.render_rgb`
             (``prb_projective``), knowing they are biased for flat-shaded meshes.
         seed: base seed; each render uses a seed derived from it and the iteration number.
-        threads: Dr.Jit worker threads (0: the run's ``run.threads``, see :mod:`psdr_room_core.threads`).
+        threads: Dr.Jit worker threads (0: the run's ``run.threads``, see :mod:`psdr_room_core.engine.threads`).
         """
         for name, value, low in (("spp", spp, 1), ("spp_boundary", spp_boundary, 1), ("rgb_spp", rgb_spp, 1),
                                  ("max_depth", max_depth, 1), ("rgb_sppi", rgb_sppi, 0), ("threads", threads, 0)):
@@ -198,7 +198,7 @@ class MitsubaRenderer:
         (4×4, OpenCV camera axes), at ``resolution_scale`` × the camera's resolution.
 
         ``parts`` maps shape names to part indices 0..P-1 (several shapes may share one; a shape without an
-        entry occludes but belongs to no mask). ``surfaces`` (shape → :class:`~psdr_room_core.shading.Surface`,
+        entry occludes but belongs to no mask). ``surfaces`` (shape → :class:`~psdr_room_core.method.shading.Surface`,
         default grey) and ``emitters`` (name → (mesh, RGB radiance); emitting on the side its triangles face
         counter-clockwise) are used only by :meth:`MitsubaGeometryRenderer.render_rgb`.
         """
@@ -535,9 +535,9 @@ class _MitsubaScene:
             for name in owner.emitters:
                 out.radiance_keys[name] = _find_key(out.params, name + ".emitter.", ("radiance.value",))
         else:
-            from .integrator import ALPHA, DEPTH, NAME
-
             import drjit as dr
+
+            from .integrator import ALPHA, DEPTH, NAME
 
             ids = {s.id(): int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(s))[0]) for s in scene.shapes()}
             table = [-1.0] * (max(ids.values()) + 1)

@@ -13,7 +13,7 @@ library), :mod:`.future3d` (the 3D-FUTURE layout), :mod:`.thumbnails` (Mitsuba v
 from __future__ import annotations
 
 from .builtin import builtin_database
-from .database import CATEGORIES, ObjectMesh, ModelRecord, ObjectDatabase
+from .database import CATEGORIES, ModelRecord, ObjectDatabase, ObjectMesh
 
 __all__ = ["CATEGORIES", "ObjectMesh", "ModelRecord", "ObjectDatabase", "builtin_database", "read_3dfuture"]
 

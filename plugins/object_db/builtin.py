@@ -16,10 +16,10 @@ import hashlib
 import json
 from pathlib import Path
 
-from psdr_room_core.cache import default_cache_dir
-from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.engine.cache import default_cache_dir
+from psdr_room_core.engine.errors import PsdrRoomError
 
-from .database import ObjectMesh, ModelRecord, ObjectDatabase, mesh_from_obj
+from .database import ModelRecord, ObjectDatabase, ObjectMesh, mesh_from_obj
 from .objio import _atomic_write
 from .parametric import Variant, catalogue
 

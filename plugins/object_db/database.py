@@ -34,8 +34,8 @@ from typing import Any
 
 import numpy as np
 
-from psdr_room_core.artifacts import ObjectMesh
-from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method.artifacts import ObjectMesh
 
 from .objio import group_colors, read_obj, write_obj
 

@@ -26,9 +26,9 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.engine.errors import PsdrRoomError
 
-from .database import ObjectMesh, ModelRecord, ObjectDatabase, mesh_from_obj
+from .database import ModelRecord, ObjectDatabase, ObjectMesh, mesh_from_obj
 from .objio import _atomic_write
 
 MODELS_DIR = "3D-FUTURE-model"
@@ -125,7 +125,7 @@ def read_3dfuture(root: Path, front_axis: str = "+z", workers: int | None = None
     Models listed in ``model_info.json`` whose ``raw_model.obj`` is missing or unreadable are skipped with
     a warning on stderr (an error with ``strict``). ``workers`` processes parse meshes on the first read
     (default: the CPU count, at most 8); ``progress`` shows a bar (default: when many meshes are parsed)."""
-    from psdr_room_core.cache import default_cache_dir
+    from psdr_room_core.engine.cache import default_cache_dir
 
     root = Path(root)
     info_path = root / "model_info.json"

@@ -3,7 +3,7 @@ fan-triangulated, negative indices), ``usemtl`` groups and ``mtllib``; MTL ``new
 
 Everything else (normals, texture coordinates, ``g``/``o``/``s`` lines, other MTL statements) is skipped:
 the database keeps positions and material groups only, and renders flat colours. Errors are
-:class:`~psdr_room_core.errors.PsdrRoomError` naming the file and line.
+:class:`~psdr_room_core.engine.errors.PsdrRoomError` naming the file and line.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.engine.errors import PsdrRoomError
 
 DEFAULT_GROUP = "default"
 """Group of the faces that come before any ``usemtl`` line."""

@@ -22,11 +22,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from psdr_room_core.errors import PsdrRoomError
-from psdr_room_core.shading import linear_to_srgb, srgb_to_linear
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method.shading import linear_to_srgb, srgb_to_linear
 
 if TYPE_CHECKING:
-    from .database import ObjectMesh, ObjectDatabase
+    from .database import ObjectDatabase, ObjectMesh
 
 VIEWS: tuple[tuple[float, float], ...] = ((30.0, 22.0), (-40.0, 22.0), (150.0, 22.0), (-130.0, 22.0))
 """(azimuth, elevation) in degrees: front-right, front-left, back-right, back-left, at one elevation."""
@@ -129,7 +129,7 @@ def default_renderer() -> ThumbnailRenderer:
 
 def cache_dir(db: "ObjectDatabase", renderer: ThumbnailRenderer | None = None) -> Path:
     """Where ``db``'s thumbnails live: ``<cache>/object_db/<digest of db and renderer settings>``."""
-    from psdr_room_core.cache import default_cache_dir
+    from psdr_room_core.engine.cache import default_cache_dir
 
     renderer = renderer or default_renderer()
     key = hashlib.sha256(f"{db.digest}\0{renderer.settings_key()}".encode()).hexdigest()[:20]

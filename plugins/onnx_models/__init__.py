@@ -2,7 +2,7 @@
 ``retrieval=clip_onnx`` (§4.3).
 
 The weights are files a user downloads once (``psdr-room-models download NAME``; the registry is
-``psdr_room_core/models.json``); which file, the models directory and onnxruntime's thread count come
+``psdr_room_core/method/models.json``); which file, the models directory and onnxruntime's thread count come
 from ``conf/depth/onnx.yaml`` and ``conf/segmentation/onnx.yaml``. Sessions are created on first use, and
 the model file is part of the stage's cache key. Pre- and post-processing per model family are in
 :mod:`.depth` and :mod:`.segmentation`; what they share (file lookup, session, input layout) in
@@ -18,9 +18,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional
 
-from psdr_room_core.hookspecs import hookimpl
-from psdr_room_core.plugins import Registry
-from psdr_room_core.settings import setting
+from psdr_room_core.engine.hookspecs import hookimpl
+from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.settings import setting
 
 from .clip import ClipRetrieval
 from .depth import OnnxDepth

@@ -17,9 +17,9 @@ from typing import Any
 import cv2
 import numpy as np
 
-from psdr_room_core.artifacts import Camera, Candidate, ObjectMesh
-from psdr_room_core.cache import default_cache_dir
-from psdr_room_core.objects import ObjectQuery
+from psdr_room_core.engine.cache import default_cache_dir
+from psdr_room_core.method.artifacts import Camera, Candidate, ObjectMesh
+from psdr_room_core.method.objects import ObjectQuery
 
 from .network import InputSpec, ModelFile, OnnxNetwork, missing_reason, resolve_model, to_network
 

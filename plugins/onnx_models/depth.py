@@ -21,7 +21,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from psdr_room_core.artifacts import Camera, DepthMap, Image, Panoptic
+from psdr_room_core.method.artifacts import Camera, DepthMap, Image, Panoptic
 
 from .network import INPUTS, ModelFile, OnnxNetwork, missing_reason, network_size, resolve_model, to_network
 

@@ -22,9 +22,9 @@ from typing import Any
 import cv2
 import numpy as np
 
-from psdr_room_core import models
-from psdr_room_core import threads as run_threads
-from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.engine import threads as run_threads
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method import models
 
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
 IMAGENET_STD = (0.229, 0.224, 0.225)

@@ -23,11 +23,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from psdr_room_core.artifacts import Camera, Detections, Image, Panoptic, Segment
+from psdr_room_core.method.artifacts import Camera, Detections, Image, Panoptic, Segment
 
 from . import ade20k
-from .network import (INPUTS, OnnxNetwork, Port, missing_reason, network_size, resize_channels, resolve_model,
-                      to_network)
+from .network import INPUTS, OnnxNetwork, Port, missing_reason, network_size, resize_channels, resolve_model, to_network
 
 FAMILIES = ("segformer_ade20k", "mask2former_ade20k")
 N_CLASSES = len(ade20k.ADE20K_150)

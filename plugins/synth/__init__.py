@@ -18,7 +18,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from psdr_room_core import artifacts
+from psdr_room_core.method import artifacts
 
 from .raycast import raycast
 from .render import render_photo

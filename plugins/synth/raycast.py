@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from psdr_room_core.artifacts import Segment, rotation_y
+from psdr_room_core.method.artifacts import Segment, rotation_y
 
 from .room import Box, SyntheticRoom
 

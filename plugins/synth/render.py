@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from psdr_room_core.artifacts import RoomBox, rotation_y
-from psdr_room_core.rgb_scene import room_quads
-from psdr_room_core.stages.export import CV_TO_MITSUBA
+from psdr_room_core.method.artifacts import RoomBox, rotation_y
+from psdr_room_core.method.rgb_scene import room_quads
+from psdr_room_core.method.stages.export import CV_TO_MITSUBA
 
 from .room import Box, SyntheticRoom
 
@@ -89,7 +89,7 @@ def render_photo(room: SyntheticRoom, spp: int = 64, max_depth: int = 5, variant
     values are the sRGB encoding of exposure × radiance (the scale the light intensities are compared in)."""
     import mitsuba as mi
 
-    from psdr_room_core.rgb_scene import to_srgb8
+    from psdr_room_core.method.rgb_scene import to_srgb8
 
     mi.set_variant(variant)
     scene = mi.load_dict(scene_dict(room, spp, max_depth))

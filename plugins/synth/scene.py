@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from psdr_room_core.artifacts import rotation_y
+from psdr_room_core.method.artifacts import rotation_y
 
 from .raycast import raycast
 from .room import Box, Furniture, Light, SyntheticRoom, camera_pose

@@ -11,7 +11,7 @@ from __future__ import annotations
 import torch
 import torch.nn.functional as F
 
-from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.engine.errors import PsdrRoomError
 
 
 def as_batch(images: torch.Tensor, what: str = "texture descriptor") -> tuple[torch.Tensor, bool]:

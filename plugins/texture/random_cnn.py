@@ -18,7 +18,7 @@ from __future__ import annotations
 import torch
 import torch.nn.functional as F
 
-from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.engine.errors import PsdrRoomError
 
 from .common import GramDescriptor, as_batch, colour_stats, gram, resize_short_side, upper
 

@@ -24,8 +24,8 @@ from typing import Any
 import torch
 import torch.nn.functional as F
 
-from psdr_room_core import models
-from psdr_room_core.errors import PsdrRoomError
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method import models
 
 from .common import GramDescriptor, as_batch, colour_stats, gram, resize_short_side
 

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import PIL.Image
 
-from psdr_room_core.artifacts import Camera, Image
-from psdr_room_core.hookspecs import hookimpl
-from psdr_room_core.settings import setting
+from psdr_room_core.engine.hookspecs import hookimpl
+from psdr_room_core.engine.settings import setting
+from psdr_room_core.method.artifacts import Camera, Image
 
 FOCAL_35MM = 0xA405  # EXIF FocalLengthIn35mmFilm, in the Exif sub-IFD
 FULL_FRAME_DIAGONAL_MM = math.hypot(36.0, 24.0)

@@ -1,7 +1,7 @@
 """Parametric furniture: one generator per kind of object, each with style parameters and separate material groups.
 
 Each generator is a plain function of keyword parameters (sizes in metres) returning a canonical
-:class:`~psdr_room_core.artifacts.ObjectMesh` (+Y up, front +Z, bottom at y = 0), built from the closed primitives of
+:class:`~psdr_room_core.method.artifacts.ObjectMesh` (+Y up, front +Z, bottom at y = 0), built from the closed primitives of
 :mod:`..primitives`. The material groups are the parts a material stage would texture separately (§4.4):
 a sofa's ``frame``, ``cushion`` and ``legs``; a table's ``top``, ``legs`` and ``frame``; and so on. The
 generators live by family (:mod:`.seating`, :mod:`.tables`, :mod:`.beds`, :mod:`.storage`, :mod:`.lighting`,

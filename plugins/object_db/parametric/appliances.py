@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from psdr_room_core.artifacts import ObjectMesh
+from psdr_room_core.method.artifacts import ObjectMesh
+
 from ..primitives import MeshBuilder, box, cylinder, lathe, rot_x, torus, transform
 from .common import METALS, colour
 

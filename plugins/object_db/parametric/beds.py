@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from psdr_room_core.artifacts import ObjectMesh
+from psdr_room_core.method.artifacts import ObjectMesh
+
 from ..primitives import MeshBuilder, box, lathe, rot_x, rounded_box, transform
 from .common import FABRICS, METALS, WOODS, add_legs, colour
 

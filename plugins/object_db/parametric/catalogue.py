@@ -11,7 +11,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from psdr_room_core.artifacts import ObjectMesh
+from psdr_room_core.method.artifacts import ObjectMesh
+
 from .appliances import FINISHES, microwave, oven, refrigerator, washer
 from .beds import BED_HEADBOARDS, bed
 from .common import FABRICS, METALS

@@ -6,9 +6,11 @@ import math
 
 import numpy as np
 
-from psdr_room_core.artifacts import ObjectMesh
+from psdr_room_core.method.artifacts import ObjectMesh
+
 from ..primitives import MeshBuilder, box, cylinder, lathe, rot_x, rot_y, sphere, transform
 from .common import FABRICS, METALS, WOODS, colour
+
 
 def plant(pot: str = "taper", height: float = 0.9, foliage: str = "bush", pot_colour: str = "terracotta",
           leaves: str = "sage") -> ObjectMesh:

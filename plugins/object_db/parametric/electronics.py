@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import math
 
-from psdr_room_core.artifacts import ObjectMesh
+from psdr_room_core.method.artifacts import ObjectMesh
+
 from ..primitives import MeshBuilder, box, cylinder, tube
 from .common import METALS, WOODS, colour
+
 
 def tv(diagonal_inches: float = 55.0, stand: str = "feet", frame: str = "black metal") -> ObjectMesh:
     """A flat television, screen facing +Z: groups ``screen``, ``frame`` (bezel and back) and ``stand``

@@ -6,7 +6,8 @@ import math
 
 import numpy as np
 
-from psdr_room_core.artifacts import ObjectMesh
+from psdr_room_core.method.artifacts import ObjectMesh
+
 from ..primitives import MeshBuilder, box, cylinder, lathe, polyline_tube, sphere, tube
 from .common import FABRICS, METALS, WOODS, colour
 

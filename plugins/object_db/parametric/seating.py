@@ -6,9 +6,21 @@ import math
 
 import numpy as np
 
-from psdr_room_core.artifacts import ObjectMesh
-from ..primitives import (MeshBuilder, box, cylinder, lathe, polyline_tube, rot_x, rounded_box, sphere, torus,
-                          transform, tube)
+from psdr_room_core.method.artifacts import ObjectMesh
+
+from ..primitives import (
+    MeshBuilder,
+    box,
+    cylinder,
+    lathe,
+    polyline_tube,
+    rot_x,
+    rounded_box,
+    sphere,
+    torus,
+    transform,
+    tube,
+)
 from .common import FABRICS, METALS, WOODS, add_legs, colour
 
 CHAIR_BACKS = ("slats", "solid", "rails", "spindles", "upholstered", "none")

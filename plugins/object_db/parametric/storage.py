@@ -7,9 +7,11 @@ import math
 
 import numpy as np
 
-from psdr_room_core.artifacts import ObjectMesh
+from psdr_room_core.method.artifacts import ObjectMesh
+
 from ..primitives import MeshBuilder, box, lathe, rounded_box, sphere
 from .common import FABRICS, METALS, WOODS, add_legs, colour
+
 
 def cabinet(width: float = 1.0, height: float = 0.85, depth: float = 0.45, drawers: int = 0, doors: int = 2,
             drawer_columns: int = 1, base: str = "plinth", handle: str = "bar", top_overhang: float = 0.01,

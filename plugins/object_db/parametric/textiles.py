@@ -6,9 +6,11 @@ import math
 
 import numpy as np
 
-from psdr_room_core.artifacts import ObjectMesh
+from psdr_room_core.method.artifacts import ObjectMesh
+
 from ..primitives import MeshBuilder, box, lathe, rot_x, rot_z, rounded_box, sphere, torus, transform, tube
 from .common import FABRICS, colour
+
 
 def rug(shape: str = "rect", width: float = 2.0, length: float = 1.4, border: float = 0.12, thickness: float = 0.012,
         fringe: bool = False, field: str = "beige", border_colour: str = "terracotta") -> ObjectMesh:

@@ -1,0 +1,240 @@
+"""Command line: ``psdr-room image=PATH [overrides...]`` (a Hydra app) and ``psdr-room-plugins``.
+
+Everything Hydra users expect works (``--multirun``, ``--cfg job``, ``hydra/launcher=joblib``). Before
+Hydra runs, the overrides are checked so that a typo gets one line naming the key and the valid choices,
+and plugin config directories (the ``conf_searchpath`` hook) are added to Hydra's search path.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+import sys
+import traceback
+from pathlib import Path
+from typing import NoReturn
+
+import hydra
+from hydra import compose, initialize_config_module
+from hydra.core.hydra_config import HydraConfig
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.core.override_parser.types import Override
+from hydra.errors import OverrideParseException
+from hydra.types import RunMode
+from omegaconf import DictConfig
+
+from . import threads
+from .dag import AUTO
+from .errors import PsdrRoomError
+from .inputs import find_photos, require_file
+from .plugins import PluginSystem, plugin_system
+from .run import execute, resolve_config
+
+CONFIG_MODULE = "psdr_room_conf"
+_VALUE_FLAGS = {
+    "--cfg",
+    "-c",
+    "--package",
+    "-p",
+    "--config-path",
+    "-cp",
+    "--config-name",
+    "-cn",
+    "--config-dir",
+    "-cd",
+    "--experimental-rerun",
+    "--shell-completion",
+    "-sc",
+}
+_INFO_FLAGS = {"--help", "-h", "--hydra-help", "--info", "-i", "--cfg", "-c", "--shell-completion", "-sc", "--version"}
+
+
+def _fail(message: str, code: int = 2) -> NoReturn:
+    print(f"psdr-room: error: {message}", file=sys.stderr)
+    sys.exit(code)
+
+
+def searchpath_overrides(plugins: PluginSystem) -> list[str]:
+    """The Hydra override adding plugin config directories to the search path (none if no plugin has one)."""
+    paths = plugins.conf_searchpaths()
+    return [f"hydra.searchpath=[{','.join(paths)}]"] if paths else []
+
+
+def split_arguments(argv: list[str]) -> tuple[list[str], set[str]]:
+    """Separate config overrides from Hydra's own flags (and their values)."""
+    overrides, flags = [], set()
+    skip = False
+    for arg in argv:
+        if skip:
+            skip = False
+        elif arg.startswith("-"):
+            flags.add(arg.split("=")[0])
+            skip = arg in _VALUE_FLAGS
+        else:
+            overrides.append(arg)
+    return overrides, flags
+
+
+def expand_photos(argv: list[str]) -> list[str]:
+    """``photos=DIR`` (or a glob) → ``image=`` with every photo found as a sweep list, for ``--multirun``.
+
+    Each photo becomes one job of the sweep with its own run folder; the quoting keeps commas, spaces and
+    quotes in file names out of Hydra's override grammar.
+    """
+    given = [arg for arg in argv if arg.startswith("photos=")]
+    if not given:
+        return argv
+    _, flags = split_arguments(argv)
+    if not flags & {"--multirun", "-m"}:
+        raise PsdrRoomError(
+            f"{given[0]}: a folder of photos runs one job per photo; add --multirun (or give image=PATH for one photo)"
+        )
+    if len(given) > 1 or any(arg.startswith("image=") for arg in argv):
+        raise PsdrRoomError(f"{given[0]}: give one photos=DIR or image=PATH, not both")
+    photos = find_photos(given[0].removeprefix("photos="))
+    images = ",".join(hydra_quote(str(photo)) for photo in photos)
+    return [f"image={images}" if arg == given[0] else arg for arg in argv]
+
+
+def hydra_quote(text: str) -> str:
+    """``text`` as a single-quoted value of Hydra's override grammar (quotes, the backslashes before them and
+    ``${`` escaped), so that it parses back to exactly ``text``."""
+    text = re.sub(r"(\\*)('|$)", lambda m: m.group(1) * 2 + ("\\'" if m.group(2) else ""), text)
+    return "'" + text.replace("${", "\\${") + "'"
+
+
+def compose_config(overrides: list[str], plugins: PluginSystem | None = None) -> DictConfig:
+    """Compose the config as the CLI would (for tests, benchmarks and the preflight check)."""
+    plugins = plugins or plugin_system()
+    with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
+        return compose(config_name="config", overrides=[*overrides, *searchpath_overrides(plugins)])
+
+
+def preflight(argv: list[str], plugins: PluginSystem) -> None:
+    """Check the overrides before Hydra runs; raise :class:`PsdrRoomError` with one line if one is wrong."""
+    overrides, flags = split_arguments(argv)
+    try:
+        parsed: list[Override] = OverridesParser.create().parse_overrides(overrides)
+    except OverrideParseException as exc:
+        photo = next((o for o in overrides if o.startswith("image=")), None)
+        if photo is not None and not _parses(photo):
+            raise PsdrRoomError(
+                f"{photo}: the path holds characters Hydra's override grammar reserves (such as "
+                f"'=' or brackets); quote it: image=\"'{photo[6:]}'\""
+            ) from None
+        raise PsdrRoomError(f"invalid override: {str(exc).splitlines()[0]}") from None
+    for override in parsed:
+        group = override.key_or_group
+        if group in plugins.registry.capabilities and not override.is_delete():
+            for name in override.sweep_string_iterator() if override.is_sweep_override() else [override.value()]:
+                plugins.registry.implementation(group, str(name))
+    if flags & ({"--multirun", "-m"} | _INFO_FLAGS):
+        return  # sweeps are composed per job by Hydra; info flags need no image
+    image = [o for o in parsed if o.key_or_group == "image"]
+    if image and image[0].is_sweep_override():
+        raw = next(o for o in overrides if o.startswith("image="))
+        raise PsdrRoomError(
+            f"{raw}: the ',' makes this a list of photos; quote the path: image=\"'{raw[6:]}'\" "
+            "(or add --multirun to run each)"
+        )
+    if image and all(o.key_or_group == "image" or o.key_or_group.startswith("hydra.") for o in parsed):
+        require_file(Path(str(image[0].value())).expanduser())  # only the photo can be wrong: skip a second composition
+        return
+    try:
+        cfg = compose_config(overrides, plugins)
+    except PsdrRoomError:
+        raise
+    except Exception as exc:  # Hydra/OmegaConf composition errors are multi-line: keep the first lines
+        lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+        raise PsdrRoomError(f"invalid override: {' '.join(lines[:2])}") from None
+    require_file(Path(str(resolve_config(cfg)["image"])).expanduser())
+
+
+def _parses(override: str) -> bool:
+    try:
+        OverridesParser.create().parse_overrides([override])
+    except OverrideParseException:
+        return False
+    return True
+
+
+def main() -> None:
+    """Entry point of ``psdr-room``."""
+    try:
+        argv = expand_photos(sys.argv[1:])
+        plugins = plugin_system()
+        preflight(argv, plugins)
+    except PsdrRoomError as exc:
+        _fail(str(exc))
+    sys.argv = [sys.argv[0], *argv, *searchpath_overrides(plugins)]
+    _app()
+
+
+@hydra.main(version_base="1.3", config_path=f"pkg://{CONFIG_MODULE}", config_name="config")
+def _app(cfg: DictConfig) -> None:
+    hydra_cfg = HydraConfig.get()
+    run_dir = Path(hydra_cfg.runtime.output_dir)
+    sweeping = hydra_cfg.mode == RunMode.MULTIRUN
+    try:
+        count, source = threads.allotment(cfg.run.get("threads"), hydra_cfg.launcher)
+        threads.apply(count)
+        if source != "cores":  # an allotment (sweep worker, scheduler, run.threads): say where it came from
+            logging.getLogger("psdr_room").info("threads: %d (%s)", count, source)
+        execute(cfg, run_dir)
+    except PsdrRoomError as exc:
+        _fail_run(str(exc), exc.exit_code, sweeping)
+    except KeyboardInterrupt:
+        _fail_run("interrupted; finished stages are cached, rerun the same command to resume", 130, False)
+    except Exception as exc:
+        log = run_dir / "error.log"
+        log.parent.mkdir(parents=True, exist_ok=True)
+        log.write_text(traceback.format_exc())
+        _fail_run(f"internal error: {type(exc).__name__}: {exc} (traceback in {log}; please report it)", 1, sweeping)
+
+
+def _fail_run(message: str, code: int, sweeping: bool) -> None:
+    """:func:`_fail`, with the line also in the run folder's log file (``psdr-room-summary`` reads it there).
+
+    In a sweep the job ends normally instead, so the other jobs go on; the sweep's summary
+    (the sweep callback in ``hydra.callbacks``) lists it and makes the sweep's exit status 1.
+    """
+    record = logging.LogRecord("psdr_room", logging.ERROR, __file__, 0, message, None, None)
+    for handler in logging.getLogger().handlers:
+        if isinstance(handler, logging.FileHandler):
+            handler.handle(record)
+    if not sweeping:
+        _fail(message, code)
+    print(f"psdr-room: error: {message}", file=sys.stderr)
+
+
+def plugins_main() -> None:
+    """Entry point of ``psdr-room-plugins``: every capability, its implementations, and where each came from."""
+    plugins = plugin_system()
+    defaults = compose_config([], plugins)
+    registry = plugins.registry
+    rows = [("capability", "implementation", "version", "default", "provided by")]
+    for capability in registry.capabilities:
+        names = sorted(n for c, n in registry.implementations if c == capability)
+        default = defaults.get(capability, {}).get("impl") if capability in defaults else None
+        if not names:
+            rows.append((capability, "-", "-", "", "(none yet)"))
+        if default == AUTO:
+            order = ", ".join(defaults[capability].get(AUTO, {}).get("order") or [])
+            rows.append((capability, AUTO, "-", "*", f"(engine) the first usable of: {order}"))
+        for name in names:
+            impl = registry.implementations[(capability, name)]
+            rows.append((capability, name, impl.version, "*" if name == default else "", str(impl.origin)))
+    widths = [max(len(r[i]) for r in rows) for i in range(4)]
+    for row in rows:
+        print("  ".join(cell.ljust(w) for cell, w in zip(row[:4], widths)) + "  " + row[4])
+    print("\ncapabilities:")
+    for capability, description in registry.capabilities.items():
+        print(f"  {capability:<15} {description}")
+    print("\nstages:")
+    for name, stage in sorted(registry.stages.items()):
+        uses = f" uses {', '.join(stage.uses)}" if stage.uses else ""
+        print(f"  {name:<15} v{stage.version}  {stage.origin}{uses}")
+    for (capability, name), origins in sorted(registry.conflicts.items()):
+        print(f"\nconflict: {capability}={name} is registered by " + " and ".join(str(o) for o in origins))
+    for plugin, why in sorted(registry.failures.items()):
+        print(f"\nleft out: plugin '{plugin}': {why}")

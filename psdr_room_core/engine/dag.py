@@ -1,0 +1,408 @@
+"""The stage graph: composed from config, sorted by its artifacts, sliced, and run through the cache.
+
+A stage node in the composed config is any top-level mapping with a ``_stage_`` key::
+
+    room_init:
+      _stage_: room_init                 # registered stage function (plugins' register_stages)
+      _inputs_: {cloud: point_cloud}     # function parameter -> artifact name
+      _outputs_: {room: room_box}        # function output -> artifact name (a list means same names)
+      ransac_threshold: 0.02             # everything else: the stage's parameters (ctx.params)
+
+Adding, removing or swapping a stage is a config change (``+stage@my_stage=my_stage``,
+``~room_fit``, ``stage@room_init=my_room_init``). Stage functions know nothing of caching, Hydra or
+progress display: the :class:`Runner` does those, and announces each step through the run-event hooks.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from tqdm import tqdm
+
+from .artifacts import Artifact, artifact_kind_of
+from .cache import Entry, Store, digest_dir, digest_file, stage_key
+from .capabilities import Availability
+from .errors import PsdrRoomError
+from .plugins import PluginSystem, StageDef
+
+AUTO = "auto"
+"""The implementation name that selects the first usable one of ``<capability>.auto.order``."""
+
+log = logging.getLogger("psdr_room")
+
+RESERVED = ("_stage_", "_inputs_", "_outputs_")
+
+
+@dataclass(frozen=True)
+class StageNode:
+    """A stage as placed in the pipeline by the config."""
+
+    name: str
+    function: str
+    inputs: dict[str, str]
+    outputs: dict[str, str]
+    params: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class Selection:
+    """The stages a run considers (in order) and those it recomputes even if cached."""
+
+    stages: list[StageNode]
+    forced: frozenset[str]
+
+
+class Pipeline:
+    """Stage nodes sorted topologically by the artifacts they consume and produce."""
+
+    def __init__(self, nodes: Iterable[StageNode], provided: Iterable[str] = ()) -> None:
+        self.provided = set(provided)
+        self.producer: dict[str, StageNode] = {}
+        for node in nodes:
+            for artifact in node.outputs.values():
+                if artifact in self.producer:
+                    raise PsdrRoomError(
+                        f"artifact '{artifact}' is produced by both stages '{self.producer[artifact].name}' and "
+                        f"'{node.name}'; remove one of them from the config"
+                    )
+                self.producer[artifact] = node
+        self.nodes = self._sorted(list(nodes))
+
+    @classmethod
+    def from_config(cls, cfg: Mapping[str, Any], provided: Iterable[str] = ()) -> "Pipeline":
+        """Build the pipeline from the composed config's stage nodes (see module docstring)."""
+        nodes = []
+        for name, node in cfg.items():
+            if not isinstance(node, Mapping) or "_stage_" not in node:
+                continue
+            outputs = node.get("_outputs_") or {}
+            if not isinstance(outputs, Mapping):
+                outputs = {o: o for o in outputs}
+            nodes.append(
+                StageNode(
+                    name=str(name),
+                    function=str(node["_stage_"]),
+                    inputs=dict(node.get("_inputs_") or {}),
+                    outputs=dict(outputs),
+                    params={k: v for k, v in node.items() if k not in RESERVED},
+                )
+            )
+        return cls(nodes, provided)
+
+    def _sorted(self, nodes: list[StageNode]) -> list[StageNode]:
+        for node in nodes:
+            for artifact in node.inputs.values():
+                if artifact not in self.producer and artifact not in self.provided:
+                    raise PsdrRoomError(
+                        f"stage '{node.name}' needs artifact '{artifact}' but no stage produces it; "
+                        f"add the producing stage or give it with inject.{artifact}=DIR"
+                    )
+        order: list[StageNode] = []
+        done: set[str] = set()
+        pending = list(nodes)
+        while pending:  # the first stage in config order whose inputs are ready, one at a time
+            ready = next((n for n in pending if all(self._available(a, done) for a in n.inputs.values())), None)
+            if ready is None:
+                raise PsdrRoomError(f"the stages {', '.join(n.name for n in pending)} form a cycle; fix their _inputs_")
+            order.append(ready)
+            done.add(ready.name)
+            pending.remove(ready)
+        return order
+
+    def _available(self, artifact: str, done: set[str]) -> bool:
+        return artifact in self.provided or self.producer[artifact].name in done
+
+    def node(self, name: str) -> StageNode:
+        for node in self.nodes:
+            if node.name == name:
+                return node
+        raise PsdrRoomError(f"no stage '{name}' in the pipeline; stages: {', '.join(n.name for n in self.nodes)}")
+
+    def upstream(self, name: str) -> set[str]:
+        """Names of the stages ``name`` depends on, transitively (excluding itself)."""
+        found: set[str] = set()
+        stack = [self.node(name)]
+        while stack:
+            for artifact in stack.pop().inputs.values():
+                producer = self.producer.get(artifact)
+                if producer is not None and artifact not in self.provided and producer.name not in found:
+                    found.add(producer.name)
+                    stack.append(producer)
+        return found
+
+    def downstream(self, name: str) -> set[str]:
+        """Names of the stages that depend on ``name``, transitively (excluding itself)."""
+        return {n.name for n in self.nodes if name in self.upstream(n.name)}
+
+    def select(self, only: str | None = None, start: str | None = None, until: str | None = None) -> Selection:
+        """Slice the pipeline (kedro-style): ``until`` keeps a stage and what it needs; ``start`` recomputes
+        a stage and everything after it; ``only`` recomputes one stage. Upstream outputs come from the cache
+        (or are computed when missing)."""
+        if only is not None and (start is not None or until is not None):
+            raise PsdrRoomError("run.only cannot be combined with run.from or run.until; use one or the other")
+        keep = {n.name for n in self.nodes}
+        forced: set[str] = set()
+        if only is not None:
+            keep = self.upstream(only) | {only}
+            forced = {only}
+        if start is not None:
+            forced = self.downstream(start) | {start}
+            keep = set().union(*(self.upstream(n) | {n} for n in forced))
+        if until is not None:
+            keep &= self.upstream(until) | {until}
+            forced &= keep
+        return Selection(stages=[n for n in self.nodes if n.name in keep], forced=frozenset(forced))
+
+
+@dataclass
+class StageContext:
+    """What a stage function gets besides its input artifacts."""
+
+    stage: str
+    params: dict[str, Any]
+    seed: int
+    photo: Path
+    implementations: dict[str, Any]
+
+    def impl(self, capability: str) -> Any:
+        """The selected implementation of ``capability`` (declared in the stage's ``uses``)."""
+        try:
+            return self.implementations[capability]
+        except KeyError:
+            raise PsdrRoomError(f"stage '{self.stage}' uses capability '{capability}' without declaring it") from None
+
+    def progress(self, iterable: Iterable[Any], total: int | None = None, desc: str | None = None) -> Iterable[Any]:
+        """Wrap a loop to show a progress bar (on a terminal)."""
+        bar: Iterable[Any] = tqdm(
+            iterable, total=total, desc=desc or self.stage, leave=False, disable=None, dynamic_ncols=True
+        )
+        return bar
+
+
+@dataclass
+class StageRecord:
+    """What happened to one stage in a run."""
+
+    name: str
+    function: str
+    key: str
+    cached: bool
+    seconds: float
+    """Wall time of this run's work for the stage (loading from the cache, or computing)."""
+    compute_seconds: float
+    """Wall time the computation took when the entry was made."""
+    outputs: dict[str, str]
+    """Artifact name → content digest."""
+    implementations: dict[str, str]
+    """Capability → implementation name."""
+
+
+@dataclass
+class RunRecord:
+    """A run: its stage records and artifacts in memory, for reports and publishing."""
+
+    photo: Path
+    config: dict[str, Any] = field(default_factory=dict)
+    """The resolved config the run was composed from."""
+    stages: list[StageRecord] = field(default_factory=list)
+    artifacts: dict[str, Artifact] = field(default_factory=dict)
+    digests: dict[str, str] = field(default_factory=dict)
+    implementations: dict[str, dict[str, str]] = field(default_factory=dict)
+    """Capability → {name, version, origin} for every capability a stage of this run used."""
+
+
+class Runner:
+    """Runs a selection of a pipeline with the cache, calling the run-event hooks.
+
+    ``cache_mode``: ``readwrite`` reads and commits entries; ``read`` uses existing entries but commits
+    nothing to ``store``; ``off`` ignores it. Whatever is not committed to ``store`` is written to
+    ``scratch`` (a throwaway store), so downstream stages always see artifacts as saved on disk.
+    """
+
+    def __init__(
+        self,
+        plugins: PluginSystem,
+        cfg: Mapping[str, Any],
+        photo: Path,
+        store: Store,
+        scratch: Store,
+        cache_mode: str = "readwrite",
+        injected: Mapping[str, Path] | None = None,
+    ) -> None:
+        self.plugins = plugins
+        self.cfg = cfg
+        self.photo = photo
+        self.read_store = store if cache_mode in ("read", "readwrite") else None
+        self.write_store = store if cache_mode == "readwrite" else scratch
+        self.seed = int(cfg.get("seed", 0))
+        self.injected = dict(injected or {})
+
+    def run(self, selection: Selection) -> RunRecord:
+        record = RunRecord(photo=self.photo, config=dict(self.cfg))
+        self._load_injected(record)
+        self.plugins.hook.before_run(run=record)
+        for node in selection.stages:
+            self._run_stage(node, node.name in selection.forced, record)
+        return record
+
+    def _load_injected(self, record: RunRecord) -> None:
+        for name, directory in self.injected.items():
+            directory = Path(directory)
+            types = self.plugins.registry.artifacts
+            record.artifacts[name] = types[artifact_kind_of(directory, types)].load(directory)
+            record.digests[name] = digest_dir(directory)
+
+    def _implementations(self, stage: StageDef) -> tuple[dict[str, Any], dict[str, dict[str, Any]], dict[str, str]]:
+        """Instantiate the selected implementation of each capability the stage uses.
+
+        Returns the instances, their descriptions (part of the cache key) and, for capabilities set to
+        ``auto``, how the choice was made (for the run record, not the key: only the choice matters).
+        """
+        instances, described, selected_by = {}, {}, {}
+        for capability in stage.uses:
+            node = self.cfg.get(capability)
+            if not isinstance(node, Mapping) or "impl" not in node:
+                raise PsdrRoomError(
+                    f"stage '{stage.name}' needs the '{capability}' config group; add {capability}=NAME"
+                )
+            name = str(node["impl"])
+            if name == AUTO:
+                name, instances[capability], skipped = self._first_available(capability, node)
+                selected_by[capability] = "auto" + "".join(f"; not {n}: {why}" for n, why in skipped.items())
+                log.info("%s=auto selected %s (%s)", capability, name, selected_by[capability])
+            else:
+                instances[capability] = self._construct(capability, name, node)
+            impl = self.plugins.registry.implementation(capability, name)
+            described[capability] = {"name": name, "version": impl.version, "params": dict(node.get(name) or {})}
+        return instances, described, selected_by
+
+    def _construct(self, capability: str, name: str, node: Mapping[str, Any]) -> Any:
+        impl = self.plugins.registry.implementation(capability, name)
+        params = dict(node.get(name) or {})
+        try:
+            return impl.factory(**params)
+        except TypeError as exc:
+            raise PsdrRoomError(
+                f"{capability}.{name}: invalid parameters ({exc}); see conf/{capability}/{name}.yaml"
+            ) from None
+
+    def _first_available(self, capability: str, node: Mapping[str, Any]) -> tuple[str, Any, dict[str, str]]:
+        """``<capability>=auto``: the first implementation of ``auto.order`` usable for this photo.
+
+        An implementation is usable unless its ``unavailable(photo)`` (see ``capabilities.Availability``)
+        gives a reason; the skipped ones and their reasons are returned for the log and the run record.
+        """
+        order = list((node.get(AUTO) or {}).get("order") or [])
+        if not order:
+            raise PsdrRoomError(
+                f"{capability}=auto needs a non-empty {capability}.auto.order list; see conf/{capability}/auto.yaml"
+            )
+        skipped: dict[str, str] = {}
+        for name in order:
+            try:
+                instance = self._construct(capability, name, node)
+                reason = instance.unavailable(self.photo) if isinstance(instance, Availability) else None
+            except PsdrRoomError as exc:
+                reason = str(exc)
+            if reason is None:
+                return name, instance, skipped
+            skipped[name] = reason
+        raise PsdrRoomError(
+            f"{capability}=auto: none of {', '.join(order)} is usable for {self.photo} "
+            f"({'; '.join(f'{n}: {r}' for n, r in skipped.items())}); choose one with {capability}=NAME"
+        )
+
+    def _external_files(self, stage: StageDef, instances: Mapping[str, Any]) -> dict[str, str]:
+        files: dict[str, Path] = {}
+        if stage.reads_photo:
+            files["photo"] = self.photo
+        for suffix in stage.sidecars:
+            files[f"sidecar:{suffix}"] = self.photo.with_name(self.photo.stem + suffix)
+        for capability, instance in instances.items():
+            for i, path in enumerate(getattr(instance, "external_files", lambda _p: [])(self.photo)):
+                files[f"{capability}[{i}]:{Path(path).name}"] = Path(path)
+        return {role: (digest_file(p) if p.is_file() else "absent") for role, p in files.items()}
+
+    def _run_stage(self, node: StageNode, forced: bool, record: RunRecord) -> None:
+        stage = self.plugins.registry.stage(node.function)
+        inputs = {param: record.artifacts[artifact] for param, artifact in node.inputs.items()}
+        instances, described, selected_by = self._implementations(stage)
+        key = stage_key(
+            stage=node.name,
+            function=stage.name,
+            function_version=stage.version,
+            config={"params": node.params, "seed": self.seed, "outputs": node.outputs},
+            implementations=described,
+            inputs={param: record.digests[artifact] for param, artifact in node.inputs.items()},
+            files=self._external_files(stage, instances),
+        )
+        for capability, d in described.items():
+            impl = self.plugins.registry.implementation(capability, d["name"])
+            record.implementations[capability] = {
+                "name": d["name"],
+                "version": impl.version,
+                "origin": str(impl.origin),
+            }
+            if capability in selected_by:
+                record.implementations[capability]["selected_by"] = selected_by[capability]
+        start = time.perf_counter()
+        entry = self._lookup(key, forced)
+        cached = entry is not None
+        if entry is None:
+            with self.write_store.lock(key):  # a concurrent run may be computing this entry: wait for it
+                entry = self._lookup(key, forced)
+                cached = entry is not None
+                if entry is None:
+                    entry = self._compute(node, stage, key, inputs, instances)
+        outputs = {name: entry.load(name, self.plugins.registry.artifacts) for name in node.outputs}
+        for name, artifact_name in node.outputs.items():
+            record.artifacts[artifact_name] = outputs[name]
+            record.digests[artifact_name] = entry.digests[name]
+        stage_record = StageRecord(
+            name=node.name,
+            function=stage.name,
+            key=key,
+            cached=cached,
+            seconds=time.perf_counter() - start,
+            compute_seconds=float(entry.manifest.get("seconds", 0.0)),
+            outputs={node.outputs[n]: d for n, d in entry.digests.items()},
+            implementations={c: d["name"] for c, d in described.items()},
+        )
+        record.stages.append(stage_record)
+        self.plugins.hook.after_stage(record=stage_record, outputs=outputs)
+
+    def _lookup(self, key: str, forced: bool) -> Entry | None:
+        return None if forced or self.read_store is None else self.read_store.lookup(key)
+
+    def _compute(
+        self, node: StageNode, stage: StageDef, key: str, inputs: dict[str, Artifact], instances: dict[str, Any]
+    ) -> Entry:
+        ctx = StageContext(
+            stage=node.name, params=dict(node.params), seed=self.seed, photo=self.photo, implementations=instances
+        )
+        self.plugins.hook.before_stage(stage=node.name, key=key, inputs=inputs)
+        start = time.perf_counter()
+        try:
+            result = stage.fn(ctx, **inputs)
+            outputs = self._check_outputs(node, result)
+            return self.write_store.commit(key, node.name, outputs, time.perf_counter() - start)
+        except BaseException as exc:
+            self.plugins.hook.on_stage_error(stage=node.name, key=key, error=exc)
+            raise
+
+    @staticmethod
+    def _check_outputs(node: StageNode, result: Any) -> dict[str, Artifact]:
+        if len(node.outputs) == 1 and not isinstance(result, Mapping):
+            result = {next(iter(node.outputs)): result}
+        if not isinstance(result, Mapping) or set(result) != set(node.outputs):
+            got = sorted(result) if isinstance(result, Mapping) else type(result).__name__
+            raise PsdrRoomError(f"stage '{node.name}' returned {got}, but its _outputs_ are {sorted(node.outputs)}")
+        for name, value in result.items():
+            if not isinstance(value, Artifact):
+                raise PsdrRoomError(f"stage '{node.name}' output '{name}' is a {type(value).__name__}, not an artifact")
+        return dict(result)

@@ -1,0 +1,112 @@
+"""The engine's plugin contract: every hook the engine calls, in one place.
+
+A plugin is a module (or object) with functions decorated by :data:`hookimpl`, named by an entry point in
+the ``psdr_room`` group of its distribution's metadata::
+
+    [project.entry-points.psdr_room]
+    my_depth = "my_package.my_depth"
+
+The built-in plugins are found the same way. When plugins are loaded: ``add_hookspecs`` (hooks a plugin
+declares for others to implement; the method's are in :mod:`psdr_room_core.method.hookspecs`), then
+``register_capabilities`` and ``register_artifacts`` of every plugin, then ``register_implementations`` and
+``register_stages``. ``conf_searchpath`` when Hydra composes the configuration. Then for each run
+``before_run``, for every stage ``before_stage`` followed by ``after_stage`` or ``on_stage_error``,
+``run_metrics`` when the run's ``metrics.json`` is written, and finally ``after_run``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import pluggy
+
+if TYPE_CHECKING:
+    from .dag import RunRecord, StageRecord
+    from .plugins import Registry
+
+PROJECT = "psdr_room"
+hookspec = pluggy.HookspecMarker(PROJECT)
+hookimpl = pluggy.HookimplMarker(PROJECT)
+
+
+@hookspec
+def add_hookspecs(plugin_manager: pluggy.PluginManager) -> None:
+    """Declare hooks of this plugin's own for other plugins to implement: ``plugin_manager.add_hookspecs(module)``
+    (as pytest's ``pytest_addhooks``). Called first, before any registration hook."""
+
+
+@hookspec
+def register_capabilities(registry: Registry) -> None:
+    """Declare capabilities with ``registry.add_capability(name, description)``: the swappable parts of a
+    method, each selected by the config group of the same name. Called before any implementation is added."""
+
+
+@hookspec
+def register_artifacts(registry: Registry) -> None:
+    """Add artifact types with ``registry.add_artifact(cls)``: classes with ``kind``, ``marker``, ``save`` and
+    ``load`` (:class:`~psdr_room_core.engine.artifacts.Artifact`), so the engine can load them from the cache
+    and from ``inject.NAME=DIR``."""
+
+
+@hookspec
+def register_implementations(registry: Registry) -> None:
+    """Add capability implementations with ``registry.add_implementation(capability, name, factory)``.
+
+    Called once per plugin when plugins are loaded. ``factory(**params)`` is called with the parameters of
+    the implementation's config node (``<capability>.<name>`` in the composed config) and returns an object
+    satisfying the capability's protocol (the method's are in :mod:`psdr_room_core.method.capabilities`). Factories must be cheap:
+    load model weights lazily, on first use.
+    """
+
+
+@hookspec
+def register_stages(registry: Registry) -> None:
+    """Add pipeline stages with ``registry.add_stage(name, fn, uses=(...), version=...)``.
+
+    A stage is a plain function ``fn(ctx, **inputs) -> {output_name: artifact}``; which stages run and how
+    their inputs and outputs are wired is decided by the config (``conf/stage/*.yaml``), not here.
+    """
+
+
+@hookspec
+def conf_searchpath() -> str | None:
+    """Return a Hydra search-path entry (``pkg://my_package.conf`` or ``file:///abs/dir``) holding this
+    plugin's config files, e.g. ``depth/my_depth.yaml`` selecting and configuring its implementation."""
+
+
+@hookspec
+def before_run(run: RunRecord) -> None:
+    """Called before the first stage of a run; ``run.stages`` is still empty."""
+
+
+@hookspec
+def before_stage(stage: str, key: str, inputs: dict[str, Any]) -> None:
+    """Called before a stage executes (not when its outputs come from the cache).
+
+    ``stage`` is the stage's name in the config, ``key`` its cache key, ``inputs`` its input artifacts.
+    """
+
+
+@hookspec
+def after_stage(record: StageRecord, outputs: dict[str, Any]) -> None:
+    """Called when a stage has finished or was served from the cache (``record.cached``)."""
+
+
+@hookspec
+def on_stage_error(stage: str, key: str, error: BaseException) -> None:
+    """Called when a stage raises; nothing of it has been written to the cache."""
+
+
+@hookspec
+def run_metrics(run: RunRecord) -> dict[str, Any]:
+    """Return figures of a finished run for its ``metrics.json`` (merged over all plugins, beside the engine's
+    per-stage times, cache hits, implementations and digests)."""
+
+
+@hookspec
+def after_run(run: RunRecord, run_dir: Path) -> None:
+    """Called when all selected stages have finished and the artifacts are published in ``run_dir``.
+
+    Reports and metrics are written here (see ``psdr_room_plugins.report``).
+    """

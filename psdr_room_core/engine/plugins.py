@@ -1,0 +1,309 @@
+"""Plugin manager: loads the ``psdr_room`` entry points and keeps the registry of what they provide.
+
+Built-in plugins (this distribution's own entry points) are loaded exactly like third-party ones, first. Loading
+goes in phases so that no plugin depends on another's load order: every plugin's ``add_hookspecs`` (hooks a
+plugin declares for others, as the method does for its model registries and material libraries), then every
+``register_capabilities`` and ``register_artifacts``, then each plugin's ``register_implementations`` and
+``register_stages``. A plugin that fails to import, implements an unknown hook, or raises while registering is
+reported in a one-line warning and left out; only a run that selects something it would have provided fails,
+with a message that names the plugin and its error.
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import logging
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from importlib.metadata import EntryPoint, entry_points, packages_distributions
+from typing import Any
+
+import pluggy
+
+from . import hookspecs
+from .artifacts import Artifact
+from .errors import PsdrRoomError
+
+log = logging.getLogger(__name__)
+
+ENTRY_POINT_GROUP = "psdr_room"
+
+
+@dataclass(frozen=True)
+class Origin:
+    """Where a registration came from: the plugin (entry point) and its distribution."""
+
+    plugin: str
+    distribution: str
+    entry_point: str
+
+    def __str__(self) -> str:
+        return f"plugin '{self.plugin}' ({self.entry_point}, from {self.distribution})"
+
+
+@dataclass(frozen=True)
+class Implementation:
+    """One implementation of a capability."""
+
+    capability: str
+    name: str
+    factory: Callable[..., Any]
+    version: str
+    description: str
+    origin: Origin
+    params: type | None = None
+    """The schema of its config node (:mod:`psdr_room_core.engine.settings`); None: not checked."""
+
+
+@dataclass(frozen=True)
+class StageDef:
+    """A stage function as registered by a plugin; the config decides where it runs in the DAG."""
+
+    name: str
+    fn: Callable[..., Any]
+    version: str
+    uses: tuple[str, ...]
+    """Capabilities the stage calls through ``ctx.impl(capability)``."""
+    reads_photo: bool
+    """Whether the stage reads the input photo file itself (its bytes are then part of the cache key)."""
+    sidecars: tuple[str, ...]
+    """Suffixes of files beside the photo (``<stem><suffix>``) the stage reads when present (their bytes,
+    or their absence, are part of the cache key)."""
+    description: str
+    origin: Origin
+    params: type | None = None
+    """The schema of its parameters (:mod:`psdr_room_core.engine.settings`); None: not checked."""
+
+
+@dataclass
+class Registry:
+    """Everything the loaded plugins provide, with where each item came from."""
+
+    capabilities: dict[str, str] = field(default_factory=dict)
+    """Capability → one-line description, in registration order (the method's pipeline order)."""
+    artifacts: dict[str, type[Artifact]] = field(default_factory=dict)
+    """Artifact kind → type, for loading cached, injected or published artifacts."""
+    implementations: dict[tuple[str, str], Implementation] = field(default_factory=dict)
+    stages: dict[str, StageDef] = field(default_factory=dict)
+    conflicts: dict[tuple[str, str], list[Origin]] = field(default_factory=dict)
+    failures: dict[str, str] = field(default_factory=dict)
+    """Plugin name → why it was left out."""
+    _origin: Origin = Origin("?", "?", "?")
+
+    def add_capability(self, name: str, description: str) -> None:
+        """Declare capability ``name``: a config group of the same name selects one of its implementations."""
+        if not name.isidentifier():
+            raise ValueError(f"capability name '{name}' is not an identifier")
+        self.capabilities.setdefault(name, description)
+
+    def add_artifact(self, artifact_type: type[Artifact]) -> None:
+        """Register an artifact type under its ``kind`` (a kind registered twice keeps the first type)."""
+        for attribute in ("kind", "marker", "save", "load"):
+            if not hasattr(artifact_type, attribute):
+                raise ValueError(f"artifact type {artifact_type.__name__} has no '{attribute}'")
+        self.artifacts.setdefault(artifact_type.kind, artifact_type)
+
+    def add_implementation(
+        self,
+        capability: str,
+        name: str,
+        factory: Callable[..., Any],
+        *,
+        version: str = "1",
+        description: str = "",
+        params: type | None = None,
+    ) -> None:
+        """Register ``factory`` as implementation ``name`` of ``capability`` (a declared one).
+
+        Bump ``version`` whenever the implementation's results change: it is part of every cache key.
+        ``params``: the dataclass schema of ``factory``'s keyword arguments (:mod:`psdr_room_core.engine.settings`),
+        checked against ``<capability>.<name>`` before any stage runs.
+        """
+        if capability not in self.capabilities:
+            raise ValueError(f"unknown capability '{capability}'; expected one of {', '.join(self.capabilities)}")
+        key = (capability, name)
+        if key in self.implementations:
+            self.conflicts.setdefault(key, [self.implementations[key].origin]).append(self._origin)
+            return
+        description = description or (inspect.getdoc(factory) or "").split("\n")[0]
+        self.implementations[key] = Implementation(
+            capability, name, factory, version, description, self._origin, params
+        )
+
+    def add_stage(
+        self,
+        name: str,
+        fn: Callable[..., Any],
+        *,
+        version: str = "1",
+        uses: Iterable[str] = (),
+        reads_photo: bool = False,
+        sidecars: Iterable[str] = (),
+        params: type | None = None,
+    ) -> None:
+        """Register stage function ``fn`` under ``name`` (a later plugin's stage of the same name wins,
+        so a plugin can replace a built-in stage; bump ``version`` when its results change). ``uses``: the
+        capabilities it calls; ``reads_photo`` and ``sidecars`` (suffixes of files beside the photo): the
+        files it reads itself, whose bytes join its cache key; ``params``: the dataclass schema of its config
+        node's parameters (:mod:`psdr_room_core.engine.settings`), checked before any stage runs."""
+        uses = tuple(uses)
+        for capability in uses:
+            if capability not in self.capabilities:
+                raise ValueError(f"stage '{name}' uses unknown capability '{capability}'")
+        description = (inspect.getdoc(fn) or "").split("\n")[0]
+        self.stages[name] = StageDef(
+            name, fn, version, uses, reads_photo, tuple(sidecars), description, self._origin, params
+        )
+
+    # ------------------------------------------------------------------ lookups used by the runner
+    def implementation(self, capability: str, name: str) -> Implementation:
+        """The implementation selected by ``<capability>=<name>``, or a one-line error listing the choices."""
+        key = (capability, name)
+        if key in self.conflicts:
+            both = " and ".join(str(o) for o in self.conflicts[key])
+            raise PsdrRoomError(
+                f"{capability}={name} is registered by {both}; uninstall one of them or rename its implementation"
+            )
+        if key not in self.implementations:
+            valid = sorted(n for c, n in self.implementations if c == capability)
+            raise PsdrRoomError(
+                f"unknown {capability} implementation '{name}'; valid names: {', '.join(valid) or '(none)'}"
+                + self._failure_hint()
+            )
+        return self.implementations[key]
+
+    def stage(self, name: str) -> StageDef:
+        if name not in self.stages:
+            raise PsdrRoomError(
+                f"no stage function '{name}' is registered; known: {', '.join(sorted(self.stages))}"
+                + self._failure_hint()
+            )
+        return self.stages[name]
+
+    def _failure_hint(self) -> str:
+        if not self.failures:
+            return ""
+        return " (left out: " + "; ".join(f"{p}: {why}" for p, why in sorted(self.failures.items())) + ")"
+
+
+@dataclass
+class PluginSystem:
+    """The pluggy manager (for run-event hooks) and the registry (for implementations and stages)."""
+
+    manager: pluggy.PluginManager
+    registry: Registry
+    origins: dict[str, Origin]
+
+    @property
+    def hook(self) -> Any:
+        return self.manager.hook
+
+    def conf_searchpaths(self) -> list[str]:
+        """Hydra search-path entries contributed by plugins, in load order."""
+        return [p for p in self.manager.hook.conf_searchpath() if p]
+
+
+def _origin(ep: EntryPoint) -> Origin:
+    dist = f"{ep.dist.name} {ep.dist.version}" if ep.dist is not None else "unknown distribution"
+    return Origin(plugin=ep.name, distribution=dist, entry_point=f"{ep.name} = {ep.value}")
+
+
+def _hook_impl(plugin: object, name: str) -> Callable[..., Any] | None:
+    fn = getattr(plugin, name, None)
+    return fn if fn is not None and hasattr(fn, f"{hookspecs.PROJECT}_impl") else None
+
+
+def _unknown_hooks(manager: pluggy.PluginManager, plugin: object) -> list[str]:
+    known = {name for name, caller in vars(manager.hook).items() if getattr(caller, "spec", None) is not None}
+    return sorted(name for name in dir(plugin) if _hook_impl(plugin, name) is not None and name not in known)
+
+
+def _report_failure(registry: Registry, origin: Origin, why: str) -> None:
+    registry.failures[origin.plugin] = why
+    log.warning("psdr-room: %s was left out: %s", origin, why)
+
+
+def load_plugins(extra: Iterable[tuple[object, Origin]] = (), discover: bool = True) -> PluginSystem:
+    """Load every ``psdr_room`` entry point (unless ``discover`` is False) plus ``extra`` plugin objects (for
+    tests and embedding), and register them."""
+    manager = pluggy.PluginManager(hookspecs.PROJECT)
+    manager.add_hookspecs(hookspecs)
+    registry = Registry()
+    found = sorted(entry_points(group=ENTRY_POINT_GROUP), key=_builtin_first) if discover else []
+    candidates: list[tuple[Callable[[], object], Origin]] = [(ep.load, _origin(ep)) for ep in found]
+    candidates += [(functools.partial(lambda p: p, plugin), origin) for plugin, origin in extra]
+    loaded: list[tuple[object, Origin]] = []
+    for load, origin in candidates:
+        try:
+            plugin = load()
+        except Exception as exc:  # a broken third-party package must not break unrelated runs
+            _report_failure(registry, origin, f"import failed: {type(exc).__name__}: {exc}")
+            continue
+        add = _hook_impl(plugin, "add_hookspecs")
+        try:
+            if add is not None:
+                add(plugin_manager=manager)
+        except Exception as exc:
+            _report_failure(registry, origin, f"add_hookspecs failed: {type(exc).__name__}: {exc}")
+            continue
+        loaded.append((plugin, origin))
+    registered: list[tuple[object, Origin]] = []
+    for plugin, origin in loaded:
+        unknown = _unknown_hooks(manager, plugin)
+        if unknown:
+            _report_failure(registry, origin, f"implements unknown hook(s) {', '.join(unknown)}")
+            continue
+        try:
+            manager.register(plugin, name=origin.plugin)
+        except ValueError as exc:
+            _report_failure(registry, origin, f"could not be registered: {exc}")
+            continue
+        registered.append((plugin, origin))
+    for phase in (("register_capabilities", "register_artifacts"), ("register_implementations", "register_stages")):
+        for plugin, origin in list(registered):
+            if not _register(manager, plugin, origin, registry, phase):
+                registered.remove((plugin, origin))
+    origins = {origin.plugin: origin for _, origin in registered}
+    return PluginSystem(manager=manager, registry=registry, origins=origins)
+
+
+def _register(
+    manager: pluggy.PluginManager, plugin: object, origin: Origin, registry: Registry, hook_names: tuple[str, ...]
+) -> bool:
+    """Run one plugin's registration hooks of one phase; on error, roll back what it added, leave it out and
+    return False."""
+    before = {
+        name: dict(getattr(registry, name)) for name in ("capabilities", "artifacts", "implementations", "stages")
+    }
+    registry._origin = origin
+    try:
+        for hook_name in hook_names:
+            fn = _hook_impl(plugin, hook_name)
+            if fn is not None:
+                fn(registry=registry)
+    except Exception as exc:
+        for name, items in before.items():
+            setattr(registry, name, items)
+        manager.unregister(plugin)
+        _report_failure(registry, origin, f"registration failed: {type(exc).__name__}: {exc}")
+        return False
+    finally:
+        registry._origin = Origin("?", "?", "?")
+    return True
+
+
+def _builtin_first(ep: EntryPoint) -> tuple[int, str]:
+    """The engine's own distribution registers first, so a third-party stage of the same name replaces a built-in one."""
+    return (0 if ep.dist is not None and ep.dist.name in _own_distributions() else 1, ep.name)
+
+
+@functools.lru_cache(maxsize=1)
+def _own_distributions() -> tuple[str, ...]:
+    return tuple(packages_distributions().get(__name__.split(".")[0], ()))
+
+
+@functools.lru_cache(maxsize=1)
+def plugin_system() -> PluginSystem:
+    """The process-wide plugin system (loaded once)."""
+    return load_plugins()

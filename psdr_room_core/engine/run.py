@@ -1,0 +1,132 @@
+"""One run: composed config in, artifacts, ``metrics.json`` and a report out (in the Hydra run directory)."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from omegaconf import DictConfig, OmegaConf
+from omegaconf.errors import InterpolationResolutionError, MissingMandatoryValue
+
+from .artifacts import Artifact
+from .cache import CACHE_MODES, Store
+from .dag import Pipeline, Runner, RunRecord
+from .errors import PsdrRoomError
+from .ownership import check_writable_into, claim
+from .plugins import PluginSystem, plugin_system
+from .settings import check_config
+
+PUBLISHED = ("artifacts", "metrics.json", "run.json")
+"""What :func:`publish` writes (and replaces) in every run directory; an artifact type with a ``published_as``
+class attribute is also written at the top of it, under that name (see :func:`published`)."""
+
+
+def published(plugins: PluginSystem) -> tuple[str, ...]:
+    """The names :func:`publish` may write in a run directory with these plugins' artifact types."""
+    tops = (getattr(t, "published_as", None) for t in plugins.registry.artifacts.values())
+    return (*PUBLISHED, *sorted({name for name in tops if name}))
+
+
+def resolve_config(cfg: DictConfig) -> dict[str, Any]:
+    """The composed config as plain data, with one-line errors for missing or unresolvable values."""
+    try:
+        data = OmegaConf.to_container(cfg, resolve=True, throw_on_missing=True)
+    except MissingMandatoryValue as exc:
+        key = exc.full_key or "?"
+        hint = "image=PATH/TO/photo.jpg" if key == "image" else f"{key}=VALUE"
+        raise PsdrRoomError(f"{key} is required; add {hint} to the command line") from None
+    except InterpolationResolutionError as exc:
+        raise PsdrRoomError(f"config value {exc.full_key} cannot be resolved: {str(exc).splitlines()[0]}") from None
+    assert isinstance(data, dict)
+    return {str(key): value for key, value in data.items()}
+
+
+def execute(cfg: DictConfig, run_dir: Path, plugins: PluginSystem | None = None) -> RunRecord:
+    """Run the configured pipeline and publish its results in ``run_dir``."""
+    plugins = plugins or plugin_system()
+    data = resolve_config(cfg)
+    mode = str(data["cache"])
+    if mode not in CACHE_MODES:
+        raise PsdrRoomError(f"cache={mode} is not a cache mode; use one of {', '.join(CACHE_MODES)}")
+    check_writable_into(run_dir, published(plugins), "run directory")
+    photo = Path(str(data["image"])).expanduser().absolute()
+    injected = {name: Path(str(path)).expanduser().absolute() for name, path in (data.get("inject") or {}).items()}
+    pipeline = Pipeline.from_config(data, provided=injected)
+    check_config(data, pipeline.nodes, plugins.registry)
+    run = data["run"]
+    selection = pipeline.select(only=run.get("only"), start=run.get("from"), until=run.get("until"))
+    store = Store(Path(str(data["cache_dir"])))
+    with tempfile.TemporaryDirectory(prefix="psdr-room-scratch-") as scratch:
+        runner = Runner(plugins, data, photo, store, Store(Path(scratch)), mode, injected)
+        record = runner.run(selection)
+    publish(record, run_dir, data, plugins)
+    plugins.hook.after_run(run=record, run_dir=run_dir)
+    return record
+
+
+def metrics(record: RunRecord, plugins: PluginSystem) -> dict[str, Any]:
+    """The run's numbers: per-stage wall time and cache hits, implementations and digests, then what the
+    plugins add (``run_metrics``)."""
+    out: dict[str, Any] = {
+        "stages": {
+            r.name: {
+                "seconds": round(r.seconds, 4),
+                "compute_seconds": round(r.compute_seconds, 4),
+                "cached": r.cached,
+                "key": r.key,
+            }
+            for r in record.stages
+        },
+        "total_seconds": round(sum(r.seconds for r in record.stages), 4),
+        "implementations": record.implementations,
+        "digests": record.digests,
+    }
+    for figures in plugins.hook.run_metrics(run=record):
+        out.update(figures or {})
+    return out
+
+
+def publish(record: RunRecord, run_dir: Path, data: Mapping[str, Any], plugins: PluginSystem) -> None:
+    """Write every artifact under ``artifacts/<name>/`` (and at ``<published_as>/`` when its type has one, as the
+    method's exported scene does), ``metrics.json`` and ``run.json``; all of it appears at once (staged in a hidden directory, then moved into place). The run
+    directory is marked as ours (:mod:`~psdr_room_core.engine.ownership`): a rerun into it may replace these."""
+    run_dir.mkdir(parents=True, exist_ok=True)
+    claim(run_dir)  # execute() refused a run directory holding files of the user's before any stage ran
+    staging = Path(tempfile.mkdtemp(prefix=".publishing-", dir=run_dir))
+    try:
+        for name, artifact in record.artifacts.items():
+            _save(artifact, staging / "artifacts" / name)
+            top = getattr(type(artifact), "published_as", None)
+            if top:
+                _save(artifact, staging / top)
+        (staging / "metrics.json").write_text(json.dumps(metrics(record, plugins), indent=2) + "\n")
+        (staging / "run.json").write_text(
+            json.dumps(
+                {
+                    "photo": str(record.photo),
+                    "implementations": record.implementations,
+                    "stages": [r.name for r in record.stages],
+                    "config": data,
+                },
+                indent=2,
+                default=str,
+            )
+            + "\n"
+        )
+        for item in staging.iterdir():
+            target = run_dir / item.name
+            if target.is_dir():
+                shutil.rmtree(target)
+            os.replace(item, target)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+
+
+def _save(artifact: Artifact, directory: Path) -> None:
+    directory.mkdir(parents=True)
+    artifact.save(directory)

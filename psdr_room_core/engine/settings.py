@@ -1,0 +1,201 @@
+"""Typed, range-checked settings: every stage and implementation declares its parameters as a dataclass.
+
+A schema is a Hydra/OmegaConf structured config: field types say what a value must be (``int``,
+``float``, ``bool``, ``str``, ``list[float]``, ``Optional[str]``, nested dataclasses), and :func:`setting`
+adds what a type cannot (ranges, allowed words, list lengths). The values and their comments stay in
+``conf/``; a schema field needs no default. Plugins pass theirs to ``registry.add_stage(..., params=S)``
+and ``registry.add_implementation(..., params=S)``; :func:`check_config` checks the composed config
+against every registered schema before any stage runs, and the first problem ends the run in one line
+naming the key, the value and what is allowed::
+
+    room_fit.iterations=-3 is out of range; allowed: an integer >= 1
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import operator
+import typing
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+from omegaconf import MISSING, OmegaConf
+from omegaconf.errors import ConfigKeyError, MissingMandatoryValue, ValidationError
+
+from .dag import AUTO, StageNode
+from .errors import PsdrRoomError
+
+if TYPE_CHECKING:
+    from .plugins import Registry
+
+
+@dataclasses.dataclass
+class NoSettings:
+    """The schema of a stage or implementation that takes no parameters."""
+
+
+def setting(
+    default: Any = MISSING,
+    *,
+    ge: float | None = None,
+    gt: float | None = None,
+    le: float | None = None,
+    lt: float | None = None,
+    choices: tuple[str, ...] | None = None,
+    length: int | None = None,
+) -> Any:
+    """A schema field with bounds (applied to a number, or to every number of a list), allowed words
+    (``choices``) or a list ``length``; ``default`` only for keys a config may leave out."""
+    rules = {k: v for k, v in dict(ge=ge, gt=gt, le=le, lt=lt, choices=choices, length=length).items() if v is not None}
+    if isinstance(default, (list, dict)):
+        return dataclasses.field(default_factory=lambda: copy.deepcopy(default), metadata=rules)
+    return dataclasses.field(default=default, metadata=rules)
+
+
+def check_settings(schema: type, values: Mapping[str, Any], where: str) -> None:
+    """Raise a one-line :class:`PsdrRoomError` unless ``values`` (the config node ``where``) fits ``schema``."""
+    try:
+        merged = OmegaConf.merge(OmegaConf.structured(schema), dict(values))
+        OmegaConf.to_container(merged, throw_on_missing=True)
+    except ConfigKeyError as exc:
+        parent, _, key = (exc.full_key or "?").rpartition(".")
+        known = ", ".join(f.name for f in dataclasses.fields(_schema_at(schema, parent)))
+        raise PsdrRoomError(
+            f"{_join(where, exc.full_key or '?')} is not a setting of {_join(where, parent)}; "
+            f"known: {known or '(none)'}"
+        ) from None
+    except MissingMandatoryValue as exc:
+        raise PsdrRoomError(
+            f"{_join(where, exc.full_key or '?')} has no value; set {_join(where, exc.full_key or '?')}=VALUE "
+            "in the config (its schema requires it)"
+        ) from None
+    except ValidationError as exc:
+        key = exc.full_key or "?"
+        value = _value_at(values, key)
+        raise PsdrRoomError(
+            f"{_join(where, key)}={_show(value)} is invalid: {str(exc).splitlines()[0]}; "
+            f"allowed: {_allowed(schema, key)}"
+        ) from None
+    _check_rules(schema, merged, where)
+
+
+def check_config(data: Mapping[str, Any], nodes: list[StageNode], registry: Registry) -> None:
+    """Check every stage node of the pipeline and every implementation node of the capability groups
+    (``<capability>.<name>``, in config order) against the schemas their plugins declared (those
+    without one are not checked)."""
+    for node in nodes:
+        stage = registry.stages.get(node.function)
+        if stage is not None and stage.params is not None:
+            check_settings(stage.params, node.params, node.name)
+    for capability in registry.capabilities:
+        group = data.get(capability)
+        if not isinstance(group, Mapping) or "impl" not in group:
+            continue
+        if group["impl"] == AUTO:
+            order = (group.get(AUTO) or {}).get("order")
+            if not isinstance(order, list) or not order or not all(isinstance(n, str) for n in order):
+                raise PsdrRoomError(
+                    f"{capability}.auto.order={_show(order)} is invalid; allowed: a non-empty "
+                    f"list of {capability} implementation names"
+                )
+        for name, values in group.items():
+            impl = registry.implementations.get((capability, str(name)))
+            if impl is not None and impl.params is not None:
+                check_settings(impl.params, values or {}, f"{capability}.{name}")
+
+
+# ---------------------------------------------------------------------------------------------- helpers
+def _check_rules(schema: type, node: Any, where: str) -> None:
+    hints = typing.get_type_hints(schema)
+    for field in dataclasses.fields(schema):
+        value = node[field.name]
+        key = _join(where, field.name)
+        nested = _dataclass_of(hints[field.name])
+        if nested is not None:
+            if value is not None:
+                _check_rules(nested, value, key)
+            continue
+        rules = field.metadata
+        if not rules or value is None:
+            continue
+        items = list(value) if OmegaConf.is_list(value) else [value]
+        if "length" in rules and (not OmegaConf.is_list(value) or len(items) != rules["length"]):
+            raise PsdrRoomError(f"{key}={_show(value)} is invalid; allowed: {_describe(hints[field.name], rules)}")
+        for item in items:
+            if not _obeys(item, rules):
+                problem = "is not one of the choices" if "choices" in rules else "is out of range"
+                raise PsdrRoomError(f"{key}={_show(value)} {problem}; allowed: {_describe(hints[field.name], rules)}")
+
+
+def _dataclass_of(hint: Any) -> type | None:
+    """The dataclass of a ``Schema`` or ``Optional[Schema]`` field, else None."""
+    for candidate in (hint, *typing.get_args(hint)):
+        if isinstance(candidate, type) and dataclasses.is_dataclass(candidate):
+            return candidate
+    return None
+
+
+def _obeys(value: Any, rules: Mapping[str, Any]) -> bool:
+    if "choices" in rules:
+        return value in rules["choices"]
+    tests = {"ge": operator.ge, "gt": operator.gt, "le": operator.le, "lt": operator.lt}
+    return all(test(value, rules[name]) for name, test in tests.items() if name in rules)
+
+
+def _describe(hint: Any, rules: Mapping[str, Any]) -> str:
+    if "choices" in rules:
+        return "one of " + ", ".join(rules["choices"])
+    words = {"ge": ">=", "gt": ">", "le": "<=", "lt": "<"}
+    bounds = " and ".join(f"{words[k]} {rules[k]:g}" for k in words if k in rules)
+    return " ".join(p for p in (_type_name(hint), bounds) if p) + (
+        f", {rules['length']} of them" if "length" in rules else ""
+    )
+
+
+def _type_name(hint: Any) -> str:
+    args = [a for a in typing.get_args(hint) if a is not type(None)]
+    origin = typing.get_origin(hint)
+    if origin in (list, tuple):
+        return f"a list of {_type_name(args[0]).removeprefix('a ').removeprefix('an ')}s" if args else "a list"
+    if origin is typing.Union and len(args) == 1:
+        return f"null or {_type_name(args[0])}"
+    return {int: "an integer", float: "a number", bool: "true or false", str: "a string"}.get(hint, "a value")
+
+
+def _allowed(schema: type, key: str) -> str:
+    parent, _, name = key.split("[")[0].rpartition(".")
+    owner = _schema_at(schema, parent)
+    fields = {f.name: f for f in dataclasses.fields(owner)}
+    if name not in fields:
+        return "see the schema"
+    return _describe(typing.get_type_hints(owner)[name], fields[name].metadata)
+
+
+def _schema_at(schema: type, path: str) -> type:
+    for part in [p for p in path.split(".") if p]:
+        nested = _dataclass_of(typing.get_type_hints(schema).get(part))
+        if nested is None:
+            return schema
+        schema = nested
+    return schema
+
+
+def _value_at(values: Mapping[str, Any], key: str) -> Any:
+    value: Any = values
+    for part in key.replace("]", "").replace("[", ".").split("."):
+        try:
+            value = value[int(part)] if isinstance(value, list) else value[part]
+        except (KeyError, IndexError, ValueError, TypeError):
+            return "?"
+    return value
+
+
+def _show(value: Any) -> str:
+    if OmegaConf.is_config(value):
+        value = OmegaConf.to_container(value)
+    return "null" if value is None else str(value)
+
+
+def _join(where: str, key: str) -> str:
+    return f"{where}.{key}" if key else where

@@ -1,0 +1,248 @@
+"""Object stage method (paper §4.3): queries from the segmentation, initial poses and support relations.
+
+World frame as in :mod:`.artifacts` (Y up, floor ``y = 0``). Database meshes are canonical: Y up, bottom
+at ``y = 0``, centred on ``x = z = 0``, front facing +Z. A pose is ``to_world = T(position) R_y(yaw) S(scale)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from .artifacts import Camera, Image, Panoptic, PointCloud, RoomBox, rotation_y
+from .silhouette import mask_l1, silhouette
+
+OBJECT_CATEGORIES = ("object", "lamp")
+"""Segment categories that become retrieved objects (doors and windows are openings of the room)."""
+
+LABEL_TO_CATEGORIES: dict[str, tuple[str, ...]] = {
+    # COCO (the bundled detector), ADE20K, NYU/SUN RGB-D and common LabelMe names → object database categories
+    "chair": ("chair",), "armchair": ("chair",), "swivel chair": ("chair",), "stool": ("chair", "ottoman"),
+    "sofa chair": ("chair", "sofa"),
+    "sofa": ("sofa",), "bench": ("sofa", "table", "ottoman"),
+    "ottoman": ("ottoman",), "pouf": ("ottoman",), "footstool": ("ottoman",),
+    "dining table": ("table", "desk"), "table": ("table",), "coffee table": ("table",),
+    "side table": ("table", "cabinet"), "end table": ("table", "cabinet"), "pool table": ("table",),
+    "desk": ("desk",),
+    "cabinet": ("cabinet",), "wardrobe": ("cabinet",), "chest of drawers": ("cabinet",),
+    "dresser": ("cabinet",), "night stand": ("cabinet", "table"), "nightstand": ("cabinet", "table"),
+    "sideboard": ("cabinet",), "counter": ("cabinet",), "kitchen cabinet": ("cabinet",),
+    "bookcase": ("shelf", "cabinet"), "bookshelf": ("shelf", "cabinet"), "shelf": ("shelf",),
+    "shelves": ("shelf", "cabinet"),
+    "fridge": ("refrigerator",), "appliance": ("appliance",), "washer": ("appliance",), "washing machine": ("appliance",),
+    "dryer": ("appliance",), "dishwasher": ("appliance",), "stove": ("appliance",), "range": ("appliance",),
+    "lamp": ("lamp",), "floor lamp": ("lamp",), "table lamp": ("lamp",), "light": ("lamp",),
+    "rug": ("rug",), "carpet": ("rug",), "mat": ("rug",),
+    "pillow": ("pillow",), "cushion": ("pillow",),
+    "television": ("tv",), "monitor": ("tv",), "screen": ("tv",), "tvmonitor": ("tv", "frame", "cabinet"),
+    "picture": ("frame",), "painting": ("frame",), "poster": ("frame",), "mirror": ("frame",),
+    "whiteboard": ("frame",), "board": ("frame",), "clock": ("frame",), "frame": ("frame",),
+    "box": ("box",), "bin": ("box",), "basket": ("box",), "crate": ("box",), "container": ("box",),
+    "potted plant": ("plant",), "pottedplant": ("plant",), "plant": ("plant",), "flower pot": ("plant",),
+    # COCO classes the bundled detector also gives to what they are not (a dresser is often a "tv" or an
+    # "oven", a kitchen counter a "sink", a row of desks a "bed"): the model search also tries what they may be
+    "tv": ("tv", "frame", "cabinet"), "refrigerator": ("refrigerator", "cabinet", "shelf"),
+    "couch": ("sofa", "chair"), "bed": ("bed", "desk", "table", "sofa"),
+    "oven": ("appliance", "cabinet"), "microwave": ("appliance", "box", "cabinet"), "sink": ("cabinet", "table"),
+    "laptop": ("tv", "box"), "vase": ("plant", "lamp", "box"),
+}
+"""Free-form segment labels → database categories to search, the most likely first; a database category's
+own name means that category, an unknown label searches every category."""
+
+
+def database_categories(label: str, category: str) -> tuple[str, ...]:
+    """The database categories to search for a segment (empty: unknown, search them all)."""
+    name = label.strip().lower()
+    if name in LABEL_TO_CATEGORIES:
+        return LABEL_TO_CATEGORIES[name]
+    return ("lamp",) if category == "lamp" else ()
+
+
+@dataclass(frozen=True)
+class ObjectQuery:
+    """One segmented object: what retrieval and initialisation see of it."""
+
+    segment_id: int
+    label: str
+    categories: tuple[str, ...]
+    """Database categories to search, from the label, the most likely first (empty: any)."""
+    mask: np.ndarray
+    """(H, W) bool at the working image's resolution."""
+    points: np.ndarray
+    """(N, 3) world points of the segment."""
+    crop: np.ndarray
+    """uint8 RGB crop around the mask (square, with context) for image-based retrieval."""
+    scene_points: np.ndarray
+    """(M, 3) world points of every segment (one array shared by all queries): what may hide the object."""
+    box: tuple[float, float, float, float] | None = None
+    """The segment's prompt box (:attr:`~psdr_room_core.method.artifacts.Segment.box`): a model may cover it outside the
+    mask without being wrong."""
+
+
+def object_queries(image: Image, panoptic: Panoptic, cloud: PointCloud, room: RoomBox, min_points: int,
+                   min_pixels: int) -> list[ObjectQuery]:
+    """A query per object segment with at least ``min_pixels`` pixels and ``min_points`` depth points."""
+    to_world = np.asarray(room.camera_to_world)
+    rgb8 = image.to_uint8()
+    scene = cloud.points.astype(np.float64) @ to_world[:3, :3].T + to_world[:3, 3]
+    queries = []
+    for segment in panoptic.segments:
+        if segment.category not in OBJECT_CATEGORIES:
+            continue
+        mask = panoptic.ids == segment.id
+        points = scene[cloud.segment == segment.id]
+        if mask.sum() < min_pixels or len(points) < min_points:
+            continue
+        queries.append(ObjectQuery(segment.id, segment.label, database_categories(segment.label, segment.category),
+                                   mask, points, _square_crop(rgb8, mask), scene, segment.box))
+    return queries
+
+
+def _square_crop(rgb8: np.ndarray, mask: np.ndarray, context: float = 0.1) -> np.ndarray:
+    ys, xs = np.nonzero(mask)
+    cx, cy = (xs.min() + xs.max()) / 2.0, (ys.min() + ys.max()) / 2.0
+    half = max(xs.max() - xs.min(), ys.max() - ys.min()) * (0.5 + context) + 1
+    x0, x1 = int(max(0, cx - half)), int(min(rgb8.shape[1], cx + half + 1))
+    y0, y1 = int(max(0, cy - half)), int(min(rgb8.shape[0], cy + half + 1))
+    return rgb8[y0:y1, x0:x1].copy()
+
+
+# ------------------------------------------------------------------------------------------ poses
+def pose_matrix(position: np.ndarray, yaw: float, scale: float) -> np.ndarray:
+    """4x4 ``T(position) R_y(yaw) S(scale)``."""
+    matrix = np.eye(4)
+    matrix[:3, :3] = rotation_y(yaw) * scale
+    matrix[:3, 3] = position
+    return matrix
+
+
+def transform(vertices: np.ndarray, to_world: np.ndarray) -> np.ndarray:
+    return vertices @ to_world[:3, :3].T + to_world[:3, 3]
+
+
+def mesh_radius(vertices: np.ndarray) -> float:
+    """Median distance of the mesh's vertices to its bounding-box centre."""
+    centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2.0
+    return float(np.median(np.linalg.norm(vertices - centre, axis=1)))
+
+
+def initial_pose(points: np.ndarray, vertices: np.ndarray, radius_factor: float) -> tuple[np.ndarray, float]:
+    """(position, scale) of §4.3: the mesh's bounding-box centre on the per-axis median of the points and its
+    radius ``radius_factor`` × the points' radius (median distance to that centre; the paper uses 0.5)."""
+    centre = np.median(points, axis=0)
+    radius = float(np.median(np.linalg.norm(points - centre, axis=1)))
+    scale = radius_factor * radius / max(mesh_radius(vertices), 1e-9)
+    box_centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2.0
+    return centre - scale * box_centre, scale  # box_centre is on the vertical axis (x = z = 0)
+
+
+def best_yaw(camera: Camera, camera_to_world: np.ndarray, vertices: np.ndarray, faces: np.ndarray,
+             position: np.ndarray, scale: float, target: np.ndarray, n_yaw: int) -> tuple[float, float]:
+    """(yaw, mean L1) of the rotation about the vertical axis whose silhouette best matches ``target``
+    (a mask at the camera's resolution), over ``n_yaw`` evenly spaced angles."""
+    best = (0.0, np.inf)
+    for yaw in np.arange(n_yaw) * (2.0 * np.pi / n_yaw):
+        rendered = silhouette(camera, camera_to_world, transform(vertices, pose_matrix(position, yaw, scale)), faces)
+        error = mask_l1(rendered, target)
+        if error < best[1]:
+            best = (float(yaw), error)
+    return best
+
+
+# ----------------------------------------------------------------------------------- support relations
+@dataclass(frozen=True)
+class SupportParams:
+    """Thresholds of §4.3's support rules (lengths in the room's units, distances in working-image pixels)."""
+
+    floor_distance: float = 0.1
+    """An object whose points' bottom is this close to the floor ..."""
+    edge_px: float = 20.0
+    """... and whose mask is this close to the floor mask stands on the floor; a floating object whose mask
+    is this close to a floor object's mask (and above it), whose bottom is no lower than that object's top
+    less ``floor_distance`` and whose points' centre is over that object's points, stands on that object."""
+    wall_distance: float = 0.15
+    """A floating object without a parent whose points lie this close to a wall is mounted on it."""
+    bottom_percentile: float = 2.0
+    """The points' bottom is this percentile of their heights (robust to stray points)."""
+    grounded: tuple[str, ...] = ("chair", "table", "sofa", "bed", "desk", "rug", "plant", "cabinet", "shelf")
+    """Database categories that stand on the floor when no parent holds them and their points' bottom is
+    below the room's mid-height (it is hidden behind something); higher up they may hang on a wall."""
+
+
+def mask_distance(mask: np.ndarray, other: np.ndarray) -> float:
+    """Smallest pixel distance from ``mask`` to ``other`` (inf when ``other`` is empty)."""
+    if not other.any() or not mask.any():
+        return float("inf")
+    distance = cv2.distanceTransform((~other).astype(np.uint8), cv2.DIST_L2, 3)
+    return float(distance[mask].min())
+
+
+def nearest_wall(room: RoomBox, point: np.ndarray) -> tuple[int, float]:
+    """(index, distance) of the room box's nearest vertical side to a world point; sides are numbered
+    -x, +x, -z, +z of the box's own frame."""
+    local = rotation_y(room.yaw).T @ (np.asarray(point) - np.asarray(room.center))
+    half = np.asarray(room.half_size)
+    distances = [local[0] + half[0], half[0] - local[0], local[2] + half[2], half[2] - local[2]]
+    index = int(np.argmin(np.abs(distances)))
+    return index, float(abs(distances[index]))
+
+
+def wall_frame(room: RoomBox, index: int) -> tuple[np.ndarray, np.ndarray, float]:
+    """(inward unit normal, unit tangent, plane offset d with normal·x = d) of a side of the room box."""
+    rotation = rotation_y(room.yaw)
+    axis = rotation[:, 0] if index < 2 else rotation[:, 2]
+    inward = axis if index in (0, 2) else -axis
+    tangent = np.cross(np.array([0.0, 1.0, 0.0]), inward)
+    half = room.half_size[0] if index < 2 else room.half_size[2]
+    offset = float(inward @ np.asarray(room.center) - half)
+    return inward, tangent, offset
+
+
+Support = tuple[str, int | None]
+"""(``floor`` | ``parent`` | ``wall`` | ``free``, the parent's segment id or the wall's index)."""
+
+
+def support_relations(queries: list[ObjectQuery], floor_mask: np.ndarray, room: RoomBox,
+                      params: SupportParams) -> dict[int, list[Support]]:
+    """Segment id → the supports §4.3's rules allow it, the rules' choice first, by these rules in this order:
+    on the floor; on a floor object whose mask touches its own from below, whose top is at its bottom and
+    whose points' footprint holds its centre; an object of a ``grounded`` category whose bottom is hidden
+    (below mid-height) on the floor; near a wall, on it; else free.
+
+    A grounded object that a parent could hold may also stand on the floor behind it (a tall cabinet whose
+    lower part a low one hides looks the same): both are listed, and the view search decides."""
+    relations: dict[int, list[Support]] = {}
+    bottoms = {q.segment_id: float(np.percentile(q.points[:, 1], params.bottom_percentile)) for q in queries}
+    for q in queries:
+        if abs(bottoms[q.segment_id]) < params.floor_distance and mask_distance(q.mask, floor_mask) < params.edge_px:
+            relations[q.segment_id] = [("floor", None)]
+    on_floor = [q for q in queries if q.segment_id in relations]
+    for q in queries:
+        if q.segment_id in relations:
+            continue
+        bottom = bottoms[q.segment_id]
+        rows = np.flatnonzero(q.mask.any(axis=1))
+        centre = np.median(q.points[:, [0, 2]], axis=0)
+        parents = []
+        for p in on_floor:
+            p_rows = np.flatnonzero(p.mask.any(axis=1))
+            lo, hi = np.percentile(p.points[:, [0, 2]], [2, 98], axis=0)
+            over = bool(np.all((centre > lo - params.floor_distance) & (centre < hi + params.floor_distance)))
+            on_top = bottom > float(np.percentile(p.points[:, 1], 100 - params.bottom_percentile)) - params.floor_distance
+            distance = mask_distance(q.mask, p.mask)
+            if rows.mean() < p_rows.mean() and over and on_top and distance < params.edge_px:
+                parents.append((distance, p.segment_id))
+        hidden_bottom = bool(q.categories) and q.categories[0] in params.grounded and bottom < room.half_size[1]
+        grounded: list[Support] = [("floor", None)] if hidden_bottom else []
+        wall, wall_distance = nearest_wall(room, np.median(q.points, axis=0))
+        if parents:
+            relations[q.segment_id] = [("parent", min(parents)[1]), *grounded]
+        elif grounded:
+            relations[q.segment_id] = grounded
+        elif wall_distance < params.wall_distance:
+            relations[q.segment_id] = [("wall", wall)]
+        else:
+            relations[q.segment_id] = [("free", None)]
+    return relations

@@ -1,0 +1,99 @@
+"""The method as a plugin of the engine (the built-in entry point ``core``): its capabilities, artifact types,
+own hooks, stages and run figures, registered here in one place."""
+
+from __future__ import annotations
+
+import json
+import math
+from typing import Any
+
+import pluggy
+
+from psdr_room_core.engine.dag import RunRecord
+from psdr_room_core.engine.hookspecs import hookimpl
+from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.settings import NoSettings
+
+from . import artifacts, hookspecs
+from .capabilities import CAPABILITIES, DESCRIPTIONS
+from .crops import CROPS_SUFFIX
+from .room_box import RoomInitParams
+from .stages import appearance, export, lighting, materials, objects, preprocess, room, settings
+
+
+@hookimpl
+def add_hookspecs(plugin_manager: pluggy.PluginManager) -> None:
+    """The method's own hooks (:mod:`.hookspecs`): model registries, material graphs and nodes."""
+    plugin_manager.add_hookspecs(hookspecs)
+
+
+@hookimpl
+def register_capabilities(registry: Registry) -> None:
+    """The paper's swappable parts, in pipeline order (:mod:`.capabilities`)."""
+    for name in CAPABILITIES:
+        registry.add_capability(name, DESCRIPTIONS[name])
+
+
+@hookimpl
+def register_artifacts(registry: Registry) -> None:
+    """The method's artifact types (:mod:`.artifacts`)."""
+    for artifact_type in artifacts.TYPES:
+        registry.add_artifact(artifact_type)
+
+
+@hookimpl
+def register_stages(registry: Registry) -> None:
+    """The stages of the paper's pipeline; ``conf/stage/*.yaml`` places them in the DAG."""
+    registry.add_stage("load_image", preprocess.load_image, reads_photo=True, params=settings.LoadImage)
+    registry.add_stage("estimate_fov", preprocess.estimate_fov, uses=["fov"], params=NoSettings)
+    registry.add_stage("detect", preprocess.detect, uses=["detector"], params=NoSettings)
+    registry.add_stage("segment", preprocess.segment, uses=["segmentation"], version="2", params=NoSettings)
+    registry.add_stage("estimate_depth", preprocess.estimate_depth, uses=["depth"], version="2", params=NoSettings)
+    registry.add_stage("point_cloud", preprocess.point_cloud, params=settings.PointCloud)
+    registry.add_stage("room_init", room.room_init, version="2", params=RoomInitParams)
+    registry.add_stage("room_fit", room.room_fit, uses=["renderer", "optimizer"], version="2",
+                       params=settings.RoomFit)
+    registry.add_stage("retrieve_objects", objects.retrieve_objects, uses=["retrieval"], version="2",
+                       params=settings.RetrieveObjects)
+    registry.add_stage("place_objects", objects.place_objects, uses=["retrieval"], version="2",
+                       params=settings.PlaceObjects)
+    registry.add_stage("fit_objects", objects.fit_objects, uses=["renderer", "optimizer"], version="2",
+                       params=settings.FitObjects)
+    registry.add_stage("assign_materials", materials.assign_materials, uses=["renderer", "material_graph", "texture"],
+                       sidecars=[CROPS_SUFFIX], version="3", params=settings.AssignMaterials)
+    registry.add_stage("init_lights", lighting.init_lights, uses=["renderer", "material_graph", "denoiser"], version="3",
+                       params=settings.InitLights)
+    registry.add_stage("fit_appearance", appearance.fit_appearance,
+                       uses=["renderer", "optimizer", "material_graph", "texture", "denoiser"], version="5",
+                       params=settings.FitAppearance)
+    registry.add_stage("export_scene", export.export_scene, uses=["material_graph"], version="4",
+                       params=settings.ExportScene)
+
+
+@hookimpl
+def run_metrics(run: RunRecord) -> dict[str, Any]:
+    """Key estimates for ``metrics.json``: the camera (and its error against a synthetic room's ground truth),
+    every optimisation log's summary, the room box."""
+    out: dict[str, Any] = {}
+    camera = run.artifacts.get("camera")
+    if camera is not None:
+        out["camera"] = {"vfov_deg": camera.vfov_deg, "fx": camera.fx, "fy": camera.fy,
+                         "method": camera.method, "confidence": camera.confidence}
+        out["vfov_deg"] = camera.vfov_deg
+        if "camera_fit" in run.artifacts:
+            out["camera"]["vfov_fit_deg"] = run.artifacts["camera_fit"].vfov_deg
+        truth = run.photo.parent / "ground_truth.json"
+        if truth.is_file():
+            intrinsics = json.loads(truth.read_text()).get("intrinsics", {})
+            if "fy" in intrinsics and "height" in intrinsics:
+                scale = camera.height / float(intrinsics["height"])
+                true_vfov = math.degrees(2 * math.atan(0.5 * camera.height / (float(intrinsics["fy"]) * scale)))
+                out["camera"]["vfov_error_deg"] = camera.vfov_deg - true_vfov
+    for name, artifact in run.artifacts.items():
+        if artifact.kind == "optimization_log":
+            out[name] = artifact.summary
+    room = run.artifacts.get("room_box_fit", run.artifacts.get("room_box"))
+    if room is not None:
+        out["room_box"] = {"size": [2 * float(h) for h in room.half_size], "yaw_deg": math.degrees(float(room.yaw)),
+                           "camera_height": room.extra.get("camera_height"), "ceiling_visible": room.ceiling_visible}
+    return out

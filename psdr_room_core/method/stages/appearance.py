@@ -1,0 +1,330 @@
+"""Joint material and lighting optimisation under global illumination (paper §4.4, eq. 4)."""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import replace
+from typing import Any
+
+import cv2
+import numpy as np
+import torch
+
+from psdr_room_core.engine.dag import StageContext
+
+from .. import lpips
+from ..artifacts import (
+    Camera,
+    Image,
+    Lights,
+    MaterialAssignment,
+    OptimizationLog,
+    PartAppearance,
+    Placements,
+    RoomBox,
+    SceneAppearance,
+)
+from ..image_metrics import downsampled, flip, rmse, ssim, ssim_map
+from ..rgb_scene import build_scene, finished_render, graph_maps, initial_parts, part_meshes, render_part_ids
+from ..shading import linear_to_srgb, srgb_to_linear
+from ..visualize import plot_curves
+
+log = logging.getLogger("psdr_room")
+
+
+def _logit(x: float) -> torch.Tensor:
+    x = min(max(float(x), 1e-3), 1 - 1e-3)
+    return torch.tensor([np.log(x / (1 - x))], dtype=torch.float32)
+
+
+class AppearanceModel:
+    """The optimised parameters of eq. 4: per optimised homogeneous part a base colour, roughness and specular
+    (each through a sigmoid); per optimised procedural part its graph's free unconstrained parameters and a
+    specular; per light an intensity within a factor ``radiance_range`` of its initial radiance either way,
+    and one colour all lights share, each channel within a factor ``colour_range`` of the initial colour
+    (``r0_l · exp(ln(range) · tanh(u_l)) · exp(ln(colour_range) · tanh(v))``, ``v`` of zero mean). A colour per
+    light would let each ceiling panel tint the surfaces under it (green on one chair, yellow on the next):
+    the photo's lights share one white balance, and the surfaces carry the colour. Parts not in ``free`` keep
+    their initial material. Procedural parts in ``plain`` are drawn with their maps' mean colour and roughness
+    and written as homogeneous (see :func:`plain_parts`)."""
+
+    def __init__(self, parts: list[PartAppearance], lights: Lights, library: Any, map_size: int,
+                 free: set[str] | None = None, radiance_range: float = 16.0, colour_range: float = 2.0) -> None:
+        self.parts = parts
+        self.lights = lights
+        self.library = library
+        self.map_size = map_size
+        self.free = {p.part for p in parts} if free is None else set(free)
+        self.plain: set[str] = set()
+        self.log_range = float(np.log(max(radiance_range, 1.0 + 1e-6)))
+        self.log_colour_range = float(np.log(max(colour_range, 1.0 + 1e-6)))
+        self.theta: dict[str, torch.Tensor] = {}
+        self.group: dict[str, str] = {}
+        for p in self.optimised():
+            if p.kind == "procedural":
+                material = library.material(p.material)
+                graph = {k: v for k, v in p.params.items() if not material.bounds[k].fixed}
+                for key, value in (material.unconstrained(graph) if graph else {}).items():
+                    self._add(f"{p.part}/graph/{key}", value.detach().clone().float(), "graph")
+            else:
+                self._add(f"{p.part}/base_color", torch.cat([_logit(c) for c in p.base_color]), "base_color")
+                self._add(f"{p.part}/roughness", _logit(p.roughness), "roughness")
+            self._add(f"{p.part}/specular", _logit(p.specular), "specular")
+        for light in lights.lights:
+            self._add(f"{light.name}/radiance", torch.zeros(1), "radiance")
+        if lights.lights:
+            self._add("lights/colour", torch.zeros(3), "light_colour")
+
+    def optimised(self) -> list[PartAppearance]:
+        return [p for p in self.parts if p.part in self.free]
+
+    def _add(self, name: str, value: torch.Tensor, group: str) -> None:
+        self.theta[name] = value.requires_grad_(True)
+        self.group[name] = group
+
+    def _graph(self, part: str) -> dict[str, torch.Tensor]:
+        prefix = f"{part}/graph/"
+        return {k[len(prefix):]: v for k, v in self.theta.items() if k.startswith(prefix)}
+
+    def inputs(self) -> dict[str, dict[str, torch.Tensor]]:
+        """Keyword arguments of ``render_rgb`` for the current parameters (the optimised parts and the lights)."""
+        base, rough, spec = {}, {}, {}
+        for p in self.optimised():
+            spec[p.part] = torch.sigmoid(self.theta[f"{p.part}/specular"])
+            if p.kind == "procedural":
+                base[p.part], rough[p.part] = graph_maps(self.library, p, self.map_size, self._graph(p.part))
+                if p.part in self.plain:
+                    base[p.part], rough[p.part] = (m.mean((0, 1), keepdim=True).expand_as(m).contiguous()
+                                                   for m in (base[p.part], rough[p.part]))
+            else:
+                base[p.part] = torch.sigmoid(self.theta[f"{p.part}/base_color"])
+                rough[p.part] = torch.sigmoid(self.theta[f"{p.part}/roughness"])
+        radiance = {}
+        if self.lights.lights:
+            v = torch.tanh(self.theta["lights/colour"])
+            colour = torch.exp(self.log_colour_range * (v - v.mean()))  # a tint, not a brightness
+            radiance = {l.name: torch.tensor(l.radiance, dtype=torch.float32) * colour
+                        * torch.exp(self.log_range * torch.tanh(self.theta[f"{l.name}/radiance"]))
+                        for l in self.lights.lights}
+        return {"base_color": base, "roughness": rough, "specular": spec, "radiance": radiance}
+
+    def result(self) -> tuple[list[PartAppearance], dict[str, tuple[float, float, float]]]:
+        """The parts and radiances at the current parameters."""
+        with torch.no_grad():
+            values = self.inputs()
+            parts = []
+            for p in self.parts:
+                if p.part not in self.free:
+                    parts.append(p)
+                    continue
+                base = values["base_color"][p.part]
+                mean_base = tuple(float(v) for v in base.reshape(-1, 3).mean(0))
+                common = dict(base_color=mean_base, roughness=float(values["roughness"][p.part].mean()),
+                              specular=float(values["specular"][p.part]))
+                if p.part in self.plain:
+                    parts.append(PartAppearance(p.part, "homogeneous", **common))
+                    continue
+                if p.kind == "procedural":
+                    constrained = self.library.material(p.material).values(self._graph(p.part))
+                    common["params"] = {k: v.tolist() for k, v in constrained.items()}
+                parts.append(replace(p, **common))
+            radiance = {name: tuple(float(x) for x in v) for name, v in values["radiance"].items()}
+        return parts, radiance
+
+
+def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBox, placements: Placements,
+                   materials: MaterialAssignment, lights: Lights) -> dict[str, Any]:
+    """Optimise all materials and light radiances jointly (§4.4, eq. 4) by path tracing (``renderer``, its
+    ``max_depth`` bounces) at ``render_width``:
+
+    ``w_image · L1(R↓, I↓) + w_colour · mean_i L1(μ(R on part i's sampled mask), C_i)
+    + w_texture · mean_crops d(T(R crop), T(I crop))``
+
+    with ↓ an area down-sampling by ``downsample``, ``C_i`` the part's median photo colour from
+    ``assign_materials`` and its sampled mask the rendered part's pixels that median was taken over (the
+    assignment's ``samples``; the whole rendered mask when that leaves fewer than ``min_region_px``): the
+    paper's mean over the whole mask also averages the clutter in front of a wall, which ``C_i`` leaves out,
+    and pulls the wall towards a colour it does not have. ``T`` is the ``texture`` descriptor on the crop
+    pairs. All terms compare sRGB values; the down-sampled image and the means are averaged in linear light
+    first. Parameters: see
+    :class:`AppearanceModel` (procedural maps evaluated at ``map_size``); ``learning_rates`` per group
+    (graph, base_color, roughness, specular, radiance, light_colour), ``iterations``, ``spp`` / ``grad_spp`` (primal and
+    gradient samples per pixel), ``final_spp`` (the final render), ``min_region_px`` (smaller parts get no
+    colour term, and are not optimised), ``crops_per_part`` (largest first), ``max_crop_aspect`` (see
+    :func:`squarish`), ``radiance_range`` (how far each light's intensity may move from its initial one) and
+    ``colour_range`` (how far the lights' shared colour may move from its initial one, per channel).
+
+    The init and final renders (``final_spp``) are pictures, not loss terms: the ``denoiser`` cleans them with
+    the scene's albedo and normal. The log's summary has their RMSE (1/8 size), SSIM and ꟻLIP against the photo
+    (``*_noisy``: the same before denoising; ``denoiser``: what ran), and LPIPS when its weights are installed
+    (:mod:`psdr_room_core.method.lpips`).
+    """
+    params = ctx.params
+    library, descriptor, renderer = ctx.impl("material_graph"), ctx.impl("texture"), ctx.impl("renderer")
+    c2w = np.asarray(room.camera_to_world)
+    width = min(int(params["render_width"]), camera.width)
+    scale = width / camera.width
+    emitting = {light.part for light in lights.lights if light.part}  # lamp parts are lights now
+    parts = [p for p in initial_parts(materials, library) if p.part not in emitting]
+    meshes = part_meshes(room, placements)
+    scene = build_scene(meshes, parts, lights.lights, lights.fixtures, library, int(params["map_size"]))
+    geometry = scene.renderer(renderer, camera, c2w, width)
+    height = geometry.height
+
+    photo = cv2.resize(np.asarray(image.rgb, np.float32), (width, height), interpolation=cv2.INTER_AREA)
+    target = torch.from_numpy(photo)
+    factor = int(params["downsample"])
+    target_small = linear_to_srgb(downsampled(srgb_to_linear(target), factor))
+    ids, _ = render_part_ids(renderer, camera.resized(width), c2w, meshes, width)
+    names = list(meshes)
+    samples = (cv2.resize(materials.samples, (width, height), interpolation=cv2.INTER_NEAREST)
+               if materials.samples is not None else np.full(ids.shape, -1, np.int16))
+    regions, seen = [], set()
+    min_px = int(params["min_region_px"])
+    for k, p in enumerate(materials.parts):
+        if p.part in names and p.part in scene.meshes:
+            rendered = ids == names.index(p.part)
+            if int(rendered.sum()) >= min_px:
+                sampled = rendered & (samples == k)  # where C_i was measured: not the clutter in front
+                mask = torch.from_numpy(sampled if int(sampled.sum()) >= min_px else rendered)
+                regions.append((mask, torch.tensor(p.albedo, dtype=torch.float32)))
+                seen.add(p.part)
+    # Parts the camera does not see keep their initial material: only indirect light shows them, and it
+    # trades off freely against the lights' radiance.
+    model = AppearanceModel(parts, lights, library, int(params["map_size"]), free=seen,
+                            radiance_range=float(params["radiance_range"]), colour_range=float(params["colour_range"]))
+    crops = []
+    for p in materials.parts:
+        for rect in p.crops[: int(params["crops_per_part"])]:
+            r = squarish([int(round(v * scale)) for v in rect], float(params["max_crop_aspect"]))
+            if r[2] - r[0] >= 8 and r[3] - r[1] >= 8:
+                with torch.no_grad():
+                    crops.append((r, descriptor.describe(target[r[1]:r[3], r[0]:r[2]].permute(2, 0, 1))))
+    weights = {k: float(v) for k, v in params["weights"].items()}
+    spp, grad_spp = int(params["spp"]), int(params["grad_spp"])
+
+    def terms(linear: torch.Tensor) -> dict[str, torch.Tensor]:
+        # Averages (the 1/8 image, a part's mean) are taken on linear radiance, then encoded: the sRGB curve is
+        # concave, so averaging encoded noisy samples reads darker than the light is, and the fit brightens the
+        # scene to make up for its own Monte-Carlo noise.
+        srgb = linear_to_srgb(linear)
+        out = {"image": (linear_to_srgb(downsampled(linear, factor)) - target_small).abs().mean()}
+        if regions:
+            out["colour"] = torch.stack([(linear_to_srgb(linear[m].mean(0)) - c).abs().mean() for m, c in regions]).mean()
+        if crops:
+            out["texture"] = torch.stack([descriptor.distance(descriptor.describe(srgb[y0:y1, x0:x1].permute(2, 0, 1)), d)
+                                          .reshape(()) for (x0, y0, x1, y1), d in crops]).mean()
+        return out
+
+    def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
+        parts = terms(geometry.render_rgb(**model.inputs(), iteration=iteration, spp=spp, grad_spp=grad_spp))
+        total = sum(weights[k] * v for k, v in parts.items())
+        return total, {k: float(v.detach()) for k, v in parts.items()}
+
+    rates = {name: float(params["learning_rates"][group]) for name, group in model.group.items()}
+    history = ctx.impl("optimizer").minimize(model.theta, rates, loss, int(params["iterations"]),
+                                             lambda it: ctx.progress(it, total=int(params["iterations"])))
+    final_spp, denoiser = int(params["final_spp"]), ctx.impl("denoiser")
+    with torch.no_grad():
+        initial = AppearanceModel(parts, lights, library, model.map_size, seen).inputs()
+        start_noisy, start = picture(geometry, denoiser, initial, final_spp, 10**6)
+        final_noisy, final = picture(geometry, denoiser, model.inputs(), final_spp, 10**6 + 1)
+        if params["plain_check"]:
+            final_noisy, final = plain_parts(model, geometry, denoiser, final_spp, photo, (final_noisy, final),
+                                             {name: ids == k for k, name in enumerate(names)})
+    parts, radiance = model.result()
+    metrics = {**_agreement(start, final, photo), **_agreement(start_noisy, final_noisy, photo, "_noisy"),
+               "denoiser": denoiser.describe(), "iterations": len(history), "fitted_parts": sorted(seen),
+               "plain_parts": sorted(model.plain),
+               "seconds_per_iteration": float(np.median([h["seconds"] for h in history])) if history else 0.0}
+    scorer = lpips.installed()
+    if scorer is not None:  # the paper's perceptual metric, only with its real weights
+        metrics.update(lpips_init=scorer(start, photo), lpips=scorer(final, photo))
+    log.info("fit_appearance: RMSE %.4f -> %.4f, SSIM %.3f -> %.3f, FLIP %.3f -> %.3f (denoiser: %s)",
+             metrics["rmse_init"], metrics["rmse"], metrics["ssim_init"], metrics["ssim"], metrics["flip_init"],
+             metrics["flip"], metrics["denoiser"])
+    as8 = lambda x: (np.clip(x, 0, 1) * 255 + 0.5).astype(np.uint8)  # noqa: E731
+    curves = {k: [h[k] for h in history] for k in ("loss", "image", "colour", "texture") if history and k in history[0]}
+    images = {"photo_init_final": np.hstack([as8(photo), as8(start), as8(final)])}
+    if crops:
+        images["crop_pairs"] = _crop_pairs(photo, start, final, [c[0] for c in crops])
+    if curves:
+        images["loss"] = plot_curves(curves, title="fit_appearance (eq. 4)")
+    appearance = SceneAppearance(parts=parts, radiance=radiance, images={"render": as8(final)})
+    return {"appearance": appearance, "log": OptimizationLog(history=history, images=images, summary=metrics)}
+
+
+def plain_parts(model: AppearanceModel, geometry: Any, denoiser: Any, spp: int, photo: np.ndarray,
+                final: tuple[np.ndarray, np.ndarray], masks: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Plain stays plain, judged after the fit: each fitted procedural part is drawn once more with its maps'
+    mean colour and roughness, and becomes homogeneous (``model.plain``) where that render's SSIM against the
+    photo, averaged over the part's own pixels, is higher than the patterned one's. A pattern the photo does not
+    show (a stone graph on a blurred wall, a weave fitted to clutter) costs structure that no colour term sees.
+    Returns the (noisy, denoised) sRGB final render of the chosen materials."""
+    candidates = {p.part for p in model.optimised() if p.kind == "procedural" and masks.get(p.part, np.zeros(1)).any()}
+    if not candidates:
+        return final
+    model.plain = set(candidates)
+    plain = picture(geometry, denoiser, model.inputs(), spp, 10**6 + 2)
+    patterned_ssim, plain_ssim = ssim_map(final[1], photo), ssim_map(plain[1], photo)
+    scores = {part: (float(patterned_ssim[masks[part]].mean()), float(plain_ssim[masks[part]].mean()))
+              for part in sorted(candidates)}
+    chosen = {part for part, (patterned, flat) in scores.items() if flat > patterned}
+    for part, (patterned, flat) in scores.items():
+        log.info("fit_appearance: %s %s (SSIM on its pixels: pattern %.3f, plain %.3f)", part,
+                 "made plain" if part in chosen else "keeps its pattern", patterned, flat)
+    model.plain = chosen
+    if chosen == candidates:
+        return plain
+    if not chosen:
+        return final
+    return picture(geometry, denoiser, model.inputs(), spp, 10**6 + 3)
+
+
+def picture(geometry: Any, denoiser: Any, inputs: dict[str, Any], spp: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """(noisy, denoised) sRGB [H, W, 3] of :func:`~psdr_room_core.method.rgb_scene.finished_render` (``seed``: its
+    sample stream, as ``iteration``)."""
+    noisy, clean = finished_render(geometry, denoiser, inputs, spp, seed)
+    return linear_to_srgb(noisy), linear_to_srgb(clean)
+
+
+def _agreement(start: np.ndarray, final: np.ndarray, photo: np.ndarray, suffix: str = "") -> dict[str, float]:
+    """RMSE (1/8 size), SSIM and FLIP of the initial and final sRGB renders against the photo."""
+    out = {}
+    for name, metric in (("rmse", rmse), ("ssim", ssim), ("flip", flip)):
+        out[f"{name}_init{suffix}"], out[f"{name}{suffix}"] = metric(start, photo), metric(final, photo)
+    return out
+
+
+def squarish(rect: list[int], max_aspect: float) -> list[int]:
+    """The centred part of a crop window whose long side is at most ``max_aspect`` times its short side (the
+    descriptor resizes the short side to a fixed size, so long thin crops cost in proportion to their aspect)."""
+    x0, y0, x1, y1 = rect
+    w, h = x1 - x0, y1 - y0
+    if w > max_aspect * h:
+        cut = int(round(max_aspect * h))
+        x0 += (w - cut) // 2
+        x1 = x0 + cut
+    elif h > max_aspect * w:
+        cut = int(round(max_aspect * w))
+        y0 += (h - cut) // 2
+        y1 = y0 + cut
+    return [x0, y0, x1, y1]
+
+
+def _crop_pairs(photo: np.ndarray, start: np.ndarray, final: np.ndarray, rects: list[list[int]], cell: int = 96) -> np.ndarray:
+    """Fig. 7: each crop of the photo beside the render's crop at initialisation and after the fit."""
+    rows = []
+    for x0, y0, x1, y1 in rects:
+        tiles = []
+        for picture in (photo, start, final):
+            crop = (np.clip(picture[y0:y1, x0:x1], 0, 1) * 255 + 0.5).astype(np.uint8)
+            s = cell / max(crop.shape[:2])
+            small = cv2.resize(crop, (max(1, round(crop.shape[1] * s)), max(1, round(crop.shape[0] * s))),
+                               interpolation=cv2.INTER_AREA if s < 1 else cv2.INTER_NEAREST)
+            tile = np.full((cell, cell, 3), 255, np.uint8)
+            tile[:small.shape[0], :small.shape[1]] = small
+            tiles.append(tile)
+        rows.append(np.hstack(tiles))
+    return np.vstack(rows)
+

@@ -1,0 +1,463 @@
+"""Object stage (paper §4.3): retrieve a model per segmented object, initialise its pose from the point
+cloud with support relations, then refine all poses jointly by differentiable rendering (eq. 3)."""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any
+
+import cv2
+import numpy as np
+
+from psdr_room_core.engine.dag import StageContext
+from psdr_room_core.engine.errors import PsdrRoomError
+
+from ..artifacts import (
+    Camera,
+    Candidate,
+    DepthMap,
+    Image,
+    ObjectCandidates,
+    OptimizationLog,
+    Panoptic,
+    Placement,
+    Placements,
+    PointCloud,
+    RoomBox,
+)
+from ..geometry import TriangleMesh, weld
+from ..objects import ObjectQuery, SupportParams, best_yaw, initial_pose, object_queries, support_relations, wall_frame
+from ..silhouette import silhouette
+from ..view_search import SearchParams, ViewTarget, fit_view
+from ..visualize import plot_curves, segment_overlay
+
+if TYPE_CHECKING:
+    import torch
+
+log = logging.getLogger("psdr_room")
+
+
+def _queries(ctx: StageContext, image: Image, panoptic: Panoptic, cloud: PointCloud, room: RoomBox) -> list[ObjectQuery]:
+    return object_queries(image, panoptic, cloud, room, int(ctx.params["min_points"]), int(ctx.params["min_pixels"]))
+
+
+def retrieve_objects(ctx: StageContext, image: Image, panoptic: Panoptic, cloud: PointCloud, camera: Camera,
+                     room: RoomBox) -> ObjectCandidates:
+    """Rank ``top_k`` database models for every object segment with the ``retrieval`` capability.
+
+    Params: ``top_k``, ``min_points`` and ``min_pixels`` (smaller segments are left out).
+    """
+    retriever = ctx.impl("retrieval")
+    c2w = np.asarray(room.camera_to_world)
+    queries = _queries(ctx, image, panoptic, cloud, room)
+    ranked = {q.segment_id: retriever.rank(q, camera, c2w, int(ctx.params["top_k"]))
+              for q in ctx.progress(queries, total=len(queries))}
+    return ObjectCandidates(ranked=ranked, labels={q.segment_id: q.label for q in queries},
+                            source=retriever.describe(), sheet=candidate_sheet(queries, ranked, retriever))
+
+
+def candidate_sheet(queries: list[ObjectQuery], ranked: dict[int, list[Candidate]], retriever: Any,
+                    cell: int = 96) -> np.ndarray | None:
+    """One row per object: its crop, then each candidate's thumbnail with its id and score."""
+    rows = []
+    for q in queries:
+        tiles = [_tile(q.crop, f"{q.segment_id}: {q.label}", cell)]
+        tiles += [_tile(retriever.thumbnail(c.model_id), f"{c.model_id.split('/')[-1]} {c.score:.2f}", cell)
+                  for c in ranked[q.segment_id]]
+        row = np.full((cell + 14, cell * (1 + max(len(r) for r in ranked.values())), 3), 255, np.uint8)
+        row[:, : cell * len(tiles)] = np.hstack(tiles)
+        rows.append(row)
+    return np.vstack(rows) if rows else None
+
+
+def _tile(rgb8: np.ndarray, caption: str, cell: int) -> np.ndarray:
+    scale = cell / max(rgb8.shape[:2])
+    small = cv2.resize(rgb8, (max(1, round(rgb8.shape[1] * scale)), max(1, round(rgb8.shape[0] * scale))),
+                       interpolation=cv2.INTER_AREA)
+    tile = np.full((cell + 14, cell, 3), 255, np.uint8)
+    y0, x0 = (cell - small.shape[0]) // 2, (cell - small.shape[1]) // 2
+    tile[y0:y0 + small.shape[0], x0:x0 + small.shape[1]] = small
+    cv2.putText(tile, caption[:18], (2, cell + 11), cv2.FONT_HERSHEY_SIMPLEX, 0.32, (0, 0, 0), 1, cv2.LINE_AA)
+    return tile
+
+
+def _pick(candidates: list[Candidate], choice: Any, segment_id: int) -> str:
+    """The chosen model: the best candidate, or ``objects`` pick ``<rank>`` (0-based) / ``<model id>``."""
+    if choice is None:
+        return candidates[0].model_id
+    if isinstance(choice, int) or (isinstance(choice, str) and choice.isdigit()):
+        rank = int(choice)
+        if not 0 <= rank < len(candidates):
+            raise PsdrRoomError(f"place_objects.pick.{segment_id}={choice}: only {len(candidates)} candidates; "
+                                f"use a rank below {len(candidates)} or a model id")
+        return candidates[rank].model_id
+    return str(choice)
+
+
+def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image, panoptic: Panoptic,
+                  cloud: PointCloud, camera: Camera, room: RoomBox) -> Placements:
+    """Initial poses (§4.3) with the support rules (floor, parent, wall).
+
+    ``init=radius`` is the paper's: centre on the points' median, radius ``radius_factor`` × the points'
+    radius, the best of ``n_yaw`` rotations by silhouette L1. ``init=silhouette`` (default) sweeps the same
+    rotations at the object's apparent size and depth and refines the best by the occlusion-aware view search
+    (:func:`~psdr_room_core.method.view_search.fit_view`): the yaw is chosen where it can be seen, which the small
+    paper start cannot, and an object half hidden behind another keeps its whole size.
+
+    Objects the segmentation guessed (segments with a ``score``: ``segmentation=layout``'s discoveries) are
+    dropped, and logged, when the fit cannot explain them: the posed model's visible silhouette overlaps the
+    mask by less than ``prune.min_iou``, or it needs a scale outside ``prune.scale`` (database models are
+    real size). Segments a person drew are kept whatever the fit.
+
+    Params: ``init``, ``pick`` (segment id → rank or model id), ``radius_factor``, ``n_yaw``, ``render_width``,
+    ``search`` (:class:`~psdr_room_core.method.view_search.SearchParams` fields but ``n_yaw``), ``support``
+    (:class:`SupportParams` fields), ``prune`` {``min_iou``, ``scale``: [low, high]}, ``min_points``,
+    ``min_pixels``.
+    """
+    retriever = ctx.impl("retrieval")
+    c2w = np.asarray(room.camera_to_world)
+    cam = camera.resized(min(int(ctx.params["render_width"]), camera.width))
+    picks = {int(k): v for k, v in (ctx.params.get("pick") or {}).items()}
+    queries = [q for q in _queries(ctx, image, panoptic, cloud, room) if candidates.ranked.get(q.segment_id)]
+    unknown = set(picks) - {q.segment_id for q in queries}
+    if unknown:
+        raise PsdrRoomError(f"place_objects.pick: no object segment {sorted(unknown)}; segments: "
+                            f"{sorted(q.segment_id for q in queries)} (see the candidates artifact)")
+    init = str(ctx.params["init"])
+    if init not in ("silhouette", "radius"):
+        raise PsdrRoomError(f"place_objects.init={init}: use 'silhouette' or 'radius' (the paper's)")
+    support = SupportParams(**{k: tuple(v) if k == "grounded" else v for k, v in ctx.params["support"].items()})
+    search = SearchParams(n_yaw=int(ctx.params["n_yaw"]), **ctx.params["search"])
+    relations = support_relations(queries, panoptic.mask("floor"), room, support)
+    guessed = {s.id for s in panoptic.segments if s.score is not None}
+    min_iou, (low, high) = float(ctx.params["prune"]["min_iou"]), map(float, ctx.params["prune"]["scale"])
+    placed: dict[int, Placement] = {}
+    pruned: list[str] = []
+    order = sorted(queries, key=lambda q: relations[q.segment_id][0][0] == "parent")  # parents before children
+    for q in order:
+        model_id = _pick(candidates.ranked[q.segment_id], picks.get(q.segment_id), q.segment_id)
+        mesh = retriever.mesh(model_id)
+        supports = [(k, a) for k, a in relations[q.segment_id] if k != "parent" or a in placed] or [("free", None)]
+        if init == "silhouette":  # each support the rules allow (a dropped parent holds nothing); the view search picks
+            target = ViewTarget.build(camera, c2w, q.mask, q.points, q.scene_points, int(ctx.params["render_width"]),
+                                      box=q.box)
+            fits = [(fit_view(target, mesh.vertices, mesh.faces, search, _support_height(k, a, placed)), k, a)
+                    for k, a in supports]
+            view, kind, anchor = min(fits, key=lambda f: f[0].error)
+            position, yaw, scale = view.position, view.yaw, view.scale
+            if q.segment_id in guessed and (view.iou < min_iou or not low <= scale <= high):
+                pruned.append(f"{q.segment_id}:{q.label} (IoU {view.iou:.2f}, scale {scale:.2f})")
+                continue
+        else:
+            kind, anchor = supports[0]
+            target = cv2.resize(q.mask.astype(np.uint8), (cam.width, cam.height), interpolation=cv2.INTER_AREA) > 0
+            position, scale = initial_pose(q.points, mesh.vertices, float(ctx.params["radius_factor"]))
+            yaw, _ = best_yaw(cam, c2w, mesh.vertices, mesh.faces, position, scale, target, int(ctx.params["n_yaw"]))
+            height = _support_height(kind, anchor, placed)
+            if height is not None:
+                position[1] = height
+        if kind == "wall":
+            inward, _, offset = wall_frame(room, anchor)
+            yaw = math.atan2(inward[0], inward[2])  # the model's front (+Z) faces into the room
+            depth = float(np.ptp(mesh.vertices[:, 2]))
+            position = position + (offset + 0.5 * scale * depth - inward @ position) * inward
+        placed[q.segment_id] = Placement(segment_id=q.segment_id, label=q.label, model_id=model_id, mesh=mesh,
+                                         position=tuple(map(float, position)), yaw=float(yaw), scale=float(scale),
+                                         support=kind, anchor=anchor)
+    if pruned:
+        log.info("place_objects: dropped %d guessed object(s) no model explains: %s", len(pruned), ", ".join(pruned))
+    return Placements(objects=[placed[q.segment_id] for q in queries if q.segment_id in placed],
+                      extra={"pruned": pruned})
+
+
+def _top(p: Placement) -> float:
+    return p.position[1] + p.scale * float(p.mesh.vertices[:, 1].max())
+
+
+def _support_height(kind: str, anchor: int | None, placed: dict[int, Placement]) -> float | None:
+    """Where a supported object's bottom stays: the floor, its parent's top; None for wall and free objects."""
+    return 0.0 if kind == "floor" else _top(placed[anchor]) if kind == "parent" else None
+
+
+# ------------------------------------------------------------------------------------------ refinement
+@dataclass(frozen=True)
+class ObjectTargets:
+    """Eq. 3's targets at render resolution: per-object coverage and the depth-weighted coverage."""
+
+    masks: np.ndarray
+    """[P,h,w] area-filtered masks of the objects' segments."""
+    masked_depth: np.ndarray
+    """[P,h,w] mask × mean depth of the segment's pixels with valid depth."""
+    weights: np.ndarray
+    """[P,h,w] how much each pixel counts in the object's terms: 0 on the free pixels of a prompted segment
+    (its prompt box outside its mask: the object may reach there or not), 1 elsewhere."""
+
+
+def object_targets(placements: Placements, panoptic: Panoptic, depth: DepthMap, size: tuple[int, int]) -> ObjectTargets:
+    def area(x: np.ndarray) -> np.ndarray:
+        return cv2.resize(x.astype(np.float32), size, interpolation=cv2.INTER_AREA)
+
+    boxes = {s.id: s.box for s in panoptic.segments}
+    masks, masked, weights = [], [], []
+    for p in placements.objects:
+        mask = panoptic.ids == p.segment_id
+        valid = mask & depth.valid
+        weight = area(valid)
+        mean_depth = np.where(weight > 0, area(np.where(valid, depth.depth, 0.0)) / np.maximum(weight, 1e-6), 0.0)
+        coverage = area(mask)
+        masks.append(coverage)
+        masked.append(coverage * mean_depth)
+        free = np.zeros(mask.shape, bool)
+        if boxes.get(p.segment_id) is not None:
+            x0, y0, x1, y1 = (max(0, int(round(v))) for v in boxes[p.segment_id])
+            free[y0:y1, x0:x1] = True
+        weights.append(1.0 - area(free & ~mask))
+    return ObjectTargets(masks=np.stack(masks).astype(np.float32), masked_depth=np.stack(masked).astype(np.float32),
+                         weights=np.stack(weights).astype(np.float32))
+
+
+def gaussian_pyramid_blur(masks: torch.Tensor, sigmas: tuple[float, ...]) -> torch.Tensor:
+    """[P,H,W] masks blurred by Gaussians of each sigma (pixels), stacked: [S,P,H,W]."""
+    import torch
+
+    blurred = []
+    for sigma in sigmas:
+        radius = max(1, int(3 * sigma))
+        x = torch.arange(-radius, radius + 1, dtype=torch.float32)
+        kernel = torch.exp(-0.5 * (x / sigma) ** 2)
+        kernel = kernel / kernel.sum()
+        m = masks[:, None]
+        m = torch.nn.functional.conv2d(torch.nn.functional.pad(m, (radius, radius, 0, 0), mode="replicate"),
+                                       kernel.view(1, 1, 1, -1))
+        m = torch.nn.functional.conv2d(torch.nn.functional.pad(m, (0, 0, radius, radius), mode="replicate"),
+                                       kernel.view(1, 1, -1, 1))
+        blurred.append(m[:, 0])
+    return torch.stack(blurred)
+
+
+class PoseModel:
+    """Differentiable object poses with their support constraints (§4.3): scale, horizontal translation and
+    yaw per object; floor objects keep their bottom on the floor, children on their parent's top, wall
+    objects slide and scale along their wall facing into the room."""
+
+    def __init__(self, placements: Placements, room: RoomBox, unit: float) -> None:
+        import torch
+
+        self.placements = placements.objects
+        self.room = room
+        self.unit = unit
+        self.index = {p.segment_id: i for i, p in enumerate(self.placements)}
+        n = len(self.placements)
+        self.theta = {"translation": torch.zeros(n, 3, requires_grad=True),
+                      "log_scale": torch.zeros(n, requires_grad=True),
+                      "yaw": torch.zeros(n, requires_grad=True)}
+        self.welded = [weld(TriangleMesh(p.mesh.vertices, p.mesh.faces)) for p in self.placements]
+
+    def poses(self) -> list[tuple[torch.Tensor, torch.Tensor, torch.Tensor]]:
+        """(position [3], yaw (radians), scale) per object, constraints applied."""
+        import torch
+
+        t, log_s, yaw_deg = self.theta["translation"], self.theta["log_scale"], self.theta["yaw"]
+        poses: list[Any] = [None] * len(self.placements)
+        order = sorted(range(len(self.placements)), key=lambda i: self.placements[i].support == "parent")
+        for i in order:
+            p = self.placements[i]
+            scale = p.scale * torch.exp(log_s[i])
+            position = torch.tensor(p.position, dtype=torch.float32)
+            yaw = p.yaw + torch.deg2rad(yaw_deg[i])
+            if p.support == "wall":
+                inward, tangent, offset = (torch.as_tensor(v, dtype=torch.float32) if isinstance(v, np.ndarray)
+                                           else v for v in wall_frame(self.room, p.anchor))
+                depth = float(np.ptp(p.mesh.vertices[:, 2]))
+                moved = position + self.unit * (t[i, 0] * tangent + t[i, 1] * torch.tensor([0.0, 1.0, 0.0]))
+                position = moved + (offset + 0.5 * scale * depth - inward @ moved) * inward
+                yaw = torch.tensor(p.yaw, dtype=torch.float32)
+            else:
+                horizontal = self.unit * torch.stack([t[i, 0], torch.zeros(()), t[i, 2]])
+                position = position + horizontal
+                if p.support == "parent":
+                    parent_position, _, parent_scale = poses[self.index[p.anchor]]
+                    top = parent_position[1] + parent_scale * float(self.placements[self.index[p.anchor]].mesh.vertices[:, 1].max())
+                    position = torch.stack([position[0], top, position[2]])
+            poses[i] = (position, yaw, scale)
+        return poses
+
+    def vertices(self) -> dict[str, torch.Tensor]:
+        """World positions of each object's welded mesh."""
+        import torch
+
+        out = {}
+        for i, (position, yaw, scale) in enumerate(self.poses()):
+            c, s = torch.cos(yaw), torch.sin(yaw)
+            zero, one = torch.zeros_like(c), torch.ones_like(c)
+            rotation = torch.stack([torch.stack([c, zero, s]), torch.stack([zero, one, zero]), torch.stack([-s, zero, c])])
+            local = torch.as_tensor(self.welded[i].vertices, dtype=torch.float32)
+            out[f"object_{self.placements[i].segment_id}"] = (scale * local) @ rotation.T + position
+        return out
+
+    def placements_now(self) -> list[Placement]:
+        return [replace(p, position=tuple(float(v) for v in position.detach()), yaw=float(yaw),
+                        scale=float(scale)) for p, (position, yaw, scale) in zip(self.placements, self.poses())]
+
+
+def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room: RoomBox, depth: DepthMap,
+                panoptic: Panoptic, image: Image) -> dict[str, Any]:
+    """Refine all object poses jointly (§4.3, eq. 3) by differentiable rendering of their masks and depth.
+
+    Minimises ``Σ_i L1(M_i^r · D^r, M_i^t · D_i) / d + w_blur · Σ_i L1(G(M_i^r), G(M_i^t))`` with ``d`` the
+    targets' 98th-percentile depth and ``G`` Gaussian blurs of ``blur_sigmas`` pixels (a prompted segment's free
+    pixels, its prompt box outside its mask, left out: :class:`ObjectTargets`), over each object's
+    scale, horizontal translation and yaw under its support constraint (:class:`PoseModel`), with the
+    ``renderer`` and the ``optimizer``. Params: ``iterations``, ``render_width``, ``blur_sigmas``,
+    ``blur_weight``, ``learning_rates`` {translation (room half-size units), log_scale, yaw (degrees)},
+    ``overlap_iou`` (pairs of fitted objects overlapping more than this are reported), ``yaw_test``
+    {``at``: fraction of the iterations after which :func:`try_yaw_turns` runs, ``angles``, ``min_gain``}.
+    """
+    import torch
+
+    if not placements.objects:
+        return {"placements": placements, "log": OptimizationLog(history=[], images={}, summary={"objects": 0})}
+    params = ctx.params
+    cam = camera.resized(min(int(params["render_width"]), camera.width))
+    targets = object_targets(placements, panoptic, depth, (cam.width, cam.height))
+    model = PoseModel(placements, room, unit=float(np.mean(room.half_size)))
+    initial_vertices = {k: v.detach().numpy() for k, v in model.vertices().items()}
+    meshes = {name: TriangleMesh(initial_vertices[name], model.welded[i].faces)
+              for i, name in enumerate(initial_vertices)}
+    parts = {name: i for i, name in enumerate(meshes)}
+    renderer = ctx.impl("renderer").geometry(cam, np.asarray(room.camera_to_world), meshes, parts)
+    t_masks, t_masked = torch.from_numpy(targets.masks), torch.from_numpy(targets.masked_depth)
+    t_weights = torch.from_numpy(targets.weights)
+    valid = targets.masked_depth[targets.masks > 0.5] / np.maximum(targets.masks[targets.masks > 0.5], 1e-6)
+    depth_scale = float(np.percentile(valid, 98)) if valid.size else 1.0
+    sigmas = tuple(float(s) for s in params["blur_sigmas"])
+    t_blur = gaussian_pyramid_blur(t_masks, sigmas)
+
+    def per_object(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
+        """Eq. 3's term of each object [P], and the logged terms."""
+        masks, weighted_depth, alpha = renderer.render(model.vertices(), iteration)
+        rendered_depth = weighted_depth / alpha.clamp_min(1e-3)
+        depth_term = (t_weights * (masks * rendered_depth - t_masked).abs()).mean(dim=(1, 2)) / depth_scale
+        blur_term = (t_weights * (gaussian_pyramid_blur(masks, sigmas) - t_blur).abs()).mean(dim=(2, 3)).sum(dim=0)
+        iou = ((masks * t_masks).sum((1, 2)) / (masks + t_masks - masks * t_masks).sum((1, 2)).clamp_min(1e-6)).mean()
+        terms = {"mask_depth_l1": depth_term.sum().item(), "blurred_mask_l1": blur_term.sum().item(),
+                 "mean_iou": iou.item()}
+        return depth_term + float(params["blur_weight"]) * blur_term, terms
+
+    def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
+        terms, logged = per_object(iteration)
+        return terms.sum(), logged
+
+    iterations = int(params["iterations"])
+    optimizer, rates = ctx.impl("optimizer"), dict(params["learning_rates"])
+    first = round(iterations * float(params["yaw_test"]["at"]))
+    history = optimizer.minimize(model.theta, rates, loss, first, lambda it: ctx.progress(it, total=iterations))
+    turned = try_yaw_turns(model, lambda: per_object(first)[0], [float(a) for a in params["yaw_test"]["angles"]],
+                           float(params["yaw_test"]["min_gain"]))
+    history += optimizer.minimize(model.theta, rates, lambda it: loss(first + it), iterations - first,
+                                  lambda it: ctx.progress(it, total=iterations - first))
+    with torch.no_grad():
+        fitted = Placements(objects=model.placements_now())
+    overlaps = find_overlaps(fitted, float(params["overlap_iou"]))
+    fitted.extra = {"overlaps": overlaps, "turned": turned,
+                    "final": {k: v for k, v in history[-1].items() if k != "seconds"}}
+    log = _objects_log(history, image, camera, room, placements, fitted, panoptic, overlaps)
+    log.summary["turned"] = turned
+    return {"placements": fitted, "log": log}
+
+
+def try_yaw_turns(model: PoseModel, evaluate: Callable[[], torch.Tensor], angles: list[float],
+                  min_gain: float) -> dict[int, float]:
+    """Turn each free-standing object by each of ``angles`` (degrees) in turn and keep a turn that lowers both
+    its own loss term by at least ``min_gain`` (a share of it) and the joint loss; ``evaluate`` gives every
+    object's term [P] (one fixed-seed render). Returns segment id → degrees turned.
+
+    Masks and depth seen from one side leave a model's front and back (and, for boxy furniture, its side)
+    nearly alike; gradient descent on yaw never crosses the ridge between them. A near-symmetric model's turn
+    changes its term by less than the render's noise: ``min_gain`` keeps it as it is. Wall objects keep their
+    orientation (they face into the room)."""
+    import torch
+
+    turned: dict[int, float] = {}
+    with torch.no_grad():
+        best = evaluate()
+        yaw = model.theta["yaw"]
+        for i, p in enumerate(model.placements):
+            if p.support == "wall":
+                continue
+            start = float(yaw[i])
+            for angle in angles:
+                yaw[i] = start + angle
+                value = evaluate()
+                if value[i] < (1.0 - min_gain) * best[i] and value.sum() < best.sum():
+                    best, turned[p.segment_id] = value, angle
+            yaw[i] = start + turned.get(p.segment_id, 0.0)
+    return turned
+
+
+# ------------------------------------------------------------------------------------------ reporting
+def footprint(p: Placement) -> tuple[np.ndarray, float, float]:
+    """(4x2 xz corners of the object's rotated bounding box, bottom y, top y) in the world."""
+    v = p.mesh.vertices
+    lo, hi = v.min(axis=0) * p.scale, v.max(axis=0) * p.scale
+    corners = np.array([[lo[0], lo[2]], [hi[0], lo[2]], [hi[0], hi[2]], [lo[0], hi[2]]])
+    c, s = math.cos(p.yaw), math.sin(p.yaw)
+    xz = corners @ np.array([[c, -s], [s, c]]) + [p.position[0], p.position[2]]  # R_y acts on (x, z) as [[c, s], [-s, c]]
+    return xz, p.position[1] + lo[1], p.position[1] + hi[1]
+
+
+def find_overlaps(placements: Placements, threshold: float) -> list[dict[str, Any]]:
+    """Pairs of objects whose bounding boxes intersect with a volume IoU above ``threshold``: interpenetration
+    the mask/depth loss does not see (it is reported, not silently optimised through)."""
+    boxes = [footprint(p) for p in placements.objects]
+    found = []
+    for i in range(len(boxes)):
+        for j in range(i + 1, len(boxes)):
+            (a, a0, a1), (b, b0, b1) = boxes[i], boxes[j]
+            height = min(a1, b1) - max(a0, b0)
+            if height <= 0:
+                continue
+            area, _ = cv2.intersectConvexConvex(a.astype(np.float32), b.astype(np.float32))
+            inter = float(area) * height
+            union = cv2.contourArea(a.astype(np.float32)) * (a1 - a0) + cv2.contourArea(b.astype(np.float32)) * (b1 - b0) - inter
+            iou = inter / union if union > 0 else 0.0
+            if iou > threshold:
+                found.append({"objects": [placements.objects[i].segment_id, placements.objects[j].segment_id],
+                              "iou": round(iou, 4)})
+    return found
+
+
+def _outlines(rgb8: np.ndarray, camera: Camera, room: RoomBox, placements: Placements) -> np.ndarray:
+    out = rgb8.copy()
+    c2w = np.asarray(room.camera_to_world)
+    for k, p in enumerate(placements.objects):
+        mask = silhouette(camera, c2w, p.world_vertices(), p.mesh.faces).astype(np.uint8)
+        contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+        colour = tuple(int(c) for c in cv2.applyColorMap(np.uint8([[37 * k % 255]]), cv2.COLORMAP_HSV)[0, 0][::-1])
+        cv2.drawContours(out, contours, -1, colour, 2)
+        if contours:
+            x, y = contours[0][0][0]
+            cv2.putText(out, f"{p.segment_id}:{p.model_id.split('/')[-1]} ({p.support})", (int(x), max(12, int(y) - 4)),
+                        cv2.FONT_HERSHEY_SIMPLEX, 0.4, colour, 1, cv2.LINE_AA)
+    return out
+
+
+def _objects_log(history: list[dict[str, float]], image: Image, camera: Camera, room: RoomBox, before: Placements,
+                 after: Placements, panoptic: Panoptic, overlaps: list[dict[str, Any]]) -> OptimizationLog:
+    base = segment_overlay(image.to_uint8(), panoptic, alpha=0.25)
+    seconds = [h["seconds"] for h in history]
+    curves = {k: [h[k] for h in history] for k in history[0] if k != "seconds"}
+    return OptimizationLog(
+        history=history,
+        images={"before": _outlines(base, camera, room, before), "after": _outlines(base, camera, room, after),
+                "loss": plot_curves(curves, title="fit_objects")},
+        summary={"objects": len(after.objects), "iterations": len(history),
+                 "steady_iteration_seconds": float(np.median(seconds[1:])) if len(seconds) > 1 else seconds[0],
+                 "initial": {k: v for k, v in history[0].items() if k != "seconds"},
+                 "final": {k: v for k, v in history[-1].items() if k != "seconds"},
+                 "overlaps": overlaps,
+                 "supports": {p.segment_id: p.support for p in after.objects}},
+    )

@@ -1,0 +1,200 @@
+"""``psdr-room-summary RUN_DIR...``: one table over many runs (a sweep's job folders, or any run folders).
+
+Each run folder (one holding ``run.json`` or ``psdr-room.log``; a folder holding neither is searched for them,
+so a ``--multirun`` sweep folder names all its jobs) becomes a row: photo, status (``ok``, or ``failed`` with
+the log's last error), the implementations chosen, FoV, fitted objects, RMSE / SSIM / ꟻLIP at init → after the
+fit, total and per-stage compute seconds. Written as ``summary.csv`` and a self-contained ``summary.html`` with
+each photo | render thumbnail. Every ``psdr-room --multirun`` sweep writes them into its sweep folder too
+(:class:`SweepSummary`, a Hydra callback).
+"""
+
+from __future__ import annotations
+
+import argparse
+import base64
+import csv
+import html
+import io
+import json
+import sys
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+import yaml
+from hydra.experimental.callback import Callback
+from omegaconf import DictConfig
+
+from psdr_room_core.engine.errors import PsdrRoomError
+
+MARKERS = ("run.json", "psdr-room.log")
+"""Files that make a folder a run folder (``run.json``: published; the log alone: the run failed)."""
+THUMB_HEIGHT = 96
+
+
+def find_runs(paths: Iterable[Path]) -> list[Path]:
+    """The run folders given or found under the given folders (sorted within each), each once."""
+    runs: list[Path] = []
+    for path in paths:
+        if not path.is_dir():
+            raise PsdrRoomError(f"{path}: not a folder; give run folders or a sweep folder (hydra.sweep.dir)")
+        found = [path] if any((path / m).is_file() for m in MARKERS) else sorted(
+            {f.parent for m in MARKERS for f in path.rglob(m) if ".publishing-" not in str(f)})
+        if not found:
+            raise PsdrRoomError(f"{path}: no run folder in it (none holds run.json or psdr-room.log)")
+        runs += [r for r in found if r not in runs]
+    return runs
+
+
+def _last_error(log: Path) -> str:
+    lines = log.read_text(errors="replace").splitlines() if log.is_file() else []
+    errors = [line.split("]", 3)[-1].strip() for line in lines if "[ERROR]" in line]
+    return errors[-1] if errors else "no metrics.json (the run stopped before publishing)"
+
+
+def summarise(run: Path) -> dict[str, Any]:
+    """One run folder's row (plain values; ``stages``: stage → compute seconds)."""
+    metrics_file = run / "metrics.json"
+    row: dict[str, Any] = {"run": str(run)}
+    if (run / "run.json").is_file():
+        row["photo"] = json.loads((run / "run.json").read_text()).get("photo", "")
+    elif (run / ".hydra" / "config.yaml").is_file():  # a failed run publishes no run.json; Hydra kept its config
+        row["photo"] = str((yaml.safe_load((run / ".hydra" / "config.yaml").read_text()) or {}).get("image", ""))
+    if not metrics_file.is_file():
+        return {**row, "status": "failed", "error": _last_error(run / "psdr-room.log"), "stages": {}}
+    try:
+        metrics = json.loads(metrics_file.read_text())
+    except ValueError as error:
+        return {**row, "status": "failed", "error": f"{metrics_file}: unreadable ({error})", "stages": {}}
+    fit = metrics.get("fit_appearance_log", {})
+    row.update(
+        status="ok",
+        implementations=" ".join(f"{k}={v['name']}" for k, v in sorted(metrics.get("implementations", {}).items())),
+        vfov_deg=metrics.get("vfov_deg"),
+        objects=metrics.get("fit_objects_log", {}).get("objects"),
+        total_seconds=metrics.get("total_seconds"),
+        stages={name: s.get("compute_seconds") for name, s in metrics.get("stages", {}).items()},
+        **{key: fit.get(key) for key in ("rmse_init", "rmse", "ssim_init", "ssim", "flip_init", "flip")},
+    )
+    return row
+
+
+COLUMNS = ("run", "photo", "status", "error", "implementations", "vfov_deg", "objects", "rmse_init", "rmse",
+           "ssim_init", "ssim", "flip_init", "flip", "total_seconds")
+
+
+def _stage_names(rows: list[dict[str, Any]]) -> list[str]:
+    """Every stage any row has, in the order the runs met them."""
+    return list(dict.fromkeys(name for row in rows for name in row["stages"]))
+
+
+def csv_text(rows: list[dict[str, Any]]) -> str:
+    """The rows as CSV: :data:`COLUMNS`, then one ``<stage>_s`` column per stage any run has."""
+    stages = _stage_names(rows)
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow([*COLUMNS, *(f"{s}_s" for s in stages)])
+    for row in rows:
+        writer.writerow([_plain(row.get(c)) for c in COLUMNS] + [_plain(row["stages"].get(s)) for s in stages])
+    return out.getvalue()
+
+
+def _plain(value: Any) -> str:
+    return "" if value is None else f"{value:.4g}" if isinstance(value, float) else str(value)
+
+
+def _thumbnail(run: Path) -> str:
+    """photo | render (the render when the run got that far) as a PNG data URI; empty when there is no photo."""
+    files = [run / "artifacts" / name for name in ("image/image.png", "appearance/render.png")]
+    images = [cv2.imread(str(f)) for f in files if f.is_file()]
+    images = [cv2.resize(i, (round(i.shape[1] * THUMB_HEIGHT / i.shape[0]), THUMB_HEIGHT), interpolation=cv2.INTER_AREA)
+              for i in images if i is not None]
+    if not images:
+        return ""
+    ok, png = cv2.imencode(".png", np.hstack(images))
+    return "data:image/png;base64," + base64.b64encode(png.tobytes()).decode() if ok else ""
+
+
+def html_text(rows: list[dict[str, Any]]) -> str:
+    """The rows as one self-contained HTML page, each with its photo | render thumbnail."""
+    stages = _stage_names(rows)
+
+    def pair(row: dict[str, Any], key: str) -> str:
+        a, b = row.get(f"{key}_init"), row.get(key)
+        return "" if a is None or b is None else f"{a:.3f} → {b:.3f}"
+
+    head = ["photo | render", "run", "status", "implementations", "FoV °", "objects", "RMSE", "SSIM", "ꟻLIP",
+            "total s", *stages]
+    body = []
+    for row in rows:
+        uri = _thumbnail(Path(row["run"]))
+        status = row["status"] if row["status"] == "ok" else f"{row['status']}: {row.get('error', '')}"
+        cells = [f'<img src="{uri}">' if uri else "", html.escape(row["run"]), f"<div>{html.escape(status)}</div>",
+                 "<br>".join(html.escape(i) for i in row.get("implementations", "").split()),
+                 _plain(row.get("vfov_deg")), _plain(row.get("objects")),
+                 pair(row, "rmse"), pair(row, "ssim"), pair(row, "flip"), _plain(row.get("total_seconds")),
+                 *(_plain(row["stages"].get(s)) for s in stages)]
+        body.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+    ok = sum(row["status"] == "ok" for row in rows)
+    return (
+        "<!doctype html><meta charset='utf-8'><title>psdr-room summary</title>"
+        "<style>body{font:13px sans-serif}td,th{border:1px solid #ccc;padding:2px 6px;vertical-align:top;"
+        "white-space:nowrap}td div{white-space:normal;max-width:24em}"
+        "table{border-collapse:collapse}</style>"
+        f"<h1>psdr-room summary</h1><p>{len(rows)} runs, {ok} ok, {len(rows) - ok} failed</p><table>"
+        "<tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in head) + "</tr>" + "".join(body) + "</table>\n")
+
+
+def write_summary(rows: list[dict[str, Any]], out: Path) -> str:
+    """Write ``summary.csv`` and ``summary.html`` into ``out`` (both made before either is written); return
+    the line that reports them, with one more line per failed run."""
+    if not out.is_dir():
+        raise PsdrRoomError(f"--out {out}: not a folder; create it or pick another")
+    texts = {"summary.csv": csv_text(rows), "summary.html": html_text(rows)}
+    for name, text in texts.items():
+        (out / name).write_text(text, encoding="utf-8")
+    failed = [row for row in rows if row["status"] != "ok"]
+    return "\n".join([f"{len(rows)} runs ({len(rows) - len(failed)} ok, {len(failed)} failed) → "
+                      f"{out / 'summary.csv'}, {out / 'summary.html'}",
+                      *(f"  failed: {row.get('photo') or row['run']}: {row.get('error', '')}" for row in failed)])
+
+
+class SweepSummary(Callback):
+    """Hydra callback: at the end of a ``--multirun`` sweep, the summary of its jobs in the sweep folder.
+
+    Jobs catch their own errors (a failed photo does not stop the others, see ``psdr_room_core.engine.cli``), so
+    this is where a sweep with a failed job ends with exit status 1.
+    """
+
+    def on_multirun_end(self, config: DictConfig, **kwargs: Any) -> None:
+        sweep_dir = Path(str(config.hydra.sweep.dir))
+        try:
+            rows = [summarise(run) for run in find_runs([sweep_dir])]
+            report = write_summary(rows, sweep_dir)
+        except PsdrRoomError as error:
+            print(f"psdr-room: sweep summary: {error}", file=sys.stderr)
+            sys.exit(1)
+        print(f"psdr-room: sweep: {report}", file=sys.stderr)
+        if any(row["status"] != "ok" for row in rows):
+            sys.exit(1)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``psdr-room-summary``."""
+    parser = argparse.ArgumentParser(prog="psdr-room-summary", description=__doc__.split("\n\n")[0])
+    parser.add_argument("runs", nargs="+", type=Path, metavar="RUN_DIR", help="run folders, or folders holding them")
+    parser.add_argument("--out", type=Path, default=Path("."), help="where summary.csv and summary.html go "
+                        "(default: the current folder)")
+    args = parser.parse_args(argv)
+    try:
+        print(write_summary([summarise(run) for run in find_runs(args.runs)], args.out))
+    except PsdrRoomError as error:
+        print(f"psdr-room-summary: {error}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
