@@ -24,6 +24,7 @@ from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.plugins import Registry
 from psdr_room_core.method.artifacts import Image
 from psdr_room_core.method.photo import read_photo, resize_to_working
+from psdr_room_core.method.plugin import register_capabilities
 from psdr_room_plugins.detectors import BoxesFile, NanodetOnnx, NoDetector, register_implementations
 from psdr_room_plugins.detectors.coco import COCO_80, INDOOR
 from psdr_room_plugins.detectors.nanodet import BUNDLED, box_iou, to_input
@@ -259,6 +260,7 @@ def test_boxes_file_errors_name_the_file_the_entry_and_the_fix(tmp_path: Path, t
 def test_registered_through_the_entry_point_with_config_files_that_construct() -> None:
     assert any(ep.value == "psdr_room_plugins.detectors" for ep in importlib.metadata.entry_points(group="psdr_room"))
     registry = Registry()
+    register_capabilities(registry)  # the method declares the capability, then the plugin implements it
     register_implementations(registry)
     names = {name for capability, name in registry.implementations if capability == "detector"}
     assert names == {"nanodet_onnx", "boxes_file", "none"}
