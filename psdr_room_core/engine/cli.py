@@ -202,9 +202,9 @@ def _fail_run(message: str, code: int, sweeping: bool) -> None:
     for handler in logging.getLogger().handlers:
         if isinstance(handler, logging.FileHandler):
             handler.handle(record)
-    if not sweeping:
-        _fail(message, code)
     print(f"psdr-room: error: {message}", file=sys.stderr)
+    if not sweeping:
+        sys.exit(code)
 
 
 def plugins_main() -> None:

@@ -16,7 +16,7 @@ import inspect
 import logging
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from importlib.metadata import EntryPoint, entry_points, packages_distributions
+from importlib.metadata import EntryPoint, entry_points
 from typing import Any
 
 import pluggy
@@ -230,7 +230,7 @@ def load_plugins(extra: Iterable[tuple[object, Origin]] = (), discover: bool = T
     manager = pluggy.PluginManager(hookspecs.PROJECT)
     manager.add_hookspecs(hookspecs)
     registry = Registry()
-    found = sorted(entry_points(group=ENTRY_POINT_GROUP), key=_builtin_first) if discover else []
+    found = _builtin_first(entry_points(group=ENTRY_POINT_GROUP)) if discover else []
     candidates: list[tuple[Callable[[], object], Origin]] = [(ep.load, _origin(ep)) for ep in found]
     candidates += [(functools.partial(lambda p: p, plugin), origin) for plugin, origin in extra]
     loaded: list[tuple[object, Origin]] = []
@@ -293,14 +293,13 @@ def _register(
     return True
 
 
-def _builtin_first(ep: EntryPoint) -> tuple[int, str]:
-    """The engine's own distribution registers first, so a third-party stage of the same name replaces a built-in one."""
-    return (0 if ep.dist is not None and ep.dist.name in _own_distributions() else 1, ep.name)
-
-
-@functools.lru_cache(maxsize=1)
-def _own_distributions() -> tuple[str, ...]:
-    return tuple(packages_distributions().get(__name__.split(".")[0], ()))
+def _builtin_first(found: Iterable[EntryPoint]) -> list[EntryPoint]:
+    """Entry points by name, those of the engine's own distribution (the one whose entry points load from the
+    engine's top-level package) first, so a third-party stage of the same name replaces a built-in one."""
+    found = list(found)
+    package = __name__.split(".")[0]
+    own = {ep.dist.name for ep in found if ep.dist is not None and ep.value.split(".")[0] == package}
+    return sorted(found, key=lambda ep: (0 if ep.dist is not None and ep.dist.name in own else 1, ep.name))
 
 
 @functools.lru_cache(maxsize=1)
