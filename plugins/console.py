@@ -33,4 +33,6 @@ def on_stage_error(stage: str, key: str, error: BaseException) -> None:
 def after_run(run: RunRecord, run_dir: Path) -> None:
     cached = sum(r.cached for r in run.stages)
     total = sum(r.seconds for r in run.stages)
-    log.info("done: %d stages (%d cached) in %.2f s → %s", len(run.stages), cached, total, run_dir)
+    peak = max((r.peak_rss_mb for r in run.stages), default=0.0)
+    log.info("done: %d stages (%d cached) in %.2f s, peak memory %.0f MiB → %s", len(run.stages), cached, total, peak,
+             run_dir)

@@ -27,9 +27,11 @@ class Adam:
         loss: Callable[[int], tuple[Any, dict[str, float]]],
         iterations: int,
         progress: Callable[[Iterable[int]], Iterable[int]] = iter,
+        stop: Callable[[list[dict[str, float]]], bool] | None = None,
     ) -> list[dict[str, float]]:
-        """Minimise ``loss(iteration) -> (scalar tensor, logged terms)`` in place; return the per-iteration log
-        (the terms, plus ``seconds`` of wall time for the iteration: forward, backward and step)."""
+        """Minimise ``loss(iteration) -> (scalar tensor, logged terms)`` in place, at most ``iterations`` steps,
+        fewer where ``stop(log so far)`` is true; return the per-iteration log (the terms, plus ``seconds`` of
+        wall time for the iteration: forward, backward and step)."""
         import torch
 
         groups = [{"params": [tensor], "lr": float(learning_rates[name]), "name": name} for name, tensor in params.items()]
@@ -44,6 +46,8 @@ class Adam:
             optimizer.step()
             schedule.step()
             history.append({**terms, "loss": float(value.detach()), "seconds": time.perf_counter() - start})
+            if stop is not None and stop(history):
+                break
         return history
 
 

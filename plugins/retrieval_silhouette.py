@@ -1,9 +1,10 @@
 """``retrieval=silhouette``: offline object retrieval by silhouette and depth agreement under the estimated camera.
 
 For each database model of the segment's categories (every model when the label maps to none), the model is
-posed by the occlusion-aware view search (:func:`~psdr_room_core.method.view_search.fit_view`: a sweep about the
-vertical axis at the object's apparent size and depth, the best rotations refined) and scored by how well its
-visible silhouette and depth match the object's mask and points there.
+posed by the occlusion-aware view search (:class:`~psdr_room_core.method.view_search.ViewSearch`: a sweep about
+the vertical axis at the object's apparent size and depth, the best rotations refined) and scored by how well
+its visible silhouette and depth match the object's mask and points there. The sweep is cheap and already
+ranks well, so only the ``shortlist`` models it ranks best get the refinement.
 """
 
 from __future__ import annotations
@@ -21,7 +22,8 @@ from psdr_room_core.engine.plugins import Registry
 from psdr_room_core.engine.settings import setting
 from psdr_room_core.method.artifacts import Camera, Candidate, ObjectMesh
 from psdr_room_core.method.objects import ObjectQuery
-from psdr_room_core.method.view_search import SearchParams, ViewTarget, fit_view
+from psdr_room_core.method.silhouette import MeshCaster
+from psdr_room_core.method.view_search import SearchParams, ViewSearch, ViewTarget
 
 
 def open_database(database: str, fraction: float, seed: int) -> Any:
@@ -51,19 +53,25 @@ def object_mesh(db: Any, model_id: str) -> ObjectMesh:
 class SilhouetteRetrieval:
     """Rank models by how well each, posed by the view search, explains the object's mask and depth, at about
     its real size: score ``1 / (1 + error + size_weight · |ln scale|)`` (:class:`~psdr_room_core.method.view_search.
-    ViewFit`; database models are in metres, so a model that must shrink to a quarter to fit is the wrong one)."""
+    ViewFit`; database models are in metres, so a model that must shrink to a quarter to fit is the wrong one).
+    Every model is scored so at its best moment-matched start; the ``shortlist`` best, or the best
+    ``shortlist_share`` of them where that is more (at least ``k``; ``shortlist`` 0: all), are refined and ranked
+    by their refined score."""
 
     def __init__(self, database: str = "builtin", fraction: float = 1.0, seed: int = 0, n_yaw: int = 12,
                  refine: int = 2, coarse: int = 1, explore: int = 3, polish: int = 2, halvings: int = 2,
                  render_width: int = 160, max_pixels: int = 3000, size_weight: float = 0.3,
-                 box_weight: float = 0.5) -> None:
+                 box_weight: float = 0.5, shortlist: int = 12,
+                 shortlist_share: float = 0.2) -> None:
         self.spec = (str(database), float(fraction), int(seed))
         self.search = SearchParams(n_yaw=int(n_yaw), refine=int(refine), coarse=int(coarse), explore=int(explore),
                                    polish=int(polish), halvings=int(halvings), turns=(), box_weight=float(box_weight))
         self.render_width = int(render_width)
         self.max_pixels = int(max_pixels)
         self.size_weight = float(size_weight)
+        self.shortlist, self.shortlist_share = int(shortlist), float(shortlist_share)
         self._db: Any = None
+        self._casters: dict[str, MeshCaster] = {}
 
     @property
     def database(self) -> Any:
@@ -85,13 +93,31 @@ class SilhouetteRetrieval:
         models = [r for name in query.categories for r in self.database.category(name)] or list(self.database.records)
         target = ViewTarget.build(camera, camera_to_world, query.mask, query.points, query.scene_points,
                                   self.render_width, self.max_pixels, query.box)
-        scored = []
+        starts = []
         for record in models:
             mesh = self.database.mesh(record.id)
-            view = fit_view(target, mesh.vertices, mesh.faces, self.search)
-            scored.append(Candidate(record.id, 1.0 / (1.0 + view.error + self.size_weight * abs(math.log(view.scale)))))
+            search = ViewSearch(target, mesh.vertices, mesh.faces, self.search, caster=self._caster(record.id, mesh))
+            starts.append((self.score(search.start[0], search.start[3]), record.id, search))
+        starts.sort(key=lambda s: (-s[0], s[1]))
+        keep = len(starts)
+        if self.shortlist > 0:
+            keep = max(self.shortlist, k, math.ceil(self.shortlist_share * len(starts)))
+        scored = []
+        for _, model_id, search in starts[:keep]:
+            view = search.finish()
+            scored.append(Candidate(model_id, self.score(view.error, view.scale)))
         scored.sort(key=lambda c: (-c.score, c.model_id))
         return scored[:k]
+
+    def _caster(self, model_id: str, mesh: ObjectMesh) -> MeshCaster:
+        """The model's ray caster, built once per retrieval (its hierarchy serves every object and pose)."""
+        if model_id not in self._casters:
+            self._casters[model_id] = MeshCaster(mesh.vertices, mesh.faces)
+        return self._casters[model_id]
+
+    def score(self, error: float, scale: float) -> float:
+        """A posed model's score: higher is better, 1 for a perfect fit at the model's own size."""
+        return 1.0 / (1.0 + error + self.size_weight * abs(math.log(scale)))
 
 
 @dataclass
@@ -109,8 +135,10 @@ class SilhouetteSettings:
     max_pixels: int = setting(ge=0)
     size_weight: float = setting(ge=0)
     box_weight: float = setting(ge=0)
+    shortlist: int = setting(ge=0)
+    shortlist_share: float = setting(ge=0, le=1)
 
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("retrieval", "silhouette", SilhouetteRetrieval, version="2", params=SilhouetteSettings)
+    registry.add_implementation("retrieval", "silhouette", SilhouetteRetrieval, version="3", params=SilhouetteSettings)

@@ -56,4 +56,5 @@ def test_a_toy_pipeline_on_the_engine_alone(tmp_path: Path) -> None:
     assert packages == "['engine', 'psdr_room_core']"
     metrics = json.loads((tmp_path / "run1" / "metrics.json").read_text())
     assert set(metrics["stages"]) == {"a", "b"} and metrics["implementations"]["scaler"]["name"] == "toy"
+    assert all(stage["peak_rss_mb"] > 0 for stage in metrics["stages"].values())
     assert json.loads((tmp_path / "run2" / "artifacts" / "b" / "number.json").read_text()) == {"value": 6.0}

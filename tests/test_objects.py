@@ -96,6 +96,57 @@ def test_a_posed_cast_is_the_cast_of_the_transformed_mesh() -> None:
     assert np.allclose(caster.depth(CAMERA, C2W, to_world, window=(40, 30, 120, 100)), whole[30:100, 40:120], atol=1e-4)
 
 
+def test_the_batched_cast_equals_one_cast_per_pose() -> None:
+    """MeshCaster.depth_many casts K poses in one call; each map is exactly the single cast of its pose, over
+    the whole image and over a window (the retrieval's union windows)."""
+    mesh = l_shape()
+    caster = MeshCaster(mesh.vertices, mesh.faces)
+    poses = [pose_matrix(np.array([x, 0.0, z]), math.radians(yaw), s)
+             for x, z, yaw, s in ((0.3, 1.5, 35.0, 1.4), (-0.5, 2.5, 200.0, 0.8), (0.0, 1.0, 90.0, 1.0), (2.0, 1.0, 0.0, 1.0))]
+    for window in (None, (40, 30, 120, 100)):
+        batch = caster.depth_many(CAMERA, C2W, poses, window)
+        assert batch.shape[0] == len(poses) and (batch > 0).any(axis=(1, 2)).sum() >= 3
+        for k, pose in enumerate(poses):
+            assert np.array_equal(batch[k], caster.depth(CAMERA, C2W, pose, window))
+
+
+def test_batched_scores_equal_single_ones_and_the_sweep_is_the_best_start() -> None:
+    """A pose's score does not depend on the poses scored with it (the union window holds each one's own), and
+    ViewSearch's start is its best moment-matched rotation, finished into fit_view's pose."""
+    from psdr_room_core.method.view_search import SearchParams, ViewSearch, _Scorer
+
+    mesh = l_shape()
+    truth = pose_matrix(np.array([0.4, 0.0, 1.8]), math.radians(50.0), 1.3)
+    mask, points = _seen_points(mesh, truth)
+    target = ViewTarget.build(CAMERA, C2W, mask, points, points, 160)
+    scorer = _Scorer(target, mesh.vertices, mesh.faces, SearchParams())
+    poses = [truth, pose_matrix(np.array([-0.4, 0.0, 2.5]), 1.0, 0.9), pose_matrix(np.array([0.4, 0.0, 1.8]), 2.0, 1.3)]
+    assert scorer.score_many(poses) == [scorer.score(p) for p in poses]
+    assert scorer.score(truth)[1] > 0.95 and scorer.score(truth)[0] < min(scorer.score(p)[0] for p in poses[1:])
+    search = ViewSearch(target, mesh.vertices, mesh.faces, SearchParams(n_yaw=12), support_height=0.0)
+    assert len(search.hypotheses) == 12 and search.start == min(search.hypotheses, key=lambda h: h[0])
+    view = search.finish()
+    assert view.error <= search.start[0] and view.iou > 0.95
+
+
+def test_the_shortlist_refines_only_the_best_starts() -> None:
+    """retrieval=silhouette refines the `shortlist` models whose sweep scores best (or the `shortlist_share` of
+    them): the true model is still ranked first, and a shortlist of every model gives the same ranking as none."""
+    from psdr_room_plugins.retrieval_silhouette import SilhouetteRetrieval
+
+    model_id = "parametric/chair_004"
+    full = SilhouetteRetrieval(shortlist=0)
+    mesh = full.mesh(model_id)
+    truth = pose_matrix(np.array([0.2, 0.0, 2.0 + mesh.extent[2]]), math.radians(40.0), 1.0)
+    mask, points = _seen_points(mesh, truth)
+    query = ObjectQuery(1, "chair", ("chair",), mask, points, np.zeros((4, 4, 3), np.uint8), points)
+    everything = full.rank(query, CAMERA, C2W, 5)
+    assert SilhouetteRetrieval(shortlist=1, shortlist_share=1.0).rank(query, CAMERA, C2W, 5) == everything
+    short = SilhouetteRetrieval(shortlist=6, shortlist_share=0.0).rank(query, CAMERA, C2W, 5)
+    assert short[0].model_id == model_id and len(short) == 5
+    assert {c.model_id for c in short} <= {c.model_id for c in full.rank(query, CAMERA, C2W, 26)}
+
+
 def _seen(meshes: list[tuple[ObjectMesh | TriangleMesh, np.ndarray]],
           camera: Camera = CAMERA) -> tuple[np.ndarray, np.ndarray]:
     """(index of the nearest mesh per pixel, -1 for none; its world points, as depth would give) of posed meshes."""
@@ -288,7 +339,8 @@ def test_fit_objects_recovers_perturbed_poses(tmp_path: Path) -> None:
                                 replace(truth[1], position=(1.2, 0.0, 2.0), yaw=math.radians(-22), scale=0.7)])
     params = {"iterations": 60, "render_width": 96, "blur_sigmas": [2.0, 4.0], "blur_weight": 1.0, "overlap_iou": 0.05,
               "learning_rates": {"translation": 0.01, "log_scale": 0.01, "yaw": 1.0},
-              "yaw_test": {"at": 0.5, "angles": [180.0, 90.0, -90.0], "min_gain": 0.1}}
+              "yaw_test": {"at": 0.5, "angles": [180.0, 90.0, -90.0], "min_gain": 0.1},
+              "convergence": {"window": 0, "tolerance": 0.01, "min_iterations": 0}}  # all 60 iterations
     ctx = StageContext(stage="fit_objects", params=params, seed=0, photo=tmp_path / "photo.png",
                        implementations={"renderer": MitsubaRenderer(spp=4, spp_boundary=16), "optimizer": Adam()})
     image = Image(rgb=np.full((72, 96, 3), 0.5, np.float32))
@@ -303,6 +355,9 @@ def test_fit_objects_recovers_perturbed_poses(tmp_path: Path) -> None:
     assert log.history[-1]["mean_iou"] > log.history[0]["mean_iou"]
     assert set(log.images) == {"before", "after", "loss"} and log.summary["overlaps"] == []
     assert log.summary["turned"] == {} and len(log.history) == 60  # nothing was the wrong way round
+    losses = [h["loss"] for h in log.history]  # the poses left are the best iterate's
+    assert log.summary["best_iteration"] == losses.index(min(losses))
+    assert log.summary["final"]["loss"] == min(losses) == fitted.extra["final"]["loss"]
 
 
 def test_yaw_test_turns_an_object_placed_back_to_front() -> None:

@@ -253,6 +253,20 @@ def test_every_damaged_entry_is_caught_and_recomputed(first_run: tuple[Path, dic
     assert_same_results(tmp_path / "run", root / "run1")
 
 
+def test_the_preview_preset_reuses_the_room_and_stops_at_place_objects(first_run: tuple[Path, dict[str, str]],
+                                                                       tmp_path: Path) -> None:
+    """+preset=preview: a first scene (room, retrieved and posed objects, the report) with a quicker model search;
+    the room stages keep the defaults' settings, so the full run's cache entries serve them."""
+    _, env = first_run
+    psdr_room(f"image={EXAMPLE}", "+preset=preview", f"hydra.run.dir={tmp_path / 'run'}", env=env)
+    m = metrics(tmp_path / "run")
+    assert list(m["stages"]) == STAGES[:STAGES.index("place_objects") + 1]
+    assert computed(tmp_path / "run") == {"retrieve_objects", "place_objects"}
+    assert all(s["peak_rss_mb"] > 100 for s in m["stages"].values())  # torch and Mitsuba alone are more
+    placed = json.loads((tmp_path / "run" / "artifacts" / "placements" / "placements.json").read_text())["objects"]
+    assert placed and (tmp_path / "run" / "report.html").is_file()
+
+
 @pytest.mark.slow
 def test_demo_with_default_settings(tmp_path: Path) -> None:
     """The README's demo as it runs (full room_fit): the fit improves the masks' agreement."""

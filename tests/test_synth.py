@@ -74,3 +74,13 @@ def test_room_init_recovers_the_synthetic_room(scene_dir: Path, tmp_path: Path, 
     assert box.extra["camera_height"] == pytest.approx(np.asarray(truth["camera_to_world"])[1][3], abs=0.03)
     assert iou > 0.6
     assert isinstance(record.artifacts["panoptic"], Panoptic)
+
+
+def test_a_room_holds_the_number_of_objects_asked_for_where_they_fit() -> None:
+    """psdr-room-synth --objects N (the speed benchmark's scaling rooms): N pieces where they fit; the default
+    rooms are unchanged by the option's existence."""
+    from psdr_room_plugins.synth.scene import generate
+
+    two, many = generate(0, objects=2), generate(0, objects=16)
+    assert len(two.furniture) == 2 and 8 <= len(many.furniture) <= 16
+    assert 3 <= len(generate(0).furniture) <= 5 and generate(0).to_json() == generate(0, objects=None).to_json()

@@ -76,8 +76,10 @@ def main() -> None:
     parser.add_argument("--spp", type=int, default=64)
     parser.add_argument("--depth-noise", type=float, default=0.0,
                         help="relative error of an estimator-like depth sidecar (0: exact depth)")
+    parser.add_argument("--objects", type=int, help="pieces of furniture (as many as fit; default: 3-5 at random)")
     args = parser.parse_args()
     for seed in parse_seeds(args.seeds):
-        room = generate(seed, args.case, args.width, args.height)
-        photo = write_scene(room, args.out / f"scene_{args.case}_{seed:04d}", args.spp, args.depth_noise)
+        room = generate(seed, args.case, args.width, args.height, args.objects)
+        name = f"scene_{args.case}_{seed:04d}" + (f"_{args.objects}objects" if args.objects is not None else "")
+        photo = write_scene(room, args.out / name, args.spp, args.depth_noise)
         print(f"{photo}  vfov {room.vfov_deg:.1f}°  {len(room.furniture)} objects")

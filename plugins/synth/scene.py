@@ -94,16 +94,18 @@ MIN_FRACTION = 0.02
 """A surface counts as seen when it covers at least this fraction of the photo."""
 
 
-def generate(seed: int, case: str = "random", width: int = 320, height: int = 240) -> SyntheticRoom:
+def generate(seed: int, case: str = "random", width: int = 320, height: int = 240,
+             objects: int | None = None) -> SyntheticRoom:
     """A random room for ``seed`` whose photo shows the floor, the walls and ceiling ``case`` asks for
     (``random`` or one of :data:`HARD_CASES`): an unseen side cannot be reconstructed, so default scenes
-    are well observed and the hard cases are explicit."""
+    are well observed and the hard cases are explicit. It holds 3-5 pieces of furniture, or as many of
+    ``objects`` as fit."""
     if case not in VISIBLE:
         raise ValueError(f"unknown case '{case}'; choose random or one of {', '.join(HARD_CASES)}")
     rng = np.random.default_rng(seed)
     walls, ceiling = VISIBLE[case]
     for _ in range(200):
-        room = _sample(rng, seed, case, width, height)
+        room = _sample(rng, seed, case, width, height, objects)
         _, ids, segments = raycast(dataclasses.replace(room, width=64, height=48))
         seen = {s.label: s.category for s in segments if (ids == s.id).mean() >= MIN_FRACTION}
         categories = list(seen.values())
@@ -112,7 +114,8 @@ def generate(seed: int, case: str = "random", width: int = 320, height: int = 24
     raise RuntimeError(f"no {case} room satisfying the visibility rules for seed {seed}")
 
 
-def _sample(rng: np.random.Generator, seed: int, case: str, width: int, height: int) -> SyntheticRoom:
+def _sample(rng: np.random.Generator, seed: int, case: str, width: int, height: int,
+            objects: int | None = None) -> SyntheticRoom:
     """One candidate room, camera, furniture and lights."""
     size = np.array([rng.uniform(3.5, 6.5), rng.uniform(2.5, 3.1), rng.uniform(3.5, 6.5)])
     vfov = rng.uniform(45.0, 75.0)
@@ -136,7 +139,8 @@ def _sample(rng: np.random.Generator, seed: int, case: str, width: int, height: 
     center = -(rotation_y(room_yaw) @ local_camera)
     center[1] = half[1]
     room = Box(center=tuple(map(float, center)), half=tuple(map(float, half)), yaw=room_yaw)
-    furniture = _place_furniture(room, rng, int(rng.integers(3, 6)))
+    count = int(rng.integers(3, 6))  # drawn either way, so the default rooms stay as they were
+    furniture = _place_furniture(room, rng, count if objects is None else objects)
     light_local = [np.array([0.0, half[1] - 0.01, 0.15 * half[2]])]
     if rng.random() < 0.5:
         light_local.append(np.array([0.0, half[1] - 0.01, 0.6 * half[2]]))

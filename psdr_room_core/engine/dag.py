@@ -28,6 +28,7 @@ from .artifacts import Artifact, artifact_kind_of
 from .cache import Entry, Store, digest_dir, digest_file, stage_key
 from .capabilities import Availability
 from .errors import PsdrRoomError
+from .memory import PeakMemory
 from .plugins import PluginSystem, StageDef
 
 AUTO = "auto"
@@ -200,6 +201,8 @@ class StageRecord:
     """Artifact name → content digest."""
     implementations: dict[str, str]
     """Capability → implementation name."""
+    peak_rss_mb: float = 0.0
+    """Highest resident memory of the process while this run did the stage's work (MiB; :mod:`.memory`)."""
 
 
 @dataclass
@@ -351,15 +354,16 @@ class Runner:
             if capability in selected_by:
                 record.implementations[capability]["selected_by"] = selected_by[capability]
         start = time.perf_counter()
-        entry = self._lookup(key, forced)
-        cached = entry is not None
-        if entry is None:
-            with self.write_store.lock(key):  # a concurrent run may be computing this entry: wait for it
-                entry = self._lookup(key, forced)
-                cached = entry is not None
-                if entry is None:
-                    entry = self._compute(node, stage, key, inputs, instances)
-        outputs = {name: entry.load(name, self.plugins.registry.artifacts) for name in node.outputs}
+        with PeakMemory() as peak:
+            entry = self._lookup(key, forced)
+            cached = entry is not None
+            if entry is None:
+                with self.write_store.lock(key):  # a concurrent run may be computing this entry: wait for it
+                    entry = self._lookup(key, forced)
+                    cached = entry is not None
+                    if entry is None:
+                        entry = self._compute(node, stage, key, inputs, instances)
+            outputs = {name: entry.load(name, self.plugins.registry.artifacts) for name in node.outputs}
         for name, artifact_name in node.outputs.items():
             record.artifacts[artifact_name] = outputs[name]
             record.digests[artifact_name] = entry.digests[name]
@@ -372,6 +376,7 @@ class Runner:
             compute_seconds=float(entry.manifest.get("seconds", 0.0)),
             outputs={node.outputs[n]: d for n, d in entry.digests.items()},
             implementations={c: d["name"] for c, d in described.items()},
+            peak_rss_mb=peak.megabytes,
         )
         record.stages.append(stage_record)
         self.plugins.hook.after_stage(record=stage_record, outputs=outputs)

@@ -70,13 +70,14 @@ def execute(cfg: DictConfig, run_dir: Path, plugins: PluginSystem | None = None)
 
 
 def metrics(record: RunRecord, plugins: PluginSystem) -> dict[str, Any]:
-    """The run's numbers: per-stage wall time and cache hits, implementations and digests, then what the
+    """The run's numbers: per-stage wall time, peak memory and cache hits, implementations and digests, then what the
     plugins add (``run_metrics``)."""
     out: dict[str, Any] = {
         "stages": {
             r.name: {
                 "seconds": round(r.seconds, 4),
                 "compute_seconds": round(r.compute_seconds, 4),
+                "peak_rss_mb": round(r.peak_rss_mb, 1),
                 "cached": r.cached,
                 "key": r.key,
             }

@@ -117,7 +117,12 @@ class Optimizer(Protocol):
         loss: Callable[[int], tuple[torch.Tensor, dict[str, float]]],
         iterations: int,
         progress: Callable[[Iterable[int]], Iterable[int]] = iter,
-    ) -> list[dict[str, float]]: ...
+        stop: Callable[[list[dict[str, float]]], bool] | None = None,
+    ) -> list[dict[str, float]]:
+        """Minimise ``loss(iteration) -> (scalar tensor, logged terms)`` in place for ``iterations`` steps, or
+        fewer where ``stop(log so far)`` says the fit is done; return the per-iteration log (the terms, the
+        ``loss``, and ``seconds`` of wall time)."""
+        ...
 
 
 @runtime_checkable

@@ -55,9 +55,9 @@ def register_stages(registry: Registry) -> None:
                        params=settings.RoomFit)
     registry.add_stage("retrieve_objects", objects.retrieve_objects, uses=["retrieval"], version="2",
                        params=settings.RetrieveObjects)
-    registry.add_stage("place_objects", objects.place_objects, uses=["retrieval"], version="2",
+    registry.add_stage("place_objects", objects.place_objects, uses=["retrieval"], version="3",
                        params=settings.PlaceObjects)
-    registry.add_stage("fit_objects", objects.fit_objects, uses=["renderer", "optimizer"], version="2",
+    registry.add_stage("fit_objects", objects.fit_objects, uses=["renderer", "optimizer"], version="3",
                        params=settings.FitObjects)
     registry.add_stage("assign_materials", materials.assign_materials, uses=["renderer", "material_graph", "texture"],
                        sidecars=[CROPS_SUFFIX], version="3", params=settings.AssignMaterials)

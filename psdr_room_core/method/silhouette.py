@@ -9,6 +9,7 @@ back-projection of depth maps).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -51,22 +52,26 @@ class MeshCaster:
         """(h, w) float32 z-depth of the nearest surface of the mesh posed by ``to_world`` (4×4 similarity:
         rotation times a uniform scale, plus translation; identity when None), 0 where no surface is hit,
         over ``window`` (default: the whole image)."""
+        return self.depth_many(camera, camera_to_world, [np.eye(4) if to_world is None else to_world], window)[0]
+
+    def depth_many(self, camera: Camera, camera_to_world: np.ndarray, poses: Sequence[np.ndarray],
+                   window: Window | None = None) -> np.ndarray:
+        """(K, h, w) float32 depths of the mesh under each of ``poses`` (as :meth:`depth`), cast in one call:
+        each pose's rays are the same numbers :meth:`depth` casts, so the maps are equal to K single casts."""
         window = window or (0, 0, camera.width, camera.height)
         x0, y0, x1, y1 = window
         if x1 <= x0 or y1 <= y0:
-            return np.zeros((max(0, y1 - y0), max(0, x1 - x0)), np.float32)
+            return np.zeros((len(poses), max(0, y1 - y0), max(0, x1 - x0)), np.float32)
         directions = self.rays(camera, window) @ camera_to_world[:3, :3].T
-        origin = camera_to_world[:3, 3]
-        if to_world is not None:  # into the mesh's frame: x_local = A^-1 (x_world - t); t along the ray is kept
+        n = len(directions)
+        rays = np.empty((len(poses) * n, 6), np.float32)
+        for k, to_world in enumerate(poses):  # into the mesh's frame: x_local = A^-1 (x_world - t); t is kept
             linear = to_world[:3, :3]
             inverse = linear.T / float(linear[:, 0] @ linear[:, 0])  # A = s R: A^-1 = A^T / s^2
-            directions = directions @ inverse.T
-            origin = inverse @ (origin - to_world[:3, 3])
-        rays = np.empty((len(directions), 6), np.float32)
-        rays[:, :3] = origin
-        rays[:, 3:] = directions
+            rays[k * n:(k + 1) * n, :3] = inverse @ (camera_to_world[:3, 3] - to_world[:3, 3])
+            rays[k * n:(k + 1) * n, 3:] = directions @ inverse.T
         hit = self._scene.cast_rays(self._o3d.core.Tensor(rays))["t_hit"].numpy()
-        return np.where(np.isfinite(hit), hit, 0.0).astype(np.float32).reshape(y1 - y0, x1 - x0)
+        return np.where(np.isfinite(hit), hit, 0.0).astype(np.float32).reshape(len(poses), y1 - y0, x1 - x0)
 
 
 def depth_map(camera: Camera, camera_to_world: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:

@@ -134,9 +134,10 @@ class SearchParams:
 class _Scorer:
     """Scores poses of one mesh against one :class:`ViewTarget`."""
 
-    def __init__(self, target: ViewTarget, vertices: np.ndarray, faces: np.ndarray, params: SearchParams) -> None:
+    def __init__(self, target: ViewTarget, vertices: np.ndarray, faces: np.ndarray, params: SearchParams,
+                 caster: MeshCaster | None = None) -> None:
         self.target, self.params = target, params
-        self.caster = MeshCaster(vertices, faces)
+        self.caster = caster or MeshCaster(vertices, faces)
         lo, hi = vertices.min(axis=0), vertices.max(axis=0)
         self.corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
         ys, xs = np.nonzero(target.mask)
@@ -160,8 +161,15 @@ class _Scorer:
 
     def render(self, to_world: np.ndarray) -> tuple[Window, np.ndarray, np.ndarray]:
         """(window, depth of the model, its visible pixels) over the window."""
-        window = self.window(to_world)
-        depth = self.caster.depth(self.target.camera, self.target.camera_to_world, to_world, window)
+        window, depth, visible = self.render_many([to_world])
+        return window, depth[0], visible[0]
+
+    def render_many(self, poses: list[np.ndarray]) -> tuple[Window, np.ndarray, np.ndarray]:
+        """(window, (K, h, w) depths, (K, h, w) visible pixels) of K poses over the union of their windows, in
+        one cast. Every score below is the same over any window holding the pose's own."""
+        windows = np.array([self.window(pose) for pose in poses])
+        window = (int(windows[:, 0].min()), int(windows[:, 1].min()), int(windows[:, 2].max()), int(windows[:, 3].max()))
+        depth = self.caster.depth_many(self.target.camera, self.target.camera_to_world, poses, window)
         x0, y0, x1, y1 = window
         seen = self.target.seen_depth[y0:y1, x0:x1]
         hidden = (seen > 0) & (seen < depth * (1.0 - self.params.hidden_margin)) & ~self.target.mask[y0:y1, x0:x1]
@@ -188,19 +196,26 @@ class _Scorer:
 
     def score(self, to_world: np.ndarray) -> tuple[float, float]:
         """(error, visible IoU) of a pose; see :attr:`ViewFit.error`."""
-        window, depth, visible = self.render(to_world)
+        return self.score_many([to_world])[0]
+
+    def score_many(self, poses: list[np.ndarray]) -> list[tuple[float, float]]:
+        """:meth:`score` of each pose, rendered in one cast."""
+        window, depth, visible = self.render_many(poses)
         x0, y0, x1, y1 = window
         mask = self.target.mask[y0:y1, x0:x1]
-        overlap = int((visible & mask).sum())
-        visible_area = int(self.counted(window, visible).sum())
-        wrong = visible_area - overlap + self.mask_area - overlap
         own = self.target.own_depth[y0:y1, x0:x1]
-        both = visible & mask & (own > 0)
-        depth_error = float(np.abs(depth[both] - own[both]).mean()) / self.median_depth if both.any() else 1.0
+        overlap = (visible & mask).sum(axis=(1, 2))
+        visible_area = (visible & ~self.target.free[y0:y1, x0:x1]).sum(axis=(1, 2))
+        wrong = visible_area - overlap + self.mask_area - overlap
+        both = visible & (mask & (own > 0))
+        count = both.sum(axis=(1, 2))
+        depth_sum = np.where(both, np.abs(depth - own).astype(np.float64), 0.0).sum(axis=(1, 2))
+        depth_error = np.where(count > 0, depth_sum / np.maximum(count, 1) / self.median_depth, 1.0)
         error = wrong / self.mask_area + self.params.depth_weight * depth_error
         if self.target.box is not None:
-            error += self.params.box_weight * (1.0 - self.box_iou(window, visible))
-        return error, overlap / max(self.mask_area + visible_area - overlap, 1)
+            error += self.params.box_weight * (1.0 - np.array([self.box_iou(window, v) for v in visible]))
+        iou = overlap / np.maximum(self.mask_area + visible_area - overlap, 1)
+        return [(float(e), float(i)) for e, i in zip(error, iou)]
 
     def box_iou(self, window: Window, visible: np.ndarray) -> float:
         """IoU of the visible model's bounding box with the target's prompt box."""
@@ -218,57 +233,96 @@ Hypothesis = tuple[float, float, np.ndarray, float]
 """(error, yaw, position, scale)."""
 
 
+class ViewSearch:
+    """One mesh (canonical: bottom at 0, centred on the vertical axis) posed against one target in two steps:
+    building it sweeps the ``n_yaw`` moment-matched starts (all rotations in one cast per step; :attr:`start`
+    is the best, a cheap score to shortlist models by), :meth:`finish` refines them by the pattern search. With
+    ``support_height`` the mesh's bottom stays at that height; ``caster``: the mesh's, when one is at hand (its
+    hierarchy serves every target)."""
+
+    def __init__(self, target: ViewTarget, vertices: np.ndarray, faces: np.ndarray,
+                 params: SearchParams = SearchParams(), support_height: float | None = None,
+                 caster: MeshCaster | None = None) -> None:
+        self.params, self.support_height = params, support_height
+        self.scorer = _Scorer(target, vertices, faces, params, caster)
+        box_centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2.0
+        self.size = float(np.linalg.norm(np.ptp(vertices, axis=0)))
+        # start: the mesh's box centre on the points' median, its size the points' spread; a supported object
+        # reaches at least as high as its highest points (its lower part is what others hide)
+        median = np.median(target.points, axis=0)
+        spread = float(np.median(np.linalg.norm(target.points - median, axis=1)))
+        start_scale = max(spread, 1e-3) / max(float(np.median(np.linalg.norm(vertices - box_centre, axis=1))), 1e-9)
+        if support_height is not None:
+            reach = float(np.percentile(target.points[:, 1], 98)) - support_height
+            start_scale = max(start_scale, reach / max(float(np.ptp(vertices[:, 1])), 1e-9))
+        self.hypotheses = sorted(self._moment_matched(median, box_centre, start_scale), key=lambda h: h[0])
+
+    @property
+    def start(self) -> Hypothesis:
+        """The best moment-matched start."""
+        return self.hypotheses[0]
+
+    def supported(self, position: np.ndarray) -> np.ndarray:
+        """``position`` with its height held at the support's."""
+        if self.support_height is None:
+            return position
+        position = position.copy()
+        position[1] = self.support_height
+        return position
+
+    def _moment_matched(self, median: np.ndarray, box_centre: np.ndarray, start_scale: float) -> list[Hypothesis]:
+        """Each rotation moved and scaled ``refine`` times so its visible part has the mask's area, its points
+        the object's median and its depth the object's where they meet (a rotation nothing of which is visible
+        stops moving)."""
+        scorer, axis = self.scorer, self.scorer.target.camera_to_world[:3, 2]
+        yaws = [float(y) for y in np.arange(self.params.n_yaw) * (2.0 * math.pi / self.params.n_yaw)]
+        positions = [self.supported(median - start_scale * box_centre) for _ in yaws]
+        scales = [start_scale for _ in yaws]
+        moving = list(range(len(yaws)))
+        for _ in range(self.params.refine):
+            if not moving:
+                break
+            window, depth, visible = scorer.render_many([pose_matrix(positions[k], yaws[k], scales[k]) for k in moving])
+            still = []
+            for i, k in enumerate(moving):
+                if not visible[i].any():
+                    continue
+                seen = scorer.surface_points(window, depth[i], visible[i])
+                shift = median - np.median(seen, axis=0)
+                shift += axis * (scorer.depth_residual(window, depth[i], visible[i]) - shift @ axis)
+                positions[k] = self.supported(positions[k] + shift)
+                scales[k] *= math.sqrt(scorer.mask_area / max(int(scorer.counted(window, visible[i]).sum()), 1))
+                still.append(k)
+            moving = still
+        scores = scorer.score_many([pose_matrix(p, y, s) for p, y, s in zip(positions, yaws, scales)])
+        return [(error, yaw, p, s) for (error, _), yaw, p, s in zip(scores, yaws, positions, scales)]
+
+    def finish(self) -> ViewFit:
+        """The best pose: the best ``explore`` starts refined by a coarse pattern search, the best ``polish`` of
+        those at finer steps, the best also turned by each of ``turns`` and refined."""
+        params, scorer = self.params, self.scorer
+        spacing = 2.0 * math.pi / max(params.n_yaw, 1)
+        search = _PatternSearch(scorer, self.supported, spacing / 2.0, self.size,
+                                scorer.target.camera_to_world[:3, 3], params.rounds)
+        explored = self.hypotheses[:params.explore] if params.explore else self.hypotheses
+        coarse = sorted((search.run(h, range(params.coarse)) for h in explored), key=lambda h: h[0])
+        fine_levels = range(params.coarse, params.coarse + params.halvings)
+        fine = [search.run(h, fine_levels) for h in coarse[:params.polish]]
+        best = min(fine + coarse[:1], key=lambda h: h[0])
+        if params.polish:  # a front/back or side flip of the best, refined from there: it keeps its place and size
+            turns = [best[1] + turn for turn in np.radians(params.turns)]
+            scores = scorer.score_many([pose_matrix(best[2], yaw, best[3]) for yaw in turns]) if turns else []
+            turned = [search.run((error, yaw, best[2], best[3]), fine_levels) for (error, _), yaw in zip(scores, turns)]
+            best = min([best, *turned], key=lambda h: h[0])
+        error, yaw, position, scale = best
+        return ViewFit(position, yaw % (2.0 * math.pi), scale, scorer.score(pose_matrix(position, yaw, scale))[1], error)
+
+
 def fit_view(target: ViewTarget, vertices: np.ndarray, faces: np.ndarray, params: SearchParams = SearchParams(),
              support_height: float | None = None) -> ViewFit:
     """The pose of a mesh (canonical: bottom at 0, centred on the vertical axis) that best explains the
-    object in ``target``; with ``support_height`` its bottom stays at that height."""
-    scorer = _Scorer(target, vertices, faces, params)
-    origin, axis = target.camera_to_world[:3, 3], target.camera_to_world[:3, 2]
-    box_centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2.0
-    size = float(np.linalg.norm(np.ptp(vertices, axis=0)))
-
-    def supported(position: np.ndarray) -> np.ndarray:
-        if support_height is not None:
-            position = position.copy()
-            position[1] = support_height
-        return position
-
-    # start: the mesh's box centre on the points' median, its size the points' spread; a supported object
-    # reaches at least as high as its highest points (its lower part is what others hide)
-    median = np.median(target.points, axis=0)
-    spread = float(np.median(np.linalg.norm(target.points - median, axis=1)))
-    start_scale = max(spread, 1e-3) / max(float(np.median(np.linalg.norm(vertices - box_centre, axis=1))), 1e-9)
-    if support_height is not None:
-        reach = float(np.percentile(target.points[:, 1], 98)) - support_height
-        start_scale = max(start_scale, reach / max(float(np.ptp(vertices[:, 1])), 1e-9))
-    hypotheses: list[Hypothesis] = []
-    for yaw in np.arange(params.n_yaw) * (2.0 * math.pi / params.n_yaw):
-        position, scale = supported(median - start_scale * box_centre), start_scale
-        for _ in range(params.refine):
-            window, depth, visible = scorer.render(pose_matrix(position, yaw, scale))
-            if not visible.any():
-                break
-            seen = scorer.surface_points(window, depth, visible)
-            shift = median - np.median(seen, axis=0)
-            shift += axis * (scorer.depth_residual(window, depth, visible) - shift @ axis)
-            position = supported(position + shift)
-            scale *= math.sqrt(scorer.mask_area / max(int(scorer.counted(window, visible).sum()), 1))
-        error, _ = scorer.score(pose_matrix(position, yaw, scale))
-        hypotheses.append((error, float(yaw), position, scale))
-    spacing = 2.0 * math.pi / max(params.n_yaw, 1)
-    search = _PatternSearch(scorer, supported, spacing / 2.0, size, origin, params.rounds)
-    hypotheses.sort(key=lambda h: h[0])
-    explored = hypotheses[:params.explore] if params.explore else hypotheses
-    coarse = sorted((search.run(h, range(params.coarse)) for h in explored), key=lambda h: h[0])
-    fine_levels = range(params.coarse, params.coarse + params.halvings)
-    fine = [search.run(h, fine_levels) for h in coarse[:params.polish]]
-    best = min(fine + coarse[:1], key=lambda h: h[0])
-    if params.polish:  # a front/back or side flip of the best, refined from there: it keeps its place and size
-        turned = [search.run((scorer.score(pose_matrix(best[2], best[1] + turn, best[3]))[0], best[1] + turn, best[2],
-                              best[3]), fine_levels) for turn in np.radians(params.turns)]
-        best = min([best, *turned], key=lambda h: h[0])
-    error, yaw, position, scale = best
-    return ViewFit(position, yaw % (2.0 * math.pi), scale, scorer.score(pose_matrix(position, yaw, scale))[1], error)
+    object in ``target``; with ``support_height`` its bottom stays at that height (:class:`ViewSearch`)."""
+    return ViewSearch(target, vertices, faces, params, support_height).finish()
 
 
 class _PatternSearch:

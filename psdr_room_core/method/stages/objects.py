@@ -28,6 +28,7 @@ from ..artifacts import (
     PointCloud,
     RoomBox,
 )
+from ..convergence import BestIterate, Plateau
 from ..geometry import TriangleMesh, weld
 from ..objects import ObjectQuery, SupportParams, best_yaw, initial_pose, object_queries, support_relations, wall_frame
 from ..silhouette import silhouette
@@ -314,7 +315,10 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
     ``renderer`` and the ``optimizer``. Params: ``iterations``, ``render_width``, ``blur_sigmas``,
     ``blur_weight``, ``learning_rates`` {translation (room half-size units), log_scale, yaw (degrees)},
     ``overlap_iou`` (pairs of fitted objects overlapping more than this are reported), ``yaw_test``
-    {``at``: fraction of the iterations after which :func:`try_yaw_turns` runs, ``angles``, ``min_gain``}.
+    {``at``: fraction of the iterations after which :func:`try_yaw_turns` runs, ``angles``, ``min_gain``},
+    ``convergence`` (:class:`~psdr_room_core.method.convergence.Plateau` fields). The fit runs until the yaw
+    test (or a plateau of the loss before it), then, where an object turned or the loss had not flattened, on
+    to ``iterations`` (or a plateau); each phase leaves its best iterate.
     """
     import torch
 
@@ -347,25 +351,36 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
                  "mean_iou": iou.item()}
         return depth_term + float(params["blur_weight"]) * blur_term, terms
 
+    best = BestIterate(model.theta)
+
     def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
         terms, logged = per_object(iteration)
-        return terms.sum(), logged
+        total = terms.sum()
+        best.observe(float(total.detach()), iteration)
+        return total, logged
 
     iterations = int(params["iterations"])
     optimizer, rates = ctx.impl("optimizer"), dict(params["learning_rates"])
-    first = round(iterations * float(params["yaw_test"]["at"]))
-    history = optimizer.minimize(model.theta, rates, loss, first, lambda it: ctx.progress(it, total=iterations))
+    plateau = Plateau(**params["convergence"])
+    phase = round(iterations * float(params["yaw_test"]["at"]))
+    history = optimizer.minimize(model.theta, rates, loss, phase, lambda it: ctx.progress(it, total=phase), plateau)
+    first = len(history)
+    best.restore()
     turned = try_yaw_turns(model, lambda: per_object(first)[0], [float(a) for a in params["yaw_test"]["angles"]],
                            float(params["yaw_test"]["min_gain"]))
-    history += optimizer.minimize(model.theta, rates, lambda it: loss(first + it), iterations - first,
-                                  lambda it: ctx.progress(it, total=iterations - first))
+    if turned or first == phase:  # turned poses are a new start (the best is theirs); or not converged yet
+        if turned:
+            best = BestIterate(model.theta)
+        history += optimizer.minimize(model.theta, rates, lambda it: loss(first + it), iterations - first,
+                                      lambda it: ctx.progress(it, total=iterations - first), plateau)
+        best.restore()
     with torch.no_grad():
         fitted = Placements(objects=model.placements_now())
     overlaps = find_overlaps(fitted, float(params["overlap_iou"]))
-    fitted.extra = {"overlaps": overlaps, "turned": turned,
-                    "final": {k: v for k, v in history[-1].items() if k != "seconds"}}
+    final = {k: v for k, v in history[best.iteration].items() if k != "seconds"}
+    fitted.extra = {"overlaps": overlaps, "turned": turned, "final": final}
     log = _objects_log(history, image, camera, room, placements, fitted, panoptic, overlaps)
-    log.summary["turned"] = turned
+    log.summary.update(turned=turned, final=final, best_iteration=best.iteration)
     return {"placements": fitted, "log": log}
 
 

@@ -105,8 +105,16 @@ class FitObjectsRates:
 
 
 @dataclass
+class Convergence:
+    window: int = setting(ge=0)
+    tolerance: float = setting(ge=0, lt=1)
+    min_iterations: int = setting(ge=0)
+
+
+@dataclass
 class FitObjects:
     iterations: int = setting(ge=1)
+    convergence: Convergence = setting()
     render_width: int = setting(ge=16)
     blur_sigmas: list[float] = setting(gt=0)
     blur_weight: float = setting(ge=0)

@@ -1,0 +1,163 @@
+"""Speed benchmark: where the pipeline's time goes, side by side with the previous defaults, and how it grows.
+
+Every run is the command line from an empty cache (its own, deleted first), as a user's first run of a photo:
+
+1. **defaults vs previous defaults** on the bundled example and two synthetic rooms: seconds and peak memory
+   (RSS) of every stage, the process's wall time (start-up included), the ratio, and the quality figures
+   beside them (render vs photo RMSE / SSIM / ꟻLIP at init and after the fit, objects placed; on synthetic
+   rooms also the room box IoU and the albedo error against the truth). ``--old`` replaces the previous
+   defaults' overrides (:data:`PREVIOUS`); then the preview (``+preset=preview``) on the example;
+2. **time vs objects**: synthetic rooms with 2, 4, 8 and 16 pieces of furniture (as many as fit);
+3. **time vs working resolution**: the example at 160, 320 and 640 px (every stage's ``render_width``), with
+   the fits cut to a few iterations (their seconds per iteration are what grows).
+
+Both scaling tables give the stages' seconds; the fits' per-iteration seconds are in their logs.
+
+    python benchmarks/speed.py [--seeds 0,1] [--old KEY=VALUE ...] [--no-scaling] [--objects 2,4,8,16]
+                               [--widths 160,320,640]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from pipeline import EXAMPLE, ground_truth_errors
+from room import iou
+
+from psdr_room_core.method.artifacts import RoomBox
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "outputs" / "benchmarks" / "speed"
+PREVIOUS = [
+    "retrieval.silhouette.shortlist=0",  # every model of the category refined (1 / 0.2 of them now)
+    "fit_objects.convergence.window=0",  # all 300 iterations (plateau stop now)
+]
+"""Overrides that bring back the settings the defaults replaced (issue 20)."""
+WIDTH_KEYS = ("room_fit.render_width", "retrieval.silhouette.render_width", "place_objects.render_width",
+              "fit_objects.render_width", "fit_appearance.render_width")
+SHORT_FITS = ["room_fit.iterations=20", "fit_objects.iterations=20", "fit_objects.convergence.window=0",
+              "fit_appearance.iterations=10"]
+
+
+def timed_run(photo: Path, label: str, overrides: list[str]) -> dict:
+    """One run from an empty cache: its metrics.json, plus ``wall`` (the process, start-up included)."""
+    run_dir, cache = OUT / "runs" / label, OUT / "cache" / label
+    for folder in (run_dir, cache):
+        shutil.rmtree(folder, ignore_errors=True)
+    env = {**os.environ, "PSDR_ROOM_CACHE_DIR": str(cache)}
+    start = time.perf_counter()
+    result = subprocess.run([shutil.which("psdr-room") or "psdr-room", f"image={photo}", f"hydra.run.dir={run_dir}",
+                             *overrides], env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - start
+    if result.returncode != 0:
+        sys.exit(f"speed: {label} failed:\n{result.stderr[-3000:]}")
+    shutil.rmtree(cache, ignore_errors=True)
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    return {**metrics, "wall": wall, "run_dir": run_dir, "photo": photo}
+
+
+def quality(m: dict) -> dict[str, str]:
+    """The figures that must not get worse, as printed."""
+    fit = m.get("fit_appearance_log", {})
+    artifacts = m["run_dir"] / "artifacts"
+    placed = next((artifacts / name / "placements.json" for name in ("placements_fit", "placements")
+                   if (artifacts / name).is_dir()), None)
+    out = {"objects placed": str(len(json.loads(placed.read_text())["objects"])) if placed else "–"}
+    for key, name in (("rmse", "RMSE"), ("ssim", "SSIM"), ("flip", "ꟻLIP")):
+        if key in fit:
+            out[f"{name} init→fit"] = f"{fit[key + '_init']:.4f}→{fit[key]:.4f}"
+    truth_path = m["photo"].parent / "ground_truth.json"
+    if truth_path.is_file():
+        truth = json.loads(truth_path.read_text())
+        out["room IoU"] = f"{iou(truth, RoomBox.load(m['run_dir'] / 'artifacts' / 'room_box_fit')):.3f}"
+        errors = ground_truth_errors(m["run_dir"], truth, fit.get("fitted_parts", []))
+        if "albedo_err" in errors:
+            out["albedo error"] = f"{errors['albedo_err']:.3f}"
+    return out
+
+
+def side_by_side(name: str, old: dict, new: dict) -> None:
+    print(f"\n### {name}\n")
+    print("| stage | previous s | now s | now peak RSS MiB |")
+    print("|---|---|---|---|")
+    for stage, s in new["stages"].items():
+        before = old["stages"].get(stage, {}).get("compute_seconds", float("nan"))
+        print(f"| {stage} | {before:.1f} | {s['compute_seconds']:.1f} | {s.get('peak_rss_mb', 0):.0f} |")
+    old_total, new_total = old["total_seconds"], new["total_seconds"]
+    print(f"| **stages** | **{old_total:.1f}** | **{new_total:.1f}** ({old_total / new_total:.2f}×) | "
+          f"{max(s.get('peak_rss_mb', 0) for s in new['stages'].values()):.0f} |")
+    print(f"| process wall (start-up included) | {old['wall']:.1f} | {new['wall']:.1f} "
+          f"({old['wall'] / new['wall']:.2f}×) | |")
+    for (key, before), after in zip(quality(old).items(), quality(new).values()):
+        print(f"| {key} | {before} | {after} | |")
+
+
+def synth_scene(seed: int, objects: int | None = None) -> Path:
+    """A synthetic room's photo (rendered once, kept under the benchmark's folder)."""
+    name = f"scene_random_{seed:04d}" + (f"_{objects}objects" if objects is not None else "")
+    photo = OUT / "scenes" / name / "photo.png"
+    if not photo.is_file():
+        args = ["--out", str(OUT / "scenes"), "--seeds", str(seed)] + (["--objects", str(objects)] if objects else [])
+        subprocess.run([shutil.which("psdr-room-synth") or "psdr-room-synth", *args], check=True, capture_output=True)
+    return photo
+
+
+def scaling_table(title: str, column: str, runs: dict[str, dict]) -> None:
+    print(f"\n### {title}\n")
+    stages = list(next(iter(runs.values()))["stages"])
+    print(f"| {column} | " + " | ".join(stages) + " | stages | peak RSS MiB |")
+    print("|---|" + "---|" * (len(stages) + 2))
+    for label, m in runs.items():
+        cells = [f"{m['stages'][s]['compute_seconds']:.1f}" for s in stages]
+        peak = max(s.get("peak_rss_mb", 0) for s in m["stages"].values())
+        print(f"| {label} | " + " | ".join(cells) + f" | {m['total_seconds']:.1f} | {peak:.0f} |")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", default="0,1", help="the synthetic rooms of the side-by-side table")
+    parser.add_argument("--old", action="append", metavar="KEY=VALUE",
+                        help="the previous defaults as overrides (default: the settings issue 20 replaced)")
+    parser.add_argument("--no-scaling", action="store_true", help="only the side-by-side table and the preview")
+    parser.add_argument("--objects", default="2,4,8,16")
+    parser.add_argument("--widths", default="160,320,640")
+    args = parser.parse_args()
+    old_overrides = args.old or PREVIOUS
+    OUT.mkdir(parents=True, exist_ok=True)
+    print(f"previous defaults: {' '.join(old_overrides)}")
+    scenes = [("example (NYU basement)", EXAMPLE)] + [(f"synthetic room {s}", synth_scene(int(s)))
+                                                       for s in args.seeds.split(",")]
+    for name, photo in scenes:
+        label = photo.parent.name
+        new = timed_run(photo, f"{label}_now", [])
+        old = timed_run(photo, f"{label}_previous", old_overrides)
+        side_by_side(name, old, new)
+    preview = timed_run(EXAMPLE, "preview", ["+preset=preview"])
+    print(f"\npreview (+preset=preview, until place_objects) on the example: stages {preview['total_seconds']:.1f} s, "
+          f"process wall {preview['wall']:.1f} s, {quality(preview)['objects placed']} objects, "
+          f"peak RSS {max(s.get('peak_rss_mb', 0) for s in preview['stages'].values()):.0f} MiB")
+    if args.no_scaling:
+        return
+    by_objects = {}
+    for count in (int(n) for n in args.objects.split(",")):
+        photo = synth_scene(0, count)
+        m = timed_run(photo, f"objects_{count}", SHORT_FITS)
+        placed = quality(m)["objects placed"]
+        by_objects[f"{count} asked, {placed} placed"] = m
+    scaling_table("time vs objects (synthetic room 0; fits cut to " + ", ".join(SHORT_FITS) + ")", "objects",
+                  by_objects)
+    by_width = {}
+    for width in (int(w) for w in args.widths.split(",")):
+        by_width[f"{width} px"] = timed_run(EXAMPLE, f"width_{width}", [f"{k}={width}" for k in WIDTH_KEYS] + SHORT_FITS)
+    scaling_table("time vs working resolution (the example; fits cut as above)", "render_width", by_width)
+
+
+if __name__ == "__main__":
+    main()
