@@ -159,11 +159,6 @@ class _Scorer:
         return (max(0, min(x0, math.floor(u.min()))), max(0, min(y0, math.floor(v.min()))),
                 min(cam.width, max(x1, math.ceil(u.max()) + 1)), min(cam.height, max(y1, math.ceil(v.max()) + 1)))
 
-    def render(self, to_world: np.ndarray) -> tuple[Window, np.ndarray, np.ndarray]:
-        """(window, depth of the model, its visible pixels) over the window."""
-        window, depth, visible = self.render_many([to_world])
-        return window, depth[0], visible[0]
-
     def render_many(self, poses: list[np.ndarray]) -> tuple[Window, np.ndarray, np.ndarray]:
         """(window, (K, h, w) depths, (K, h, w) visible pixels) of K poses over the union of their windows, in
         one cast. Every score below is the same over any window holding the pose's own."""
