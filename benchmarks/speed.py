@@ -122,7 +122,7 @@ def scaling_table(title: str, column: str, runs: dict[str, dict]) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", default="0,1", help="the synthetic rooms of the side-by-side table")
+    parser.add_argument("--seeds", default="0,1", help="the synthetic rooms of the side-by-side table ('': none)")
     parser.add_argument("--old", action="append", metavar="KEY=VALUE",
                         help="the previous defaults as overrides (default: the settings issue 20 replaced)")
     parser.add_argument("--no-scaling", action="store_true", help="only the side-by-side table and the preview")
@@ -133,7 +133,7 @@ def main() -> None:
     OUT.mkdir(parents=True, exist_ok=True)
     print(f"previous defaults: {' '.join(old_overrides)}")
     scenes = [("example (NYU basement)", EXAMPLE)] + [(f"synthetic room {s}", synth_scene(int(s)))
-                                                       for s in args.seeds.split(",")]
+                                                       for s in args.seeds.split(",") if s]
     for name, photo in scenes:
         label = photo.parent.name
         new = timed_run(photo, f"{label}_now", [])
