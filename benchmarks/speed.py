@@ -74,8 +74,8 @@ def quality(m: dict) -> dict[str, str]:
         if key in fit:
             out[f"{name} init→fit"] = f"{fit[key + '_init']:.4f}→{fit[key]:.4f}"
     truth_path = m["photo"].parent / "ground_truth.json"
-    if truth_path.is_file():
-        truth = json.loads(truth_path.read_text())
+    truth = json.loads(truth_path.read_text()) if truth_path.is_file() else {}
+    if "room" in truth and "albedo" in truth:  # a synthetic room's (the example's holds its sensor's intrinsics)
         out["room IoU"] = f"{iou(truth, RoomBox.load(m['run_dir'] / 'artifacts' / 'room_box_fit')):.3f}"
         errors = ground_truth_errors(m["run_dir"], truth, fit.get("fitted_parts", []))
         if "albedo_err" in errors:
