@@ -24,11 +24,10 @@ import json
 import os
 import shutil
 import subprocess
-import sys
 import time
 from pathlib import Path
 
-from pipeline import EXAMPLE, ground_truth_errors
+from pipeline import EXAMPLE, ground_truth_errors, pipeline
 from room import iou
 
 from psdr_room_core.method.artifacts import RoomBox
@@ -49,18 +48,17 @@ SHORT_FITS = ["room_fit.iterations=20", "fit_objects.iterations=20", "fit_object
 def timed_run(photo: Path, label: str, overrides: list[str]) -> dict:
     """One run from an empty cache: its metrics.json, plus ``wall`` (the process, start-up included)."""
     run_dir, cache = OUT / "runs" / label, OUT / "cache" / label
-    for folder in (run_dir, cache):
-        shutil.rmtree(folder, ignore_errors=True)
-    env = {**os.environ, "PSDR_ROOM_CACHE_DIR": str(cache)}
-    start = time.perf_counter()
-    result = subprocess.run([shutil.which("psdr-room") or "psdr-room", f"image={photo}", f"hydra.run.dir={run_dir}",
-                             *overrides], env=env, capture_output=True, text=True)
-    wall = time.perf_counter() - start
-    if result.returncode != 0:
-        sys.exit(f"speed: {label} failed:\n{result.stderr[-3000:]}")
     shutil.rmtree(cache, ignore_errors=True)
-    metrics = json.loads((run_dir / "metrics.json").read_text())
+    start = time.perf_counter()
+    metrics = pipeline(photo, run_dir, overrides, {**os.environ, "PSDR_ROOM_CACHE_DIR": str(cache)})
+    wall = time.perf_counter() - start
+    shutil.rmtree(cache, ignore_errors=True)
     return {**metrics, "wall": wall, "run_dir": run_dir, "photo": photo}
+
+
+def peak(m: dict) -> float:
+    """A run's highest stage peak memory (MiB)."""
+    return max(s.get("peak_rss_mb", 0.0) for s in m["stages"].values())
 
 
 def quality(m: dict) -> dict[str, str]:
@@ -92,7 +90,7 @@ def side_by_side(name: str, old: dict, new: dict) -> None:
         print(f"| {stage} | {before:.1f} | {s['compute_seconds']:.1f} | {s.get('peak_rss_mb', 0):.0f} |")
     old_total, new_total = old["total_seconds"], new["total_seconds"]
     print(f"| **stages** | **{old_total:.1f}** | **{new_total:.1f}** ({old_total / new_total:.2f}×) | "
-          f"{max(s.get('peak_rss_mb', 0) for s in new['stages'].values()):.0f} |")
+          f"{peak(new):.0f} |")
     print(f"| process wall (start-up included) | {old['wall']:.1f} | {new['wall']:.1f} "
           f"({old['wall'] / new['wall']:.2f}×) | |")
     for (key, before), after in zip(quality(old).items(), quality(new).values()):
@@ -116,8 +114,7 @@ def scaling_table(title: str, column: str, runs: dict[str, dict]) -> None:
     print("|---|" + "---|" * (len(stages) + 2))
     for label, m in runs.items():
         cells = [f"{m['stages'][s]['compute_seconds']:.1f}" for s in stages]
-        peak = max(s.get("peak_rss_mb", 0) for s in m["stages"].values())
-        print(f"| {label} | " + " | ".join(cells) + f" | {m['total_seconds']:.1f} | {peak:.0f} |")
+        print(f"| {label} | " + " | ".join(cells) + f" | {m['total_seconds']:.1f} | {peak(m):.0f} |")
 
 
 def main() -> None:
@@ -142,7 +139,7 @@ def main() -> None:
     preview = timed_run(EXAMPLE, "preview", ["+preset=preview"])
     print(f"\npreview (+preset=preview, until place_objects) on the example: stages {preview['total_seconds']:.1f} s, "
           f"process wall {preview['wall']:.1f} s, {quality(preview)['objects placed']} objects, "
-          f"peak RSS {max(s.get('peak_rss_mb', 0) for s in preview['stages'].values()):.0f} MiB")
+          f"peak RSS {peak(preview):.0f} MiB")
     if args.no_scaling:
         return
     by_objects = {}
