@@ -196,6 +196,16 @@ def test_fit_appearance_matches_the_photo_better(fitted: dict, library: TorchGra
     assert set(log.images) == {"photo_init_final", "crop_pairs", "loss"}
 
 
+def test_fit_appearance_stops_on_a_plateau(library: TorchGraphLibrary, photo: tuple[Image, Panoptic, Lights]) -> None:
+    image, _, layout = photo
+    parts = MaterialAssignment(parts=[PartMaterial(name, "homogeneous", (0.5, 0.5, 0.5)) for name in TRUE_SRGB])
+    # Any two windows of 2 iterations whose means differ by less than 90%: flat at once, after the minimum.
+    params = {**FIT_PARAMS, "convergence": {"window": 2, "tolerance": 0.9, "min_iterations": 5}, "final_spp": 16}
+    ctx = StageContext("fit_appearance", params, 0, Path("photo.png"), _implementations(library))
+    out = fit_appearance(ctx, image, CAMERA, ROOM, Placements(objects=[]), parts, layout)
+    assert len(out["log"].history) == out["log"].summary["iterations"] == 5 < params["iterations"]
+
+
 @pytest.mark.parametrize("photo_pattern", [False, True], ids=["plain photo floor", "patterned photo floor"])
 def test_a_pattern_the_photo_does_not_show_is_made_plain(library: TorchGraphLibrary,
                                                          photo: tuple[Image, Panoptic, Lights], photo_pattern: bool) -> None:

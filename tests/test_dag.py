@@ -107,6 +107,20 @@ def test_implementation_version_change_invalidates_its_users(tmp_path: Path, pho
     assert recomputed(run(BASE, photo, store, tmp_path)) == {"b"}
 
 
+def test_a_stage_uses_its_own_settings_of_a_capability(tmp_path: Path, photo: Path) -> None:
+    store = Store(tmp_path / "cache")
+    run(BASE, photo, store, tmp_path)
+    cfg = copy.deepcopy(BASE)
+    cfg["b"]["_uses_"] = {"scaler": {"factor": 3.0}}  # b alone multiplies by 3; the group still says 2
+    record = run(cfg, photo, store, tmp_path)
+    assert recomputed(record) == {"b", "c"}  # b's key holds its settings; c reads b's new output
+    assert record.artifacts["b"].value == 3.0 and record.artifacts["c"].value == 1.0 + 3.0
+    assert cfg["scaler"]["toy"]["factor"] == 2.0
+    cfg["a"]["_uses_"] = {"scaler": {"factor": 3.0}}
+    with pytest.raises(PsdrRoomError, match="stage 'a': _uses_ names scaler, which the stage does not use"):
+        run(cfg, photo, store, tmp_path)
+
+
 @pytest.mark.parametrize("damage", ["edit", "delete", "manifest"])
 def test_a_damaged_cache_entry_is_moved_aside_and_recomputed(tmp_path: Path, photo: Path, damage: str,
                                                              caplog: pytest.LogCaptureFixture) -> None:

@@ -49,6 +49,7 @@ def test_shipped_config_fits_the_schemas(option: str) -> None:
     ("init_lights.ceiling_grid=[3,3,3]", "init_lights.ceiling_grid=[3, 3, 3] is invalid; allowed: a list of integers >= 1, 2 of them"),
     ("segmentation.layout.discovery.min_visible=1.5", "segmentation.layout.discovery.min_visible=1.5 is out of range; allowed: a number >= 0 and <= 1"),
     ("detector.nanodet_onnx.flip=maybe", "detector.nanodet_onnx.flip=maybe is invalid: Value 'maybe' is not a valid bool"),
+    ("fit_appearance._uses_.texture.size=8", "fit_appearance._uses_.texture.size=8 is out of range; allowed: null or an integer >= 16"),
     ("retrieval.auto.order=[]", "retrieval.auto.order=[] is invalid; allowed: a non-empty list of retrieval implementation names"),
 ])
 def test_bad_setting_is_refused_in_one_line(override: str, message: str) -> None:

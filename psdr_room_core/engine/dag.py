@@ -6,6 +6,8 @@ A stage node in the composed config is any top-level mapping with a ``_stage_`` 
       _stage_: room_init                 # registered stage function (plugins' register_stages)
       _inputs_: {cloud: point_cloud}     # function parameter -> artifact name
       _outputs_: {room: room_box}        # function output -> artifact name (a list means same names)
+      _uses_: {renderer: {spp: 4}}       # optional: this stage's settings of a capability's implementation,
+                                         # over those of conf/<capability>/ (for every implementation)
       ransac_threshold: 0.02             # everything else: the stage's parameters (ctx.params)
 
 Adding, removing or swapping a stage is a config change (``+stage@my_stage=my_stage``,
@@ -36,7 +38,7 @@ AUTO = "auto"
 
 log = logging.getLogger("psdr_room")
 
-RESERVED = ("_stage_", "_inputs_", "_outputs_")
+RESERVED = ("_stage_", "_inputs_", "_outputs_", "_uses_")
 
 
 @dataclass(frozen=True)
@@ -48,6 +50,8 @@ class StageNode:
     inputs: dict[str, str]
     outputs: dict[str, str]
     params: dict[str, Any]
+    uses: dict[str, dict[str, Any]] = field(default_factory=dict)
+    """Capability → settings that replace the configured implementation's for this stage only (``_uses_``)."""
 
 
 @dataclass(frozen=True)
@@ -56,6 +60,16 @@ class Selection:
 
     stages: list[StageNode]
     forced: frozenset[str]
+
+
+def with_settings(group: Mapping[str, Any], settings: Mapping[str, Any]) -> dict[str, Any]:
+    """A capability's config group with ``settings`` over every implementation's own (a stage's ``_uses_``)."""
+    if not settings:
+        return dict(group)
+    return {
+        key: ({**value, **settings} if key not in ("impl", AUTO) and isinstance(value, Mapping) else value)
+        for key, value in group.items()
+    }
 
 
 class Pipeline:
@@ -91,6 +105,7 @@ class Pipeline:
                     inputs=dict(node.get("_inputs_") or {}),
                     outputs=dict(outputs),
                     params={k: v for k, v in node.items() if k not in RESERVED},
+                    uses={str(c): dict(v) for c, v in (node.get("_uses_") or {}).items()},
                 )
             )
         return cls(nodes, provided)
@@ -260,28 +275,38 @@ class Runner:
             record.artifacts[name] = types[artifact_kind_of(directory, types)].load(directory)
             record.digests[name] = digest_dir(directory)
 
-    def _implementations(self, stage: StageDef) -> tuple[dict[str, Any], dict[str, dict[str, Any]], dict[str, str]]:
-        """Instantiate the selected implementation of each capability the stage uses.
+    def _implementations(
+        self, node: StageNode, stage: StageDef
+    ) -> tuple[dict[str, Any], dict[str, dict[str, Any]], dict[str, str]]:
+        """Instantiate the selected implementation of each capability the stage uses, with the node's
+        ``_uses_`` settings over the configured ones.
 
         Returns the instances, their descriptions (part of the cache key) and, for capabilities set to
         ``auto``, how the choice was made (for the run record, not the key: only the choice matters).
         """
+        unknown = sorted(set(node.uses) - set(stage.uses))
+        if unknown:
+            raise PsdrRoomError(
+                f"stage '{node.name}': _uses_ names {', '.join(unknown)}, which the stage does not use "
+                f"(it uses {', '.join(stage.uses) or 'none'}); remove them from its config"
+            )
         instances, described, selected_by = {}, {}, {}
         for capability in stage.uses:
-            node = self.cfg.get(capability)
-            if not isinstance(node, Mapping) or "impl" not in node:
+            group = self.cfg.get(capability)
+            if not isinstance(group, Mapping) or "impl" not in group:
                 raise PsdrRoomError(
                     f"stage '{stage.name}' needs the '{capability}' config group; add {capability}=NAME"
                 )
-            name = str(node["impl"])
+            group = with_settings(group, node.uses.get(capability, {}))
+            name = str(group["impl"])
             if name == AUTO:
-                name, instances[capability], skipped = self._first_available(capability, node)
+                name, instances[capability], skipped = self._first_available(capability, group)
                 selected_by[capability] = "auto" + "".join(f"; not {n}: {why}" for n, why in skipped.items())
                 log.info("%s=auto selected %s (%s)", capability, name, selected_by[capability])
             else:
-                instances[capability] = self._construct(capability, name, node)
+                instances[capability] = self._construct(capability, name, group)
             impl = self.plugins.registry.implementation(capability, name)
-            described[capability] = {"name": name, "version": impl.version, "params": dict(node.get(name) or {})}
+            described[capability] = {"name": name, "version": impl.version, "params": dict(group.get(name) or {})}
         return instances, described, selected_by
 
     def _construct(self, capability: str, name: str, node: Mapping[str, Any]) -> Any:
@@ -291,7 +316,7 @@ class Runner:
             return impl.factory(**params)
         except TypeError as exc:
             raise PsdrRoomError(
-                f"{capability}.{name}: invalid parameters ({exc}); see conf/{capability}/{name}.yaml"
+                f"{capability}.{name}: invalid parameters ({exc}); see conf/{capability}/{name}.yaml and the stages' _uses_"
             ) from None
 
     def _first_available(self, capability: str, node: Mapping[str, Any]) -> tuple[str, Any, dict[str, str]]:
@@ -334,7 +359,7 @@ class Runner:
     def _run_stage(self, node: StageNode, forced: bool, record: RunRecord) -> None:
         stage = self.plugins.registry.stage(node.function)
         inputs = {param: record.artifacts[artifact] for param, artifact in node.inputs.items()}
-        instances, described, selected_by = self._implementations(stage)
+        instances, described, selected_by = self._implementations(node, stage)
         key = stage_key(
             stage=node.name,
             function=stage.name,

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 from omegaconf import MISSING, OmegaConf
 from omegaconf.errors import ConfigKeyError, MissingMandatoryValue, ValidationError
 
-from .dag import AUTO, StageNode
+from .dag import AUTO, StageNode, with_settings
 from .errors import PsdrRoomError
 
 if TYPE_CHECKING:
@@ -81,13 +81,19 @@ def check_settings(schema: type, values: Mapping[str, Any], where: str) -> None:
 
 
 def check_config(data: Mapping[str, Any], nodes: list[StageNode], registry: Registry) -> None:
-    """Check every stage node of the pipeline and every implementation node of the capability groups
-    (``<capability>.<name>``, in config order) against the schemas their plugins declared (those
+    """Check every stage node of the pipeline (with its ``_uses_`` settings over the capability groups) and
+    every implementation node of the capability groups (``<capability>.<name>``, in config order) against the schemas their plugins declared (those
     without one are not checked)."""
     for node in nodes:
         stage = registry.stages.get(node.function)
         if stage is not None and stage.params is not None:
             check_settings(stage.params, node.params, node.name)
+        for capability, settings in node.uses.items():
+            group = data.get(capability)
+            for name, values in (with_settings(group, settings) if isinstance(group, Mapping) else {}).items():
+                impl = registry.implementations.get((capability, str(name)))
+                if impl is not None and impl.params is not None:
+                    check_settings(impl.params, values or {}, f"{node.name}._uses_.{capability}")
     for capability in registry.capabilities:
         group = data.get(capability)
         if not isinstance(group, Mapping) or "impl" not in group:

@@ -24,6 +24,7 @@ from ..artifacts import (
     RoomBox,
     SceneAppearance,
 )
+from ..convergence import Plateau
 from ..image_metrics import downsampled, flip, rmse, ssim, ssim_map
 from ..rgb_scene import build_scene, finished_render, graph_maps, initial_parts, part_meshes, render_part_ids
 from ..shading import linear_to_srgb, srgb_to_linear
@@ -223,7 +224,8 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
 
     rates = {name: float(params["learning_rates"][group]) for name, group in model.group.items()}
     history = ctx.impl("optimizer").minimize(model.theta, rates, loss, int(params["iterations"]),
-                                             lambda it: ctx.progress(it, total=int(params["iterations"])))
+                                             lambda it: ctx.progress(it, total=int(params["iterations"])),
+                                             stop=Plateau(**params["convergence"]))
     final_spp, denoiser = int(params["final_spp"]), ctx.impl("denoiser")
     with torch.no_grad():
         initial = AppearanceModel(parts, lights, library, model.map_size, seen).inputs()

@@ -199,6 +199,7 @@ class AppearanceRates:
 @dataclass
 class FitAppearance:
     iterations: int = setting(ge=1)
+    convergence: Convergence = setting()
     render_width: int = setting(ge=16)
     spp: int = setting(ge=1)
     grad_spp: int = setting(ge=1)
