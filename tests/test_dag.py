@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import copy
+import gc
+import weakref
 from pathlib import Path
 from typing import Any
 
@@ -10,10 +12,10 @@ import pytest
 
 import toy_plugin
 from psdr_room_core.engine.cache import Store
-from psdr_room_core.engine.dag import Pipeline, Runner, RunRecord
+from psdr_room_core.engine.dag import Pipeline, Runner, RunRecord, StageContext
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Origin, load_plugins
+from psdr_room_core.engine.plugins import Origin, Registry, load_plugins
 
 TOY = Origin("toy", "tests", "toy = toy_plugin")
 
@@ -119,6 +121,49 @@ def test_a_stage_uses_its_own_settings_of_a_capability(tmp_path: Path, photo: Pa
     cfg["a"]["_uses_"] = {"scaler": {"factor": 3.0}}
     with pytest.raises(PsdrRoomError, match="stage 'a': _uses_ names scaler, which the stage does not use"):
         run(cfg, photo, store, tmp_path)
+
+
+class CycleLeaver:
+    """A stage that leaves its scene in a reference cycle, and one that checks the cycle is gone."""
+
+    def __init__(self) -> None:
+        self.left: list[weakref.ref] = []
+        self.alive_after: list[bool] = []
+
+    def leave(self, ctx: StageContext, x: toy_plugin.Number) -> toy_plugin.Number:
+        scene = Scene()
+        scene.myself = scene
+        self.left.append(weakref.ref(scene))
+        return toy_plugin.Number(x.value)
+
+    def check(self, ctx: StageContext, x: toy_plugin.Number) -> toy_plugin.Number:
+        self.alive_after.append(self.left[-1]() is not None)
+        return toy_plugin.Number(x.value)
+
+    @hookimpl
+    def register_stages(self, registry: Registry) -> None:
+        registry.add_stage("leave", self.leave)
+        registry.add_stage("check", self.check)
+
+
+class Scene:
+    myself: object
+
+
+def test_a_stage_leaves_no_reference_cycles_to_the_next(tmp_path: Path, photo: Path) -> None:
+    leaver = CycleLeaver()
+    cfg = {**copy.deepcopy(BASE), "e": {"_stage_": "leave", "_inputs_": {"x": "a"}, "_outputs_": ["e"]},
+           "f": {"_stage_": "check", "_inputs_": {"x": "e"}, "_outputs_": ["f"]}}
+    plugins = load_plugins(extra=[(toy_plugin, TOY), (leaver, Origin("leaver", "tests", "leaver"))])
+    enabled = gc.isenabled()
+    gc.disable()  # only the engine's collection can free the cycle
+    try:
+        Runner(plugins, cfg, photo, Store(tmp_path / "cache"), Store(tmp_path / "scratch")).run(
+            Pipeline.from_config(cfg).select())
+    finally:
+        if enabled:
+            gc.enable()
+    assert leaver.left and leaver.alive_after == [False]
 
 
 @pytest.mark.parametrize("damage", ["edit", "delete", "manifest"])
