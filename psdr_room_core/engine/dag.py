@@ -65,12 +65,15 @@ class Selection:
 
 def with_settings(group: Mapping[str, Any], settings: Mapping[str, Any]) -> dict[str, Any]:
     """A capability's config group with ``settings`` over every implementation's own (a stage's ``_uses_``)."""
+    out = dict(group)
     if not settings:
-        return dict(group)
-    return {
-        key: ({**value, **settings} if key not in ("impl", AUTO) and isinstance(value, Mapping) else value)
-        for key, value in group.items()
-    }
+        return out
+    named = [str(out.get("impl")), *((out.get(AUTO) or {}).get("order") or []), *out]
+    for name in dict.fromkeys(n for n in named if n not in ("impl", AUTO)):
+        own = out.get(name) or {}
+        if isinstance(own, Mapping):
+            out[name] = {**own, **settings}
+    return out
 
 
 class Pipeline:
