@@ -50,6 +50,17 @@ def pipeline(photo: Path, run_dir: Path, overrides: list[str], env: dict[str, st
     return json.loads((run_dir / "metrics.json").read_text())
 
 
+def synth_photo(out: Path, seed: int, env: dict[str, str], objects: int | None = None) -> Path:
+    """A synthetic room's photo under ``out`` (``psdr-room-synth``; rendered once, again when its ground truth
+    predates the exposure record); ``objects``: that many pieces of furniture instead of the default."""
+    folder = out / (f"scene_random_{seed:04d}" + (f"_{objects}objects" if objects is not None else ""))
+    truth = folder / "ground_truth.json"
+    if not truth.is_file() or "exposure" not in json.loads(truth.read_text()):
+        extra = ["--objects", str(objects)] if objects is not None else []
+        run([shutil.which("psdr-room-synth") or "psdr-room-synth", "--out", str(out), "--seeds", str(seed), *extra], env)
+    return folder / "photo.png"
+
+
 def quad_area(vertices: np.ndarray) -> float:
     return float(np.linalg.norm(np.cross(vertices[1] - vertices[0], vertices[3] - vertices[0])))
 
@@ -135,10 +146,7 @@ def main() -> None:
 
     scenes: list[tuple[str, Path]] = []
     for seed in parse_seeds(args.seeds) if args.seeds else []:
-        folder = OUT / "scenes" / f"scene_random_{seed:04d}"
-        if not (folder / "ground_truth.json").is_file() or "exposure" not in json.loads((folder / "ground_truth.json").read_text()):
-            run([shutil.which("psdr-room-synth") or "psdr-room-synth", "--out", str(OUT / "scenes"), "--seeds", str(seed)], env)
-        scenes.append((f"synth {seed}", folder / "photo.png"))
+        scenes.append((f"synth {seed}", synth_photo(OUT / "scenes", seed, env)))
     if not args.no_example:
         scenes.append(("example (NYU)", EXAMPLE))
     print("| scene | RMSE init | RMSE fit | SSIM init | SSIM fit | FLIP init | FLIP fit | albedo err | light power fit/true "

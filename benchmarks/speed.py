@@ -23,11 +23,10 @@ import argparse
 import json
 import os
 import shutil
-import subprocess
 import time
 from pathlib import Path
 
-from pipeline import EXAMPLE, ground_truth_errors, pipeline
+from pipeline import EXAMPLE, ground_truth_errors, pipeline, synth_photo
 from room import iou
 
 from psdr_room_core.method.artifacts import RoomBox
@@ -102,12 +101,7 @@ def side_by_side(name: str, old: dict, new: dict) -> None:
 
 def synth_scene(seed: int, objects: int | None = None) -> Path:
     """A synthetic room's photo (rendered once, kept under the benchmark's folder)."""
-    name = f"scene_random_{seed:04d}" + (f"_{objects}objects" if objects is not None else "")
-    photo = OUT / "scenes" / name / "photo.png"
-    if not photo.is_file():
-        args = ["--out", str(OUT / "scenes"), "--seeds", str(seed)] + (["--objects", str(objects)] if objects else [])
-        subprocess.run([shutil.which("psdr-room-synth") or "psdr-room-synth", *args], check=True, capture_output=True)
-    return photo
+    return synth_photo(OUT / "scenes", seed, dict(os.environ), objects)
 
 
 def scaling_table(title: str, column: str, runs: dict[str, dict]) -> None:

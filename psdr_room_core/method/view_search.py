@@ -185,7 +185,8 @@ class _Scorer:
         return float(np.median(own[both] - depth[both])) if both.any() else 0.0
 
     def counted(self, window: Window, visible: np.ndarray) -> np.ndarray:
-        """The visible model pixels that count: those outside the target's free pixels."""
+        """The visible model pixels that count: those outside the target's free pixels (``visible``: one
+        pose's (h, w) or K poses' (K, h, w))."""
         x0, y0, x1, y1 = window
         return visible & ~self.target.free[y0:y1, x0:x1]
 
@@ -200,7 +201,7 @@ class _Scorer:
         mask = self.target.mask[y0:y1, x0:x1]
         own = self.target.own_depth[y0:y1, x0:x1]
         overlap = (visible & mask).sum(axis=(1, 2))
-        visible_area = (visible & ~self.target.free[y0:y1, x0:x1]).sum(axis=(1, 2))
+        visible_area = self.counted(window, visible).sum(axis=(1, 2))
         wrong = visible_area - overlap + self.mask_area - overlap
         both = visible & (mask & (own > 0))
         count = both.sum(axis=(1, 2))

@@ -472,7 +472,6 @@ def _objects_log(history: list[dict[str, float]], image: Image, camera: Camera, 
         summary={"objects": len(after.objects), "iterations": len(history),
                  "steady_iteration_seconds": float(np.median(seconds[1:])) if len(seconds) > 1 else seconds[0],
                  "initial": {k: v for k, v in history[0].items() if k != "seconds"},
-                 "final": {k: v for k, v in history[-1].items() if k != "seconds"},
                  "overlaps": overlaps,
                  "supports": {p.segment_id: p.support for p in after.objects}},
     )
