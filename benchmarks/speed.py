@@ -6,7 +6,8 @@ Every run is the command line from an empty cache (its own, deleted first), as a
    (RSS) of every stage, the process's wall time (start-up included), the ratio, and the quality figures
    beside them (render vs photo RMSE / SSIM / ꟻLIP at init and after the fit, objects placed; on synthetic
    rooms also the room box IoU and the albedo error against the truth). ``--old`` replaces the previous
-   defaults' overrides (:data:`PREVIOUS`); then the preview (``+preset=preview``) on the example;
+   defaults' overrides (:data:`PREVIOUS`); then the preview (``+preset=preview``) on the example, its time and
+   how its picks compare with the full run's;
 2. **time vs objects**: synthetic rooms with 2, 4, 8 and 16 pieces of furniture (as many as fit);
 3. **time vs working resolution**: the example at 160, 320 and 640 px (every stage's ``render_width``), with
    the fits cut to a few iterations (their seconds per iteration are what grows).
@@ -83,6 +84,22 @@ def quality(m: dict) -> dict[str, str]:
     return out
 
 
+def picks(m: dict) -> dict[int, list[str]]:
+    """Each object segment's ranked candidate model ids in a run."""
+    objects = json.loads((m["run_dir"] / "artifacts" / "object_candidates" / "candidates.json").read_text())["objects"]
+    return {o["segment_id"]: [c["model_id"] for c in o["candidates"]] for o in objects}
+
+
+def agreement(preview: dict, full: dict) -> str:
+    """How the preview's picks compare with the full run's on the same photo."""
+    ours, theirs = picks(preview), picks(full)
+    both = [s for s in theirs if s in ours and theirs[s]]
+    first = sum(bool(ours[s]) and ours[s][0] == theirs[s][0] for s in both)
+    listed = sum(theirs[s][0] in ours[s] for s in both)
+    return (f"first pick as the full run's for {first}/{len(both)} objects, the full run's first pick in the "
+            f"preview's candidates for {listed}/{len(both)}")
+
+
 def side_by_side(name: str, old: dict, new: dict) -> None:
     print(f"\n### {name}\n")
     print("| stage | previous s | now s | now peak RSS MiB |")
@@ -128,15 +145,16 @@ def main() -> None:
     print(f"previous defaults: {' '.join(old_overrides)}")
     scenes = [("example (NYU basement)", EXAMPLE)] + [(f"synthetic room {s}", synth_scene(int(s)))
                                                        for s in args.seeds.split(",") if s]
+    runs = {}
     for name, photo in scenes:
         label = photo.parent.name
-        new = timed_run(photo, f"{label}_now", [])
+        runs[photo] = new = timed_run(photo, f"{label}_now", [])
         old = timed_run(photo, f"{label}_previous", old_overrides)
         side_by_side(name, old, new)
     preview = timed_run(EXAMPLE, "preview", ["+preset=preview"])
     print(f"\npreview (+preset=preview, until place_objects) on the example: stages {preview['total_seconds']:.1f} s, "
           f"process wall {preview['wall']:.1f} s, {quality(preview)['objects placed']} objects, "
-          f"peak RSS {peak(preview):.0f} MiB")
+          f"peak RSS {peak(preview):.0f} MiB; {agreement(preview, runs[EXAMPLE])}")
     if args.no_scaling:
         return
     by_objects = {}

@@ -84,7 +84,7 @@ class SilhouetteRetrieval:
         return f"silhouette over {database} database" + (f" ({fraction:.0%}, seed {seed})" if fraction < 1 else "")
 
     def thumbnail(self, model_id: str) -> np.ndarray:
-        return self.database.thumbnails(model_id)[0]
+        return self.database.thumbnails(model_id, views=[0])[0]
 
     def mesh(self, model_id: str) -> ObjectMesh:
         return object_mesh(self.database, model_id)

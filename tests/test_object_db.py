@@ -339,10 +339,29 @@ def test_thumbnails_render_and_are_cached(db: ObjectDatabase, cache_dir: Path, m
         assert background[0].all() and background[-1].all()  # white around it
     files = sorted(cache_dir.glob("object_db/*/kenney/chair/view*.png"))
     assert len(files) == len(views)
-    monkeypatch.setattr(thumbnails.ThumbnailRenderer, "render", lambda self, mesh: pytest.fail("rendered again"))
+    monkeypatch.setattr(thumbnails.ThumbnailRenderer, "render", lambda *args: pytest.fail("rendered again"))
     again = db.thumbnails("kenney/chair")
     assert all(np.array_equal(a, b) for a, b in zip(views, again))
     assert db.only(["kenney/chair"]).thumbnails("kenney/chair")[0].shape == (128, 128, 3)  # same cache
+
+
+def test_a_contact_sheet_renders_only_the_view_it_shows(db: ObjectDatabase, cache_dir: Path, monkeypatch) -> None:
+    from psdr_room_plugins.object_db import thumbnails
+
+    rendered: list[list[int]] = []
+    render = thumbnails.ThumbnailRenderer.render
+
+    def counting(self, mesh, views=None):
+        rendered.append(list(views))
+        return render(self, mesh, views)
+
+    monkeypatch.setattr(thumbnails.ThumbnailRenderer, "render", counting)
+    first = db.thumbnails("kenney/chair", views=[0])
+    assert rendered == [[0]] and len(first) == 1
+    assert thumbnails.cached_thumbnails(db, "kenney/chair") is None  # the other views are not there yet
+    views = db.thumbnails("kenney/chair")
+    assert rendered == [[0], [1, 2, 3]] and np.array_equal(views[0], first[0])
+    assert not np.array_equal(views[0], views[2])  # each view from its own camera
 
 
 # ------------------------------------------------------------------------------------------------------- CLI

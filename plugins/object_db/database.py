@@ -332,12 +332,13 @@ class ObjectDatabase:
         return ObjectDatabase(records, self._cache.loader, self.digest, label=self.label if label is None else label,
                               images=self.images, _cache=self._cache)
 
-    def thumbnails(self, model_id: str) -> list[np.ndarray]:
-        """uint8 RGB views (``thumbnails.VIEWS``) from the thumbnail cache, rendered there if missing."""
+    def thumbnails(self, model_id: str, views: Sequence[int] | None = None) -> list[np.ndarray]:
+        """uint8 RGB views (indices into ``thumbnails.VIEWS``; default all) from the thumbnail cache, rendered
+        there if missing."""
         from .thumbnails import thumbnails_for
 
         self.record(model_id)
-        return thumbnails_for(self, model_id)
+        return thumbnails_for(self, model_id, views=views)
 
     # -- writing
     def save(self, root: Path, progress: Callable[[Iterable[ModelRecord]], Iterable[ModelRecord]] | None = None) -> Path:

@@ -75,7 +75,9 @@ class ThumbnailRenderer:
             mi.set_variant(variant)
         return mi
 
-    def render(self, mesh: "ObjectMesh") -> list[np.ndarray]:
+    def render(self, mesh: "ObjectMesh", views: Sequence[int] | None = None) -> list[np.ndarray]:
+        """The mesh seen from each of ``views`` (indices into :attr:`views`; default all)."""
+        views = range(len(self.views)) if views is None else views
         mi = self._mi()
         props = mi.Properties()
         props["bsdf"] = mi.load_dict({"type": "twosided", "bsdf": {
@@ -97,9 +99,10 @@ class ThumbnailRenderer:
                     "irradiance": {"type": "rgb", "value": [2.1, 2.0, 1.9]}},
             "object": shape,
         }
-        for k, (azimuth, elevation) in enumerate(self.views):
+        for sensor, k in enumerate(views):
+            azimuth, elevation = self.views[k]
             origin, target = camera_for(mesh.extent, azimuth, elevation, self.fov)
-            scene[f"view{k}"] = {
+            scene[f"sensor{sensor}"] = {
                 "type": "perspective", "fov": self.fov,
                 "to_world": mi.ScalarTransform4f().look_at(origin=origin.tolist(), target=target.tolist(),
                                                            up=[0.0, 1.0, 0.0]),
@@ -109,8 +112,8 @@ class ThumbnailRenderer:
             }
         loaded = mi.load_dict(scene)
         images = []
-        for k in range(len(self.views)):
-            rgba = np.array(mi.render(loaded, sensor=k, seed=k), dtype=np.float64)
+        for sensor, k in enumerate(views):
+            rgba = np.array(mi.render(loaded, sensor=sensor, seed=k), dtype=np.float64)
             alpha = np.clip(rgba[..., 3:4], 0.0, 1.0)
             rgb = rgba[..., :3] + (1.0 - alpha)  # premultiplied (hidden background is black) over white
             images.append((linear_to_srgb(rgb) * 255.0 + 0.5).astype(np.uint8))
@@ -136,8 +139,8 @@ def cache_dir(db: "ObjectDatabase", renderer: ThumbnailRenderer | None = None) -
     return default_cache_dir() / "object_db" / key
 
 
-def _view_paths(folder: Path, model_id: str, count: int) -> list[Path]:
-    return [folder / model_id / f"view{k}.png" for k in range(count)]
+def _view_path(folder: Path, model_id: str, view: int) -> Path:
+    return folder / model_id / f"view{view}.png"
 
 
 def _write_png(path: Path, rgb: np.ndarray) -> None:
@@ -160,7 +163,7 @@ def _write_png(path: Path, rgb: np.ndarray) -> None:
 def _read_png(path: Path) -> np.ndarray | None:
     import cv2
 
-    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    image = cv2.imread(str(path), cv2.IMREAD_COLOR) if path.is_file() else None
     return None if image is None else np.ascontiguousarray(image[:, :, ::-1])
 
 
@@ -168,30 +171,30 @@ def cached_thumbnails(db: "ObjectDatabase", model_id: str, renderer: ThumbnailRe
                       ) -> list[np.ndarray] | None:
     """The cached views of a model, or None if any is missing."""
     renderer = renderer or default_renderer()
-    images = []
-    for path in _view_paths(cache_dir(db, renderer), model_id, len(renderer.views)):
-        image = _read_png(path) if path.is_file() else None
-        if image is None:
-            return None
-        images.append(image)
-    return images
+    folder = cache_dir(db, renderer)
+    images = [_read_png(_view_path(folder, model_id, k)) for k in range(len(renderer.views))]
+    return None if any(image is None for image in images) else images  # type: ignore[return-value]
 
 
-def thumbnails_for(db: "ObjectDatabase", model_id: str, renderer: ThumbnailRenderer | None = None) -> list[np.ndarray]:
-    """The model's views from the cache, rendered and stored there first if missing."""
+def thumbnails_for(db: "ObjectDatabase", model_id: str, renderer: ThumbnailRenderer | None = None,
+                   views: Sequence[int] | None = None) -> list[np.ndarray]:
+    """The model's ``views`` (indices into the renderer's; default all) from the cache; the missing ones are
+    rendered, in one scene, and stored there first (a contact sheet needs one view: it renders only that)."""
     renderer = renderer or default_renderer()
-    images = cached_thumbnails(db, model_id, renderer)
-    if images is not None:
-        return images
-    images = renderer.render(db.mesh(model_id))
-    for path, image in zip(_view_paths(cache_dir(db, renderer), model_id, len(images)), images):
-        _write_png(path, image)
-    return images
+    views = list(range(len(renderer.views)) if views is None else views)
+    folder = cache_dir(db, renderer)
+    images = {k: _read_png(_view_path(folder, model_id, k)) for k in views}
+    missing = [k for k, image in images.items() if image is None]
+    if missing:
+        for k, image in zip(missing, renderer.render(db.mesh(model_id), missing)):
+            _write_png(_view_path(folder, model_id, k), image)
+            images[k] = image
+    return [images[k] for k in views]  # type: ignore[misc]
 
 
 def build_thumbnails(db: "ObjectDatabase", renderer: ThumbnailRenderer | None = None,
                      progress: Callable[[Iterable[Any]], Iterable[Any]] | None = None) -> tuple[int, int]:
-    """Render every missing thumbnail of ``db``; returns (rendered, already cached)."""
+    """Render every missing thumbnail of ``db``; returns (models rendered, models already cached)."""
     renderer = renderer or default_renderer()
     rendered = cached = 0
     records = db.records if progress is None else progress(db.records)

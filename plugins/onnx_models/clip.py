@@ -84,7 +84,7 @@ class ClipRetrieval:
         return f"clip_onnx ({self.model_file.name}) over {self.spec[0]} database"
 
     def thumbnail(self, model_id: str) -> np.ndarray:
-        return self.database.thumbnails(model_id)[0]
+        return self.database.thumbnails(model_id, views=[0])[0]
 
     def mesh(self, model_id: str) -> ObjectMesh:
         from psdr_room_plugins.retrieval_silhouette import object_mesh
