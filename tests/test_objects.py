@@ -11,6 +11,7 @@ import pytest
 import torch
 
 from psdr_room_core.engine.dag import StageContext
+from psdr_room_core.method import silhouette as silhouette_module
 from psdr_room_core.method.artifacts import (
     Camera,
     DepthMap,
@@ -34,7 +35,7 @@ from psdr_room_core.method.objects import (
     transform,
     wall_frame,
 )
-from psdr_room_core.method.silhouette import MeshCaster, depth_map, silhouette
+from psdr_room_core.method.silhouette import MeshCaster, camera_rays, depth_map, silhouette
 from psdr_room_core.method.stages.objects import PoseModel, find_overlaps, fit_objects, object_targets, try_yaw_turns
 from psdr_room_core.method.view_search import ViewTarget, fit_view
 from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
@@ -108,6 +109,21 @@ def test_the_batched_cast_equals_one_cast_per_pose() -> None:
         assert batch.shape[0] == len(poses) and (batch > 0).any(axis=(1, 2)).sum() >= 3
         for k, pose in enumerate(poses):
             assert np.array_equal(batch[k], caster.depth(CAMERA, C2W, pose, window))
+
+
+def test_casters_share_one_copy_of_a_cameras_rays() -> None:
+    """A retrieval casts hundreds of models under each object's camera: the pixel rays are one shared, read-only
+    copy per camera (a copy per caster held 1.7 GB at 640 px), kept for the last few cameras only."""
+    mesh = l_shape()
+    first, second = MeshCaster(mesh.vertices, mesh.faces), MeshCaster(mesh.vertices, mesh.faces)
+    assert np.array_equal(first.depth(CAMERA, C2W), second.depth(CAMERA, C2W))
+    rays = camera_rays(CAMERA)
+    assert rays is camera_rays(replace(CAMERA)) and not rays.flags.writeable
+    assert np.array_equal(rays, CAMERA.pixel_rays())
+    for width in range(40, 40 + 2 * silhouette_module._RAYS_KEPT):
+        camera_rays(CAMERA.resized(width))
+    assert len(silhouette_module._RAYS) == silhouette_module._RAYS_KEPT
+    assert camera_rays(CAMERA) is not rays  # dropped, built again
 
 
 def test_batched_scores_equal_single_ones_and_the_sweep_is_the_best_start() -> None:
