@@ -9,6 +9,7 @@ back-projection of depth maps).
 
 from __future__ import annotations
 
+import threading
 from collections import OrderedDict
 from collections.abc import Sequence
 
@@ -28,20 +29,22 @@ def world_to_camera(points: np.ndarray, camera_to_world: np.ndarray) -> np.ndarr
 
 _RAYS: OrderedDict[tuple[int, int, float, float, float, float], np.ndarray] = OrderedDict()
 _RAYS_KEPT = 8
+_RAYS_LOCK = threading.Lock()
 
 
 def camera_rays(camera: Camera) -> np.ndarray:
     """:meth:`Camera.pixel_rays` (read-only), shared by every caster and kept for the last few cameras: a
     retrieval casts each of its models under each object's camera, and a copy per caster held 1.7 GB at 640 px."""
     key = (camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy)
-    rays = _RAYS.get(key)
-    if rays is None:
-        rays = _RAYS[key] = camera.pixel_rays()
-        rays.flags.writeable = False
-        while len(_RAYS) > _RAYS_KEPT:
-            _RAYS.popitem(last=False)
-    _RAYS.move_to_end(key)
-    return rays
+    with _RAYS_LOCK:
+        rays = _RAYS.get(key)
+        if rays is None:
+            rays = _RAYS[key] = camera.pixel_rays()
+            rays.flags.writeable = False
+            while len(_RAYS) > _RAYS_KEPT:
+                _RAYS.popitem(last=False)
+        _RAYS.move_to_end(key)
+        return rays
 
 
 class MeshCaster:
