@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 
 import cv2
 import numpy as np
@@ -57,6 +58,35 @@ class ViewTarget:
     """(h, w) bool: pixels the model may cover or not (its prompt box outside the mask)."""
     box: tuple[int, int, int, int] | None = None
     """The prompt box at the search resolution (x0, y0, x1, y1): the visible model should span it."""
+
+    # What every pose of every model is measured against: computed once per target, not once per model
+    @cached_property
+    def mask_box(self) -> Window:
+        """The mask's bounding box."""
+        ys, xs = np.nonzero(self.mask)
+        return int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1
+
+    @cached_property
+    def mask_area(self) -> int:
+        return int(self.mask.sum())
+
+    @cached_property
+    def median_depth(self) -> float:
+        """Median depth of the object's own points in its mask (of all its points where none falls there)."""
+        own = self.own_depth[self.mask & (self.own_depth > 0)]
+        return float(np.median(own if own.size else world_to_camera(self.points, self.camera_to_world)[:, 2]))
+
+    @cached_property
+    def points_median(self) -> np.ndarray:
+        """(3,) per-axis median of the object's points (read-only: every model's search shares it)."""
+        median = np.median(self.points, axis=0)
+        median.flags.writeable = False
+        return median
+
+    @cached_property
+    def points_spread(self) -> float:
+        """Median distance of the object's points from :attr:`points_median`."""
+        return float(np.median(np.linalg.norm(self.points - self.points_median, axis=1)))
 
     @classmethod
     def build(cls, camera: Camera, camera_to_world: np.ndarray, mask: np.ndarray, points: np.ndarray,
@@ -140,12 +170,7 @@ class _Scorer:
         self.caster = caster or MeshCaster(vertices, faces)
         lo, hi = vertices.min(axis=0), vertices.max(axis=0)
         self.corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-        ys, xs = np.nonzero(target.mask)
-        self.mask_box = (int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1)
-        self.mask_area = int(target.mask.sum())
-        own = target.own_depth[target.mask & (target.own_depth > 0)]
-        self.median_depth = float(np.median(own if own.size else
-                                            world_to_camera(target.points, target.camera_to_world)[:, 2]))
+        self.mask_box, self.mask_area, self.median_depth = target.mask_box, target.mask_area, target.median_depth
 
     def window(self, to_world: np.ndarray) -> Window:
         """The mask's box joined with the posed model's projected box, inside the image."""
@@ -245,8 +270,7 @@ class ViewSearch:
         self.size = float(np.linalg.norm(np.ptp(vertices, axis=0)))
         # start: the mesh's box centre on the points' median, its size the points' spread; a supported object
         # reaches at least as high as its highest points (its lower part is what others hide)
-        median = np.median(target.points, axis=0)
-        spread = float(np.median(np.linalg.norm(target.points - median, axis=1)))
+        median, spread = target.points_median, target.points_spread
         start_scale = max(spread, 1e-3) / max(float(np.median(np.linalg.norm(vertices - box_centre, axis=1))), 1e-9)
         if support_height is not None:
             reach = float(np.percentile(target.points[:, 1], 98)) - support_height
