@@ -37,7 +37,6 @@ OUT = ROOT / "outputs" / "benchmarks" / "speed"
 PREVIOUS = [
     "retrieval.silhouette.shortlist=0",  # every model of the category refined (1 / 0.2 of them now)
     "fit_objects.convergence.window=0",  # all 300 iterations (plateau stop now)
-    "fit_appearance.convergence.window=0",  # all 120 iterations (plateau stop now)
     "fit_appearance.map_size=128",  # procedural maps at 128² while fitting (64² now)
     "fit_appearance._uses_.texture.size=256",  # render crops described at 256 px, as photo crops (128 now)
 ]
