@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Prepare a machine for psdr-room: Debian libraries (as root), a virtualenv in .venv with pinned packages.
 # Idempotent and quick when nothing changed; run (not sourced) by scripts/demo.sh and scripts/test.sh.
-# --test also installs what only the tests use: Debian chromium (the report check) and, where npm exists, the
-# Khronos glTF validator (into .venv/node_modules).
+# --test also installs what only the tests use: Debian chromium and chromium-driver (the report and studio browser
+# tests) and, where npm exists, the Khronos glTF validator (into .venv/node_modules).
 # `source scripts/env.sh` then puts the tools on your shell's PATH.
 set -euo pipefail
 
@@ -12,7 +12,7 @@ PYTHON="${PYTHON:-python3}"
 # libllvm19: Dr.Jit's LLVM backend (1.5 crashes on Debian's default LLVM 14/15); libusb-1.0-0: open3d.
 DEB_PACKAGES=(libllvm19 libusb-1.0-0 libgl1 libgomp1)
 TESTING=0
-[[ "${1:-}" == "--test" ]] && TESTING=1 && DEB_PACKAGES+=(chromium)
+[[ "${1:-}" == "--test" ]] && TESTING=1 && DEB_PACKAGES+=(chromium chromium-driver)
 GLTF_VALIDATOR="gltf-validator@2.0.0-dev.3.10"
 
 say() { printf 'psdr-room setup: %s\n' "$*" >&2; }
@@ -26,8 +26,8 @@ if ((${#missing[@]})); then
         say "installing Debian packages: ${missing[*]}"
         DEBIAN_FRONTEND=noninteractive apt-get update -qq
         DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
-    elif [[ "${missing[*]}" == "chromium" ]]; then
-        say "chromium is missing: the report test will be skipped (sudo apt-get install -y chromium runs it)"
+    elif [[ " chromium chromium-driver " == *" ${missing[*]} "* ]]; then
+        say "${missing[*]} missing: the report and studio browser tests will be skipped (sudo apt-get install -y chromium chromium-driver runs them)"
     else
         say "missing Debian packages: ${missing[*]}"
         say "install them with: sudo apt-get install -y ${missing[*]}   (then rerun this command)"

@@ -14,6 +14,7 @@ score 1.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -76,6 +77,22 @@ def read_boxes(path: Path, size: tuple[int, int]) -> list[Detection]:
     return [_entry(path, i, entry, size) for i, entry in enumerate(data["boxes"])]
 
 
+def write_boxes(path: Path, boxes: list[Detection]) -> None:
+    """Write ``boxes`` (in photo pixels) as a boxes file that :func:`read_boxes` reads back; the file appears whole
+    or not at all."""
+    data = {"boxes": [{"label": d.label, "category": d.category, "box": [round(float(v), 1) for v in d.box]}
+                      for d in boxes]}
+    partial = path.with_name(f".{path.name}.partial")
+    partial.write_text(yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
+    os.replace(partial, path)
+
+
+def photo_scale(image: Image) -> tuple[float, float]:
+    """Working-image pixels per photo pixel, along x and y (boxes files are in photo pixels)."""
+    size = image.original_size if all(image.original_size) else (image.width, image.height)
+    return image.width / size[0], image.height / size[1]
+
+
 class BoxesFile:
     """Object boxes from ``<photo stem>.boxes.yaml`` beside the photo (or ``path``), in photo pixels."""
 
@@ -95,7 +112,7 @@ class BoxesFile:
     def detect(self, image: Image, photo: Path) -> Detections:
         file = self._file(photo)
         size = image.original_size if all(image.original_size) else (image.width, image.height)
-        sx, sy = image.width / size[0], image.height / size[1]
+        sx, sy = photo_scale(image)
         items = [Detection(label=d.label, category=d.category, score=d.score,
                            box=(d.box[0] * sx, d.box[1] * sy, d.box[2] * sx, d.box[3] * sy))
                  for d in read_boxes(file, size)]

@@ -184,6 +184,42 @@ def render_folder(folder: Path, spp: int, renderer: Any, denoiser: Any) -> np.nd
     return to_srgb8(denoiser.denoise(*renderer.render_file(folder / "scene.xml", spp)))
 
 
+def edit_scene(scene: Path, edits: list[str], out: Path, spp: int = 64, max_depth: int = 3,
+               denoiser: str = "oidn") -> Path:
+    """Apply ``edits`` (``KEY=VALUE``) to the scene folder ``scene`` and write the edited scene, rendered to
+    ``render.png``, as the folder ``out`` (which appears whole, and replaces only a folder of ours); return it."""
+    registry = plugin_system().registry
+    clean = registry.implementation("denoiser", denoiser).factory()
+    renderer = registry.implementation("renderer", "mitsuba").factory()  # the scene is a Mitsuba file
+    scene_dir = scene.resolve()
+    if out.resolve() == scene_dir:
+        raise PsdrRoomError(f"--out {out}: must differ from the scene folder it edits")
+    check_replaceable(out, "--out")
+    state = load_state(scene_dir)
+    library = registry.implementation("material_graph", "torch_graph").factory()
+    for edit in edits:
+        key, sep, raw = edit.partition("=")
+        if not sep:
+            raise PsdrRoomError(f"edit {edit!r}: expected KEY=VALUE")
+        apply_edit(state, key.strip(), raw, library)
+    files = scene_folder(rebuild(scene_dir, state, library), state, spp, max_depth, glb=True)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=".edit-", dir=out.parent))
+    try:
+        for name, data in files.items():
+            (staging / name).parent.mkdir(parents=True, exist_ok=True)
+            (staging / name).write_bytes(data)
+        write_png(staging / "render.png", render_folder(staging, spp, renderer, clean))
+        claim(staging)
+        check_replaceable(out, "--out")
+        if out.exists():
+            shutil.rmtree(out)
+        os.replace(staging, out)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``psdr-room-edit``."""
     parser = argparse.ArgumentParser(prog="psdr-room-edit", description=__doc__.split("\n\n")[0],
@@ -198,36 +234,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     out = args.out or args.scene.with_name(args.scene.name + "-edited")
     try:
-        registry = plugin_system().registry
-        denoiser = registry.implementation("denoiser", args.denoiser).factory()
-        renderer = registry.implementation("renderer", "mitsuba").factory()  # the scene is a Mitsuba file
-        scene_dir = args.scene.resolve()
-        if out.resolve() == scene_dir:
-            raise PsdrRoomError(f"--out {out}: must differ from the scene folder it edits")
-        check_replaceable(out, "--out")
-        state = load_state(scene_dir)
-        library = registry.implementation("material_graph", "torch_graph").factory()
-        for edit in args.edits:
-            key, sep, raw = edit.partition("=")
-            if not sep:
-                raise PsdrRoomError(f"edit {edit!r}: expected KEY=VALUE")
-            apply_edit(state, key.strip(), raw, library)
-        scene = rebuild(scene_dir, state, library)
-        files = scene_folder(scene, state, args.spp, args.max_depth, glb=True)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        staging = Path(tempfile.mkdtemp(prefix=".edit-", dir=out.parent))
-        try:
-            for name, data in files.items():
-                (staging / name).parent.mkdir(parents=True, exist_ok=True)
-                (staging / name).write_bytes(data)
-            write_png(staging / "render.png", render_folder(staging, args.spp, renderer, denoiser))
-            claim(staging)
-            check_replaceable(out, "--out")
-            if out.exists():
-                shutil.rmtree(out)
-            os.replace(staging, out)
-        finally:
-            shutil.rmtree(staging, ignore_errors=True)
+        edit_scene(args.scene, args.edits, out, args.spp, args.max_depth, args.denoiser)
     except PsdrRoomError as exc:
         print(f"psdr-room-edit: error: {exc}", file=sys.stderr)
         return 2

@@ -1,0 +1,355 @@
+"""The studio's web page: viser's GUI panel and 3D canvas over a :class:`~.session.Session`.
+
+Every control calls one session method; a wrong value gets a one-line message in the page (the session
+checked it before changing anything). Runs happen on a worker thread, with the stage events shown live.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from typing import Any
+
+import cv2
+import numpy as np
+import viser
+
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method.artifacts import Camera, Image, ObjectCandidates, Panoptic, Placements, RoomBox
+from psdr_room_core.method.edit import load_state
+from psdr_room_core.method.visualize import segment_overlay
+from psdr_room_plugins.detectors.boxes_file import photo_scale
+from psdr_room_plugins.layout.objects import GrabCutParams, grabcut_mask
+from psdr_room_plugins.object_db import CATEGORIES as DB_CATEGORIES
+
+from .scene_view import SceneView, latest, overview, screen_to_photo, vertical_fov
+from .session import EDITED, PREVIEW, Session, StageEvent
+
+THUMB = 112
+"""Side of a candidate thumbnail in the page (pixels)."""
+
+
+def plain(text: str) -> str:
+    """``text`` shown as written in a markdown element (ids and paths hold ``_`` and ``*``)."""
+    return "".join(f"\\{c}" if c in "\\`*_[]<>#|" else c for c in text)
+
+
+def rgb8(image: Image) -> np.ndarray:
+    return (np.clip(image.rgb, 0.0, 1.0) * 255).astype(np.uint8)
+
+
+def draw_boxes(photo: np.ndarray, boxes: list[tuple[str, tuple[float, float, float, float]]]) -> np.ndarray:
+    """``photo`` with each (caption, box in its pixels) drawn and captioned."""
+    out = photo.copy()
+    for caption, (x0, y0, x1, y1) in boxes:
+        cv2.rectangle(out, (int(x0), int(y0)), (int(x1), int(y1)), (255, 200, 0), 2)
+        cv2.putText(out, caption, (int(x0) + 3, int(y0) + 14), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (255, 255, 255), 2,
+                    cv2.LINE_AA)
+        cv2.putText(out, caption, (int(x0) + 3, int(y0) + 14), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1,
+                    cv2.LINE_AA)
+    return out
+
+
+def thumbnail_strip(images: list[np.ndarray], captions: list[str]) -> np.ndarray:
+    """Candidate thumbnails side by side, each captioned (rank and score)."""
+    tiles = []
+    for image, caption in zip(images, captions):
+        tile = cv2.resize(image, (THUMB, THUMB), interpolation=cv2.INTER_AREA)
+        cv2.putText(tile, caption, (4, THUMB - 6), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
+        tiles.append(cv2.copyMakeBorder(tile, 2, 2, 2, 2, cv2.BORDER_CONSTANT, value=(255, 255, 255)))
+    return np.concatenate(tiles, axis=1) if tiles else np.full((THUMB, THUMB, 3), 255, np.uint8)
+
+
+class StudioApp:
+    """The page: status line, run buttons and stage progress, the photo with its segmentation and boxes, object
+    boxes (draw, delete, relabel) and candidate picks, over a 3D view of the latest run."""
+
+    def __init__(self, session: Session, server: viser.ViserServer, database: Any, library: Any) -> None:
+        self.session = session
+        self.server = server
+        self.database = database
+        self.library = library
+        self.view = SceneView(server)
+        self.progress: dict[str, StageEvent] = {}
+        self.mask: np.ndarray | None = None
+        self.initial_fov = 60.0
+        self.placed: set[int] = set()
+        self.runs = 0
+        gui = server.gui
+        self.status = gui.add_markdown("Starting…")
+        with gui.add_folder("Run"):
+            self.preview_button = gui.add_button("Preview (through place_objects)")
+            self.full_button = gui.add_button("Full fit")
+            self.stages = gui.add_markdown("")
+            self.command = gui.add_markdown("")
+        with gui.add_folder("In the 3D view"):
+            self.exported = gui.add_checkbox("Exported scene", initial_value=True,
+                                             hint="after a full fit: the glTF scene, or the objects and points")
+            self.objects = gui.add_markdown("")
+        with gui.add_folder("Photo"):
+            self.photo = gui.add_image(np.zeros((8, 8, 3), np.uint8), label="segmentation and object boxes")
+            self.overlay = gui.add_checkbox("Show segmentation", initial_value=True)
+        with gui.add_folder("Object boxes"):
+            self.box = gui.add_dropdown("Box", ["(none)"])
+            self.label = gui.add_dropdown("Label", ["object", *DB_CATEGORIES], initial_value="object",
+                                          hint="a database category steers retrieval to its models")
+            self.relabel_button = gui.add_button("Relabel box")
+            self.delete_button = gui.add_button("Delete box")
+            self.draw_button = gui.add_button("Draw a box", hint="then drag a rectangle over the photo in the 3D view")
+        with gui.add_folder("Candidates"):
+            self.segment = gui.add_dropdown("Object", ["(none)"])
+            self.thumbs = gui.add_image(thumbnail_strip([], []), label="top candidates (rank: score)")
+            self.candidate = gui.add_dropdown("Candidate", ["(none)"])
+            self.model_id = gui.add_text("or model id", initial_value="", hint="any id of `psdr-room-db list`")
+            self.pick_button = gui.add_button("Pick")
+        with gui.add_folder("Edit (after a full fit)"):
+            self.part = gui.add_dropdown("Part", ["(none)"])
+            self.material = gui.add_dropdown("Material", ["homogeneous", *library.names()], initial_value="homogeneous")
+            self.add_material_button = gui.add_button("Add material edit")
+            self.light_scale = gui.add_slider("Light scale", min=0.0, max=4.0, step=0.05, initial_value=1.0)
+            self.fov = gui.add_slider("FoV (degrees)", min=20.0, max=120.0, step=0.5, initial_value=60.0)
+            self.edits_text = gui.add_markdown("")
+            self.render_button = gui.add_button("Render edit", hint="writes scene-edited/ (with render.png) in the run folder")
+            self.render = gui.add_image(np.zeros((8, 8, 3), np.uint8), label="edited render")
+        self.material_edits: dict[str, str] = {}
+        self.preview_button.on_click(lambda _: self.start_run(PREVIEW))
+        self.full_button.on_click(lambda _: self.start_run(None))
+        self.overlay.on_update(lambda _: self.refresh_photo())
+        self.exported.on_update(lambda _: self.view.exported(self.exported.value))
+        self.relabel_button.on_click(lambda _: self.act(lambda: self.session.relabel_box(self._box_index(),
+                                                                                          self.label.value)))
+        self.delete_button.on_click(lambda _: self.act(lambda: self.session.delete_box(self._box_index())))
+        self.draw_button.on_click(self._draw_mode)
+        self.segment.on_update(lambda _: self.refresh_candidates())
+        self.pick_button.on_click(lambda _: self.act(self._pick))
+        self.add_material_button.on_click(lambda _: self._add_material())
+        self.light_scale.on_update(lambda _: self._show_edits())
+        self.fov.on_update(lambda _: self._show_edits())
+        self.render_button.on_click(lambda _: self._start_edit())
+        server.on_client_connect(self._greet)
+
+    def _greet(self, client: viser.ClientHandle) -> None:
+        """A page opens on an overview of the photo's camera and the scene (once there is a run to show)."""
+        if self.session.record is not None and client.client_id not in self.placed:
+            self.placed.add(client.client_id)
+            overview(client, self.session.record.artifacts)
+
+    # -- messages and runs --------------------------------------------------------------------------------------
+
+    def say(self, text: str) -> None:
+        self.status.content = text
+
+    def act(self, change: Any) -> None:
+        """Apply one correction; a wrong one is reported in the page and changes nothing."""
+        try:
+            change()
+        except PsdrRoomError as exc:
+            self.say(f"**Not changed:** {plain(str(exc))}")
+            return
+        self.say("Changed; run the preview or the full fit to see it. Files: "
+                 f"`{self.session.boxes_file}` (boxes), `{self.session.run_dir / 'studio.yaml'}` (picks).")
+        self.refresh_lists()
+        self.refresh_photo()
+
+    def start_run(self, until: str | None) -> threading.Thread | None:
+        """Run the pipeline through ``until`` (None: all) on a worker thread; the page follows its stages."""
+        if self.session.running:
+            self.say("A run is in progress; wait for it to finish.")
+            return None
+        worker = threading.Thread(target=self._run, args=(until,), daemon=True, name="psdr-room-studio-run")
+        worker.start()
+        return worker
+
+    def _run(self, until: str | None) -> None:
+        self.progress = {}
+        self.runs += 1
+        what = "preview" if until else "full fit"
+        self.say(f"Run {self.runs} ({what}) running…")
+        started = time.perf_counter()
+        try:
+            record = self.session.run(until, self._on_stage)
+        except PsdrRoomError as exc:
+            self.say(f"**Run {self.runs} failed:** {plain(str(exc))}")
+            return
+        cached = sum(r.cached for r in record.stages)
+        self.say(f"Run {self.runs} ({what}) done in {time.perf_counter() - started:.1f} s: {len(record.stages)} "
+                 f"stages, {cached} from the cache.")
+        self.refresh()
+
+    def _on_stage(self, event: StageEvent) -> None:
+        self.progress[event.stage] = event
+        rows = [f"| {e.stage} | {e.state} | {e.seconds:.2f} |" if e.state != "running" else f"| {e.stage} | running… | |"
+                for e in self.progress.values()]
+        self.stages.content = "\n".join(["| stage | | s |", "|---|---|---|", *rows])
+
+    # -- views --------------------------------------------------------------------------------------------------
+
+    def refresh(self) -> None:
+        """Redraw everything from the latest run."""
+        record = self.session.record
+        if record is None:
+            return
+        scene_dir = self.session.run_dir / "scene" if "scene" in record.artifacts else None
+        self.view.show(record.artifacts, scene_dir)
+        self.view.exported(self.exported.value)
+        for client in self.server.get_clients().values():
+            self._greet(client)
+        placements: Placements | None = latest(record.artifacts, "placements_fit", "placements")
+        self.objects.content = "\n".join(
+            ["| segment | label | model |", "|---|---|---|",
+             *(f"| {p.segment_id} | {p.label} | {p.model_id} |" for p in (placements.objects if placements else []))])
+        self.command.content = f"Reproduce with:\n\n```\n{self.session.command()}\n```"
+        self.refresh_lists()
+        self.refresh_photo()
+        self.refresh_edit()
+
+    def refresh_edit(self) -> None:
+        """The parts and field of view of the exported scene (after a full fit); the edits start over."""
+        scene = self.session.run_dir / "scene" / "appearance.json"
+        record = self.session.record
+        if record is None or "scene" not in record.artifacts or not scene.is_file():
+            return
+        state = load_state(scene.parent)
+        self.part.options = [p["part"] for p in state["parts"]]
+        self.material_edits = {}
+        camera: Camera | None = latest(record.artifacts, "camera_fit", "camera")
+        if camera is not None:
+            self.fov.value = round(math.degrees(vertical_fov(camera)) * 2) / 2
+        self.initial_fov = float(self.fov.value)
+        self.light_scale.value = 1.0
+        self._show_edits()
+
+    def edits(self) -> list[str]:
+        """The ``psdr-room-edit`` edits the Edit controls describe."""
+        out = [f"material.{part}={name}" for part, name in self.material_edits.items()]
+        if abs(float(self.light_scale.value) - 1.0) > 1e-9:
+            out.append(f"light.scale={float(self.light_scale.value):g}")
+        if abs(float(self.fov.value) - self.initial_fov) > 1e-9:
+            out.append(f"camera.fov={float(self.fov.value):g}")
+        return out
+
+    def _show_edits(self) -> None:
+        scene = self.session.run_dir / "scene"
+        self.edits_text.content = (f"```\npsdr-room-edit {scene} {' '.join(self.edits())} --out "
+                                   f"{self.session.run_dir / EDITED}\n```")
+
+    def _add_material(self) -> None:
+        if self.part.value == "(none)":
+            self.say("**Not changed:** no exported scene yet; run the full fit first")
+            return
+        self.material_edits[self.part.value] = self.material.value
+        self._show_edits()
+
+    def _start_edit(self) -> None:
+        threading.Thread(target=self._edit, daemon=True, name="psdr-room-studio-edit").start()
+
+    def _edit(self) -> None:
+        edits = self.edits()
+        self.say("Rendering the edit…")
+        try:
+            out = self.session.edit(edits)
+        except PsdrRoomError as exc:
+            self.say(f"**Not changed:** {plain(str(exc))}")
+            return
+        self.render.image = cv2.cvtColor(cv2.imread(str(out / "render.png")), cv2.COLOR_BGR2RGB)
+        self.view.show_scene(out / "scene.glb")
+        self.say(f"Edited ({len(edits)} edits): `{out}` (render.png, scene.glb, scene.xml).")
+
+    def refresh_lists(self) -> None:
+        try:
+            boxes = self.session.boxes()
+        except PsdrRoomError:
+            boxes = []
+        self.box.options = [f"{i}: {b.label}" for i, b in enumerate(boxes)] or ["(none)"]
+        candidates: ObjectCandidates | None = self.session.artifact("object_candidates")
+        segments = sorted(candidates.ranked) if candidates is not None else []
+        self.segment.options = [f"{s}: {candidates.labels.get(s, '')}" for s in segments] or ["(none)"]
+        self.refresh_candidates()
+
+    def refresh_photo(self) -> None:
+        image: Image | None = self.session.artifact("image")
+        if image is None:
+            return
+        photo = rgb8(image)
+        panoptic: Panoptic | None = self.session.artifact("panoptic")
+        if self.overlay.value and panoptic is not None:
+            photo = segment_overlay(photo, panoptic)
+        if self.mask is not None and self.mask.shape == photo.shape[:2]:
+            photo[self.mask] = (0.5 * photo[self.mask] + (0, 110, 0)).astype(np.uint8)
+        sx, sy = photo_scale(image)
+        try:
+            boxes = self.session.boxes()
+        except PsdrRoomError:
+            boxes = []
+        self.photo.image = draw_boxes(photo, [(f"{i}: {b.label}", (b.box[0] * sx, b.box[1] * sy, b.box[2] * sx,
+                                                                   b.box[3] * sy)) for i, b in enumerate(boxes)])
+
+    def refresh_candidates(self) -> None:
+        candidates: ObjectCandidates | None = self.session.artifact("object_candidates")
+        segment = self._segment_id()
+        if candidates is None or segment is None:
+            self.candidate.options = ["(none)"]
+            return
+        ranked = candidates.ranked[segment]
+        chosen = self.session.picks.get(segment)
+        self.candidate.options = [f"{rank}: {c.model_id} ({c.score:.3f})" + (" ← picked" if chosen == rank else "")
+                                  for rank, c in enumerate(ranked)]
+        images = [self.database.thumbnails(c.model_id, views=[0])[0] for c in ranked]
+        self.thumbs.image = thumbnail_strip(images, [f"{rank}: {c.score:.2f}" for rank, c in enumerate(ranked)])
+
+    # -- corrections --------------------------------------------------------------------------------------------
+
+    def _box_index(self) -> int:
+        head = self.box.value.split(":")[0]
+        if not head.isdigit():
+            raise PsdrRoomError("no box to change; draw one first")
+        return int(head)
+
+    def _segment_id(self) -> int | None:
+        head = self.segment.value.split(":")[0]
+        return int(head) if head.isdigit() else None
+
+    def _pick(self) -> None:
+        segment = self._segment_id()
+        if segment is None:
+            raise PsdrRoomError("no object with candidates; run the preview first")
+        typed = self.model_id.value.strip()
+        choice: int | str = typed if typed else int(self.candidate.value.split(":")[0])
+        self.session.pick(segment, choice, self.database)
+
+    def _draw_mode(self, event: viser.GuiEvent) -> None:
+        """Put the browser's view at the photo's camera and take the next rectangle dragged on the canvas as a box."""
+        if event.client is None or self.session.record is None:
+            self.say("Run the preview first.")
+            return
+        self.view.photo_view(event.client, self.session.record.artifacts)
+        self.say("Drag a rectangle around the object on the photo (the view is at the photo's camera).")
+
+        @self.server.scene.on_rect_select()
+        def _(selection: Any) -> None:
+            self.server.scene.remove_rect_select_callback(_)
+            self.act(lambda: self.add_box_from_screen(selection.client.camera, selection.screen_min,
+                                                      selection.screen_max))
+
+    def add_box_from_screen(self, client_camera: Any, screen_min: tuple[float, float],
+                            screen_max: tuple[float, float]) -> None:
+        """Add the box a rectangle on the canvas covers on the photo, and show its GrabCut mask."""
+        artifacts = self.session.record.artifacts if self.session.record is not None else {}
+        image: Image | None = artifacts.get("image")
+        camera: Camera | None = latest(artifacts, "camera_fit", "camera")
+        room: RoomBox | None = latest(artifacts, "room_box_fit", "room_box")
+        if image is None or camera is None or room is None:
+            raise PsdrRoomError("run the preview first: a box is drawn on the photo's camera")
+        corners = [screen_to_photo(client_camera, corner, camera, room.camera_to_world)
+                   for corner in (screen_min, screen_max)]
+        if any(c is None for c in corners):
+            raise PsdrRoomError("the rectangle is not on the photo; press Draw a box and drag over the photo")
+        (x0, y0), (x1, y1) = corners  # type: ignore[misc]
+        x0, x1 = sorted((max(0.0, x0), min(float(image.width), x1)))
+        y0, y1 = sorted((max(0.0, y0), min(float(image.height), y1)))
+        if x1 - x0 < 4 or y1 - y0 < 4:
+            raise PsdrRoomError("the rectangle covers less than 4 pixels of the photo; drag a larger one over the object")
+        self.mask = grabcut_mask(rgb8(image), (x0, y0, x1, y1), GrabCutParams())
+        sx, sy = photo_scale(image)
+        self.session.add_box((x0 / sx, y0 / sy, x1 / sx, y1 / sy), label=self.label.value)

@@ -1,0 +1,107 @@
+"""``psdr-room-studio image=PHOTO [psdr-room overrides] [studio.port=N] [studio.run_dir=DIR]``.
+
+Starts the studio on 127.0.0.1 (only), prints its address, runs the preview and serves until Ctrl-C. The
+overrides are ``psdr-room``'s, checked the same way before anything starts.
+"""
+
+from __future__ import annotations
+
+import logging
+import socket
+import sys
+import time
+from pathlib import Path
+from typing import NoReturn
+
+from psdr_room_core.engine import threads
+from psdr_room_core.engine.cli import compose_config, preflight
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.run import resolve_config
+from psdr_room_plugins.retrieval_silhouette import open_database
+
+from .session import PREVIEW, Session, studio_plugins
+
+HOST = "127.0.0.1"
+SETTINGS = {"port": "a free port", "run_dir": "outputs/studio/<photo stem>"}
+USAGE = ("usage: psdr-room-studio image=PHOTO [psdr-room overrides...] "
+         + " ".join(f"[studio.{key}=...]" for key in SETTINGS))
+
+
+def _fail(message: str) -> NoReturn:
+    print(f"psdr-room-studio: error: {message}", file=sys.stderr)
+    sys.exit(2)
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind((HOST, 0))
+        return int(probe.getsockname()[1])
+
+
+def studio_settings(argv: list[str]) -> tuple[dict[str, str], list[str]]:
+    """Split ``studio.KEY=VALUE`` settings from the pipeline's overrides."""
+    settings, overrides = {}, []
+    for arg in argv:
+        if arg.startswith("studio."):
+            key, _, value = arg.removeprefix("studio.").partition("=")
+            if key not in SETTINGS:
+                raise PsdrRoomError(f"{arg}: unknown studio setting; use {', '.join(f'studio.{k}' for k in SETTINGS)}")
+            settings[key] = value
+        else:
+            overrides.append(arg)
+    if "port" in settings and not (settings["port"].isdigit() and 0 < int(settings["port"]) < 65536):
+        raise PsdrRoomError(f"studio.port={settings['port']}: not a port number; give one from 1 to 65535")
+    return settings, overrides
+
+
+def open_session(argv: list[str]) -> tuple[Session, dict[str, str], object]:
+    """The session, the studio's settings and the object database the run's retrieval uses."""
+    settings, overrides = studio_settings(argv)
+    session_overrides = [arg for arg in overrides if not arg.startswith("image=")]
+    plugins, events = studio_plugins()
+    preflight(overrides, plugins)
+    data = resolve_config(compose_config(overrides, plugins))
+    photo = Path(str(data["image"])).expanduser()
+    run_dir = Path(settings.get("run_dir") or Path("outputs") / "studio" / photo.stem)
+    session = Session(photo, session_overrides, run_dir, plugins, events)
+    retrieval = data.get("retrieval") or {}
+    implementation = retrieval.get("impl")
+    order = [implementation] if implementation != "auto" else list(retrieval.get("auto", {}).get("order") or [])
+    source = next((retrieval[name]["database"] for name in order if "database" in (retrieval.get(name) or {})),
+                  "builtin")
+    return session, settings, open_database(str(source), 1.0, 0)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Entry point of ``psdr-room-studio``."""
+    args = sys.argv[1:] if argv is None else argv
+    if not args or args[0] in ("-h", "--help"):
+        print(USAGE)
+        sys.exit(0 if args else 2)
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    try:
+        session, settings, database = open_session(args)
+        threads.apply(threads.allotment(None)[0])
+    except PsdrRoomError as exc:
+        _fail(str(exc))
+    import viser
+
+    from .app import StudioApp
+
+    port = int(settings.get("port") or free_port())
+    try:
+        server = viser.ViserServer(host=HOST, port=port, label="psdr-room studio", verbose=False)
+    except OSError as exc:
+        _fail(f"studio.port={port}: cannot listen there ({exc.strerror}); choose another port or leave it out")
+    library = session.plugins.registry.implementation("material_graph", "torch_graph").factory()
+    app = StudioApp(session, server, database, library)
+    print(f"psdr-room-studio: http://{HOST}:{server.get_port()}  (photo {session.photo}, run folder "
+          f"{session.run_dir}; Ctrl-C stops)", flush=True)
+    app.start_run(PREVIEW)
+    try:
+        while True:
+            time.sleep(1.0)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.stop()

@@ -1,0 +1,255 @@
+"""One studio session: a photo, the user's corrections as the CLI's own files, and runs of the CLI's pipeline.
+
+Corrections are written where ``psdr-room`` reads them, so the plain command reproduces the studio's scene:
+
+- object boxes (added, deleted, relabelled) → ``<photo stem>.boxes.yaml`` beside the photo (``detector=auto``
+  takes it over the detector);
+- candidate picks → ``+place_objects.pick.<segment>=<rank or model id>`` overrides, kept in the run folder's
+  ``studio.yaml`` and shown as the command line that reproduces the run.
+
+Runs go through :func:`~psdr_room_core.engine.run.execute` on a config from
+:func:`~psdr_room_core.engine.cli.compose_config`, exactly as ``psdr-room`` runs; the cache makes the stages a
+correction does not reach instant.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from psdr_room_core.engine.cli import compose_config, hydra_quote
+from psdr_room_core.engine.dag import RunRecord, StageRecord
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.hookspecs import hookimpl
+from psdr_room_core.engine.plugins import Origin, PluginSystem, load_plugins
+from psdr_room_core.engine.run import execute
+from psdr_room_core.method.artifacts import CATEGORIES, Detection, Detections, Image, ObjectCandidates
+from psdr_room_core.method.edit import edit_scene
+from psdr_room_plugins.detectors.boxes_file import photo_scale, read_boxes, sidecar_path, write_boxes
+
+PREVIEW = "place_objects"
+"""The last stage of a preview run (the first posed scene)."""
+STATE_FILE = "studio.yaml"
+EDITED = "scene-edited"
+"""The run folder's edited copy of its exported ``scene/`` (``psdr-room-edit``'s ``--out``)."""
+
+
+@dataclass(frozen=True)
+class StageEvent:
+    """A stage starting (``running``) or ending (``cached``, ``computed``, ``failed``), as the run-event hooks say."""
+
+    stage: str
+    state: str
+    seconds: float = 0.0
+
+
+class StageEvents:
+    """Run-event hooks (the console plugin's) that forward stage progress to the session's listener."""
+
+    def __init__(self) -> None:
+        self.listener: Callable[[StageEvent], None] = lambda event: None
+
+    @hookimpl
+    def before_stage(self, stage: str, key: str, inputs: dict[str, Any]) -> None:
+        self.listener(StageEvent(stage, "running"))
+
+    @hookimpl
+    def after_stage(self, record: StageRecord, outputs: dict[str, Any]) -> None:
+        self.listener(StageEvent(record.name, "cached" if record.cached else "computed", record.seconds))
+
+    @hookimpl
+    def on_stage_error(self, stage: str, key: str, error: BaseException) -> None:
+        self.listener(StageEvent(stage, "failed"))
+
+
+def studio_plugins() -> tuple[PluginSystem, StageEvents]:
+    """Every installed plugin, as ``psdr-room`` loads them, plus the studio's stage-event listener."""
+    events = StageEvents()
+    return load_plugins(extra=[(events, Origin("studio", "psdr-room", "(studio)"))]), events
+
+
+class Session:
+    """The photo, its run folder, its corrections and its latest run. Methods that change a correction check it
+    first and raise :class:`PsdrRoomError` with one line (changing nothing) when it is wrong."""
+
+    def __init__(self, photo: Path, overrides: list[str], run_dir: Path, plugins: PluginSystem,
+                 events: StageEvents) -> None:
+        self.photo = photo.expanduser().absolute()
+        self.overrides = list(overrides)
+        self.run_dir = run_dir.expanduser().absolute()
+        self.plugins = plugins
+        self.events = events
+        self.picks: dict[int, int | str] = self._load_picks()
+        self.record: RunRecord | None = None
+        self.detector = "auto"
+        self._lock = threading.Lock()
+
+    # -- runs ---------------------------------------------------------------------------------------------------
+
+    def arguments(self, until: str | None = None) -> list[str]:
+        """The ``psdr-room`` overrides of a run: the photo, the user's overrides, the picks, the stop stage."""
+        picks = [f"+place_objects.pick.{segment}={choice if isinstance(choice, int) else hydra_quote(choice)}"
+                 for segment, choice in sorted(self.picks.items())]
+        return [f"image={hydra_quote(str(self.photo))}", *self.overrides, *picks,
+                *([f"run.until={until}"] if until else [])]
+
+    def command(self, until: str | None = None) -> str:
+        """The command line that reproduces the run (with the boxes file beside the photo)."""
+        return " ".join(["psdr-room", *self.arguments(until), f"hydra.run.dir={hydra_quote(str(self.run_dir))}"])
+
+    def run(self, until: str | None = None, listener: Callable[[StageEvent], None] | None = None) -> RunRecord:
+        """Run the pipeline through ``until`` (None: all of it) into the run folder; one run at a time."""
+        if not self._lock.acquire(blocking=False):
+            raise PsdrRoomError("a run is in progress; wait for it to finish")
+        try:
+            self.events.listener = listener or (lambda event: None)
+            cfg = compose_config(self.arguments(until), self.plugins)
+            self.detector = str(cfg.detector.impl)
+            self.record = execute(cfg, self.run_dir, self.plugins)
+            return self.record
+        finally:
+            self.events.listener = lambda event: None
+            self._lock.release()
+
+    def edit(self, edits: list[str], spp: int = 32) -> Path:
+        """Apply ``psdr-room-edit`` edits (``KEY=VALUE``) to the run's exported scene and render it: the run
+        folder's ``scene-edited/`` (a whole scene folder, with ``render.png``)."""
+        scene = self.run_dir / "scene"
+        if not (scene / "appearance.json").is_file():
+            raise PsdrRoomError("no exported scene yet: run the full fit first")
+        if not self._lock.acquire(blocking=False):
+            raise PsdrRoomError("a run is in progress; wait for it to finish")
+        try:
+            return edit_scene(scene, edits, self.run_dir / EDITED, spp)
+        finally:
+            self._lock.release()
+
+    @property
+    def running(self) -> bool:
+        return self._lock.locked()
+
+    def artifact(self, name: str) -> Any:
+        """An artifact of the latest run, or None."""
+        return self.record.artifacts.get(name) if self.record is not None else None
+
+    # -- object boxes -------------------------------------------------------------------------------------------
+
+    @property
+    def boxes_file(self) -> Path:
+        return sidecar_path(self.photo)
+
+    def _image(self) -> Image:
+        image = self.artifact("image")
+        if image is None:
+            raise PsdrRoomError("no run yet: run the preview first, then correct its boxes")
+        return image
+
+    def boxes(self) -> list[Detection]:
+        """The object boxes in photo pixels: the boxes file's, else the latest run's detections."""
+        image = self._image()
+        size = image.original_size if all(image.original_size) else (image.width, image.height)
+        if self.boxes_file.is_file():
+            return read_boxes(self.boxes_file, size)
+        detections: Detections | None = self.artifact("detections")
+        sx, sy = photo_scale(image)
+        return [Detection(label=d.label, category=d.category, box=(d.box[0] / sx, d.box[1] / sy, d.box[2] / sx,
+                                                                   d.box[3] / sy))
+                for d in (detections.items if detections is not None else [])]
+
+    def _write_boxes(self, boxes: list[Detection]) -> None:
+        """Check ``boxes`` as ``detector=boxes_file`` will read them, then write the boxes file (picks are keyed
+        by segment, which new boxes renumber: they are dropped)."""
+        if self.detector not in ("auto", "boxes_file"):
+            raise PsdrRoomError(f"detector={self.detector} ignores the boxes file {self.boxes_file}; restart the "
+                                "studio without detector= (auto takes the boxes file)")
+        image = self._image()
+        size = image.original_size if all(image.original_size) else (image.width, image.height)
+        check = self.run_dir / f".{self.boxes_file.name}.check"
+        check.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            write_boxes(check, boxes)
+            read_boxes(check, size)
+        except PsdrRoomError as exc:
+            raise PsdrRoomError(str(exc).replace(str(check), str(self.boxes_file))) from None
+        finally:
+            check.unlink(missing_ok=True)
+        write_boxes(self.boxes_file, boxes)
+        self._save_picks({})
+
+    def add_box(self, box: tuple[float, float, float, float], label: str = "object",
+                category: str = "object") -> None:
+        """Add an object box (photo pixels ``x0, y0, x1, y1``) to the boxes file."""
+        x0, y0, x1, y1 = (float(v) for v in box)
+        if category not in CATEGORIES:
+            raise PsdrRoomError(f"category {category!r} is unknown; use one of {', '.join(CATEGORIES)}")
+        if not (x1 > x0 and y1 > y0):
+            raise PsdrRoomError(f"box {[x0, y0, x1, y1]} is inverted or empty; give [x0, y0, x1, y1] with x1 > x0 and "
+                                "y1 > y0 (drag from one corner to the opposite one)")
+        self._write_boxes([*self.boxes(), Detection(label=label, category=category, box=(x0, y0, x1, y1))])
+
+    def delete_box(self, index: int) -> None:
+        """Remove box ``index`` (0-based, in :meth:`boxes` order)."""
+        boxes = self.boxes()
+        self._check_index(index, boxes)
+        self._write_boxes(boxes[:index] + boxes[index + 1:])
+
+    def relabel_box(self, index: int, label: str) -> None:
+        """Name box ``index``'s object (a database category such as ``sofa`` steers retrieval to it)."""
+        boxes = self.boxes()
+        self._check_index(index, boxes)
+        if not label.strip():
+            raise PsdrRoomError("the label is empty; give the object's name (e.g. sofa)")
+        old = boxes[index]
+        boxes[index] = Detection(label=label.strip(), category=old.category, box=old.box)
+        self._write_boxes(boxes)
+
+    @staticmethod
+    def _check_index(index: int, boxes: list[Detection]) -> None:
+        if not boxes:
+            raise PsdrRoomError("there are no boxes; draw one first")
+        if not 0 <= index < len(boxes):
+            raise PsdrRoomError(f"no box {index}; there are {len(boxes)} (0 to {len(boxes) - 1})")
+
+    # -- candidate picks ----------------------------------------------------------------------------------------
+
+    def pick(self, segment_id: int, choice: int | str, database: Any) -> None:
+        """Place ``choice`` (a candidate rank, 0 = best, or any model id of ``database``) for object segment
+        ``segment_id`` at the next run."""
+        candidates: ObjectCandidates | None = self.artifact("object_candidates")
+        if candidates is None or segment_id not in candidates.ranked:
+            known = sorted(candidates.ranked) if candidates is not None else []
+            raise PsdrRoomError(f"no object segment {segment_id}; segments with candidates: {known}")
+        if isinstance(choice, int) or str(choice).isdigit():
+            rank = int(choice)
+            if not 0 <= rank < len(candidates.ranked[segment_id]):
+                raise PsdrRoomError(f"rank {rank} is out of range; segment {segment_id} has "
+                                    f"{len(candidates.ranked[segment_id])} candidates")
+            choice = rank
+        else:
+            database.record(str(choice))  # one line naming similar ids when it is unknown
+        self._save_picks({**self.picks, segment_id: choice})
+
+    def _load_picks(self) -> dict[int, int | str]:
+        path = self.run_dir / STATE_FILE
+        if not path.is_file():
+            return {}
+        data = yaml.safe_load(path.read_text()) or {}
+        picks = data.get("picks") if isinstance(data, dict) else None
+        if not isinstance(picks, dict):
+            raise PsdrRoomError(f"{path}: expected 'picks: {{segment: rank or model id}}'; delete the file to start over")
+        return {int(k): v for k, v in picks.items()}
+
+    def _save_picks(self, picks: dict[int, int | str]) -> None:
+        """Keep ``picks`` and write them, with the command line that reproduces the run, to ``studio.yaml``."""
+        self.picks = picks
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        path = self.run_dir / STATE_FILE
+        partial = path.with_name(f".{STATE_FILE}.partial")
+        partial.write_text(yaml.safe_dump({"picks": picks, "command": self.command()}, sort_keys=False))
+        os.replace(partial, path)

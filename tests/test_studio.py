@@ -1,0 +1,319 @@
+"""psdr-room-studio: the session's corrections as the CLI's files, the canvas-to-photo mapping, and the whole
+loop in a real browser (headless Debian Chromium through selenium): draw a box, preview, pick, preview, full fit,
+edit."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import queue
+import shutil
+import signal
+import subprocess
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.plugins import plugin_system
+from psdr_room_core.method.artifacts import Camera
+from psdr_room_plugins.detectors.boxes_file import read_boxes
+from psdr_room_plugins.retrieval_silhouette import open_database
+from psdr_room_plugins.studio.cli import studio_settings
+from psdr_room_plugins.studio.scene_view import screen_to_photo, wxyz
+from psdr_room_plugins.studio.session import PREVIEW, Session, studio_plugins
+from psdr_room_plugins.synth import write_scene
+from psdr_room_plugins.synth.raycast import raycast
+from psdr_room_plugins.synth.scene import generate
+
+FAST = ["room_fit.iterations=8", "room_fit.render_width=64", "retrieval.silhouette.n_yaw=6", "fit_objects.iterations=4",
+        "fit_objects.render_width=64", "assign_materials.map_size=128", "init_lights.render_width=64", "init_lights.spp=16",
+        "fit_appearance.iterations=3", "fit_appearance.final_spp=16", "fit_appearance.map_size=32",
+        "export_scene.texture_size=64"]
+"""Short fits: these tests are about the studio; the stages' own tests check the stages."""
+
+
+def test_studio_settings_are_split_from_the_overrides() -> None:
+    settings, overrides = studio_settings(["image=a.jpg", "studio.port=8123", "fov=fixed"])
+    assert settings == {"port": "8123"} and overrides == ["image=a.jpg", "fov=fixed"]
+    with pytest.raises(PsdrRoomError, match="unknown studio setting"):
+        studio_settings(["studio.host=0.0.0.0"])
+    with pytest.raises(PsdrRoomError, match="not a port number"):
+        studio_settings(["studio.port=http"])
+
+
+def test_a_bad_photo_is_one_line_and_exit_2(tmp_path: Path) -> None:
+    result = subprocess.run([shutil.which("psdr-room-studio") or "psdr-room-studio", f"image={tmp_path / 'no.jpg'}"],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 2
+    assert result.stderr.startswith("psdr-room-studio: error:") and "no.jpg" in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def test_the_canvas_maps_onto_the_photo_through_its_camera() -> None:
+    camera = Camera(width=320, height=240, fx=200.0, fy=200.0, cx=159.5, cy=119.5)
+    angle = math.radians(20)  # a camera turned about its vertical axis and raised
+    c2w = np.eye(4)
+    c2w[:3, :3] = [[math.cos(angle), 0, math.sin(angle)], [0, 1, 0], [-math.sin(angle), 0, math.cos(angle)]]
+    c2w[:3, 3] = (0.3, 1.4, -0.2)
+    vfov = 2 * math.atan(120 / 200)
+    browser = SimpleNamespace(fov=vfov, aspect=16 / 9, wxyz=wxyz(c2w[:3, :3]))
+    # Box coordinates: the photo's centre is (160, 120), its top edge y = 0.
+    assert np.allclose(screen_to_photo(browser, (0.5, 0.5), camera, c2w), (160, 120))
+    assert np.allclose(screen_to_photo(browser, (0.5, 0.0), camera, c2w), (160, 0))  # the canvas's top row
+    # 100 px right of the centre is tan = 0.5, i.e. 0.5 / (2 tan(vfov / 2) aspect) of the canvas's width.
+    assert np.allclose(screen_to_photo(browser, (0.5 + 0.5 / (2 * 0.6 * 16 / 9), 0.75), camera, c2w), (260, 180))
+
+
+def test_wrong_corrections_are_refused_and_change_nothing(room: SimpleNamespace, tmp_path: Path,
+                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    folder = tmp_path / "room"
+    folder.mkdir()
+    for name in ("photo.png", "photo.depth.png", "photo.depth.json"):
+        shutil.copy(room.photo.with_name(name), folder / name)
+    (folder / "photo.boxes.yaml").write_text("boxes: [{label: chair, box: [10, 20, 60, 90]}]\n")
+    monkeypatch.setenv("PSDR_ROOM_CACHE_DIR", str(room.cache))
+    plugins, events = studio_plugins()
+    session = Session(folder / "photo.png", FAST, tmp_path / "run", plugins, events)
+    session.run(PREVIEW)
+    database = open_database("builtin", 1.0, 0)
+    candidates = session.artifact("object_candidates").ranked
+    segment = next(iter(candidates))
+    before = (folder / "photo.boxes.yaml").read_text()
+    for wrong, message in [(lambda: session.add_box((300, 10, 400, 50)), "outside the 320x240 photo"),
+                           (lambda: session.add_box((50, 50, 40, 60)), "inverted or empty"),
+                           (lambda: session.add_box((5, 5, 50, 50), category="sofa"), "category 'sofa' is unknown"),
+                           (lambda: session.relabel_box(0, "  "), "the label is empty"),
+                           (lambda: session.delete_box(3), "no box 3; there are 1"),
+                           (lambda: session.pick(999, 0, database), "no object segment 999"),
+                           (lambda: session.pick(segment, len(candidates[segment]), database), "out of range"),
+                           (lambda: session.pick(segment, "no/such_model", database), "no model 'no/such_model'")]:
+        with pytest.raises(PsdrRoomError, match=message):
+            wrong()
+    assert (folder / "photo.boxes.yaml").read_text() == before
+    assert not (tmp_path / "run" / "studio.yaml").exists()
+    assert not list(tmp_path.rglob("*.partial")) and not list(tmp_path.rglob("*.check"))
+
+    # Right ones are written as the command line reads them.
+    session.pick(segment, candidates[segment][2].model_id, database)
+    saved = yaml.safe_load((tmp_path / "run" / "studio.yaml").read_text())
+    assert saved["picks"] == {segment: candidates[segment][2].model_id}
+    assert f"+place_objects.pick.{segment}='{candidates[segment][2].model_id}'" in saved["command"]
+    session.add_box((100, 120, 180, 200), label="sofa")
+    assert [(b.label, b.box) for b in read_boxes(folder / "photo.boxes.yaml", (320, 240))] == [
+        ("chair", (10.0, 20.0, 60.0, 90.0)), ("sofa", (100.0, 120.0, 180.0, 200.0))]
+    assert session.picks == {}  # new boxes renumber the segments
+
+
+# -- the browser test -------------------------------------------------------------------------------------------
+
+
+def _browser() -> Any:
+    chromium, driver = shutil.which("chromium") or shutil.which("chromium-browser"), shutil.which("chromedriver")
+    if chromium is None or driver is None:
+        pytest.skip("Debian chromium and chromium-driver are not installed (scripts/setup.sh --test installs them as root)")
+    from selenium import webdriver
+    from selenium.webdriver.chrome.options import Options
+    from selenium.webdriver.chrome.service import Service
+
+    options = Options()
+    for argument in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1400,900",
+                     "--use-angle=swiftshader", "--enable-unsafe-swiftshader"):
+        options.add_argument(argument)
+    options.binary_location = chromium
+    return webdriver.Chrome(options=options, service=Service(driver))
+
+
+def _wait(condition: Callable[[], Any], timeout: float, what: str, page: Any = None) -> Any:
+    """``condition()``'s first true value within ``timeout`` seconds; on failure, the page's text (if given)."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        value = condition()
+        if value:
+            return value
+        time.sleep(0.25)
+    raise AssertionError(f"timed out after {timeout:.0f} s waiting for {what}"
+                         + (f"; the page said:\n{_status(page)}" if page is not None else ""))
+
+
+@pytest.fixture(scope="module")
+def room(tmp_path_factory: pytest.TempPathFactory) -> SimpleNamespace:
+    """A bare synthetic photo (its depth beside it, no segmentation), an empty boxes file, and the pixel box of its
+    largest piece of furniture (from the exact ground truth)."""
+    root = tmp_path_factory.mktemp("studio")
+    synthetic = generate(4, width=320, height=240)
+    photo = write_scene(synthetic, root / "room", spp=16)
+    for sidecar in ("photo.panoptic.png", "photo.panoptic.json"):
+        (photo.parent / sidecar).unlink()
+    (photo.parent / "photo.boxes.yaml").write_text("boxes: []\n")
+    _, ids, segments = raycast(synthetic)
+    furniture = [s for s in segments if s.category == "object"]
+    largest = max(furniture, key=lambda s: int((ids == s.id).sum()))
+    ys, xs = np.nonzero(ids == largest.id)
+    box = (float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1))
+    return SimpleNamespace(photo=photo, run_dir=root / "run", cache=root / "cache", box=box)
+
+
+@pytest.fixture(scope="module")
+def studio(room: SimpleNamespace) -> Iterator[str]:
+    """``psdr-room-studio`` on a free port, as a user starts it; its address."""
+    env = {**os.environ, "PSDR_ROOM_CACHE_DIR": str(room.cache)}
+    process = subprocess.Popen([shutil.which("psdr-room-studio") or "psdr-room-studio", f"image={room.photo}",
+                                f"studio.run_dir={room.run_dir}", *FAST], env=env, stdout=subprocess.PIPE,
+                               stderr=subprocess.STDOUT, text=True)
+    lines: queue.Queue[str] = queue.Queue()
+    threading.Thread(target=lambda: [lines.put(line) for line in process.stdout], daemon=True).start()  # type: ignore[union-attr]
+    seen: list[str] = []
+
+    def address() -> str | None:
+        while not lines.empty():
+            seen.append(lines.get())
+            if seen[-1].startswith("psdr-room-studio: http://127.0.0.1:"):
+                return seen[-1].split()[1]
+        assert process.poll() is None, "".join(seen)
+        return None
+
+    url = _wait(address, 120, "the studio's address")
+    yield url
+    process.send_signal(signal.SIGINT)
+    process.wait(timeout=30)
+
+
+def _click(driver: Any, text: str) -> None:
+    from selenium.webdriver.common.by import By
+
+    driver.find_element(By.XPATH, f"//button[normalize-space()='{text}']").click()
+
+
+def _choose(driver: Any, label: str, prefix: str) -> None:
+    """Open the dropdown labelled ``label`` and click its option starting with ``prefix``."""
+    from selenium.webdriver.common.by import By
+
+    field = driver.find_element(By.XPATH, f"//label[normalize-space()='{label}']")
+    driver.find_element(By.ID, field.get_attribute("for")).click()
+    option = _wait(lambda: next((o for o in driver.find_elements(By.CSS_SELECTOR, "[role=option]")
+                                 if o.text.startswith(prefix)), None), 10, f"option {prefix!r} of {label}")
+    option.click()
+
+
+def _status(driver: Any) -> str:
+    from selenium.webdriver.common.by import By
+
+    return str(driver.find_element(By.TAG_NAME, "body").text)
+
+
+def _metrics(run_dir: Path) -> dict[str, Any]:
+    return json.loads((run_dir / "metrics.json").read_text())
+
+
+def _computed(run_dir: Path) -> set[str]:
+    return {name for name, stage in _metrics(run_dir)["stages"].items() if not stage["cached"]}
+
+
+def _placed(run_dir: Path) -> dict[str, dict[str, Any]]:
+    data = json.loads((run_dir / "artifacts" / "placements" / "placements.json").read_text())
+    return {str(o["segment_id"]): o for o in data["objects"]}
+
+
+def test_draw_a_box_preview_pick_fit_edit_in_a_real_browser(studio: str, room: SimpleNamespace,
+                                                           tmp_path: Path) -> None:
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+
+    driver = _browser()
+    try:
+        driver.get(studio)
+        canvas = _wait(lambda: max(driver.find_elements(By.TAG_NAME, "canvas"), key=lambda c: c.size["width"],
+                                   default=None), 60, "the 3D canvas")
+        _wait(lambda: "Run 1 (preview) done" in _status(driver), 300, "the first preview", driver)
+        before = _placed(room.run_dir)
+        assert all(o["label"] != "sofa" for o in before.values())
+
+        # A box dragged over the photo, seen from its camera, lands on the photo where it was dragged.
+        _choose(driver, "Label", "sofa")
+        _click(driver, "Draw a box")
+        time.sleep(1.5)  # the browser's view moves to the photo's camera
+        camera = json.loads((room.run_dir / "artifacts" / "camera_fit" / "camera.json").read_text())
+        scale = canvas.size["height"] / camera["height"]  # the photo fills the canvas's height (same vertical FoV)
+
+        def offset(x: float, y: float) -> tuple[int, int]:  # from the canvas centre, in CSS pixels
+            return round((x - camera["cx"] - 0.5) * scale), round((y - camera["cy"] - 0.5) * scale)
+
+        x0, y0, x1, y1 = room.box
+        start, end = offset(x0, y0), offset(x1, y1)
+        (ActionChains(driver).move_to_element_with_offset(canvas, *start).click_and_hold()
+         .move_by_offset((end[0] - start[0]) // 2, (end[1] - start[1]) // 2)
+         .move_by_offset(end[0] - start[0] - (end[0] - start[0]) // 2, end[1] - start[1] - (end[1] - start[1]) // 2)
+         .release().perform())
+        _wait(lambda: "Changed" in _status(driver), 20, "the box to be taken", driver)
+        boxes = yaml.safe_load(room.photo.with_name("photo.boxes.yaml").read_text())["boxes"]
+        assert [b["label"] for b in boxes] == ["sofa"]
+        assert np.allclose(boxes[0]["box"], room.box, atol=3.0 / scale + 1.5), (boxes[0]["box"], room.box)
+        driver.save_screenshot(str(tmp_path / "box.png"))
+
+        # The preview recomputes what depends on the boxes; the stages before the detector come from the cache.
+        _click(driver, "Preview (through place_objects)")
+        _wait(lambda: "Run 2 (preview) done" in _status(driver), 300, "the second preview", driver)
+        computed = _computed(room.run_dir)
+        assert {"load_image", "estimate_fov"}.isdisjoint(computed)
+        assert {"detect", "segment", "retrieve_objects", "place_objects"} <= computed
+        sofa = next(o for o in _placed(room.run_dir).values() if o["label"] == "sofa")
+        _wait(lambda: f"{sofa['segment_id']} sofa {sofa['model_id']}" in _status(driver), 20,
+              "the new object in the 3D view's list", driver)
+
+        # A wrong model id is refused in the page and changes nothing.
+        _choose(driver, "Object", f"{sofa['segment_id']}:")
+        text = driver.find_element(By.XPATH, "//label[normalize-space()='or model id']/following::input[1]")
+        text.send_keys("no/such_model")
+        time.sleep(1.5)  # the field sends its value to the server after typing pauses
+        _click(driver, "Pick")
+        _wait(lambda: "Not changed" in _status(driver) and "no model 'no/such_model'" in _status(driver), 20,
+              "the refusal", driver)
+        assert yaml.safe_load((room.run_dir / "studio.yaml").read_text())["picks"] == {}
+        text.clear()
+        text.send_keys(" ")  # a blank id: the candidate dropdown decides
+        time.sleep(1.5)
+
+        # Picking the second candidate reruns only place_objects.
+        candidates = json.loads((room.run_dir / "artifacts" / "object_candidates" / "candidates.json").read_text())
+        ranked = next(o["candidates"] for o in candidates["objects"] if o["segment_id"] == sofa["segment_id"])
+        _choose(driver, "Candidate", "1:")
+        _click(driver, "Pick")
+        saved = _wait(lambda: yaml.safe_load((room.run_dir / "studio.yaml").read_text())["picks"] and
+                      yaml.safe_load((room.run_dir / "studio.yaml").read_text()), 20, "the pick in studio.yaml")
+        assert saved["picks"] == {sofa["segment_id"]: 1}
+        assert f"+place_objects.pick.{sofa['segment_id']}=1" in saved["command"]
+        _click(driver, "Preview (through place_objects)")
+        _wait(lambda: "Run 3 (preview) done" in _status(driver), 120, "the third preview", driver)
+        assert _placed(room.run_dir)[str(sofa["segment_id"])]["model_id"] == ranked[1]["model_id"]
+        assert _computed(room.run_dir) == {"place_objects"}
+        _wait(lambda: ranked[1]["model_id"] in _status(driver), 20, "the picked model in the 3D view's list", driver)
+        driver.save_screenshot(str(tmp_path / "picked.png"))
+
+        # The full fit, then an edit of its exported scene: the floor wears a library material.
+        _click(driver, "Full fit")
+        _wait(lambda: "Run 4 (full fit) done" in _status(driver), 600, "the full fit", driver)
+        assert _computed(room.run_dir) >= {"fit_objects", "fit_appearance", "export_scene"}
+        assert "place_objects" not in _computed(room.run_dir)
+        material = sorted(plugin_system().registry.implementation("material_graph", "torch_graph").factory().names())[0]
+        _choose(driver, "Part", "floor")
+        _choose(driver, "Material", material)
+        _click(driver, "Add material edit")
+        _wait(lambda: f"material.floor={material}" in _status(driver), 20, "the edit's command line", driver)
+        _click(driver, "Render edit")
+        _wait(lambda: "Edited (1 edits)" in _status(driver), 300, "the edited render", driver)
+        edited = json.loads((room.run_dir / "scene-edited" / "appearance.json").read_text())
+        assert next(p for p in edited["parts"] if p["part"] == "floor")["material"] == material
+        assert (room.run_dir / "scene-edited" / "render.png").is_file()
+        driver.save_screenshot(str(tmp_path / "edited.png"))
+    finally:
+        driver.save_screenshot(str(tmp_path / "last.png"))  # what the page showed last (kept by pytest)
+        driver.quit()
