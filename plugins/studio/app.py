@@ -315,7 +315,10 @@ class StudioApp:
         if segment is None:
             raise PsdrRoomError("no object with candidates; run the preview first")
         typed = self.model_id.value.strip()
-        choice: int | str = typed if typed else int(self.candidate.value.split(":")[0])
+        rank = self.candidate.value.split(":")[0]
+        if not typed and not rank.isdigit():
+            raise PsdrRoomError("no candidate chosen; choose one or type a model id")
+        choice: int | str = typed if typed else int(rank)
         self.session.pick(segment, choice, self.database)
 
     def _draw_mode(self, event: viser.GuiEvent) -> None:
