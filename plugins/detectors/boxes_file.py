@@ -72,16 +72,23 @@ def read_boxes(path: Path, size: tuple[int, int]) -> list[Detection]:
         where = f" at line {mark.line + 1}" if mark is not None else ""
         problem = getattr(exc, "problem", None) or type(exc).__name__
         raise PsdrRoomError(f"{path}: not valid YAML ({problem}{where}); fix the syntax ({EXAMPLE})") from None
+    return check_boxes(path, data, size)
+
+
+def check_boxes(path: Path, data: Any, size: tuple[int, int]) -> list[Detection]:
+    """The boxes of a boxes file's parsed YAML ``data``, validated against the photo's ``size``; errors name
+    ``path``."""
     if not isinstance(data, dict) or not isinstance(data.get("boxes"), list) or set(data) != {"boxes"}:
         raise PsdrRoomError(f"{path}: expected a single key 'boxes' holding a list; write it as {EXAMPLE}")
     return [_entry(path, i, entry, size) for i, entry in enumerate(data["boxes"])]
 
 
-def write_boxes(path: Path, boxes: list[Detection]) -> None:
-    """Write ``boxes`` (in photo pixels) as a boxes file that :func:`read_boxes` reads back; the file appears whole
-    or not at all."""
+def write_boxes(path: Path, boxes: list[Detection], size: tuple[int, int]) -> None:
+    """Write ``boxes`` (in photo pixels) as the boxes file ``path`` after checking them as :func:`read_boxes` will
+    (a wrong box raises and writes nothing); the file appears whole or not at all."""
     data = {"boxes": [{"label": d.label, "category": d.category, "box": [round(float(v), 1) for v in d.box]}
                       for d in boxes]}
+    check_boxes(path, data, size)
     partial = path.with_name(f".{path.name}.partial")
     partial.write_text(yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
     os.replace(partial, path)
@@ -89,8 +96,13 @@ def write_boxes(path: Path, boxes: list[Detection]) -> None:
 
 def photo_scale(image: Image) -> tuple[float, float]:
     """Working-image pixels per photo pixel, along x and y (boxes files are in photo pixels)."""
-    size = image.original_size if all(image.original_size) else (image.width, image.height)
-    return image.width / size[0], image.height / size[1]
+    width, height = image.photo_size
+    return image.width / width, image.height / height
+
+
+def scaled(box: tuple[float, float, float, float], sx: float, sy: float) -> tuple[float, float, float, float]:
+    """``box`` (x0, y0, x1, y1) with its x coordinates times ``sx`` and its y coordinates times ``sy``."""
+    return box[0] * sx, box[1] * sy, box[2] * sx, box[3] * sy
 
 
 class BoxesFile:
@@ -111,9 +123,7 @@ class BoxesFile:
 
     def detect(self, image: Image, photo: Path) -> Detections:
         file = self._file(photo)
-        size = image.original_size if all(image.original_size) else (image.width, image.height)
         sx, sy = photo_scale(image)
-        items = [Detection(label=d.label, category=d.category, score=d.score,
-                           box=(d.box[0] * sx, d.box[1] * sy, d.box[2] * sx, d.box[3] * sy))
-                 for d in read_boxes(file, size)]
+        items = [Detection(label=d.label, category=d.category, score=d.score, box=scaled(d.box, sx, sy))
+                 for d in read_boxes(file, image.photo_size)]
         return Detections(items=items, source=str(file))

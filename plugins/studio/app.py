@@ -6,7 +6,6 @@ checked it before changing anything). Runs happen on a worker thread, with the s
 
 from __future__ import annotations
 
-import math
 import threading
 import time
 from typing import Any
@@ -19,11 +18,11 @@ from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.method.artifacts import Camera, Image, ObjectCandidates, Panoptic, Placements, RoomBox
 from psdr_room_core.method.edit import load_state
 from psdr_room_core.method.visualize import segment_overlay
-from psdr_room_plugins.detectors.boxes_file import photo_scale
+from psdr_room_plugins.detectors.boxes_file import photo_scale, scaled
 from psdr_room_plugins.layout.objects import GrabCutParams, grabcut_mask
 from psdr_room_plugins.object_db import CATEGORIES as DB_CATEGORIES
 
-from .scene_view import SceneView, latest, overview, screen_to_photo, vertical_fov
+from .scene_view import SceneView, latest, overview, screen_to_photo
 from .session import EDITED, PREVIEW, Session, StageEvent
 
 THUMB = 112
@@ -33,10 +32,6 @@ THUMB = 112
 def plain(text: str) -> str:
     """``text`` shown as written in a markdown element (ids and paths hold ``_`` and ``*``)."""
     return "".join(f"\\{c}" if c in "\\`*_[]<>#|" else c for c in text)
-
-
-def rgb8(image: Image) -> np.ndarray:
-    return (np.clip(image.rgb, 0.0, 1.0) * 255).astype(np.uint8)
 
 
 def draw_boxes(photo: np.ndarray, boxes: list[tuple[str, tuple[float, float, float, float]]]) -> np.ndarray:
@@ -215,7 +210,7 @@ class StudioApp:
         self.material_edits = {}
         camera: Camera | None = latest(record.artifacts, "camera_fit", "camera")
         if camera is not None:
-            self.fov.value = round(math.degrees(vertical_fov(camera)) * 2) / 2
+            self.fov.value = round(camera.vfov_deg * 2) / 2
         self.initial_fov = float(self.fov.value)
         self.light_scale.value = 1.0
         self._show_edits()
@@ -271,7 +266,7 @@ class StudioApp:
         image: Image | None = self.session.artifact("image")
         if image is None:
             return
-        photo = rgb8(image)
+        photo = image.to_uint8()
         panoptic: Panoptic | None = self.session.artifact("panoptic")
         if self.overlay.value and panoptic is not None:
             photo = segment_overlay(photo, panoptic)
@@ -282,8 +277,7 @@ class StudioApp:
             boxes = self.session.boxes()
         except PsdrRoomError:
             boxes = []
-        self.photo.image = draw_boxes(photo, [(f"{i}: {b.label}", (b.box[0] * sx, b.box[1] * sy, b.box[2] * sx,
-                                                                   b.box[3] * sy)) for i, b in enumerate(boxes)])
+        self.photo.image = draw_boxes(photo, [(f"{i}: {b.label}", scaled(b.box, sx, sy)) for i, b in enumerate(boxes)])
 
     def refresh_candidates(self) -> None:
         candidates: ObjectCandidates | None = self.session.artifact("object_candidates")
@@ -353,6 +347,6 @@ class StudioApp:
         y0, y1 = sorted((max(0.0, y0), min(float(image.height), y1)))
         if x1 - x0 < 4 or y1 - y0 < 4:
             raise PsdrRoomError("the rectangle covers less than 4 pixels of the photo; drag a larger one over the object")
-        self.mask = grabcut_mask(rgb8(image), (x0, y0, x1, y1), GrabCutParams())
+        self.mask = grabcut_mask(image.to_uint8(), (x0, y0, x1, y1), GrabCutParams())
         sx, sy = photo_scale(image)
-        self.session.add_box((x0 / sx, y0 / sy, x1 / sx, y1 / sy), label=self.label.value)
+        self.session.add_box(scaled((x0, y0, x1, y1), 1 / sx, 1 / sy), label=self.label.value)

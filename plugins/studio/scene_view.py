@@ -39,10 +39,6 @@ def box_edges(room: RoomBox) -> np.ndarray:
     return np.array([[corners[a], corners[b]] for a, b in pairs])
 
 
-def vertical_fov(camera: Camera) -> float:
-    return 2.0 * math.atan(camera.height / (2.0 * camera.fy))
-
-
 class SceneView:
     """Draws a run's artifacts into a viser server, replacing what it drew before."""
 
@@ -68,8 +64,8 @@ class SceneView:
         c2w = np.asarray(room.camera_to_world, dtype=np.float64)
         scene = self.server.scene
         self.nodes["/photo"] = scene.add_camera_frustum(
-            "/photo", fov=vertical_fov(camera), aspect=camera.width / camera.height, scale=0.3,
-            image=(np.clip(image.rgb, 0, 1) * 255).astype(np.uint8), wxyz=wxyz(c2w[:3, :3]), position=c2w[:3, 3],
+            "/photo", fov=math.radians(camera.vfov_deg), aspect=camera.width / camera.height, scale=0.3,
+            image=image.to_uint8(), wxyz=wxyz(c2w[:3, :3]), position=c2w[:3, 3],
             color=(240, 120, 20), thickness=0.006)
         self.nodes["/room"] = scene.add_line_segments("/room", box_edges(room), colors=(40, 40, 40), thickness=0.015)
         cloud: PointCloud | None = artifacts.get("point_cloud")
@@ -113,7 +109,7 @@ class SceneView:
             return
         c2w = np.asarray(room.camera_to_world, dtype=np.float64)
         with client.atomic():
-            client.camera.fov = vertical_fov(camera)
+            client.camera.fov = math.radians(camera.vfov_deg)
             client.camera.wxyz = wxyz(c2w[:3, :3])
             client.camera.position = c2w[:3, 3]
             client.camera.look_at = c2w[:3, 3] + c2w[:3, 2]

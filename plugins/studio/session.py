@@ -31,7 +31,7 @@ from psdr_room_core.engine.plugins import Origin, PluginSystem, load_plugins
 from psdr_room_core.engine.run import execute
 from psdr_room_core.method.artifacts import CATEGORIES, Detection, Detections, Image, ObjectCandidates
 from psdr_room_core.method.edit import edit_scene
-from psdr_room_plugins.detectors.boxes_file import photo_scale, read_boxes, sidecar_path, write_boxes
+from psdr_room_plugins.detectors.boxes_file import photo_scale, read_boxes, scaled, sidecar_path, write_boxes
 
 PREVIEW = "place_objects"
 """The last stage of a preview run (the first posed scene)."""
@@ -153,13 +153,11 @@ class Session:
     def boxes(self) -> list[Detection]:
         """The object boxes in photo pixels: the boxes file's, else the latest run's detections."""
         image = self._image()
-        size = image.original_size if all(image.original_size) else (image.width, image.height)
         if self.boxes_file.is_file():
-            return read_boxes(self.boxes_file, size)
+            return read_boxes(self.boxes_file, image.photo_size)
         detections: Detections | None = self.artifact("detections")
         sx, sy = photo_scale(image)
-        return [Detection(label=d.label, category=d.category, box=(d.box[0] / sx, d.box[1] / sy, d.box[2] / sx,
-                                                                   d.box[3] / sy))
+        return [Detection(label=d.label, category=d.category, box=scaled(d.box, 1 / sx, 1 / sy))
                 for d in (detections.items if detections is not None else [])]
 
     def _write_boxes(self, boxes: list[Detection]) -> None:
@@ -168,18 +166,7 @@ class Session:
         if self.detector not in ("auto", "boxes_file"):
             raise PsdrRoomError(f"detector={self.detector} ignores the boxes file {self.boxes_file}; restart the "
                                 "studio without detector= (auto takes the boxes file)")
-        image = self._image()
-        size = image.original_size if all(image.original_size) else (image.width, image.height)
-        check = self.run_dir / f".{self.boxes_file.name}.check"
-        check.parent.mkdir(parents=True, exist_ok=True)
-        try:
-            write_boxes(check, boxes)
-            read_boxes(check, size)
-        except PsdrRoomError as exc:
-            raise PsdrRoomError(str(exc).replace(str(check), str(self.boxes_file))) from None
-        finally:
-            check.unlink(missing_ok=True)
-        write_boxes(self.boxes_file, boxes)
+        write_boxes(self.boxes_file, boxes, self._image().photo_size)
         self._save_picks({})
 
     def add_box(self, box: tuple[float, float, float, float], label: str = "object",

@@ -32,6 +32,11 @@ class Image:
     def width(self) -> int:
         return int(self.rgb.shape[1])
 
+    @property
+    def photo_size(self) -> tuple[int, int]:
+        """(width, height) of the photo as displayed (before resizing), in whose pixels sidecar files are given."""
+        return self.original_size if all(self.original_size) else (self.width, self.height)
+
     def to_uint8(self) -> np.ndarray:
         return np.clip(np.rint(self.rgb * 255.0), 0, 255).astype(np.uint8)
 

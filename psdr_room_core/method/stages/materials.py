@@ -200,9 +200,8 @@ def _apply_user_crops(ctx: StageContext, image: Image, parts: list[ScenePart], i
     if not path.is_file():
         return
     names = [p.name for p in parts]
-    photo_size = image.original_size if all(image.original_size) else (image.width, image.height)
     chosen: dict[str, list[Rect]] = {}
-    for crop in read_crops(path, photo_size, (image.width, image.height)):
+    for crop in read_crops(path, image.photo_size, (image.width, image.height)):
         if crop.part is not None:
             if crop.part not in names:
                 raise PsdrRoomError(f"{path}: part '{crop.part}' is not in the scene; parts: {', '.join(names)}")
