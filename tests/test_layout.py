@@ -12,6 +12,7 @@ import pytest
 from psdr_room_core.method.artifacts import Camera, Detection, Detections, Image, Panoptic, Segment
 from psdr_room_plugins.layout import box
 from psdr_room_plugins.layout.depth import LayoutDepth, object_depth
+from psdr_room_plugins.layout.fit import floor_colour_region
 from psdr_room_plugins.layout.manhattan import ManhattanFrame, frame_from_vanishing_points
 from psdr_room_plugins.layout.objects import GrabCutParams, grabcut_mask
 from psdr_room_plugins.layout.segmentation import LayoutSegmentation
@@ -206,3 +207,30 @@ def test_a_bare_photo_without_floor_or_prompts_still_gives_a_room(tmp_path: Path
     room = record.artifacts["room_box"]
     assert room.extra["floor_source"] in ("ceiling", "walls")
     assert record.artifacts["placements"].objects == []
+
+
+def test_the_floor_colour_runs_up_from_the_bottom_band() -> None:
+    """A plain carpet (no lines to say it is floor) running up to the far wall is floor evidence as far as its
+    colour goes; the walls beside it, a rug of another colour and everything above the horizon are not."""
+    height, width = 120, 160
+    rgb = np.full((height, width, 3), (0.80, 0.78, 0.72), np.float32)  # pale walls
+    carpet = np.zeros((height, width), dtype=bool)
+    for y in range(60, height):  # a corridor floor narrowing towards its vanishing point at row 60
+        half = (y - 60) * 1.6
+        carpet[y, max(0, int(80 - half)):int(80 + half) + 1] = True
+    rgb[carpet] = (0.42, 0.33, 0.24)
+    rug = np.zeros_like(carpet)
+    rug[80:95, 70:90] = True
+    rgb[rug] = (0.20, 0.30, 0.60)
+    rgb += np.random.default_rng(0).normal(0, 0.02, rgb.shape).astype(np.float32)
+    image = Image(rgb=np.clip(rgb, 0, 1), source=str(PHOTO), original_size=(width, height))
+    below = np.zeros_like(carpet)
+    below[62:] = True  # the horizon a little under the vanishing point
+    band = np.zeros_like(carpet)
+    band[-10:] = True
+    region = floor_colour_region(image, below, band, tolerance=14.0)
+    floor = carpet & ~rug & below
+    assert (region & floor).sum() > 0.9 * floor.sum()  # the carpet up to near its vanishing point
+    assert not region[~below].any() and (region & rug).sum() < 0.1 * rug.sum()
+    assert (region & ~carpet).sum() < 0.05 * floor.sum()  # the walls stay out
+    assert not floor_colour_region(image, below, np.zeros_like(band), 14.0).any()  # no band, no region

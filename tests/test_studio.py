@@ -95,7 +95,10 @@ def test_wrong_corrections_are_refused_and_change_nothing(room: SimpleNamespace,
                            (lambda: session.delete_box(3), "no box 3; there are 1"),
                            (lambda: session.pick(999, 0, database), "no object segment 999"),
                            (lambda: session.pick(segment, len(candidates[segment]), database), "out of range"),
-                           (lambda: session.pick(segment, "no/such_model", database), "no model 'no/such_model'")]:
+                           (lambda: session.pick(segment, "no/such_model", database), "no model 'no/such_model'"),
+                           (lambda: session.mark_segment(99999, "wall"), "no segment 99999"),
+                           (lambda: session.mark_segment(segment, "sofa"), "category 'sofa' is unknown"),
+                           (lambda: session.reset_marks(), "no segment is marked")]:
         with pytest.raises(PsdrRoomError, match=message):
             wrong()
     assert (folder / "photo.boxes.yaml").read_text() == before
@@ -111,6 +114,19 @@ def test_wrong_corrections_are_refused_and_change_nothing(room: SimpleNamespace,
     assert [(b.label, b.box) for b in read_boxes(folder / "photo.boxes.yaml", (320, 240))] == [
         ("chair", (10.0, 20.0, 60.0, 90.0)), ("sofa", (100.0, 120.0, 180.0, 200.0))]
     assert session.picks == {}  # new boxes renumber the segments
+
+    # A segment marked as wall: the segmentation so marked is written beside the photo, and the next run reads it.
+    session.mark_segment(segment, "wall")
+    assert yaml.safe_load((tmp_path / "run" / "studio.yaml").read_text())["marks"] == {segment: "wall"}
+    with pytest.raises(PsdrRoomError, match="which boxes do not change"):
+        session.add_box((10, 10, 50, 50))
+    session.run(PREVIEW)
+    assert session.record is not None and session.record.implementations["segmentation"]["name"] == "file"
+    marked = {s.id: s.category for s in session.artifact("panoptic").segments}
+    assert marked[segment] == "wall" and segment not in session.artifact("object_candidates").ranked
+    session.reset_marks()
+    assert not (folder / "photo.panoptic.png").exists() and not (folder / "photo.panoptic.json").exists()
+    assert not list(folder.glob(".studio-*"))
 
 
 # -- the browser test -------------------------------------------------------------------------------------------

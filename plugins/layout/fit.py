@@ -30,11 +30,15 @@ class LayoutParams:
     box_score: float = 0.3
     """Object boxes scoring at least this inform the fit (clutter weights, floor prior at their bottoms)."""
     label_weight: float = 1.0
+    """Weight of agreement with a given segmentation's wall/floor/ceiling labels (depth=layout)."""
     floor_band: float = 0.08
     """Rows at the bottom of the photo (this fraction of its height) below the horizon that are likely floor ..."""
     floor_prior: float = 0.5
     """... with this orientation evidence per pixel; box bottoms (objects stand on the floor) get it too."""
-    """Weight of agreement with a given segmentation's wall/floor/ceiling labels (depth=layout)."""
+    floor_colour: float = 14.0
+    """Pixels below the horizon joined to that bottom band by colours within this CIELAB distance of the band's
+    median (lightness counted half) get the floor prior too: the floor's material running up to the far wall
+    (a corridor's carpet has no lines to say so). 0: off."""
     n_random: int = 3000
     """Random hypotheses scored before the local search."""
     n_starts: int = 8
@@ -82,12 +86,33 @@ def _clutter_weights(detections: Detections, image: Image, shape: tuple[int, int
     return weights
 
 
-def _floor_prior(rays: np.ndarray, detections: Detections | None, image: Image, band: float) -> np.ndarray:
-    """(H, W) 1 where the floor is likely: the bottom ``band`` of rows and the bottom edges of object boxes,
-    where below the horizon."""
+def floor_colour_region(image: Image, below: np.ndarray, band: np.ndarray, tolerance: float) -> np.ndarray:
+    """(H, W) bool on the grid of ``below`` (pixels under the horizon): the 4-connected region of ``band``
+    pixels and their neighbours whose blurred CIELAB colour lies within ``tolerance`` of the band's median
+    (lightness differences counted half: light falls off across a floor)."""
+    height, width = below.shape
+    small = cv2.GaussianBlur(cv2.resize(image.to_uint8(), (width, height), interpolation=cv2.INTER_AREA), (0, 0), 1.5)
+    lab = cv2.cvtColor(small, cv2.COLOR_RGB2LAB).astype(np.float32)
+    seeds = band & below
+    if not seeds.any():
+        return np.zeros_like(below)
+    difference = (lab - np.median(lab[seeds], axis=0)) * np.array([0.5, 1.0, 1.0], np.float32)
+    close = (np.linalg.norm(difference, axis=-1) < tolerance) & below
+    _, component = cv2.connectedComponents(close.astype(np.uint8), connectivity=4)
+    joined = np.unique(component[seeds & close])
+    return np.isin(component, joined[joined > 0])
+
+
+def _floor_prior(rays: np.ndarray, detections: Detections | None, image: Image, band: float,
+                 colour_tolerance: float) -> np.ndarray:
+    """(H, W) 1 where the floor is likely, below the horizon: the bottom ``band`` of rows, the bottom edges of
+    object boxes and (``colour_tolerance`` > 0) the band's colour running up from it
+    (:func:`floor_colour_region`)."""
     height, width = rays.shape[:2]
     prior = np.zeros((height, width), dtype=np.float32)
     prior[height - max(1, round(band * height)):] = 1.0
+    if colour_tolerance > 0:
+        prior[floor_colour_region(image, rays[..., 1] < 0, prior > 0, colour_tolerance)] = 1.0
     sy, sx = height / image.height, width / image.width
     for d in (detections.items if detections is not None else []):
         x0, _, x1, y1 = d.box
@@ -127,7 +152,8 @@ def fit_layout(image: Image, camera: Camera, params: LayoutParams, detections: D
                                 source=detections.source)
         evidence *= _clutter_weights(detections, image, shape, params.clutter_weight)[None]
     rays = frame.rays(camera, shape[1], shape[0])
-    evidence[1] = np.maximum(evidence[1], params.floor_prior * _floor_prior(rays, detections, image, params.floor_band))
+    evidence[1] = np.maximum(evidence[1], params.floor_prior * _floor_prior(rays, detections, image, params.floor_band,
+                                                                         params.floor_colour))
     evidence = evidence.reshape(3, -1)
     rays = rays.reshape(-1, 3)
     labelled = panoptic is not None and any(s.category in ("wall", "floor", "ceiling") for s in panoptic.segments)

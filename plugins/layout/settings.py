@@ -26,6 +26,7 @@ class LayoutFit:
     sweep_fraction: float = setting(gt=0, le=1)
     floor_band: float = setting(ge=0, le=1)
     floor_prior: float = setting(ge=0)
+    floor_colour: float = setting(ge=0)
     n_random: int = setting(ge=1)
     n_starts: int = setting(ge=1)
     search: SearchRange = setting()

@@ -15,7 +15,7 @@ import numpy as np
 import viser
 
 from psdr_room_core.engine.errors import PsdrRoomError
-from psdr_room_core.method.artifacts import Camera, Image, ObjectCandidates, Panoptic, Placements, RoomBox
+from psdr_room_core.method.artifacts import CATEGORIES, Camera, Image, ObjectCandidates, Panoptic, Placements, RoomBox
 from psdr_room_core.method.edit import load_state
 from psdr_room_core.method.visualize import segment_overlay
 from psdr_room_plugins.detectors.boxes_file import photo_scale, scaled
@@ -85,6 +85,11 @@ class StudioApp:
         with gui.add_folder("Photo"):
             self.photo = gui.add_image(np.zeros((8, 8, 3), np.uint8), label="segmentation and object boxes")
             self.overlay = gui.add_checkbox("Show segmentation", initial_value=True)
+        with gui.add_folder("Segments"):
+            self.region = gui.add_dropdown("Segment", ["(none)"])
+            self.category = gui.add_dropdown("Is a", list(CATEGORIES), initial_value="wall")
+            self.mark_button = gui.add_button("Mark segment", hint="writes the segmentation, so marked, beside the photo")
+            self.reset_marks_button = gui.add_button("Reset marks")
         with gui.add_folder("Object boxes"):
             self.box = gui.add_dropdown("Box", ["(none)"])
             self.label = gui.add_dropdown("Label", ["object", *DB_CATEGORIES], initial_value="object",
@@ -116,6 +121,9 @@ class StudioApp:
                                                                                           self.label.value)))
         self.delete_button.on_click(lambda _: self.act(lambda: self.session.delete_box(self._box_index())))
         self.draw_button.on_click(self._draw_mode)
+        self.mark_button.on_click(lambda _: self.act(lambda: self.session.mark_segment(self._region_id(),
+                                                                                       self.category.value)))
+        self.reset_marks_button.on_click(lambda _: self.act(self.session.reset_marks))
         self.segment.on_update(lambda _: self.refresh_candidates())
         self.pick_button.on_click(lambda _: self.act(self._pick))
         self.add_material_button.on_click(lambda _: self._add_material())
@@ -143,7 +151,8 @@ class StudioApp:
             self.say(f"**Not changed:** {plain(str(exc))}")
             return
         self.say("Changed; run the preview or the full fit to see it. Files: "
-                 f"`{self.session.boxes_file}` (boxes), `{self.session.run_dir / 'studio.yaml'}` (picks).")
+                 f"`{self.session.boxes_file}` (boxes), `{self.session.segmentation_file}` (marked segments), "
+                 f"`{self.session.run_dir / 'studio.yaml'}` (picks, marks).")
         self.refresh_lists()
         self.refresh_photo()
 
@@ -257,6 +266,9 @@ class StudioApp:
         except PsdrRoomError:
             boxes = []
         self.box.options = [f"{i}: {b.label}" for i, b in enumerate(boxes)] or ["(none)"]
+        panoptic: Panoptic | None = self.session.artifact("panoptic")
+        self.region.options = [f"{s.id}: {s.label} ({s.category})"
+                               for s in (panoptic.segments if panoptic is not None else [])] or ["(none)"]
         candidates: ObjectCandidates | None = self.session.artifact("object_candidates")
         segments = sorted(candidates.ranked) if candidates is not None else []
         self.segment.options = [f"{s}: {candidates.labels.get(s, '')}" for s in segments] or ["(none)"]
@@ -298,6 +310,12 @@ class StudioApp:
         head = self.box.value.split(":")[0]
         if not head.isdigit():
             raise PsdrRoomError("no box to change; draw one first")
+        return int(head)
+
+    def _region_id(self) -> int:
+        head = self.region.value.split(":")[0]
+        if not head.isdigit():
+            raise PsdrRoomError("no segment to mark; run the preview first")
         return int(head)
 
     def _segment_id(self) -> int | None:

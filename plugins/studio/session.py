@@ -5,7 +5,10 @@ Corrections are written where ``psdr-room`` reads them, so the plain command rep
 - object boxes (added, deleted, relabelled) → ``<photo stem>.boxes.yaml`` beside the photo (``detector=auto``
   takes it over the detector);
 - candidate picks → ``+place_objects.pick.<segment>=<rank or model id>`` overrides, kept in the run folder's
-  ``studio.yaml`` and shown as the command line that reproduces the run.
+  ``studio.yaml`` and shown as the command line that reproduces the run;
+- segments marked as a room category (wall, floor, ceiling, window, door, lamp, object) → the run's segmentation
+  so marked, as ``<photo stem>.panoptic.png`` + ``.panoptic.json`` beside the photo (``segmentation=auto`` takes
+  it over the offline layout method); the marks are listed in ``studio.yaml``.
 
 Runs go through :func:`~psdr_room_core.engine.run.execute` on a config from
 :func:`~psdr_room_core.engine.cli.compose_config`, exactly as ``psdr-room`` runs; the cache makes the stages a
@@ -15,9 +18,10 @@ correction does not reach instant.
 from __future__ import annotations
 
 import os
+import tempfile
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -29,9 +33,18 @@ from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Origin, PluginSystem, load_plugins
 from psdr_room_core.engine.run import execute
-from psdr_room_core.method.artifacts import CATEGORIES, Detection, Detections, Image, ObjectCandidates
+from psdr_room_core.method.artifacts import (
+    CATEGORIES,
+    Detection,
+    Detections,
+    Image,
+    ObjectCandidates,
+    Panoptic,
+    write_coco_panoptic,
+)
 from psdr_room_core.method.edit import edit_scene
 from psdr_room_plugins.detectors.boxes_file import photo_scale, read_boxes, scaled, sidecar_path, write_boxes
+from psdr_room_plugins.sidecar_segmentation import find_segmentation_sidecar, panoptic_json_for
 
 PREVIEW = "place_objects"
 """The last stage of a preview run (the first posed scene)."""
@@ -85,7 +98,7 @@ class Session:
         self.run_dir = run_dir.expanduser().absolute()
         self.plugins = plugins
         self.events = events
-        self.picks: dict[int, int | str] = self._load_picks()
+        self.picks, self.marks = self._load_state()
         self.record: RunRecord | None = None
         self.detector = "auto"
         self._lock = threading.Lock()
@@ -166,8 +179,12 @@ class Session:
         if self.detector not in ("auto", "boxes_file"):
             raise PsdrRoomError(f"detector={self.detector} ignores the boxes file {self.boxes_file}; restart the "
                                 "studio without detector= (auto takes the boxes file)")
+        found = find_segmentation_sidecar(self.photo)
+        if found is not None and (self.marks or self._segmentation() == "file"):
+            raise PsdrRoomError(f"the segmentation comes from {found[1]}, which boxes do not change; press Reset "
+                                "marks (when the studio wrote it) or edit that file")
         write_boxes(self.boxes_file, boxes, self._image().photo_size)
-        self._save_picks({})
+        self._save_state({}, self.marks)
 
     def add_box(self, box: tuple[float, float, float, float], label: str = "object",
                 category: str = "object") -> None:
@@ -220,23 +237,74 @@ class Session:
             choice = rank
         else:
             database.record(str(choice))  # one line naming similar ids when it is unknown
-        self._save_picks({**self.picks, segment_id: choice})
+        self._save_state({**self.picks, segment_id: choice}, self.marks)
 
-    def _load_picks(self) -> dict[int, int | str]:
+    # -- segment marks ------------------------------------------------------------------------------------------
+
+    @property
+    def segmentation_file(self) -> Path:
+        """Where marked segments are written: ``<photo stem>.panoptic.png`` (and its ``.panoptic.json``)."""
+        return self.photo.with_name(f"{self.photo.stem}.panoptic.png")
+
+    def _segmentation(self) -> str:
+        """The segmentation implementation the latest run used (``auto`` resolved)."""
+        used = self.record.implementations.get("segmentation", {}) if self.record is not None else {}
+        return str(used.get("name", ""))
+
+    def mark_segment(self, segment_id: int, category: str) -> None:
+        """Say what segment ``segment_id`` of the latest run's segmentation is (a room category); the segmentation
+        so marked is written beside the photo, where the next run reads it."""
+        panoptic: Panoptic | None = self.artifact("panoptic")
+        if panoptic is None:
+            raise PsdrRoomError("no run yet: run the preview first, then mark its segments")
+        if category not in CATEGORIES:
+            raise PsdrRoomError(f"category {category!r} is unknown; use one of {', '.join(CATEGORIES)}")
+        known = sorted(s.id for s in panoptic.segments)
+        if segment_id not in known:
+            raise PsdrRoomError(f"no segment {segment_id}; the segments are {known}")
+        found = find_segmentation_sidecar(self.photo)
+        if found is not None and found[0] == "labelme":
+            raise PsdrRoomError(f"{found[1]} holds the segmentation and takes precedence; mark the segment there in LabelMe")
+        if self._segmentation() not in ("layout", "file"):
+            raise PsdrRoomError(f"segmentation={self._segmentation()} ignores a segmentation file beside the photo; "
+                                "restart the studio with segmentation=file to use the marks")
+        segments = [replace(s, category=category, label=category if category != "object" else s.label)
+                    if s.id == segment_id else s for s in panoptic.segments]
+        png, meta = self.segmentation_file, panoptic_json_for(self.segmentation_file)
+        with tempfile.TemporaryDirectory(dir=self.photo.parent, prefix=".studio-") as scratch:  # whole files only
+            write_coco_panoptic(Path(scratch) / png.name, Path(scratch) / meta.name, panoptic.ids, segments)
+            os.replace(Path(scratch) / meta.name, meta)
+            os.replace(Path(scratch) / png.name, png)
+        self._save_state({}, {**self.marks, segment_id: category})
+
+    def reset_marks(self) -> None:
+        """Delete the segmentation file the studio's marks wrote (never one it did not write)."""
+        if not self.marks:
+            raise PsdrRoomError("no segment is marked; nothing to reset")
+        for path in (self.segmentation_file, panoptic_json_for(self.segmentation_file)):
+            path.unlink(missing_ok=True)
+        self._save_state({}, {})
+
+    # -- the state file -----------------------------------------------------------------------------------------
+
+    def _load_state(self) -> tuple[dict[int, int | str], dict[int, str]]:
         path = self.run_dir / STATE_FILE
         if not path.is_file():
-            return {}
+            return {}, {}
         data = yaml.safe_load(path.read_text()) or {}
         picks = data.get("picks") if isinstance(data, dict) else None
-        if not isinstance(picks, dict):
-            raise PsdrRoomError(f"{path}: expected 'picks: {{segment: rank or model id}}'; delete the file to start over")
-        return {int(k): v for k, v in picks.items()}
+        marks = data.get("marks", {}) if isinstance(data, dict) else None
+        if not isinstance(picks, dict) or not isinstance(marks, dict):
+            raise PsdrRoomError(f"{path}: expected 'picks: {{segment: rank or model id}}' and 'marks: {{segment: "
+                                "category}'; delete the file to start over")
+        return {int(k): v for k, v in picks.items()}, {int(k): str(v) for k, v in marks.items()}
 
-    def _save_picks(self, picks: dict[int, int | str]) -> None:
-        """Keep ``picks`` and write them, with the command line that reproduces the run, to ``studio.yaml``."""
-        self.picks = picks
+    def _save_state(self, picks: dict[int, int | str], marks: dict[int, str]) -> None:
+        """Keep ``picks`` and ``marks`` and write them, with the command line that reproduces the run, to
+        ``studio.yaml``."""
+        self.picks, self.marks = picks, marks
         self.run_dir.mkdir(parents=True, exist_ok=True)
         path = self.run_dir / STATE_FILE
         partial = path.with_name(f".{STATE_FILE}.partial")
-        partial.write_text(yaml.safe_dump({"picks": picks, "command": self.command()}, sort_keys=False))
+        partial.write_text(yaml.safe_dump({"picks": picks, "marks": marks, "command": self.command()}, sort_keys=False))
         os.replace(partial, path)
