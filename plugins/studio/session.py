@@ -87,6 +87,11 @@ def studio_plugins() -> tuple[PluginSystem, StageEvents]:
     return load_plugins(extra=[(events, Origin("studio", "psdr-room", "(studio)"))]), events
 
 
+def _check_category(category: str) -> None:
+    if category not in CATEGORIES:
+        raise PsdrRoomError(f"category {category!r} is unknown; use one of {', '.join(CATEGORIES)}")
+
+
 class Session:
     """The photo, its run folder, its corrections and its latest run. Methods that change a correction check it
     first and raise :class:`PsdrRoomError` with one line (changing nothing) when it is wrong."""
@@ -190,8 +195,7 @@ class Session:
                 category: str = "object") -> None:
         """Add an object box (photo pixels ``x0, y0, x1, y1``) to the boxes file."""
         x0, y0, x1, y1 = (float(v) for v in box)
-        if category not in CATEGORIES:
-            raise PsdrRoomError(f"category {category!r} is unknown; use one of {', '.join(CATEGORIES)}")
+        _check_category(category)
         if not (x1 > x0 and y1 > y0):
             raise PsdrRoomError(f"box {[x0, y0, x1, y1]} is inverted or empty; give [x0, y0, x1, y1] with x1 > x0 and "
                                 "y1 > y0 (drag from one corner to the opposite one)")
@@ -257,8 +261,7 @@ class Session:
         panoptic: Panoptic | None = self.artifact("panoptic")
         if panoptic is None:
             raise PsdrRoomError("no run yet: run the preview first, then mark its segments")
-        if category not in CATEGORIES:
-            raise PsdrRoomError(f"category {category!r} is unknown; use one of {', '.join(CATEGORIES)}")
+        _check_category(category)
         known = sorted(s.id for s in panoptic.segments)
         if segment_id not in known:
             raise PsdrRoomError(f"no segment {segment_id}; the segments are {known}")
