@@ -14,7 +14,7 @@ import yaml
 from psdr_room_core.engine.dag import StageContext
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.method.artifacts import Camera, Image, MaterialAssignment, Panoptic, Placements, RoomBox, Segment
-from psdr_room_core.method.crops import crop_windows, largest_rectangle, read_crops
+from psdr_room_core.method.crops import crop_windows, largest_rectangle, read_crops, write_crops
 from psdr_room_core.method.material_search import (
     MaterialIndex,
     luminance,
@@ -101,6 +101,18 @@ def test_crops_file_is_scaled_to_the_working_image_and_checked(tmp_path: Path) -
         with pytest.raises(PsdrRoomError, match=words) as info:
             read_crops(path, (800, 600), (400, 300))
         assert str(path) in str(info.value) and "\n" not in str(info.value)
+
+
+def test_a_written_crops_file_reads_back_and_a_wrong_one_is_not_written(tmp_path: Path) -> None:
+    path = tmp_path / "photo.crops.yaml"
+    entries: list[dict[str, object]] = [{"image": [100.0, 50.0, 300.0, 250.0], "part": "floor"},
+                                        {"image": [0, 0, 80, 60], "render": [10, 10, 50, 40]}]
+    write_crops(path, entries, (800, 600))
+    assert [c.image for c in read_crops(path, (800, 600), (800, 600))] == [(100, 50, 300, 250), (0, 0, 80, 60)]
+    before = path.read_text()
+    with pytest.raises(PsdrRoomError, match="inside the 800x600 photo"):
+        write_crops(path, [{"image": [700, 0, 900, 60], "part": "floor"}], (800, 600))
+    assert path.read_text() == before and sorted(p.name for p in tmp_path.iterdir()) == [path.name]
 
 
 def test_vote_prefers_materials_listed_by_several_crops() -> None:

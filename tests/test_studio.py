@@ -1,6 +1,6 @@
 """psdr-room-studio: the session's corrections as the CLI's files, the canvas-to-photo mapping, and the whole
 loop in a real browser (headless Debian Chromium through selenium): draw a box, preview, pick, preview, full fit,
-edit."""
+move and delete crop windows, full fit, edit a material and one of its graph parameters."""
 
 from __future__ import annotations
 
@@ -98,7 +98,10 @@ def test_wrong_corrections_are_refused_and_change_nothing(room: SimpleNamespace,
                            (lambda: session.pick(segment, "no/such_model", database), "no model 'no/such_model'"),
                            (lambda: session.mark_segment(99999, "wall"), "no segment 99999"),
                            (lambda: session.mark_segment(segment, "sofa"), "category 'sofa' is unknown"),
-                           (lambda: session.reset_marks(), "no segment is marked")]:
+                           (lambda: session.reset_marks(), "no segment is marked"),
+                           (lambda: session.move_crop(0, (10, 10, 50, 50)), "run the full fit first"),
+                           (lambda: session.add_crop("floor", (10, 10, 50, 50)), "run the full fit first"),
+                           (lambda: session.delete_crop(0), "run the full fit first")]:
         with pytest.raises(PsdrRoomError, match=message):
             wrong()
     assert (folder / "photo.boxes.yaml").read_text() == before
@@ -239,10 +242,19 @@ def _placed(run_dir: Path) -> dict[str, dict[str, Any]]:
     return {str(o["segment_id"]): o for o in data["objects"]}
 
 
+def _drag(driver: Any, canvas: Any, start: tuple[int, int], end: tuple[int, int]) -> None:
+    """Drag a rectangle on the canvas from ``start`` to ``end`` (offsets from its centre, CSS pixels)."""
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    dx, dy = end[0] - start[0], end[1] - start[1]
+    (ActionChains(driver).move_to_element_with_offset(canvas, *start).click_and_hold()
+     .move_by_offset(dx // 2, dy // 2).move_by_offset(dx - dx // 2, dy - dy // 2).release().perform())
+
+
 def test_draw_a_box_preview_pick_fit_edit_in_a_real_browser(studio: str, room: SimpleNamespace,
                                                            tmp_path: Path) -> None:
-    from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.by import By
+    from selenium.webdriver.common.keys import Keys
 
     driver = _browser()
     try:
@@ -264,11 +276,7 @@ def test_draw_a_box_preview_pick_fit_edit_in_a_real_browser(studio: str, room: S
             return round((x - camera["cx"] - 0.5) * scale), round((y - camera["cy"] - 0.5) * scale)
 
         x0, y0, x1, y1 = room.box
-        start, end = offset(x0, y0), offset(x1, y1)
-        (ActionChains(driver).move_to_element_with_offset(canvas, *start).click_and_hold()
-         .move_by_offset((end[0] - start[0]) // 2, (end[1] - start[1]) // 2)
-         .move_by_offset(end[0] - start[0] - (end[0] - start[0]) // 2, end[1] - start[1] - (end[1] - start[1]) // 2)
-         .release().perform())
+        _drag(driver, canvas, offset(x0, y0), offset(x1, y1))
         _wait(lambda: "Changed" in _status(driver), 20, "the box to be taken", driver)
         boxes = yaml.safe_load(room.photo.with_name("photo.boxes.yaml").read_text())["boxes"]
         assert [b["label"] for b in boxes] == ["sofa"]
@@ -314,20 +322,58 @@ def test_draw_a_box_preview_pick_fit_edit_in_a_real_browser(studio: str, room: S
         _wait(lambda: ranked[1]["model_id"] in _status(driver), 20, "the picked model in the 3D view's list", driver)
         driver.save_screenshot(str(tmp_path / "picked.png"))
 
-        # The full fit, then an edit of its exported scene: the floor wears a library material.
+        # The full fit.
         _click(driver, "Full fit")
         _wait(lambda: "Run 4 (full fit) done" in _status(driver), 600, "the full fit", driver)
         assert _computed(room.run_dir) >= {"fit_objects", "fit_appearance", "export_scene"}
         assert "place_objects" not in _computed(room.run_dir)
-        material = sorted(plugin_system().registry.implementation("material_graph", "torch_graph").factory().names())[0]
+
+        # Crop window 0 moved over the sofa and the last one deleted: the crops file holds the run's crops so changed,
+        # and the next full fit recomputes from assign_materials on, which takes the moved window.
+        def run_crops() -> list[tuple[str, list[int]]]:
+            parts = json.loads((room.run_dir / "artifacts" / "materials" / "materials.json").read_text())["parts"]
+            return [(p["part"], crop) for p in parts for crop in p["crops"]]
+
+        crops_file = room.photo.with_name("photo.crops.yaml")
+        before_crops = run_crops()
+        assert len(before_crops) >= 2 and not crops_file.exists()
+        _choose(driver, "Crop", "0:")
+        _click(driver, "Move crop")
+        time.sleep(1.5)
+        _drag(driver, canvas, offset(x0, y0), offset(x1, y1))
+        _wait(lambda: crops_file.is_file(), 20, "the crops file", driver)
+        moved = yaml.safe_load(crops_file.read_text())["crops"]
+        assert [c["part"] for c in moved] == [part for part, _ in before_crops]
+        assert np.allclose(moved[0]["image"], room.box, atol=3.0 / scale + 1.5), (moved[0]["image"], room.box)
+        _choose(driver, "Crop", f"{len(before_crops) - 1}:")
+        _click(driver, "Delete crop")
+        _wait(lambda: len(yaml.safe_load(crops_file.read_text())["crops"]) == len(before_crops) - 1, 20,
+              "the crop's deletion", driver)
+        _click(driver, "Full fit")
+        _wait(lambda: "Run 5 (full fit) done" in _status(driver), 600, "the full fit after the crops", driver)
+        assert _computed(room.run_dir) == {"assign_materials", "init_lights", "fit_appearance", "export_scene"}
+        after_crops = run_crops()
+        assert len(after_crops) == len(before_crops) - 1 and after_crops[0][0] == before_crops[0][0]
+        assert np.allclose(after_crops[0][1], room.box, atol=3.0 / scale + 2.5), (after_crops[0][1], room.box)
+
+        # An edit of the exported scene: the floor wears a library material, and one of its graph parameters moves.
+        library = plugin_system().registry.implementation("material_graph", "torch_graph").factory()
+        material = sorted(library.names())[0]
+        key, bound = next((k, b) for k, b in library.material(material).bounds.items() if b.value.numel() == 1)
         _choose(driver, "Part", "floor")
         _choose(driver, "Material", material)
         _click(driver, "Add material edit")
         _wait(lambda: f"material.floor={material}" in _status(driver), 20, "the edit's command line", driver)
+        slider = _wait(lambda: driver.find_element(By.XPATH, f"//label[normalize-space()='{key}']/following::*"
+                                                             "[@role='slider'][1]"), 20, f"the slider of {key}", driver)
+        slider.send_keys(Keys.HOME)  # the range's low end
+        _wait(lambda: f"material.floor.{key}=" in _status(driver), 20, "the parameter edit", driver)
         _click(driver, "Render edit")
-        _wait(lambda: "Edited (1 edits)" in _status(driver), 300, "the edited render", driver)
+        _wait(lambda: "Edited (2 edits)" in _status(driver), 300, "the edited render", driver)
         edited = json.loads((room.run_dir / "scene-edited" / "appearance.json").read_text())
-        assert next(p for p in edited["parts"] if p["part"] == "floor")["material"] == material
+        floor = next(p for p in edited["parts"] if p["part"] == "floor")
+        assert floor["material"] == material
+        assert np.isclose(floor["params"][key], float(bound.lo)), (floor["params"][key], float(bound.lo))
         assert (room.run_dir / "scene-edited" / "render.png").is_file()
         driver.save_screenshot(str(tmp_path / "edited.png"))
     finally:

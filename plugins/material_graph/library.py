@@ -10,7 +10,7 @@ first use and cached.
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -104,9 +104,15 @@ class TorchGraphLibrary:
         """Every material, validated (raises on the first invalid file)."""
         return [self.material(n) for n in self.names()]
 
-    def appearance(self, name: str, size: int) -> torch.Tensor:
-        """sRGB [3, size, size] of material ``name`` at its own parameter values, head-on under the thumbnail
-        light (:func:`.thumbnails.shade`): what material retrieval and the texture-transform search compare."""
+    def appearance(self, name: str, size: int, values: Mapping[str, Any] | None = None) -> torch.Tensor:
+        """sRGB [3, size, size] of material ``name`` at its own parameter values (or at ``values``: ``node.param``
+        → value, clamped to its range; the others its own), head-on under the thumbnail light
+        (:func:`.thumbnails.shade`): what material retrieval and the texture-transform search compare, and what the
+        studio shows of a material being edited."""
+        if values is not None:
+            graph = self.material(name)
+            with torch.no_grad():
+                return shade(graph.evaluate(int(size), graph.unconstrained(values), device=self.device)).cpu()
         key = (name, int(size))
         if key not in self._looks:
             with torch.no_grad():

@@ -6,20 +6,25 @@ checked it before changing anything). Runs happen on a worker thread, with the s
 
 from __future__ import annotations
 
+import json
 import threading
 import time
+from collections.abc import Callable
 from typing import Any
 
 import cv2
 import numpy as np
+import torch
 import viser
 
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.method.artifacts import CATEGORIES, Camera, Image, ObjectCandidates, Panoptic, Placements, RoomBox
 from psdr_room_core.method.edit import load_state
+from psdr_room_core.method.shading import linear_to_srgb
 from psdr_room_core.method.visualize import segment_overlay
 from psdr_room_plugins.detectors.boxes_file import photo_scale, scaled
 from psdr_room_plugins.layout.objects import GrabCutParams, grabcut_mask
+from psdr_room_plugins.material_graph.thumbnails import to_uint8
 from psdr_room_plugins.object_db import CATEGORIES as DB_CATEGORIES
 
 from .scene_view import SceneView, latest, overview, screen_to_photo
@@ -27,6 +32,9 @@ from .session import EDITED, PREVIEW, Session, StageEvent
 
 THUMB = 112
 """Side of a candidate thumbnail in the page (pixels)."""
+LOOK = 128
+"""Side of the edited part's material look in the page (pixels)."""
+Box = tuple[float, float, float, float]
 
 
 def plain(text: str) -> str:
@@ -34,11 +42,11 @@ def plain(text: str) -> str:
     return "".join(f"\\{c}" if c in "\\`*_[]<>#|" else c for c in text)
 
 
-def draw_boxes(photo: np.ndarray, boxes: list[tuple[str, tuple[float, float, float, float]]]) -> np.ndarray:
-    """``photo`` with each (caption, box in its pixels) drawn and captioned."""
+def draw_boxes(photo: np.ndarray, boxes: list[tuple[str, Box]], colour: tuple[int, int, int] = (255, 200, 0)) -> np.ndarray:
+    """``photo`` with each (caption, box in its pixels) drawn in ``colour`` and captioned."""
     out = photo.copy()
     for caption, (x0, y0, x1, y1) in boxes:
-        cv2.rectangle(out, (int(x0), int(y0)), (int(x1), int(y1)), (255, 200, 0), 2)
+        cv2.rectangle(out, (int(x0), int(y0)), (int(x1), int(y1)), colour, 2)
         cv2.putText(out, caption, (int(x0) + 3, int(y0) + 14), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (255, 255, 255), 2,
                     cv2.LINE_AA)
         cv2.putText(out, caption, (int(x0) + 3, int(y0) + 14), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1,
@@ -54,6 +62,12 @@ def thumbnail_strip(images: list[np.ndarray], captions: list[str]) -> np.ndarray
         cv2.putText(tile, caption, (4, THUMB - 6), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
         tiles.append(cv2.copyMakeBorder(tile, 2, 2, 2, 2, cv2.BORDER_CONSTANT, value=(255, 255, 255)))
     return np.concatenate(tiles, axis=1) if tiles else np.full((THUMB, THUMB, 3), 255, np.uint8)
+
+
+def slider_step(lo: float, hi: float) -> float:
+    """A slider step of about a hundredth of ``[lo, hi]``, rounded to one significant digit."""
+    span = max(hi - lo, 1e-6) / 100.0
+    return float(f"{span:.0e}")
 
 
 class StudioApp:
@@ -85,6 +99,8 @@ class StudioApp:
         with gui.add_folder("Photo"):
             self.photo = gui.add_image(np.zeros((8, 8, 3), np.uint8), label="segmentation and object boxes")
             self.overlay = gui.add_checkbox("Show segmentation", initial_value=True)
+            self.show_crops = gui.add_checkbox("Show crop windows", initial_value=False,
+                                               hint="after a full fit: the windows material retrieval compares")
         with gui.add_folder("Segments"):
             self.region = gui.add_dropdown("Segment", ["(none)"])
             self.category = gui.add_dropdown("Is a", list(CATEGORIES), initial_value="wall")
@@ -97,6 +113,12 @@ class StudioApp:
             self.relabel_button = gui.add_button("Relabel box")
             self.delete_button = gui.add_button("Delete box")
             self.draw_button = gui.add_button("Draw a box", hint="then drag a rectangle over the photo in the 3D view")
+        with gui.add_folder("Crop windows (after a full fit)"):
+            self.crop = gui.add_dropdown("Crop", ["(none)"])
+            self.move_crop_button = gui.add_button("Move crop", hint="then drag its new window over the photo")
+            self.delete_crop_button = gui.add_button("Delete crop", hint="a part with no crop becomes homogeneous")
+            self.crop_part = gui.add_dropdown("Crop part", ["(none)"])
+            self.add_crop_button = gui.add_button("Add crop", hint="then drag a window over the part's plain surface")
         with gui.add_folder("Candidates"):
             self.segment = gui.add_dropdown("Object", ["(none)"])
             self.thumbs = gui.add_image(thumbnail_strip([], []), label="top candidates (rank: score)")
@@ -106,13 +128,21 @@ class StudioApp:
         with gui.add_folder("Edit (after a full fit)"):
             self.part = gui.add_dropdown("Part", ["(none)"])
             self.material = gui.add_dropdown("Material", ["homogeneous", *library.names()], initial_value="homogeneous")
+            self.material_look = gui.add_image(np.full((LOOK, LOOK, 3), 255, np.uint8), label="the material's look")
             self.add_material_button = gui.add_button("Add material edit")
+            self.part_look = gui.add_image(np.full((LOOK, LOOK, 3), 255, np.uint8), label="the part's look, as edited")
+            self.parameters = gui.add_folder("Graph parameters of the part")
+            with self.parameters:
+                self.parameters_note = gui.add_markdown("")
             self.light_scale = gui.add_slider("Light scale", min=0.0, max=4.0, step=0.05, initial_value=1.0)
             self.fov = gui.add_slider("FoV (degrees)", min=20.0, max=120.0, step=0.5, initial_value=60.0)
             self.edits_text = gui.add_markdown("")
             self.render_button = gui.add_button("Render edit", hint="writes scene-edited/ (with render.png) in the run folder")
             self.render = gui.add_image(np.zeros((8, 8, 3), np.uint8), label="edited render")
         self.material_edits: dict[str, str] = {}
+        self.param_edits: dict[str, dict[str, float | list[float]]] = {}
+        self.scene_parts: dict[str, dict[str, Any]] = {}
+        self.param_handles: list[Any] = []
         self.preview_button.on_click(lambda _: self.start_run(PREVIEW))
         self.full_button.on_click(lambda _: self.start_run(None))
         self.overlay.on_update(lambda _: self.refresh_photo())
@@ -120,13 +150,24 @@ class StudioApp:
         self.relabel_button.on_click(lambda _: self.act(lambda: self.session.relabel_box(self._box_index(),
                                                                                           self.label.value)))
         self.delete_button.on_click(lambda _: self.act(lambda: self.session.delete_box(self._box_index())))
-        self.draw_button.on_click(self._draw_mode)
+        self.draw_button.on_click(lambda event: self._draw_mode(event, lambda: "a rectangle around the object",
+                                                                self.add_box_from_screen))
+        self.show_crops.on_update(lambda _: self.refresh_photo())
+        self.move_crop_button.on_click(lambda event: self._draw_mode(
+            event, lambda: f"crop {self._crop_index()}'s new window",
+            lambda *screen: self.session.move_crop(self._crop_index(), self.photo_box(*screen))))
+        self.delete_crop_button.on_click(lambda _: self.act(lambda: self.session.delete_crop(self._crop_index())))
+        self.add_crop_button.on_click(lambda event: self._draw_mode(
+            event, lambda: f"a window over {self._crop_part()}'s plain surface",
+            lambda *screen: self.session.add_crop(self._crop_part(), self.photo_box(*screen))))
         self.mark_button.on_click(lambda _: self.act(lambda: self.session.mark_segment(self._region_id(),
                                                                                        self.category.value)))
         self.reset_marks_button.on_click(lambda _: self.act(self.session.reset_marks))
         self.segment.on_update(lambda _: self.refresh_candidates())
         self.pick_button.on_click(lambda _: self.act(self._pick))
         self.add_material_button.on_click(lambda _: self._add_material())
+        self.material.on_update(lambda _: self._show_material_look())
+        self.part.on_update(lambda _: self.refresh_parameters())
         self.light_scale.on_update(lambda _: self._show_edits())
         self.fov.on_update(lambda _: self._show_edits())
         self.render_button.on_click(lambda _: self._start_edit())
@@ -152,6 +193,7 @@ class StudioApp:
             return
         self.say("Changed; run the preview or the full fit to see it. Files: "
                  f"`{self.session.boxes_file}` (boxes), `{self.session.segmentation_file}` (marked segments), "
+                 f"`{self.session.crops_file}` (crop windows), "
                  f"`{self.session.run_dir / 'studio.yaml'}` (picks, marks).")
         self.refresh_lists()
         self.refresh_photo()
@@ -215,18 +257,24 @@ class StudioApp:
         if record is None or "scene" not in record.artifacts or not scene.is_file():
             return
         state = load_state(scene.parent)
-        self.part.options = [p["part"] for p in state["parts"]]
+        self.scene_parts = {p["part"]: p for p in state["parts"]}
+        self.part.options = list(self.scene_parts)
         self.material_edits = {}
+        self.param_edits = {}
         camera: Camera | None = latest(record.artifacts, "camera_fit", "camera")
         if camera is not None:
             self.fov.value = round(camera.vfov_deg * 2) / 2
         self.initial_fov = float(self.fov.value)
         self.light_scale.value = 1.0
         self._show_edits()
+        self._show_material_look()
+        self.refresh_parameters()
 
     def edits(self) -> list[str]:
         """The ``psdr-room-edit`` edits the Edit controls describe."""
         out = [f"material.{part}={name}" for part, name in self.material_edits.items()]
+        out += [f"material.{part}.{key}={json.dumps(value, separators=(',', ':'))}"
+                for part, values in self.param_edits.items() for key, value in values.items()]
         if abs(float(self.light_scale.value) - 1.0) > 1e-9:
             out.append(f"light.scale={float(self.light_scale.value):g}")
         if abs(float(self.fov.value) - self.initial_fov) > 1e-9:
@@ -243,7 +291,83 @@ class StudioApp:
             self.say("**Not changed:** no exported scene yet; run the full fit first")
             return
         self.material_edits[self.part.value] = self.material.value
+        self.param_edits.pop(self.part.value, None)
         self._show_edits()
+        self.refresh_parameters()
+
+    # -- a part's material and its graph parameters -------------------------------------------------------------
+
+    def part_material(self, part: str) -> tuple[str | None, dict[str, Any]]:
+        """The library material ``part`` wears with the edits so far (None: homogeneous) and the values of its
+        continuous graph parameters (``node.param`` → value)."""
+        if part in self.material_edits:
+            name: str | None = None if self.material_edits[part] == "homogeneous" else self.material_edits[part]
+            exported: dict[str, Any] = {}
+        else:
+            state = self.scene_parts.get(part, {})
+            name = state.get("material") if state.get("kind") == "procedural" else None
+            exported = dict(state.get("params", {}))
+        if name is None:
+            return None, {}
+        values = {key: b.value.tolist() for key, b in self.library.material(name).bounds.items()}
+        return name, {**values, **exported, **self.param_edits.get(part, {})}
+
+    def refresh_parameters(self) -> None:
+        """One slider per scalar graph parameter of the chosen part (three for a colour or vector), within its
+        range; a change becomes a ``material.<part>.<node.param>=`` edit."""
+        for handle in self.param_handles:
+            handle.remove()
+        self.param_handles = []
+        part = str(self.part.value)
+        name, values = self.part_material(part)
+        if name is None:
+            self.parameters_note.content = ("homogeneous: no graph parameters" if part in self.scene_parts else "")
+            self._show_part_look()
+            return
+        gui, others = self.server.gui, []
+        with self.parameters:
+            for key, bound in self.library.material(name).bounds.items():
+                value, lo, hi = (np.asarray(v, np.float64) for v in (values[key], bound.lo, bound.hi))
+                if value.size == 1:
+                    handle = gui.add_slider(key, min=float(lo), max=float(hi), step=slider_step(float(lo), float(hi)),
+                                            initial_value=float(value))
+                elif value.shape == (3,):
+                    lo, hi = np.broadcast_to(lo, (3,)), np.broadcast_to(hi, (3,))
+                    handle = gui.add_vector3(key, tuple(value), min=tuple(lo), max=tuple(hi),
+                                             step=slider_step(float(lo.min()), float(hi.max())))
+                else:
+                    others.append(key)
+                    continue
+                handle.on_update(lambda _, part=part, key=key, handle=handle: self._set_parameter(part, key, handle.value))
+                self.param_handles.append(handle)
+        self.parameters_note.content = (f"**{plain(name)}**" + (f"; edit {', '.join(plain(k) for k in others)} with "
+                                                                 f"`psdr-room-edit material.{part}.<param>=...`"
+                                                                 if others else ""))
+        self._show_part_look()
+
+    def _set_parameter(self, part: str, key: str, value: Any) -> None:
+        self.param_edits.setdefault(part, {})[key] = (round(float(value), 6) if np.isscalar(value)
+                                                      else [round(float(v), 6) for v in value])
+        self._show_edits()
+        self._show_part_look()
+
+    def _show_material_look(self) -> None:
+        """The look of the material chosen in *Material* (what *Add material edit* would put on the part)."""
+        name = str(self.material.value)
+        if name == "homogeneous":
+            self.material_look.image = np.full((LOOK, LOOK, 3), 255, np.uint8)
+            return
+        self.material_look.image = to_uint8(self.library.appearance(name, LOOK))
+
+    def _show_part_look(self) -> None:
+        """The chosen part's material at its edited values (a homogeneous part: its flat colour)."""
+        part = str(self.part.value)
+        name, values = self.part_material(part)
+        if name is not None:
+            self.part_look.image = to_uint8(self.library.appearance(name, LOOK, values))
+        elif part in self.scene_parts:
+            colour = linear_to_srgb(torch.tensor(self.scene_parts[part]["base_color"], dtype=torch.float32))
+            self.part_look.image = np.broadcast_to(np.round(colour.numpy() * 255).astype(np.uint8), (LOOK, LOOK, 3)).copy()
 
     def _start_edit(self) -> None:
         threading.Thread(target=self._edit, daemon=True, name="psdr-room-studio-edit").start()
@@ -272,7 +396,15 @@ class StudioApp:
         candidates: ObjectCandidates | None = self.session.artifact("object_candidates")
         segments = sorted(candidates.ranked) if candidates is not None else []
         self.segment.options = [f"{s}: {candidates.labels.get(s, '')}" for s in segments] or ["(none)"]
+        self.crop.options = [f"{i}: {c.get('part', 'render window')}" for i, c in enumerate(self._crops())] or ["(none)"]
+        self.crop_part.options = self.session.crop_parts() or ["(none)"]
         self.refresh_candidates()
+
+    def _crops(self) -> list[dict[str, Any]]:
+        try:
+            return self.session.crops()
+        except PsdrRoomError:
+            return []
 
     def refresh_photo(self) -> None:
         image: Image | None = self.session.artifact("image")
@@ -289,7 +421,11 @@ class StudioApp:
             boxes = self.session.boxes()
         except PsdrRoomError:
             boxes = []
-        self.photo.image = draw_boxes(photo, [(f"{i}: {b.label}", scaled(b.box, sx, sy)) for i, b in enumerate(boxes)])
+        photo = draw_boxes(photo, [(f"{i}: {b.label}", scaled(b.box, sx, sy)) for i, b in enumerate(boxes)])
+        if self.show_crops.value:
+            photo = draw_boxes(photo, [(f"crop {i}: {c.get('part', 'render window')}", scaled(c["image"], sx, sy))
+                                       for i, c in enumerate(self._crops())], colour=(0, 220, 255))
+        self.photo.image = photo
 
     def refresh_candidates(self) -> None:
         candidates: ObjectCandidates | None = self.session.artifact("object_candidates")
@@ -333,38 +469,66 @@ class StudioApp:
         choice: int | str = typed if typed else int(rank)
         self.session.pick(segment, choice, self.database)
 
-    def _draw_mode(self, event: viser.GuiEvent) -> None:
-        """Put the browser's view at the photo's camera and take the next rectangle dragged on the canvas as a box."""
+    def _crop_index(self) -> int:
+        head = self.crop.value.split(":")[0]
+        if not head.isdigit():
+            raise PsdrRoomError("no crop window to change; run the full fit first")
+        return int(head)
+
+    def _crop_part(self) -> str:
+        if self.crop_part.value == "(none)":
+            raise PsdrRoomError("no scene part to crop; run the full fit first")
+        return str(self.crop_part.value)
+
+    def _draw_mode(self, event: viser.GuiEvent, what: Callable[[], str],
+                   take: Callable[[Any, tuple[float, float], tuple[float, float]], None]) -> None:
+        """Put the browser's view at the photo's camera and give the next rectangle dragged on the canvas to ``take``
+        (the browser's camera and the rectangle's screen corners); ``what`` names what to drag (or refuses)."""
         if event.client is None or self.session.record is None:
             self.say("Run the preview first.")
             return
+        try:
+            target = what()
+        except PsdrRoomError as exc:
+            self.say(f"**Not changed:** {plain(str(exc))}")
+            return
         self.view.photo_view(event.client, self.session.record.artifacts)
-        self.say("Drag a rectangle around the object on the photo (the view is at the photo's camera).")
+        self.say(f"Drag {target} on the photo (the view is at the photo's camera).")
 
         @self.server.scene.on_rect_select()
         def _(selection: Any) -> None:
             self.server.scene.remove_rect_select_callback(_)
-            self.act(lambda: self.add_box_from_screen(selection.client.camera, selection.screen_min,
-                                                      selection.screen_max))
+            self.act(lambda: take(selection.client.camera, selection.screen_min, selection.screen_max))
 
-    def add_box_from_screen(self, client_camera: Any, screen_min: tuple[float, float],
-                            screen_max: tuple[float, float]) -> None:
-        """Add the box a rectangle on the canvas covers on the photo, and show its GrabCut mask."""
+    def photo_box(self, client_camera: Any, screen_min: tuple[float, float], screen_max: tuple[float, float]) -> Box:
+        """The box (photo pixels) a rectangle on the canvas covers on the photo, clipped to it."""
+        working = self._working_box(client_camera, screen_min, screen_max)
+        sx, sy = photo_scale(self.session.record.artifacts["image"])  # type: ignore[union-attr]
+        return scaled(working, 1 / sx, 1 / sy)
+
+    def _working_box(self, client_camera: Any, screen_min: tuple[float, float], screen_max: tuple[float, float]) -> Box:
         artifacts = self.session.record.artifacts if self.session.record is not None else {}
         image: Image | None = artifacts.get("image")
         camera: Camera | None = latest(artifacts, "camera_fit", "camera")
         room: RoomBox | None = latest(artifacts, "room_box_fit", "room_box")
         if image is None or camera is None or room is None:
-            raise PsdrRoomError("run the preview first: a box is drawn on the photo's camera")
+            raise PsdrRoomError("run the preview first: a rectangle is drawn on the photo's camera")
         corners = [screen_to_photo(client_camera, corner, camera, room.camera_to_world)
                    for corner in (screen_min, screen_max)]
         if any(c is None for c in corners):
-            raise PsdrRoomError("the rectangle is not on the photo; press Draw a box and drag over the photo")
+            raise PsdrRoomError("the rectangle is not on the photo; press the button again and drag over the photo")
         (x0, y0), (x1, y1) = corners  # type: ignore[misc]
         x0, x1 = sorted((max(0.0, x0), min(float(image.width), x1)))
         y0, y1 = sorted((max(0.0, y0), min(float(image.height), y1)))
         if x1 - x0 < 4 or y1 - y0 < 4:
-            raise PsdrRoomError("the rectangle covers less than 4 pixels of the photo; drag a larger one over the object")
-        self.mask = grabcut_mask(image.to_uint8(), (x0, y0, x1, y1), GrabCutParams())
+            raise PsdrRoomError("the rectangle covers less than 4 pixels of the photo; drag a larger one")
+        return x0, y0, x1, y1
+
+    def add_box_from_screen(self, client_camera: Any, screen_min: tuple[float, float],
+                            screen_max: tuple[float, float]) -> None:
+        """Add the box a rectangle on the canvas covers on the photo, and show its GrabCut mask."""
+        working = self._working_box(client_camera, screen_min, screen_max)
+        image: Image = self.session.record.artifacts["image"]  # type: ignore[union-attr]
+        self.mask = grabcut_mask(image.to_uint8(), working, GrabCutParams())
         sx, sy = photo_scale(image)
-        self.session.add_box(scaled((x0, y0, x1, y1), 1 / sx, 1 / sy), label=self.label.value)
+        self.session.add_box(scaled(working, 1 / sx, 1 / sy), label=self.label.value)

@@ -8,7 +8,9 @@ Corrections are written where ``psdr-room`` reads them, so the plain command rep
   ``studio.yaml`` and shown as the command line that reproduces the run;
 - segments marked as a room category (wall, floor, ceiling, window, door, lamp, object) → the run's segmentation
   so marked, as ``<photo stem>.panoptic.png`` + ``.panoptic.json`` beside the photo (``segmentation=auto`` takes
-  it over the offline layout method); the marks are listed in ``studio.yaml``.
+  it over the offline layout method); the marks are listed in ``studio.yaml``;
+- crop windows (moved, added, deleted) → ``<photo stem>.crops.yaml`` beside the photo (``assign_materials`` takes
+  it in place of its own crops).
 
 Runs go through :func:`~psdr_room_core.engine.run.execute` on a config from
 :func:`~psdr_room_core.engine.cli.compose_config`, exactly as ``psdr-room`` runs; the cache makes the stages a
@@ -38,10 +40,12 @@ from psdr_room_core.method.artifacts import (
     Detection,
     Detections,
     Image,
+    MaterialAssignment,
     ObjectCandidates,
     Panoptic,
     write_coco_panoptic,
 )
+from psdr_room_core.method.crops import crops_file, read_crops, write_crops
 from psdr_room_core.method.edit import edit_scene
 from psdr_room_plugins.detectors.boxes_file import photo_scale, read_boxes, scaled, sidecar_path, write_boxes
 from psdr_room_plugins.sidecar_segmentation import find_segmentation_sidecar, panoptic_json_for
@@ -287,6 +291,66 @@ class Session:
         for path in (self.segmentation_file, panoptic_json_for(self.segmentation_file)):
             path.unlink(missing_ok=True)
         self._save_state({}, {})
+
+    # -- crop windows -------------------------------------------------------------------------------------------
+
+    @property
+    def crops_file(self) -> Path:
+        return crops_file(self.photo)
+
+    def crops(self) -> list[dict[str, Any]]:
+        """The crop windows as crops-file entries in photo pixels (``{image, part}`` or ``{image, render}``): the
+        crops file's, else the latest full run's automatic ones."""
+        image = self._image()
+        if self.crops_file.is_file():
+            read_crops(self.crops_file, image.photo_size, image.photo_size)  # one line when the file is wrong
+            return list(yaml.safe_load(self.crops_file.read_text(encoding="utf-8"))["crops"])
+        materials: MaterialAssignment | None = self.artifact("materials")
+        sx, sy = photo_scale(image)
+        return [{"image": [round(v, 1) for v in scaled(rect, 1 / sx, 1 / sy)], "part": p.part}
+                for p in (materials.parts if materials is not None else []) for rect in p.crops]
+
+    def crop_parts(self) -> list[str]:
+        """The scene parts a crop can show (those of the latest full run's material assignment)."""
+        materials: MaterialAssignment | None = self.artifact("materials")
+        return [p.part for p in materials.parts] if materials is not None else []
+
+    def _write_crops(self, entries: list[dict[str, Any]]) -> None:
+        parts = self.crop_parts()
+        unknown = sorted({str(e["part"]) for e in entries if "part" in e} - set(parts))
+        if unknown:
+            raise PsdrRoomError(f"part {unknown[0]} is not in the scene; parts: {', '.join(parts)}")
+        write_crops(self.crops_file, entries, self._image().photo_size)
+
+    def _full_fit_crops(self) -> list[dict[str, Any]]:
+        if self.artifact("materials") is None:
+            raise PsdrRoomError("no crops yet: run the full fit first, then move its crop windows")
+        return self.crops()
+
+    def move_crop(self, index: int, box: tuple[float, float, float, float]) -> None:
+        """Move crop ``index`` (in :meth:`crops` order) to the window ``box`` (photo pixels ``x0, y0, x1, y1``)."""
+        entries = self._full_fit_crops()
+        self._check_crop(index, entries)
+        entries[index] = {**entries[index], "image": [round(float(v), 1) for v in box]}
+        self._write_crops(entries)
+
+    def add_crop(self, part: str, box: tuple[float, float, float, float]) -> None:
+        """Add a crop window ``box`` (photo pixels) showing scene part ``part``."""
+        entries = self._full_fit_crops()
+        self._write_crops([*entries, {"image": [round(float(v), 1) for v in box], "part": part}])
+
+    def delete_crop(self, index: int) -> None:
+        """Remove crop ``index``; a part left with no crop becomes homogeneous (its clean pixels' median colour)."""
+        entries = self._full_fit_crops()
+        self._check_crop(index, entries)
+        self._write_crops(entries[:index] + entries[index + 1:])
+
+    @staticmethod
+    def _check_crop(index: int, entries: list[dict[str, Any]]) -> None:
+        if not entries:
+            raise PsdrRoomError("there are no crops; add one first")
+        if not 0 <= index < len(entries):
+            raise PsdrRoomError(f"no crop {index}; there are {len(entries)} (0 to {len(entries) - 1})")
 
     # -- the state file -----------------------------------------------------------------------------------------
 

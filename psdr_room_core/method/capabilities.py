@@ -8,7 +8,7 @@ content is part of the cache key.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
@@ -214,8 +214,9 @@ class MaterialGraph(Protocol):
 
     def material(self, name: str) -> ProceduralMaterial: ...
 
-    def appearance(self, name: str, size: int) -> torch.Tensor:
-        """sRGB [3, size, size] of the material at its own values, head-on under a fixed light (tileable)."""
+    def appearance(self, name: str, size: int, values: Mapping[str, Any] | None = None) -> torch.Tensor:
+        """sRGB [3, size, size] of the material at its own values (or at ``values``: ``node.param`` → value, the
+        others its own), head-on under a fixed light (tileable)."""
         ...
 
     def sample(self, image: torch.Tensor, u: torch.Tensor, v: torch.Tensor) -> torch.Tensor:

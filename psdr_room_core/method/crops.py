@@ -14,10 +14,12 @@ Rectangles are in the photo's pixels and scaled to the working resolution here.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from psdr_room_core.engine.errors import PsdrRoomError
 
@@ -86,12 +88,17 @@ def crops_file(photo: Path) -> Path:
 def read_crops(path: Path, photo_size: tuple[int, int], working_size: tuple[int, int]) -> list[UserCrop]:
     """The crops of ``path`` scaled from the photo's (width, height) to the working one; a one-line error
     naming the file and the entry for anything malformed."""
-    import yaml
-
     try:
         data = yaml.safe_load(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
         raise PsdrRoomError(f"{path}: unreadable crops file ({str(exc).splitlines()[0]}); fix the YAML or remove it") from None
+    return check_crops(path, data, photo_size, working_size)
+
+
+def check_crops(path: Path, data: object, photo_size: tuple[int, int],
+                working_size: tuple[int, int]) -> list[UserCrop]:
+    """The crops of a crops file's parsed YAML ``data``, checked against the photo's (width, height) and scaled
+    to the working size; errors name ``path`` and the entry."""
     if not isinstance(data, dict) or not isinstance(data.get("crops"), list):
         raise PsdrRoomError(f"{path}: expected a mapping with a 'crops:' list; see the format in psdr_room_core/method/crops.py")
     sx, sy = working_size[0] / photo_size[0], working_size[1] / photo_size[1]
@@ -118,3 +125,14 @@ def read_crops(path: Path, photo_size: tuple[int, int], working_size: tuple[int,
         crops.append(UserCrop(image=rect(entry["image"], f"{where}.image"), part=part,
                               render=rect(entry["render"], f"{where}.render") if "render" in entry else None))
     return crops
+
+
+def write_crops(path: Path, entries: list[dict[str, object]], photo_size: tuple[int, int]) -> None:
+    """Write ``entries`` (``{image: [x0, y0, x1, y1], part: name}`` or ``{image, render}``, photo pixels) as the
+    crops file ``path`` after checking them as :func:`read_crops` will (a wrong one raises and writes nothing);
+    the file appears whole or not at all."""
+    data = {"crops": entries}
+    check_crops(path, data, photo_size, photo_size)
+    partial = path.with_name(f".{path.name}.partial")
+    partial.write_text(yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
+    os.replace(partial, path)
