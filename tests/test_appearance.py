@@ -292,6 +292,10 @@ def test_edits_rerender_without_optimising(exported: Path, tmp_path: Path, capsy
     assert math.degrees(2 * math.atan(0.5 * state["camera"]["height"] / state["camera"]["fy"])) == pytest.approx(70)
     a, b = (cv2.imread(str(d / "render.png")).astype(float) for d in (base, brighter))
     assert b.mean() > 1.3 * a.mean()
+    warm = tmp_path / "warm"  # a colour filter on every light: red up, blue down
+    assert edit_main([str(exported), "light.scale=[1.5,1,0.5]", "--out", str(warm), "--spp", "32"]) == 0
+    c = cv2.imread(str(warm / "render.png")).astype(float)  # BGR
+    assert c[..., 2].mean() > 1.15 * a[..., 2].mean() and c[..., 0].mean() < 0.85 * a[..., 0].mean()
     assert (brighter / "textures" / "floor_base_color.png").is_file() and (brighter / "scene.glb").is_file()
     noisy = tmp_path / "noisy"  # render.png is denoised unless --denoiser none
     assert edit_main([str(exported), "--out", str(noisy), "--spp", "32", "--denoiser", "none"]) == 0

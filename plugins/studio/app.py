@@ -20,7 +20,7 @@ import viser
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.method.artifacts import CATEGORIES, Camera, Image, ObjectCandidates, Panoptic, Placements, RoomBox
 from psdr_room_core.method.edit import load_state
-from psdr_room_core.method.shading import linear_to_srgb
+from psdr_room_core.method.shading import linear_to_srgb, srgb_to_linear
 from psdr_room_core.method.visualize import segment_overlay
 from psdr_room_plugins.detectors.boxes_file import photo_scale, scaled
 from psdr_room_plugins.layout.objects import GrabCutParams, grabcut_mask
@@ -135,6 +135,8 @@ class StudioApp:
             with self.parameters:
                 self.parameters_note = gui.add_markdown("")
             self.light_scale = gui.add_slider("Light scale", min=0.0, max=4.0, step=0.05, initial_value=1.0)
+            self.light_colour = gui.add_rgb("Light colour", initial_value=(255, 255, 255),
+                                            hint="a colour filter on every light (white: none)")
             self.fov = gui.add_slider("FoV (degrees)", min=20.0, max=120.0, step=0.5, initial_value=60.0)
             self.edits_text = gui.add_markdown("")
             self.render_button = gui.add_button("Render edit", hint="writes scene-edited/ (with render.png) in the run folder")
@@ -169,6 +171,7 @@ class StudioApp:
         self.material.on_update(lambda _: self._show_material_look())
         self.part.on_update(lambda _: self.refresh_parameters())
         self.light_scale.on_update(lambda _: self._show_edits())
+        self.light_colour.on_update(lambda _: self._show_edits())
         self.fov.on_update(lambda _: self._show_edits())
         self.render_button.on_click(lambda _: self._start_edit())
         server.on_client_connect(self._greet)
@@ -266,6 +269,7 @@ class StudioApp:
             self.fov.value = round(camera.vfov_deg * 2) / 2
         self.initial_fov = float(self.fov.value)
         self.light_scale.value = 1.0
+        self.light_colour.value = (255, 255, 255)
         self._show_edits()
         self._show_material_look()
         self.refresh_parameters()
@@ -275,8 +279,11 @@ class StudioApp:
         out = [f"material.{part}={name}" for part, name in self.material_edits.items()]
         out += [f"material.{part}.{key}={json.dumps(value, separators=(',', ':'))}"
                 for part, values in self.param_edits.items() for key, value in values.items()]
-        if abs(float(self.light_scale.value) - 1.0) > 1e-9:
-            out.append(f"light.scale={float(self.light_scale.value):g}")
+        colour = srgb_to_linear(np.asarray(self.light_colour.value, np.float64) / 255.0)
+        light = [round(float(self.light_scale.value) * float(c), 4) for c in colour]
+        if any(abs(c - 1.0) > 1e-9 for c in light):
+            out.append(f"light.scale={light[0]:g}" if len(set(light)) == 1
+                       else f"light.scale={json.dumps(light, separators=(',', ':'))}")
         if abs(float(self.fov.value) - self.initial_fov) > 1e-9:
             out.append(f"camera.fov={float(self.fov.value):g}")
         return out

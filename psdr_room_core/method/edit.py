@@ -12,7 +12,8 @@ Edits (``KEY=VALUE``, values in YAML):
 * ``material.<part>.<node>.<param>=<value>``: a graph parameter of a procedural part (clamped to its range);
 * ``material.<part>.base_color|roughness|specular|scale|rotation=<value>``: base colour (linear RGB, of a
   homogeneous part), roughness, specular, and the texture transform of a procedural one;
-* ``light.scale=<s>``: every light's radiance times ``s``; ``light.<name>.radiance=<rgb or number>``;
+* ``light.scale=<s or [r, g, b]>``: every light's radiance times ``s`` (per channel for ``[r, g, b]``: a colour
+  filter that warms or cools the light); ``light.<name>.radiance=<rgb or number>``;
 * ``camera.fov=<degrees>``: the vertical field of view.
 
 The edited scene is written to ``--out`` (default ``<scene>-edited``) as a complete scene folder (XML,
@@ -105,11 +106,11 @@ def _rgb(value: Any, key: str) -> list[float]:
 
 def _edit_light(state: dict[str, Any], key: str, rest: str, value: Any) -> None:
     if rest == "scale":
-        scale = _number(value, key)
-        if scale < 0:
+        scale = _rgb(value, key)
+        if min(scale) < 0:
             raise PsdrRoomError(f"edit {key}: the scale must be >= 0")
         for light in state["lights"]:
-            light["radiance"] = [scale * c for c in light["radiance"]]
+            light["radiance"] = [s * c for s, c in zip(scale, light["radiance"])]
         return
     name, _, field = rest.rpartition(".")
     light = next((l for l in state["lights"] if l["name"] == name), None)
