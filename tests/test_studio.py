@@ -108,8 +108,14 @@ def test_wrong_corrections_are_refused_and_change_nothing(room: SimpleNamespace,
     assert not (tmp_path / "run" / "studio.yaml").exists()
     assert not list(tmp_path.rglob("*.partial")) and not list(tmp_path.rglob("*.check"))
 
-    # Right ones are written as the command line reads them.
+    # Right ones are written as the command line reads them. A crops file's entries of an object whose model changes
+    # (a pick), then of every object (boxes renumber them), are dropped: they would name parts the next run lacks.
+    crops = folder / "photo.crops.yaml"
+    crops.write_text(yaml.safe_dump({"crops": [{"image": [0, 200, 60, 240], "part": "floor"},
+                                               {"image": [10, 20, 40, 60], "part": f"object_{segment}_body"},
+                                               {"image": [100, 20, 140, 60], "part": "object_999_body"}]}))
     session.pick(segment, candidates[segment][2].model_id, database)
+    assert [c["part"] for c in yaml.safe_load(crops.read_text())["crops"]] == ["floor", "object_999_body"]
     saved = yaml.safe_load((tmp_path / "run" / "studio.yaml").read_text())
     assert saved["picks"] == {segment: candidates[segment][2].model_id}
     assert f"+place_objects.pick.{segment}='{candidates[segment][2].model_id}'" in saved["command"]
@@ -117,6 +123,8 @@ def test_wrong_corrections_are_refused_and_change_nothing(room: SimpleNamespace,
     assert [(b.label, b.box) for b in read_boxes(folder / "photo.boxes.yaml", (320, 240))] == [
         ("chair", (10.0, 20.0, 60.0, 90.0)), ("sofa", (100.0, 120.0, 180.0, 200.0))]
     assert session.picks == {}  # new boxes renumber the segments
+    assert [c["part"] for c in yaml.safe_load(crops.read_text())["crops"]] == ["floor"]
+    crops.unlink()
 
     # A segment marked as wall: the segmentation so marked is written beside the photo, and the next run reads it.
     session.mark_segment(segment, "wall")

@@ -71,8 +71,10 @@ def slider_step(lo: float, hi: float) -> float:
 
 
 class StudioApp:
-    """The page: status line, run buttons and stage progress, the photo with its segmentation and boxes, object
-    boxes (draw, delete, relabel) and candidate picks, over a 3D view of the latest run."""
+    """The page: status line, run buttons and stage progress, the photo with its segmentation, boxes and crop
+    windows, segment marks, object boxes (draw, delete, relabel), crop windows (move, add, delete), candidate picks
+    and the edits of the exported scene (materials, graph parameters, lights, field of view), over a 3D view of the
+    latest run."""
 
     def __init__(self, session: Session, server: viser.ViserServer, database: Any, library: Any) -> None:
         self.session = session

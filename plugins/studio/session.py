@@ -193,6 +193,7 @@ class Session:
             raise PsdrRoomError(f"the segmentation comes from {found[1]}, which boxes do not change; press Reset "
                                 "marks (when the studio wrote it) or edit that file")
         write_boxes(self.boxes_file, boxes, self._image().photo_size)
+        self._drop_object_crops("object_")
         self._save_state({}, self.marks)
 
     def add_box(self, box: tuple[float, float, float, float], label: str = "object",
@@ -245,6 +246,7 @@ class Session:
             choice = rank
         else:
             database.record(str(choice))  # one line naming similar ids when it is unknown
+        self._drop_object_crops(f"object_{segment_id}_")
         self._save_state({**self.picks, segment_id: choice}, self.marks)
 
     # -- segment marks ------------------------------------------------------------------------------------------
@@ -321,6 +323,16 @@ class Session:
         if unknown:
             raise PsdrRoomError(f"part {unknown[0]} is not in the scene; parts: {', '.join(parts)}")
         write_crops(self.crops_file, entries, self._image().photo_size)
+
+    def _drop_object_crops(self, prefix: str) -> None:
+        """Remove the crops file's entries of parts named ``prefix…``: new boxes renumber the objects and a new
+        model has other parts, so their crops would name parts the next run does not have."""
+        if not self.crops_file.is_file():
+            return
+        entries = self.crops()
+        kept = [e for e in entries if not str(e.get("part", "")).startswith(prefix)]
+        if len(kept) < len(entries):
+            write_crops(self.crops_file, kept, self._image().photo_size)
 
     def _full_fit_crops(self) -> list[dict[str, Any]]:
         if self.artifact("materials") is None:
