@@ -451,17 +451,19 @@ class StudioApp:
 
     # -- corrections --------------------------------------------------------------------------------------------
 
-    def _box_index(self) -> int:
-        head = self.box.value.split(":")[0]
+    @staticmethod
+    def _chosen(dropdown: Any, missing: str) -> int:
+        """The number an ``N: …`` option of ``dropdown`` starts with; ``missing`` when none is chosen."""
+        head = str(dropdown.value).split(":")[0]
         if not head.isdigit():
-            raise PsdrRoomError("no box to change; draw one first")
+            raise PsdrRoomError(missing)
         return int(head)
 
+    def _box_index(self) -> int:
+        return self._chosen(self.box, "no box to change; draw one first")
+
     def _region_id(self) -> int:
-        head = self.region.value.split(":")[0]
-        if not head.isdigit():
-            raise PsdrRoomError("no segment to mark; run the preview first")
-        return int(head)
+        return self._chosen(self.region, "no segment to mark; run the preview first")
 
     def _segment_id(self) -> int | None:
         head = self.segment.value.split(":")[0]
@@ -479,10 +481,7 @@ class StudioApp:
         self.session.pick(segment, choice, self.database)
 
     def _crop_index(self) -> int:
-        head = self.crop.value.split(":")[0]
-        if not head.isdigit():
-            raise PsdrRoomError("no crop window to change; run the full fit first")
-        return int(head)
+        return self._chosen(self.crop, "no crop window to change; run the full fit first")
 
     def _crop_part(self) -> str:
         if self.crop_part.value == "(none)":
