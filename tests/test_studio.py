@@ -189,29 +189,56 @@ def room(tmp_path_factory: pytest.TempPathFactory) -> SimpleNamespace:
     return SimpleNamespace(photo=photo, run_dir=root / "run", cache=root / "cache", box=box)
 
 
+class Studio:
+    """``psdr-room-studio`` on a free port, as a user starts it: its address and what it printed."""
+
+    def __init__(self, room: SimpleNamespace, run_dir: Path) -> None:
+        env = {**os.environ, "PSDR_ROOM_CACHE_DIR": str(room.cache)}
+        self.process = subprocess.Popen([shutil.which("psdr-room-studio") or "psdr-room-studio", f"image={room.photo}",
+                                         f"studio.run_dir={run_dir}", *FAST], env=env, stdout=subprocess.PIPE,
+                                        stderr=subprocess.STDOUT, text=True)
+        self.lines: queue.Queue[str] = queue.Queue()
+        threading.Thread(target=lambda: [self.lines.put(line) for line in self.process.stdout],  # type: ignore[union-attr]
+                         daemon=True).start()
+        self.seen: list[str] = []
+        self.url = _wait(self._address, 120, "the studio's address")
+
+    def _address(self) -> str | None:
+        self._take()
+        found = next((line.split()[1] for line in self.seen if line.startswith("psdr-room-studio: http://127.0.0.1:")),
+                     None)
+        assert found is not None or self.process.poll() is None, "".join(self.seen)
+        return found
+
+    def _take(self) -> None:
+        self.seen.extend(self.lines.get() for _ in range(self.lines.qsize()))
+
+    def stop(self) -> str:
+        """Ctrl-C; the last line printed. The studio exits 0 within its bounded stop (past it, it prints every
+        thread's stack and exits 1)."""
+        self.process.send_signal(signal.SIGINT)
+        status = self.process.wait(timeout=60)
+        time.sleep(0.5)  # the reader thread takes the last lines
+        self._take()
+        assert status == 0 and self.seen[-1].startswith("psdr-room-studio: stopped"), "".join(self.seen[-200:])
+        return self.seen[-1]
+
+
 @pytest.fixture(scope="module")
 def studio(room: SimpleNamespace) -> Iterator[str]:
-    """``psdr-room-studio`` on a free port, as a user starts it; its address."""
-    env = {**os.environ, "PSDR_ROOM_CACHE_DIR": str(room.cache)}
-    process = subprocess.Popen([shutil.which("psdr-room-studio") or "psdr-room-studio", f"image={room.photo}",
-                                f"studio.run_dir={room.run_dir}", *FAST], env=env, stdout=subprocess.PIPE,
-                               stderr=subprocess.STDOUT, text=True)
-    lines: queue.Queue[str] = queue.Queue()
-    threading.Thread(target=lambda: [lines.put(line) for line in process.stdout], daemon=True).start()  # type: ignore[union-attr]
-    seen: list[str] = []
+    """The studio on the room, for the browser; its address."""
+    started = Studio(room, room.run_dir)
+    yield started.url
+    started.stop()
 
-    def address() -> str | None:
-        while not lines.empty():
-            seen.append(lines.get())
-            if seen[-1].startswith("psdr-room-studio: http://127.0.0.1:"):
-                return seen[-1].split()[1]
-        assert process.poll() is None, "".join(seen)
-        return None
 
-    url = _wait(address, 120, "the studio's address")
-    yield url
-    process.send_signal(signal.SIGINT)
-    process.wait(timeout=30)
+def test_ctrl_c_during_a_run_stops_at_once_and_leaves_whole_cache_entries(room: SimpleNamespace,
+                                                                         tmp_path: Path) -> None:
+    started = Studio(room, tmp_path / "run")  # it starts the preview before it prints its address
+    time.sleep(2.0)  # well inside the preview's first stages
+    assert started.stop() == "psdr-room-studio: stopped (the run or edit in progress was abandoned)\n"
+    for entry in (room.cache / "entries").glob("*/*"):
+        assert (entry / "manifest.json").is_file(), entry
 
 
 def _click(driver: Any, text: str) -> None:

@@ -6,12 +6,15 @@ overrides are ``psdr-room``'s, checked the same way before anything starts.
 
 from __future__ import annotations
 
+import faulthandler
 import logging
+import os
+import signal
 import socket
 import sys
 import time
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, Callable, NoReturn
 
 from psdr_room_core.engine import threads
 from psdr_room_core.engine.cli import compose_config, preflight
@@ -22,6 +25,7 @@ from psdr_room_plugins.retrieval_silhouette import open_database
 from .session import PREVIEW, Session, studio_plugins
 
 HOST = "127.0.0.1"
+STOP_S = 20.0  # the longest a Ctrl-C may take: past it the studio prints every thread's stack and exits (status 1)
 SETTINGS = {"port": "a free port", "run_dir": "outputs/studio/<photo stem>"}
 USAGE = ("usage: psdr-room-studio image=PHOTO [psdr-room overrides...] "
          + " ".join(f"[studio.{key}=...]" for key in SETTINGS))
@@ -79,6 +83,7 @@ def main(argv: list[str] | None = None) -> None:
         print(USAGE)
         sys.exit(0 if args else 2)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
+    faulthandler.register(signal.SIGUSR1, all_threads=True)  # `kill -USR1 PID` prints every thread's stack
     try:
         session, settings, database = open_session(args)
         threads.apply(threads.allotment(None)[0])
@@ -94,14 +99,29 @@ def main(argv: list[str] | None = None) -> None:
     except OSError as exc:
         _fail(f"studio.port={port}: cannot listen there ({exc.strerror}); choose another port or leave it out")
     library = session.plugins.registry.implementation("material_graph", "torch_graph").factory()
-    app = StudioApp(session, server, database, library)
-    print(f"psdr-room-studio: http://{HOST}:{server.get_port()}  (photo {session.photo}, run folder "
-          f"{session.run_dir}; Ctrl-C stops)", flush=True)
-    app.start_run(PREVIEW)
+    serve_until_interrupted(server, session, lambda: StudioApp(session, server, database, library))
+
+
+def serve_until_interrupted(server: Any, session: Session, make_app: Callable[[], Any]) -> NoReturn:
+    """Make the page, start the preview, print the address and serve until Ctrl-C; then stop the server and exit at
+    once, within :data:`STOP_S`.
+
+    The exit does not wait for work still in flight: a run (it may be a full fit of minutes) is abandoned as the
+    CLI's Ctrl-C abandons it, and so are the viewer's callbacks, which the interpreter would otherwise join at exit.
+    Nothing is left half-written: cache entries, the run folder and the studio's files are renamed into place whole
+    (an abandoned run may leave a hidden scratch folder, which the next run's cache clears)."""
     try:
+        make_app().start_run(PREVIEW)
+        print(f"psdr-room-studio: http://{HOST}:{server.get_port()}  (photo {session.photo}, run folder "
+              f"{session.run_dir}; Ctrl-C stops)", flush=True)
         while True:
             time.sleep(1.0)
     except KeyboardInterrupt:
         pass
-    finally:
-        server.stop()
+    faulthandler.dump_traceback_later(STOP_S, exit=True)
+    abandoned = session.running
+    server.stop()
+    print("psdr-room-studio: stopped" + (" (the run or edit in progress was abandoned)" if abandoned else ""), flush=True)
+    logging.shutdown()
+    sys.stderr.flush()
+    os._exit(0)
