@@ -109,7 +109,8 @@ def serve_until_interrupted(server: Any, session: Session, make_app: Callable[[]
     The exit does not wait for work still in flight: a run (it may be a full fit of minutes) is abandoned as the
     CLI's Ctrl-C abandons it, and so are the viewer's callbacks, which the interpreter would otherwise join at exit.
     Nothing is left half-written: cache entries, the run folder and the studio's files are renamed into place whole
-    (an abandoned run may leave a hidden scratch folder, which the next run's cache clears)."""
+    (an abandoned run may leave its scratch folders: the cache's, which the next run clears, and one under the
+    system's temporary folder)."""
     try:
         make_app().start_run(PREVIEW)
         print(f"psdr-room-studio: http://{HOST}:{server.get_port()}  (photo {session.photo}, run folder "
