@@ -189,6 +189,12 @@ def room(tmp_path_factory: pytest.TempPathFactory) -> SimpleNamespace:
     return SimpleNamespace(photo=photo, run_dir=root / "run", cache=root / "cache", box=box)
 
 
+def _as_a_background_job() -> None:
+    """SIGINT ignored, as a shell starts a background job (``cmd &``, and so some CI runners): Python then installs
+    no Ctrl-C handler of its own, and the studio must install one."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 class Studio:
     """``psdr-room-studio`` on a free port, as a user starts it: its address and what it printed."""
 
@@ -196,7 +202,7 @@ class Studio:
         env = {**os.environ, "PSDR_ROOM_CACHE_DIR": str(room.cache)}
         self.process = subprocess.Popen([shutil.which("psdr-room-studio") or "psdr-room-studio", f"image={room.photo}",
                                          f"studio.run_dir={run_dir}", *FAST], env=env, stdout=subprocess.PIPE,
-                                        stderr=subprocess.STDOUT, text=True)
+                                        stderr=subprocess.STDOUT, text=True, preexec_fn=_as_a_background_job)
         self.lines: queue.Queue[str] = queue.Queue()
         threading.Thread(target=lambda: [self.lines.put(line) for line in self.process.stdout],  # type: ignore[union-attr]
                          daemon=True).start()
@@ -213,10 +219,10 @@ class Studio:
     def _take(self) -> None:
         self.seen.extend(self.lines.get() for _ in range(self.lines.qsize()))
 
-    def stop(self) -> str:
-        """Ctrl-C; the last line printed. The studio exits 0 within its bounded stop (past it, it prints every
-        thread's stack and exits 1)."""
-        self.process.send_signal(signal.SIGINT)
+    def stop(self, how: signal.Signals = signal.SIGINT) -> str:
+        """Ctrl-C (or another signal); the last line printed. The studio exits 0 within its bounded stop (past it, it
+        prints every thread's stack and exits 1)."""
+        self.process.send_signal(how)
         status = self.process.wait(timeout=60)
         time.sleep(0.5)  # the reader thread takes the last lines
         self._take()
@@ -232,11 +238,12 @@ def studio(room: SimpleNamespace) -> Iterator[str]:
     started.stop()
 
 
-def test_ctrl_c_during_a_run_stops_at_once_and_leaves_whole_cache_entries(room: SimpleNamespace,
-                                                                         tmp_path: Path) -> None:
+@pytest.mark.parametrize("how", [signal.SIGINT, signal.SIGTERM], ids=["ctrl_c", "kill"])
+def test_a_stop_during_a_run_is_at_once_and_leaves_whole_cache_entries(room: SimpleNamespace, tmp_path: Path,
+                                                                       how: signal.Signals) -> None:
     started = Studio(room, tmp_path / "run")  # it starts the preview before it prints its address
     time.sleep(2.0)  # well inside the preview's first stages
-    assert started.stop() == "psdr-room-studio: stopped (the run or edit in progress was abandoned)\n"
+    assert started.stop(how) == "psdr-room-studio: stopped (the run or edit in progress was abandoned)\n"
     for entry in (room.cache / "entries").glob("*/*"):
         assert (entry / "manifest.json").is_file(), entry
 

@@ -84,6 +84,8 @@ def main(argv: list[str] | None = None) -> None:
         sys.exit(0 if args else 2)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     faulthandler.register(signal.SIGUSR1, all_threads=True)  # `kill -USR1 PID` prints every thread's stack
+    for stop in (signal.SIGINT, signal.SIGTERM):  # Ctrl-C and kill stop it, even started as a background job (SIGINT
+        signal.signal(stop, signal.default_int_handler)  # ignored there, and Python then installs no handler of its own)
     try:
         session, settings, database = open_session(args)
         threads.apply(threads.allotment(None)[0])
@@ -103,8 +105,8 @@ def main(argv: list[str] | None = None) -> None:
 
 
 def serve_until_interrupted(server: Any, session: Session, make_app: Callable[[], Any]) -> NoReturn:
-    """Make the page, start the preview, print the address and serve until Ctrl-C; then stop the server and exit at
-    once, within :data:`STOP_S`.
+    """Make the page, start the preview, print the address and serve until Ctrl-C (or SIGTERM); then stop the server
+    and exit at once, within :data:`STOP_S`.
 
     The exit does not wait for work still in flight: a run (it may be a full fit of minutes) is abandoned as the
     CLI's Ctrl-C abandons it, and so are the viewer's callbacks, which the interpreter would otherwise join at exit.
