@@ -8,13 +8,13 @@ from __future__ import annotations
 
 import base64
 import html
-import os
 from pathlib import Path
 
 import cv2
 import numpy as np
 
 from psdr_room_core.engine.dag import RunRecord
+from psdr_room_core.engine.files import write_whole
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.method.artifacts import OptimizationLog
 from psdr_room_core.method.visualize import depth_colormap, legend, room_edges_overlay, segment_overlay
@@ -169,7 +169,4 @@ def after_run(run: RunRecord, run_dir: Path) -> None:
     settings = run.config.get("report", {})
     if not settings.get("enabled", True):
         return
-    target = run_dir / "report.html"
-    tmp = target.with_name(".report.html.tmp")
-    tmp.write_text(render_report(run, float(settings.get("overlay_alpha", 0.45))))
-    os.replace(tmp, target)
+    write_whole(run_dir / "report.html", render_report(run, float(settings.get("overlay_alpha", 0.45))))

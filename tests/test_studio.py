@@ -106,7 +106,7 @@ def test_wrong_corrections_are_refused_and_change_nothing(room: SimpleNamespace,
             wrong()
     assert (folder / "photo.boxes.yaml").read_text() == before
     assert not (tmp_path / "run" / "studio.yaml").exists()
-    assert not list(tmp_path.rglob("*.partial")) and not list(tmp_path.rglob("*.check"))
+    assert not list(tmp_path.rglob(".*.tmp")) and not list(tmp_path.rglob("*.check"))  # write_whole's temporary files
 
     # Right ones are written as the command line reads them. A crops file's entries of an object whose model changes
     # (a pick), then of every object (boxes renumber them), are dropped: they would name parts the next run lacks.

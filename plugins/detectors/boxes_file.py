@@ -14,13 +14,13 @@ score 1.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Any
 
 import yaml
 
 from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.files import write_whole
 from psdr_room_core.method.artifacts import CATEGORIES, Detection, Detections, Image
 
 KEYS = ("label", "category", "box")
@@ -89,9 +89,7 @@ def write_boxes(path: Path, boxes: list[Detection], size: tuple[int, int]) -> No
     data = {"boxes": [{"label": d.label, "category": d.category, "box": [round(float(v), 1) for v in d.box]}
                       for d in boxes]}
     check_boxes(path, data, size)
-    partial = path.with_name(f".{path.name}.partial")
-    partial.write_text(yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
-    os.replace(partial, path)
+    write_whole(path, yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
 
 
 def photo_scale(image: Image) -> tuple[float, float]:

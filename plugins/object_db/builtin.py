@@ -18,9 +18,9 @@ from pathlib import Path
 
 from psdr_room_core.engine.cache import default_cache_dir
 from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.files import write_whole
 
 from .database import ModelRecord, ObjectDatabase, ObjectMesh, mesh_from_obj
-from .objio import _atomic_write
 from .parametric import Variant, catalogue
 
 LIBRARY = Path(__file__).resolve().parent / "library"
@@ -169,7 +169,7 @@ def builtin_database() -> ObjectDatabase:
     if records is None:
         records = builtin_records()
         try:
-            _atomic_write(cached, json.dumps({"digest": digest, "models": [r.to_json() for r in records]}) + "\n")
+            write_whole(cached, json.dumps({"digest": digest, "models": [r.to_json() for r in records]}) + "\n")
         except OSError:
             pass  # a read-only cache only costs time
     return ObjectDatabase(records, BuiltinLoader(), digest=digest, label="built-in object library")

@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.files import write_whole
 from psdr_room_core.method.artifacts import ObjectMesh
 
 from .objio import group_colors, read_obj, write_obj
@@ -441,6 +442,4 @@ def _read_json(path: Path) -> dict[str, Any]:
 
 
 def _write_json(path: Path, data: Any) -> None:
-    from .objio import _atomic_write
-
-    _atomic_write(Path(path), json.dumps(data, indent=1) + "\n")
+    write_whole(Path(path), json.dumps(data, indent=1) + "\n")

@@ -27,9 +27,9 @@ from pathlib import Path
 from typing import Any
 
 from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.files import write_whole
 
 from .database import ModelRecord, ObjectDatabase, ObjectMesh, mesh_from_obj
-from .objio import _atomic_write
 
 MODELS_DIR = "3D-FUTURE-model"
 MESH_FILE = "raw_model.obj"
@@ -184,7 +184,7 @@ def read_3dfuture(root: Path, front_axis: str = "+z", workers: int | None = None
                 model_id, groups, extent = result  # type: ignore[misc]
                 known[model_id] = {"stamp": stamps[model_id], "groups": groups, "extent": extent}
         try:
-            _atomic_write(cache_path, json.dumps({"version": READER_VERSION, "front_axis": front_axis,
+            write_whole(cache_path, json.dumps({"version": READER_VERSION, "front_axis": front_axis,
                                                   "root": str(root.resolve()), "models": known}) + "\n")
         except OSError:
             pass

@@ -8,8 +8,6 @@ the database keeps positions and material groups only, and renders flat colours.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.files import write_whole
 
 DEFAULT_GROUP = "default"
 """Group of the faces that come before any ``usemtl`` line."""
@@ -153,16 +152,6 @@ def group_colors(obj: ObjData, folder: Path, mtl_names: Sequence[str] = ()) -> n
     return np.array([colors.get(g, DEFAULT_COLOR) for g in obj.groups], dtype=np.float64).reshape(-1, 3)
 
 
-def _atomic_write(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def write_obj(path: Path, vertices: np.ndarray, faces: np.ndarray, face_group: np.ndarray, groups: Sequence[str],
@@ -181,5 +170,5 @@ def write_obj(path: Path, vertices: np.ndarray, faces: np.ndarray, face_group: n
     mtl_lines = [f"# {line}" for line in header.splitlines()]
     for name, rgb in zip(groups, np.asarray(colors, dtype=np.float64)):
         mtl_lines += [f"newmtl {name}", f"Kd {rgb[0]:.9g} {rgb[1]:.9g} {rgb[2]:.9g}", ""]
-    _atomic_write(mtl, "\n".join(mtl_lines) + "\n")
-    _atomic_write(path, "\n".join(lines) + "\n")
+    write_whole(mtl, "\n".join(mtl_lines) + "\n")
+    write_whole(path, "\n".join(lines) + "\n")

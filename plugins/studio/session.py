@@ -32,6 +32,7 @@ import yaml
 from psdr_room_core.engine.cli import compose_config, hydra_quote
 from psdr_room_core.engine.dag import RunRecord, StageRecord
 from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.files import write_whole
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Origin, PluginSystem, load_plugins
 from psdr_room_core.engine.run import execute
@@ -45,7 +46,7 @@ from psdr_room_core.method.artifacts import (
     Panoptic,
     write_coco_panoptic,
 )
-from psdr_room_core.method.crops import crops_file, read_crops, write_crops
+from psdr_room_core.method.crops import check_crops, crops_file, load_crops, write_crops
 from psdr_room_core.method.edit import edit_scene
 from psdr_room_plugins.detectors.boxes_file import photo_scale, read_boxes, scaled, sidecar_path, write_boxes
 from psdr_room_plugins.sidecar_segmentation import find_segmentation_sidecar, panoptic_json_for
@@ -305,8 +306,9 @@ class Session:
         crops file's, else the latest full run's automatic ones."""
         image = self._image()
         if self.crops_file.is_file():
-            read_crops(self.crops_file, image.photo_size, image.photo_size)  # one line when the file is wrong
-            return list(yaml.safe_load(self.crops_file.read_text(encoding="utf-8"))["crops"])
+            data = load_crops(self.crops_file)
+            check_crops(self.crops_file, data, image.photo_size, image.photo_size)  # one line when the file is wrong
+            return list(data["crops"])
         materials: MaterialAssignment | None = self.artifact("materials")
         sx, sy = photo_scale(image)
         return [{"image": [round(v, 1) for v in scaled(rect, 1 / sx, 1 / sy)], "part": p.part}
@@ -382,8 +384,5 @@ class Session:
         """Keep ``picks`` and ``marks`` and write them, with the command line that reproduces the run, to
         ``studio.yaml``."""
         self.picks, self.marks = picks, marks
-        self.run_dir.mkdir(parents=True, exist_ok=True)
-        path = self.run_dir / STATE_FILE
-        partial = path.with_name(f".{STATE_FILE}.partial")
-        partial.write_text(yaml.safe_dump({"picks": picks, "marks": marks, "command": self.command()}, sort_keys=False))
-        os.replace(partial, path)
+        write_whole(self.run_dir / STATE_FILE,
+                    yaml.safe_dump({"picks": picks, "marks": marks, "command": self.command()}, sort_keys=False))

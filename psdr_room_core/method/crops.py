@@ -14,7 +14,6 @@ Rectangles are in the photo's pixels and scaled to the working resolution here.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -22,6 +21,7 @@ import numpy as np
 import yaml
 
 from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.files import write_whole
 
 from .artifacts import Rect
 
@@ -88,11 +88,15 @@ def crops_file(photo: Path) -> Path:
 def read_crops(path: Path, photo_size: tuple[int, int], working_size: tuple[int, int]) -> list[UserCrop]:
     """The crops of ``path`` scaled from the photo's (width, height) to the working one; a one-line error
     naming the file and the entry for anything malformed."""
+    return check_crops(path, load_crops(path), photo_size, working_size)
+
+
+def load_crops(path: Path) -> object:
+    """The crops file's parsed YAML, unchecked (:func:`check_crops` checks it); one line when it is unreadable."""
     try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+        return yaml.safe_load(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
         raise PsdrRoomError(f"{path}: unreadable crops file ({str(exc).splitlines()[0]}); fix the YAML or remove it") from None
-    return check_crops(path, data, photo_size, working_size)
 
 
 def check_crops(path: Path, data: object, photo_size: tuple[int, int],
@@ -133,6 +137,4 @@ def write_crops(path: Path, entries: list[dict[str, object]], photo_size: tuple[
     the file appears whole or not at all."""
     data = {"crops": entries}
     check_crops(path, data, photo_size, photo_size)
-    partial = path.with_name(f".{path.name}.partial")
-    partial.write_text(yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
-    os.replace(partial, path)
+    write_whole(path, yaml.safe_dump(data, sort_keys=False, default_flow_style=None))

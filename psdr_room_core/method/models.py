@@ -39,6 +39,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.files import write_whole
 
 from .capabilities import CAPABILITIES
 
@@ -241,7 +242,7 @@ def _remember_sha256(path: Path, digest: str) -> None:
     cache = _read_hash_cache(path.parent)
     cache[path.name] = [stat.st_size, stat.st_mtime_ns, digest]
     try:
-        _atomic_write_text(path.parent / HASH_CACHE, json.dumps(cache, indent=1, sort_keys=True))
+        write_whole(path.parent / HASH_CACHE, json.dumps(cache, indent=1, sort_keys=True))
     except OSError:
         pass  # a read-only models dir: hash again next time
 
@@ -424,17 +425,6 @@ def _fetch(entry: ModelEntry, host: str, models_dir: Path, out: Any, *, progress
 
 
 # ------------------------------------------------------------------------------------------ helpers
-def _atomic_write_text(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as handle:
-            handle.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def _human(size: int) -> str:
     value = float(size)
     for unit in ("B", "KiB", "MiB", "GiB"):
