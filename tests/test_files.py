@@ -1,5 +1,6 @@
 """write_whole: a file appears whole or not at all."""
 
+import stat
 from pathlib import Path
 
 import pytest
@@ -12,6 +13,10 @@ def test_write_whole_replaces_the_file_and_a_failed_write_leaves_the_old_one(tmp
     write_whole(path, "boxes: []\n")  # the folder is made
     write_whole(path, "boxes: [1]\n")
     assert path.read_text() == "boxes: [1]\n"
+    plain = path.with_name("plain.yaml")
+    plain.write_text("")
+    assert stat.S_IMODE(path.stat().st_mode) == stat.S_IMODE(plain.stat().st_mode)  # as open() makes it
+    plain.unlink()
     write_whole(path.with_name("thumb.png"), b"\x89PNG")
     assert path.with_name("thumb.png").read_bytes() == b"\x89PNG"
     with pytest.raises(TypeError):
