@@ -39,6 +39,7 @@ PREVIOUS = [
     "fit_objects.convergence.window=0",  # all 300 iterations (plateau stop now)
     "fit_appearance.map_size=128",  # procedural maps at 128² while fitting (64² now)
     "fit_appearance._uses_.texture.size=256",  # render crops described at 256 px, as photo crops (128 now)
+    "renderer.mitsuba.freeze=false",  # path-traced renders traced in Python every iteration (replayed now)
 ]
 """Overrides that bring back the settings the defaults replaced (issue 20)."""
 WIDTH_KEYS = ("room_fit.render_width", "retrieval.silhouette.render_width", "place_objects.render_width",

@@ -239,6 +239,20 @@ def test_selection_until_from_only(tmp_path: Path, photo: Path) -> None:
     assert [r.name for r in record.stages] == ["a", "b"] and recomputed(record) == {"b"}
 
 
+def test_a_forced_recompute_replaces_the_entry_it_recomputed(tmp_path: Path, photo: Path, monkeypatch) -> None:
+    """``run.only`` after a code change that kept the key (or with a nondeterministic stage): the run, the
+    cache and the next run all get the new result, not the entry it recomputed."""
+    store = Store(tmp_path / "cache")
+    before = run(BASE, photo, store, tmp_path).digests["b"]
+    monkeypatch.setattr(toy_plugin.Multiplier, "apply", lambda self, value, photo: value * 3.0)
+    forced = run(BASE, photo, store, tmp_path, only="b")
+    assert recomputed(forced) == {"b"} and forced.digests["b"] != before
+    assert forced.artifacts["b"].value == 3.0
+    again = run(BASE, photo, store, tmp_path, until="b")
+    assert recomputed(again) == set() and again.digests["b"] == forced.digests["b"]
+    assert not list((tmp_path / "cache" / "tmp").iterdir())
+
+
 def test_cache_modes(tmp_path: Path, photo: Path) -> None:
     store = Store(tmp_path / "cache")
     run(BASE, photo, store, tmp_path, mode="off")

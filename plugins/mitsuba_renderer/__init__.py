@@ -37,6 +37,7 @@ class MitsubaSettings:
     rgb_geometry_gradients: bool = setting()
     seed: int = setting()
     threads: int = setting(ge=0)
+    freeze: bool = setting()
 
 
 @hookimpl

@@ -16,6 +16,7 @@ makes the gradient right even when other renders (of other vertex positions) hap
 
 from __future__ import annotations
 
+import gc
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -102,6 +103,7 @@ class MitsubaRenderer:
         rgb_geometry_gradients: bool = False,
         seed: int = 0,
         threads: int = 0,
+        freeze: bool = True,
     ) -> None:
         """Parameters (``renderer.mitsuba.*``):
 
@@ -119,6 +121,9 @@ class MitsubaRenderer:
             (``prb_projective``), knowing they are biased for flat-shaded meshes.
         seed: base seed; each render uses a seed derived from it and the iteration number.
         threads: Dr.Jit worker threads (0: the run's ``run.threads``, see :mod:`psdr_room_core.engine.threads`).
+        freeze: record each render pass once and replay its kernels on later calls (``dr.freeze``) instead
+            of tracing the integrator in Python every iteration: the same images and gradients, several
+            times less overhead per iteration (path-traced RGB; masks and depth are traced every time).
         """
         for name, value, low in (("spp", spp, 1), ("spp_boundary", spp_boundary, 1), ("rgb_spp", rgb_spp, 1),
                                  ("max_depth", max_depth, 1), ("rgb_sppi", rgb_sppi, 0), ("threads", threads, 0)):
@@ -138,6 +143,7 @@ class MitsubaRenderer:
         self.rgb_geometry_gradients = bool(rgb_geometry_gradients)
         self.seed = int(seed)
         self.threads = int(threads)
+        self.freeze = bool(freeze)
         self._variant: str | None = None
 
     # ---------------------------------------------------------------------------------------- set-up
@@ -474,6 +480,7 @@ class _MitsubaScene:
         self.surface_keys: dict[str, dict[str, str]] = {}
         self.radiance_keys: dict[str, str] = {}
         self.guides: Any = None  # the aov integrator of render_guides, made on first use
+        self._frozen: dict[tuple[str, int], Any] = {}
 
     def with_mode(self, mode: str) -> "_MitsubaScene":
         self.passes = self._projective if mode == "projective" else self._plain
@@ -563,11 +570,11 @@ class _MitsubaScene:
             current = self.params[key]
             flat = np.ascontiguousarray(array, dtype=np.float32).reshape(-1)
             if isinstance(current, mi.TensorXf):  # a map
-                value = mi.TensorXf(flat.reshape(current.shape))
+                value = mi.TensorXf(_owned(mi, flat), current.shape)
             elif "Color" in type(current).__name__:
                 value = mi.Color3f(*(float(x) if scalar else _opaque(mi.Float, x) for x in flat))
             elif key.endswith(".vertex_positions"):
-                value = type(current)(flat)
+                value = _owned(mi, flat)
             else:  # a number (a Float of one entry)
                 value = float(flat[0]) if scalar else _opaque(mi.Float, flat[0])
             if grad:
@@ -576,6 +583,54 @@ class _MitsubaScene:
             written.append(value)
         self.params.update()
         return written
+
+    def render_pass(self, integrator: Any, seed: int, spp: int) -> Any:
+        """``integrator``'s primal image of the scene with the parameters it now holds (``spp`` 0: the
+        integrator's own count)."""
+        render = self._pass("render", integrator, lambda scene, seed, spp: integrator.render(
+            scene, sensor=0, seed=seed, spp=spp))
+        return render(self.scene, _opaque_seed(seed), int(spp))
+
+    def backward_pass(self, integrator: Any, grad_in: Any, seed: int, spp: int) -> None:
+        """``integrator.render_backward`` of the image gradient ``grad_in``: accumulates into the gradients of
+        the parameters :meth:`set_inputs` attached (read them after this returns: a frozen pass hands them
+        back to the caller's variables at its end)."""
+
+        def backward(scene: Any, grad_in: Any, seed: Any, spp: int) -> None:
+            integrator.render_backward(scene, self.params, grad_in, sensor=0, seed=seed, spp=spp)
+
+        self._pass("backward", integrator, backward)(self.scene, grad_in, _opaque_seed(seed), int(spp))
+
+    def _pass(self, kind: str, integrator: Any, fn: Any) -> Any:
+        """``fn``, frozen (``dr.freeze``) when the renderer's ``freeze`` is on and ``integrator`` is a path
+        tracer (``prb``): traced on its first call and on any call whose inputs differ in structure (another
+        ``spp``, other parameters attached), replayed otherwise. Projective integrators (masks and depth,
+        moving geometry) are traced every time: Mitsuba 3.9 refuses to record their gradient pass, and
+        their primal pass re-records whenever the vertices move."""
+        if not self.owner.renderer.freeze or self.mi.variant().startswith("scalar"):
+            return fn
+        import drjit as dr
+        from mitsuba.ad.integrators.common import PSIntegrator
+
+        if isinstance(integrator, PSIntegrator):
+            return fn
+        key = (kind, id(integrator))
+        if key not in self._frozen:
+            frozen = dr.freeze(fn)
+
+            def call(*args: Any) -> Any:
+                # A collection while recording may free a Dr.Jit array that maps NumPy memory (anywhere in the
+                # process); its release cannot be recorded and Dr.Jit aborts the process
+                enabled = gc.isenabled()
+                gc.disable()
+                try:
+                    return frozen(*args)
+                finally:
+                    if enabled:
+                        gc.enable()
+
+            self._frozen[key] = call
+        return self._frozen[key]
 
     def detach_all(self, keys: Sequence[str]) -> None:
         import drjit as dr
@@ -593,6 +648,13 @@ def _opaque(kind: Any, value: Any) -> Any:
     import drjit as dr
 
     return dr.opaque(kind, value)
+
+
+def _owned(mi: Any, array: np.ndarray) -> Any:
+    """A flat Dr.Jit ``Float`` holding a copy of ``array``. Dr.Jit maps NumPy memory instead of copying it,
+    and frozen passes replayed on mapped inputs rendered NaN now and then (measured); the sum with an opaque
+    zero is a kernel that writes Dr.Jit's own memory."""
+    return mi.Float(np.ascontiguousarray(array, dtype=np.float32).reshape(-1)) + _opaque(mi.Float, 0.0)
 
 
 def _opaque_seed(seed: int) -> Any:
@@ -617,7 +679,7 @@ def _make_function() -> Any:
             outputs = []
             device = tensors[0].device if tensors else torch.device(scene.owner.device)
             for integrator in passes:
-                image = integrator.render(scene.scene, sensor=0, seed=_opaque_seed(seed), spp=spp[0])
+                image = scene.render_pass(integrator, seed, spp[0])
                 outputs.append(torch.from_numpy(np.array(image, dtype=np.float32)).to(device))
             ctx.scene, ctx.keys, ctx.seed, ctx.arrays, ctx.passes, ctx.spp = scene, keys, seed, arrays, passes, spp
             ctx.shapes = [tuple(t.shape) for t in tensors]
@@ -638,9 +700,9 @@ def _make_function() -> Any:
                 for integrator, grad in zip(ctx.passes, grad_outputs):
                     if grad is None:
                         continue
-                    grad_in = mi.TensorXf(np.ascontiguousarray(grad.detach().to("cpu", torch.float32).numpy()))
-                    integrator.render_backward(scene.scene, scene.params, grad_in, sensor=0, seed=_opaque_seed(seed_grad),
-                                               spp=ctx.spp[1])
+                    grad_np = grad.detach().to("cpu", torch.float32).numpy()
+                    grad_in = mi.TensorXf(_owned(mi, grad_np), grad_np.shape)
+                    scene.backward_pass(integrator, grad_in, seed_grad, ctx.spp[1])
                 flat = {i: dr.ravel(dr.grad(value)) for i, (value, need) in enumerate(zip(values, needs)) if need}
                 dr.eval(*flat.values())  # one kernel for every gradient, not one per parameter
                 for i, g_flat in flat.items():

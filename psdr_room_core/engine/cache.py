@@ -198,8 +198,11 @@ class Store:
             finally:
                 fcntl.flock(fh, fcntl.LOCK_UN)
 
-    def commit(self, key: str, stage: str, outputs: Mapping[str, Artifact], seconds: float) -> Entry:
-        """Write ``outputs`` as the entry for ``key``, atomically; return the committed entry."""
+    def commit(self, key: str, stage: str, outputs: Mapping[str, Artifact], seconds: float,
+               replace: bool = False) -> Entry:
+        """Write ``outputs`` as the entry for ``key``, atomically; return the committed entry. An entry already
+        there is kept (another process computed the same key: equal) unless ``replace``: a forced recompute
+        (``run.only``, ``run.from``) supersedes the entry it recomputed."""
         tmp = self.root / "tmp" / f"{key}@{socket.gethostname()}@{os.getpid()}@{uuid.uuid4().hex[:8]}"
         tmp.mkdir(parents=True)
         try:
@@ -217,8 +220,14 @@ class Store:
             final.parent.mkdir(parents=True, exist_ok=True)
             try:
                 os.rename(tmp, final)
-            except OSError:  # another process committed the same key first: theirs is equal, keep it
-                shutil.rmtree(tmp, ignore_errors=True)
+            except OSError:  # an entry is there
+                if replace:
+                    old = tmp.with_name(tmp.name + "-replaced")
+                    os.rename(final, old)
+                    os.rename(tmp, final)
+                    shutil.rmtree(old, ignore_errors=True)
+                else:
+                    shutil.rmtree(tmp, ignore_errors=True)
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise

@@ -401,7 +401,7 @@ class Runner:
                     entry = self._lookup(key, forced)
                     cached = entry is not None
                     if entry is None:
-                        entry = self._compute(node, stage, key, inputs, instances)
+                        entry = self._compute(node, stage, key, inputs, instances, forced)
             outputs = {name: entry.load(name, self.plugins.registry.artifacts) for name in node.outputs}
         for name, artifact_name in node.outputs.items():
             record.artifacts[artifact_name] = outputs[name]
@@ -424,7 +424,8 @@ class Runner:
         return None if forced or self.read_store is None else self.read_store.lookup(key)
 
     def _compute(
-        self, node: StageNode, stage: StageDef, key: str, inputs: dict[str, Artifact], instances: dict[str, Any]
+        self, node: StageNode, stage: StageDef, key: str, inputs: dict[str, Artifact], instances: dict[str, Any],
+        forced: bool,
     ) -> Entry:
         ctx = StageContext(
             stage=node.name, params=dict(node.params), seed=self.seed, photo=self.photo, implementations=instances
@@ -434,7 +435,7 @@ class Runner:
         try:
             result = stage.fn(ctx, **inputs)
             outputs = self._check_outputs(node, result)
-            return self.write_store.commit(key, node.name, outputs, time.perf_counter() - start)
+            return self.write_store.commit(key, node.name, outputs, time.perf_counter() - start, replace=forced)
         except BaseException as exc:
             self.plugins.hook.on_stage_error(stage=node.name, key=key, error=exc)
             raise
