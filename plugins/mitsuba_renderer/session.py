@@ -11,7 +11,9 @@ Torch ↔ Dr.Jit: a ``torch.autograd.Function`` copies the inputs into the Mitsu
 image with the iteration's seed and, in ``backward``, sets the *same* inputs again with gradients enabled
 and calls the integrators' ``render_backward`` with the image gradients. Re-setting the inputs in backward
 makes the gradient right even when other renders (of other vertex positions) happened in between, which
-``mi.render`` + ``dr.wrap`` would not be (its backward reads whatever the scene holds then).
+``mi.render`` + ``dr.wrap`` would not be (its backward reads whatever the scene holds then). The path tracer's
+passes are frozen (``dr.freeze``, renderer setting ``freeze``): recorded on first use and replayed after, which
+halves a ``fit_appearance`` iteration; the inputs are copied into Dr.Jit's own memory for it.
 """
 
 from __future__ import annotations
