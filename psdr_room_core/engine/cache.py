@@ -198,8 +198,9 @@ class Store:
             finally:
                 fcntl.flock(fh, fcntl.LOCK_UN)
 
-    def commit(self, key: str, stage: str, outputs: Mapping[str, Artifact], seconds: float,
-               replace: bool = False) -> Entry:
+    def commit(
+        self, key: str, stage: str, outputs: Mapping[str, Artifact], seconds: float, replace: bool = False
+    ) -> Entry:
         """Write ``outputs`` as the entry for ``key``, atomically; return the committed entry. An entry already
         there is kept (another process computed the same key: equal) unless ``replace``: a forced recompute
         (``run.only``, ``run.from``) supersedes the entry it recomputed."""

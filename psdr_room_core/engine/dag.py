@@ -424,7 +424,12 @@ class Runner:
         return None if forced or self.read_store is None else self.read_store.lookup(key)
 
     def _compute(
-        self, node: StageNode, stage: StageDef, key: str, inputs: dict[str, Artifact], instances: dict[str, Any],
+        self,
+        node: StageNode,
+        stage: StageDef,
+        key: str,
+        inputs: dict[str, Artifact],
+        instances: dict[str, Any],
         forced: bool,
     ) -> Entry:
         ctx = StageContext(
