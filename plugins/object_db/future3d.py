@@ -185,7 +185,7 @@ def read_3dfuture(root: Path, front_axis: str = "+z", workers: int | None = None
                 known[model_id] = {"stamp": stamps[model_id], "groups": groups, "extent": extent}
         try:
             write_whole(cache_path, json.dumps({"version": READER_VERSION, "front_axis": front_axis,
-                                                  "root": str(root.resolve()), "models": known}) + "\n")
+                                                "root": str(root.resolve()), "models": known}) + "\n")
         except OSError:
             pass
     if missing:

@@ -152,8 +152,6 @@ def group_colors(obj: ObjData, folder: Path, mtl_names: Sequence[str] = ()) -> n
     return np.array([colors.get(g, DEFAULT_COLOR) for g in obj.groups], dtype=np.float64).reshape(-1, 3)
 
 
-
-
 def write_obj(path: Path, vertices: np.ndarray, faces: np.ndarray, face_group: np.ndarray, groups: Sequence[str],
               colors: np.ndarray, header: str = "") -> None:
     """Write ``path`` (OBJ, faces sorted into one ``usemtl`` block per group) and the MTL beside it (same
