@@ -119,7 +119,7 @@ def render_report(run: RunRecord, alpha: float) -> str:
         facts.append(f"vertical FoV {camera.vfov_deg:.2f}° ({html.escape(camera.method)}, confidence {camera.confidence:.2f})")
         if "camera_fit" in run.artifacts:
             facts.append(f"vertical FoV after room_fit {run.artifacts['camera_fit'].vfov_deg:.2f}°")
-    room = run.artifacts.get("room_box_fit", run.artifacts.get("room_box"))
+    room = next((run.artifacts[n] for n in ("room_box_objects", "room_box_fit", "room_box") if n in run.artifacts), None)
     if room is not None:
         size = " × ".join(f"{2 * h:.2f}" for h in room.half_size)
         facts.append(f"room box {size} (x × y × z), camera height {room.extra.get('camera_height', float('nan')):.2f}")

@@ -23,6 +23,7 @@ from psdr_room_core.engine.settings import setting
 from psdr_room_core.method.artifacts import Camera, Candidate, ObjectMesh
 from psdr_room_core.method.objects import ObjectQuery
 from psdr_room_core.method.silhouette import MeshCaster
+from psdr_room_core.method.sizes import SizePrior
 from psdr_room_core.method.view_search import SearchParams, ViewSearch, ViewTarget
 
 
@@ -51,9 +52,11 @@ def object_mesh(db: Any, model_id: str) -> ObjectMesh:
 
 
 class SilhouetteRetrieval:
-    """Rank models by how well each, posed by the view search, explains the object's mask and depth, at about
-    its real size: score ``1 / (1 + error + size_weight · |ln scale|)`` (:class:`~psdr_room_core.method.view_search.
-    ViewFit`; database models are in metres, so a model that must shrink to a quarter to fit is the wrong one).
+    """Rank models by how well each, posed by the view search, explains the object's mask and depth at a real
+    size: score ``1 / (1 + error)`` (:class:`~psdr_room_core.method.view_search.ViewFit`), the error holding the
+    size prior (:class:`~psdr_room_core.method.sizes.SizePrior`: ``size_weight · |ln scale|``, database models are
+    in metres, plus ``range_weight`` × how far the posed model is outside its category's real sizes) and what the
+    pose reaching beyond the query's room box costs (``room_weight`` per metre).
     Every model is scored so at its best moment-matched start; the ``shortlist`` best, or the best
     ``shortlist_share`` of them where that is more (at least ``k``; ``shortlist`` 0: all), are refined and ranked
     by their refined score."""
@@ -61,14 +64,15 @@ class SilhouetteRetrieval:
     def __init__(self, database: str = "builtin", fraction: float = 1.0, seed: int = 0, n_yaw: int = 12,
                  refine: int = 2, coarse: int = 1, explore: int = 3, polish: int = 2, halvings: int = 2,
                  render_width: int = 160, max_pixels: int = 3000, size_weight: float = 0.3,
-                 box_weight: float = 0.5, shortlist: int = 12,
+                 range_weight: float = 5.0, box_weight: float = 0.5, room_weight: float = 2.0, shortlist: int = 12,
                  shortlist_share: float = 0.2) -> None:
         self.spec = (str(database), float(fraction), int(seed))
         self.search = SearchParams(n_yaw=int(n_yaw), refine=int(refine), coarse=int(coarse), explore=int(explore),
-                                   polish=int(polish), halvings=int(halvings), turns=(), box_weight=float(box_weight))
+                                   polish=int(polish), halvings=int(halvings), turns=(), box_weight=float(box_weight),
+                                   room_weight=float(room_weight))
         self.render_width = int(render_width)
         self.max_pixels = int(max_pixels)
-        self.size_weight = float(size_weight)
+        self.size_weight, self.range_weight = float(size_weight), float(range_weight)
         self.shortlist, self.shortlist_share = int(shortlist), float(shortlist_share)
         self._db: Any = None
         self._casters: dict[str, MeshCaster] = {}
@@ -89,23 +93,26 @@ class SilhouetteRetrieval:
     def mesh(self, model_id: str) -> ObjectMesh:
         return object_mesh(self.database, model_id)
 
+    def category(self, model_id: str) -> str:
+        return self.database.record(model_id).category
+
     def rank(self, query: ObjectQuery, camera: Camera, camera_to_world: np.ndarray, k: int) -> list[Candidate]:
         models = [r for name in query.categories for r in self.database.category(name)] or list(self.database.records)
         target = ViewTarget.build(camera, camera_to_world, query.mask, query.points, query.scene_points,
-                                  self.render_width, self.max_pixels, query.box)
+                                  self.render_width, self.max_pixels, query.box, query.room)
         starts = []
         for record in models:
             mesh = self.database.mesh(record.id)
-            search = ViewSearch(target, mesh.vertices, mesh.faces, self.search, caster=self._caster(record.id, mesh))
-            starts.append((self.score(search.start[0], search.start[3]), record.id, search))
-        starts.sort(key=lambda s: (-s[0], s[1]))
+            prior = SizePrior.of(record.category, record.extent, self.size_weight, self.range_weight)
+            search = ViewSearch(target, mesh.vertices, mesh.faces, self.search, caster=self._caster(record.id, mesh),
+                                prior=prior)
+            starts.append((self.score(search.start[0]), record, search))
+        starts.sort(key=lambda s: (-s[0], s[1].id))
         keep = len(starts)
         if self.shortlist > 0:
             keep = max(self.shortlist, k, math.ceil(self.shortlist_share * len(starts)))
-        scored = []
-        for _, model_id, search in starts[:keep]:
-            view = search.finish()
-            scored.append(Candidate(model_id, self.score(view.error, view.scale)))
+        scored = [Candidate(record.id, self.score(search.finish().error), record.category)
+                  for _, record, search in starts[:keep]]
         scored.sort(key=lambda c: (-c.score, c.model_id))
         return scored[:k]
 
@@ -115,9 +122,11 @@ class SilhouetteRetrieval:
             self._casters[model_id] = MeshCaster(mesh.vertices, mesh.faces)
         return self._casters[model_id]
 
-    def score(self, error: float, scale: float) -> float:
-        """A posed model's score: higher is better, 1 for a perfect fit at the model's own size."""
-        return 1.0 / (1.0 + error + self.size_weight * abs(math.log(scale)))
+    @staticmethod
+    def score(error: float) -> float:
+        """A posed model's score from its error (size prior included): higher is better, 1 for a perfect fit at
+        the model's own size."""
+        return 1.0 / (1.0 + error)
 
 
 @dataclass
@@ -134,11 +143,13 @@ class SilhouetteSettings:
     render_width: int = setting(ge=16)
     max_pixels: int = setting(ge=0)
     size_weight: float = setting(ge=0)
+    range_weight: float = setting(ge=0)
     box_weight: float = setting(ge=0)
+    room_weight: float = setting(ge=0)
     shortlist: int = setting(ge=0)
     shortlist_share: float = setting(ge=0, le=1)
 
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("retrieval", "silhouette", SilhouetteRetrieval, version="3", params=SilhouetteSettings)
+    registry.add_implementation("retrieval", "silhouette", SilhouetteRetrieval, version="4", params=SilhouetteSettings)

@@ -9,9 +9,8 @@ import numpy as np
 import pytest
 
 from psdr_room_core.method.artifacts import Camera, Detection, Detections, Image
-from psdr_room_core.method.objects import LABEL_TO_CATEGORIES, database_categories
+from psdr_room_core.method.labels import primary_category
 from psdr_room_core.method.surface_colours import SurfaceColours, unprompted
-from psdr_room_plugins.detectors.coco import INDOOR
 from psdr_room_plugins.layout import box
 from psdr_room_plugins.layout.discovery import (
     Candidate,
@@ -29,7 +28,6 @@ from psdr_room_plugins.layout.discovery import (
 from psdr_room_plugins.layout.manhattan import frame_from_vanishing_points
 from psdr_room_plugins.layout.proposals import ProposalParams, clutter_proposals
 from psdr_room_plugins.layout.segmentation import LayoutSegmentation
-from psdr_room_plugins.object_db import CATEGORIES
 
 PHOTO = Path("room.png")
 ROOM = np.array([-2.0, 1.6, 0.7, -3.0, 3.2])  # camera heights (psdr_room_plugins.layout.box)
@@ -82,7 +80,7 @@ def _standing_box(room: dict, left: int, right: int, height_m: float, camera_hei
 
 
 def _candidate(label: str, box_: tuple, score: float, seen: str = "floor") -> Candidate:
-    category = (database_categories(label, "object") or ("object",))[0]
+    category = primary_category(label) or "object"
     return Candidate(Detection(label, "object", box_, score), np.zeros((1, 1), bool), category, Footing(None, seen))
 
 
@@ -215,19 +213,6 @@ def test_an_empty_room_gives_no_objects_and_no_error(room: dict) -> None:
 
 
 # ----------------------------------------------------------------------------------------------- categories
-def test_the_category_table_maps_every_detector_class_into_the_database() -> None:
-    for label in INDOOR:
-        assert all(c in CATEGORIES for c in database_categories(label, "object")), label
-    assert all(c in CATEGORIES for cs in LABEL_TO_CATEGORIES.values() for c in cs)
-    for category in CATEGORIES:  # a database category's own name means it (COCO's bed, tv, refrigerator are wider)
-        if category not in ("bed", "tv", "refrigerator", "other"):
-            assert database_categories(category, "object") == (category,), category
-    oven = database_categories("oven", "object")
-    assert oven[0] == "appliance" and "cabinet" in oven
-    assert database_categories("Night Stand ", "object") == ("cabinet", "table")
-    assert database_categories("thing", "object") == () and database_categories("thing", "lamp") == ("lamp",)
-
-
 def test_overlapping_prompts_vote_for_the_label() -> None:
     tv = Detection("tv", "object", (100.0, 100.0, 200.0, 220.0), 0.3)
     chairs = [Detection("chair", "object", (102.0, 98.0, 198.0, 222.0), 0.2),

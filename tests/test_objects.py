@@ -36,7 +36,7 @@ from psdr_room_core.method.objects import (
     wall_frame,
 )
 from psdr_room_core.method.silhouette import MeshCaster, camera_rays, depth_map, silhouette
-from psdr_room_core.method.stages.objects import PoseModel, find_overlaps, fit_objects, object_targets, try_yaw_turns
+from psdr_room_core.method.stages.objects import PoseModel, fit_objects, object_targets, try_yaw_turns
 from psdr_room_core.method.view_search import ViewTarget, fit_view
 from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
 from psdr_room_plugins.optimizer_adam import Adam
@@ -46,6 +46,8 @@ C2W[:3, :3] = np.diag([-1.0, -1.0, 1.0])  # OpenCV camera looking along world +Z
 C2W[:3, 3] = [0.0, 1.5, -2.5]
 ROOM = RoomBox(camera_to_world=C2W, center=np.array([0.0, 1.5, 0.0]), half_size=np.array([3.0, 1.5, 3.0]), yaw=0.0)
 CAMERA = Camera.from_vfov(160, 120, 60.0)
+PHYSICAL = {"size_tolerance": 0.15, "duplicate_share": 0.5, "penetration": 0.03, "max_shift": 0.5, "directions": 16,
+            "keep_iou": 0.5, "max_growth": 1.0}
 
 
 def l_shape() -> ObjectMesh:
@@ -309,23 +311,15 @@ def test_wall_frame_faces_into_the_room() -> None:
         assert inside == pytest.approx(3.0) and abs(inward @ tangent) < 1e-12 and tangent[1] == 0
 
 
-def test_overlaps_are_reported() -> None:
-    mesh = l_shape()
-    a = Placement(1, "sofa", "m", mesh, (0.0, 0.0, 1.0), 0.0, 1.0, "floor")
-    b = Placement(2, "sofa", "m", mesh, (0.5, 0.0, 1.2), 0.4, 1.0, "floor")
-    c = Placement(3, "sofa", "m", mesh, (5.0, 0.0, 1.0), 0.0, 1.0, "floor")
-    found = find_overlaps(Placements(objects=[a, b, c]), threshold=0.05)
-    assert [f["objects"] for f in found] == [[1, 2]] and 0.05 < found[0]["iou"] < 1.0
-
-
 def test_placements_round_trip_with_meshes(tmp_path: Path) -> None:
     mesh = l_shape()
     placements = Placements(objects=[Placement(7, "couch", "parametric/sofa_003", mesh, (0.1, 0.0, 2.0), 0.5, 0.8,
-                                               "parent", 3)], extra={"overlaps": []})
+                                               "parent", 3, "sofa", 0.83)], extra={"dropped": []})
     placements.save(tmp_path)
     loaded = Placements.load(tmp_path)
     p = loaded.objects[0]
     assert (p.segment_id, p.model_id, p.support, p.anchor) == (7, "parametric/sofa_003", "parent", 3)
+    assert (p.category, p.explained) == ("sofa", 0.83)
     assert np.allclose(p.world_vertices(), placements.objects[0].world_vertices(), atol=1e-5)
     assert p.mesh.groups == ("frame", "arm") and np.array_equal(p.mesh.face_group, mesh.face_group)
     assert np.allclose(p.mesh.colors, mesh.colors, atol=1e-4)
@@ -353,7 +347,9 @@ def test_fit_objects_recovers_perturbed_poses(tmp_path: Path) -> None:
     panoptic, depth = _scene(truth, camera)
     start = Placements(objects=[replace(truth[0], position=(-0.4, 0.0, 1.4), yaw=math.radians(30), scale=0.8),
                                 replace(truth[1], position=(1.2, 0.0, 2.0), yaw=math.radians(-22), scale=0.7)])
-    params = {"iterations": 60, "render_width": 96, "blur_sigmas": [2.0, 4.0], "blur_weight": 1.0, "overlap_iou": 0.05,
+    params = {"iterations": 60, "render_width": 96, "blur_sigmas": [2.0, 4.0], "blur_weight": 1.0,
+              "size_prior": {"scale_weight": 0.01, "range_weight": 0.2}, "room_weight": 0.2, "collision_weight": 2.0,
+              "physical": PHYSICAL,
               "learning_rates": {"translation": 0.01, "log_scale": 0.01, "yaw": 1.0},
               "yaw_test": {"at": 0.5, "angles": [180.0, 90.0, -90.0], "min_gain": 0.1},
               "convergence": {"window": 0, "tolerance": 0.01, "min_iterations": 0}}  # all 60 iterations
@@ -369,7 +365,8 @@ def test_fit_objects_recovers_perturbed_poses(tmp_path: Path) -> None:
     assert error(fitted) < 0.5 * error(start), (error(start), error(fitted))
     assert all(p.position[1] == 0.0 and p.support == "floor" for p in fitted.objects)  # kept on the floor
     assert log.history[-1]["mean_iou"] > log.history[0]["mean_iou"]
-    assert set(log.images) == {"before", "after", "loss"} and log.summary["overlaps"] == []
+    assert set(log.images) == {"before", "after", "loss"} and log.summary["interpenetrations"] == []
+    assert out["room"] is ROOM and log.summary["dropped"] == []  # nothing crossed the room or another object
     assert log.summary["turned"] == {} and len(log.history) == 60  # nothing was the wrong way round
     losses = [h["loss"] for h in log.history]  # the poses left are the best iterate's
     assert log.summary["best_iteration"] == losses.index(min(losses))
@@ -449,10 +446,11 @@ def test_guessed_objects_no_model_explains_are_dropped_drawn_ones_kept(tmp_path:
                                   labels={k: "chair" for k in (5, 6, 7)})
     params = {"pick": {}, "init": "silhouette", "radius_factor": 0.5, "n_yaw": 8, "render_width": 160,
               "search": {"refine": 2, "coarse": 1, "polish": 1, "halvings": 1, "turns": [], "depth_weight": 2.0,
-                         "hidden_margin": 0.03},
-              "min_points": 30, "min_pixels": 100, "prune": {"min_iou": 0.3, "scale": [0.25, 4.0]},
+                         "hidden_margin": 0.03, "room_weight": 2.0},
+              "min_points": 30, "min_pixels": 100, "prune": {"min_iou": 0.3},
+              "size_prior": {"scale_weight": 0.3, "range_weight": 5.0}, "physical": PHYSICAL,
               "support": {"floor_distance": 0.1, "edge_px": 20.0, "wall_distance": 0.15, "bottom_percentile": 2.0,
-                          "grounded": ["chair"]}}
+                          "grounded": ["chair"], "floor_only": ["chair"]}}
     ctx = StageContext(stage="place_objects", params=params, seed=0, photo=tmp_path / "photo.png",
                        implementations={"retrieval": retriever})
     out = place_objects(ctx, candidates, Image(rgb=np.full((120, 160, 3), 0.5, np.float32)),

@@ -17,7 +17,7 @@ import pytest
 from conftest import EXAMPLE
 
 STAGES = ["load_image", "estimate_fov", "detect", "segment", "estimate_depth", "point_cloud", "room_init",
-          "room_fit", "retrieve_objects", "place_objects", "fit_objects", "assign_materials", "init_lights",
+          "room_fit", "group_objects", "retrieve_objects", "place_objects", "fit_objects", "assign_materials", "init_lights",
           "fit_appearance", "export_scene"]
 SMALL = ["room_fit.iterations=8", "room_fit.render_width=64", "fit_objects.iterations=4", "fit_objects.render_width=64",
          "assign_materials.map_size=128", "init_lights.render_width=64", "init_lights.spp=16", "fit_appearance.iterations=3",
@@ -131,8 +131,9 @@ def test_rerun_is_cached_and_identical(first_run: tuple[Path, dict[str, str]]) -
 def test_changed_stage_param_reruns_it_and_what_follows(first_run: tuple[Path, dict[str, str]]) -> None:
     root, env = first_run
     psdr_room(f"image={EXAMPLE}", "room_init.ransac_threshold=0.03", f"hydra.run.dir={root / 'run3'}", env=env)
-    assert computed(root / "run3") == {"room_init", "room_fit", "retrieve_objects", "place_objects", "fit_objects",
-                                       "assign_materials", "init_lights", "fit_appearance", "export_scene"}
+    assert computed(root / "run3") == {"room_init", "room_fit", "group_objects", "retrieve_objects", "place_objects",
+                                       "fit_objects", "assign_materials", "init_lights", "fit_appearance",
+                                       "export_scene"}
 
 
 def test_multirun_shares_the_cache(first_run: tuple[Path, dict[str, str]]) -> None:
@@ -261,7 +262,7 @@ def test_the_preview_preset_reuses_the_room_and_stops_at_place_objects(first_run
     psdr_room(f"image={EXAMPLE}", "+preset=preview", f"hydra.run.dir={tmp_path / 'run'}", env=env)
     m = metrics(tmp_path / "run")
     assert list(m["stages"]) == STAGES[:STAGES.index("place_objects") + 1]
-    assert computed(tmp_path / "run") == {"retrieve_objects", "place_objects"}
+    assert computed(tmp_path / "run") == {"group_objects", "retrieve_objects", "place_objects"}  # they use retrieval
     assert all(s["peak_rss_mb"] > 100 for s in m["stages"].values())  # torch and Mitsuba alone are more
     placed = json.loads((tmp_path / "run" / "artifacts" / "placements" / "placements.json").read_text())["objects"]
     assert placed and (tmp_path / "run" / "report.html").is_file()

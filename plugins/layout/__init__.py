@@ -29,7 +29,7 @@ def _depth(**params: object) -> object:
 @hookimpl
 def register_implementations(registry: Registry) -> None:
     registry.add_implementation(
-        "segmentation", "layout", _segmentation, version="2", params=LayoutSegmentationSettings,
+        "segmentation", "layout", _segmentation, version="3", params=LayoutSegmentationSettings,
         description="walls/floor/ceiling of a box layout fitted to the photo's lines; objects discovered among "
                     "detector boxes and what the room cannot explain, cut out by GrabCut")
     registry.add_implementation(

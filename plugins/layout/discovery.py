@@ -32,7 +32,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from psdr_room_core.method.artifacts import Detection
-from psdr_room_core.method.objects import database_categories
+from psdr_room_core.method.labels import primary_category
 from psdr_room_core.method.surface_colours import SurfaceColours
 
 from .objects import GrabCutParams, grabcut_mask
@@ -286,8 +286,14 @@ class Selection:
         """Judge ``prompts``, best first, against the kept objects (see the module docstring)."""
         params, unseen = self.params, Footing(None, "hidden")
         strong = vote_labels([p for p in prompts if p.score >= params.min_score], params.nms_iou)
-        probes = [Candidate(p, np.zeros(0, bool), (database_categories(p.label, p.category) or ("object",))[0], unseen)
-                  for p in sorted(strong, key=lambda p: -p.score)]
+        probes = []
+        for p in sorted(strong, key=lambda p: -p.score):
+            category = primary_category(p.label, p.category)
+            probe = Candidate(p, np.zeros(0, bool), category or "object", unseen)
+            if category is None:
+                self.drop("not furniture the object database holds", probe)
+            else:
+                probes.append(probe)
         for probe in probes:
             whole = next((k for k in self.kept if part_of(probe, k, params)), None)
             if whole is not None and probe.category == "object" and whole.category != "object":

@@ -65,4 +65,4 @@ class ClipSettings(OnnxModelSettings):
 def register_implementations(registry: Registry) -> None:
     registry.add_implementation("depth", "onnx", OnnxDepth, params=OnnxDepthSettings)
     registry.add_implementation("segmentation", "onnx", OnnxSegmentation, params=OnnxSegmentationSettings)
-    registry.add_implementation("retrieval", "clip_onnx", ClipRetrieval, params=ClipSettings)
+    registry.add_implementation("retrieval", "clip_onnx", ClipRetrieval, version="2", params=ClipSettings)

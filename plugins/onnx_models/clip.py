@@ -44,7 +44,7 @@ class ClipRetrieval:
 
     def __init__(self, model: str | None = "clip_vit_b32_image", path: str | None = None, family: str | None = None,
                  models_dir: str | None = None, database: str = "builtin", fraction: float = 1.0, seed: int = 0,
-                 category_filter: bool = False, batch: int = 16, intra_op_threads: int = 0,
+                 category_filter: bool = True, batch: int = 16, intra_op_threads: int = 0,
                  providers: Sequence[str] = ("CPUExecutionProvider",), cache_dir: str | None = None) -> None:
         self._params = dict(model=model, path=path, family=family, models_dir=models_dir)
         self.spec = (str(database), float(fraction), int(seed))
@@ -90,6 +90,9 @@ class ClipRetrieval:
         from psdr_room_plugins.retrieval_silhouette import object_mesh
 
         return object_mesh(self.database, model_id)
+
+    def category(self, model_id: str) -> str:
+        return self.database.record(model_id).category
 
     def embed(self, images: Sequence[np.ndarray]) -> np.ndarray:
         """Unit-norm embeddings [N,D] of uint8 RGB images."""
@@ -137,6 +140,6 @@ class ClipRetrieval:
         models = models or list(self.database.records)
         thumbs = self._thumbnail_embeddings([r.id for r in models])
         crop = self.embed([query.crop])[0]
-        scored = [Candidate(r.id, float(np.max(thumbs[r.id] @ crop))) for r in models]
+        scored = [Candidate(r.id, float(np.max(thumbs[r.id] @ crop)), r.category) for r in models]
         scored.sort(key=lambda c: (-c.score, c.model_id))
         return scored[:k]

@@ -518,7 +518,7 @@ class StudioApp:
         artifacts = self.session.record.artifacts if self.session.record is not None else {}
         image: Image | None = artifacts.get("image")
         camera: Camera | None = latest(artifacts, "camera_fit", "camera")
-        room: RoomBox | None = latest(artifacts, "room_box_fit", "room_box")
+        room: RoomBox | None = latest(artifacts, "room_box_objects", "room_box_fit", "room_box")
         if image is None or camera is None or room is None:
             raise PsdrRoomError("run the preview first: a rectangle is drawn on the photo's camera")
         corners = [screen_to_photo(client_camera, corner, camera, room.camera_to_world)

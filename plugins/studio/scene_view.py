@@ -58,7 +58,7 @@ class SceneView:
         self.clear()
         image: Image | None = artifacts.get("image")
         camera: Camera | None = latest(artifacts, "camera_fit", "camera")
-        room: RoomBox | None = latest(artifacts, "room_box_fit", "room_box")
+        room: RoomBox | None = latest(artifacts, "room_box_objects", "room_box_fit", "room_box")
         if image is None or camera is None or room is None:
             return
         c2w = np.asarray(room.camera_to_world, dtype=np.float64)
@@ -104,7 +104,7 @@ class SceneView:
     def photo_view(self, client: viser.ClientHandle, artifacts: dict[str, Any]) -> None:
         """Put ``client``'s view at the photo's camera (where a box dragged on the canvas is a box on the photo)."""
         camera: Camera | None = latest(artifacts, "camera_fit", "camera")
-        room: RoomBox | None = latest(artifacts, "room_box_fit", "room_box")
+        room: RoomBox | None = latest(artifacts, "room_box_objects", "room_box_fit", "room_box")
         if camera is None or room is None:
             return
         c2w = np.asarray(room.camera_to_world, dtype=np.float64)
@@ -119,7 +119,7 @@ class SceneView:
 def overview(client: viser.ClientHandle, artifacts: dict[str, Any]) -> None:
     """Put ``client``'s view inside the room, above and behind the photo's camera, looking where it looks: the
     camera's frustum with the photo and the scene it became, together."""
-    room: RoomBox | None = latest(artifacts, "room_box_fit", "room_box")
+    room: RoomBox | None = latest(artifacts, "room_box_objects", "room_box_fit", "room_box")
     if room is None:
         return
     c2w = np.asarray(room.camera_to_world, dtype=np.float64)

@@ -97,6 +97,10 @@ class ObjectRetriever(Protocol):
         """A model's mesh in the canonical frame (see ``artifacts.ObjectMesh``)."""
         ...
 
+    def category(self, model_id: str) -> str:
+        """A model's database category (its real sizes: ``method.sizes``)."""
+        ...
+
     def describe(self) -> str:
         """One line naming the method and database (recorded in the candidates artifact)."""
         ...

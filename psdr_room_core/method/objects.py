@@ -6,58 +6,18 @@ at ``y = 0``, centred on ``x = z = 0``, front facing +Z. A pose is ``to_world = 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
 from .artifacts import Camera, Image, Panoptic, PointCloud, RoomBox, rotation_y
+from .labels import meaning
 from .silhouette import mask_l1, silhouette
 
 OBJECT_CATEGORIES = ("object", "lamp")
 """Segment categories that become retrieved objects (doors and windows are openings of the room)."""
-
-LABEL_TO_CATEGORIES: dict[str, tuple[str, ...]] = {
-    # COCO (the bundled detector), ADE20K, NYU/SUN RGB-D and common LabelMe names → object database categories
-    "chair": ("chair",), "armchair": ("chair",), "swivel chair": ("chair",), "stool": ("chair", "ottoman"),
-    "sofa chair": ("chair", "sofa"),
-    "sofa": ("sofa",), "bench": ("sofa", "table", "ottoman"),
-    "ottoman": ("ottoman",), "pouf": ("ottoman",), "footstool": ("ottoman",),
-    "dining table": ("table", "desk"), "table": ("table",), "coffee table": ("table",),
-    "side table": ("table", "cabinet"), "end table": ("table", "cabinet"), "pool table": ("table",),
-    "desk": ("desk",),
-    "cabinet": ("cabinet",), "wardrobe": ("cabinet",), "chest of drawers": ("cabinet",),
-    "dresser": ("cabinet",), "night stand": ("cabinet", "table"), "nightstand": ("cabinet", "table"),
-    "sideboard": ("cabinet",), "counter": ("cabinet",), "kitchen cabinet": ("cabinet",),
-    "bookcase": ("shelf", "cabinet"), "bookshelf": ("shelf", "cabinet"), "shelf": ("shelf",),
-    "shelves": ("shelf", "cabinet"),
-    "fridge": ("refrigerator",), "appliance": ("appliance",), "washer": ("appliance",), "washing machine": ("appliance",),
-    "dryer": ("appliance",), "dishwasher": ("appliance",), "stove": ("appliance",), "range": ("appliance",),
-    "lamp": ("lamp",), "floor lamp": ("lamp",), "table lamp": ("lamp",), "light": ("lamp",),
-    "rug": ("rug",), "carpet": ("rug",), "mat": ("rug",),
-    "pillow": ("pillow",), "cushion": ("pillow",),
-    "television": ("tv",), "monitor": ("tv",), "screen": ("tv",), "tvmonitor": ("tv", "frame", "cabinet"),
-    "picture": ("frame",), "painting": ("frame",), "poster": ("frame",), "mirror": ("frame",),
-    "whiteboard": ("frame",), "board": ("frame",), "clock": ("frame",), "frame": ("frame",),
-    "box": ("box",), "bin": ("box",), "basket": ("box",), "crate": ("box",), "container": ("box",),
-    "potted plant": ("plant",), "pottedplant": ("plant",), "plant": ("plant",), "flower pot": ("plant",),
-    # COCO classes the bundled detector also gives to what they are not (a dresser is often a "tv" or an
-    # "oven", a kitchen counter a "sink", a row of desks a "bed"): the model search also tries what they may be
-    "tv": ("tv", "frame", "cabinet"), "refrigerator": ("refrigerator", "cabinet", "shelf"),
-    "couch": ("sofa", "chair"), "bed": ("bed", "desk", "table", "sofa"),
-    "oven": ("appliance", "cabinet"), "microwave": ("appliance", "box", "cabinet"), "sink": ("cabinet", "table"),
-    "laptop": ("tv", "box"), "vase": ("plant", "lamp", "box"),
-}
-"""Free-form segment labels → database categories to search, the most likely first; a database category's
-own name means that category, an unknown label searches every category."""
-
-
-def database_categories(label: str, category: str) -> tuple[str, ...]:
-    """The database categories to search for a segment (empty: unknown, search them all)."""
-    name = label.strip().lower()
-    if name in LABEL_TO_CATEGORIES:
-        return LABEL_TO_CATEGORIES[name]
-    return ("lamp",) if category == "lamp" else ()
 
 
 @dataclass(frozen=True)
@@ -67,7 +27,7 @@ class ObjectQuery:
     segment_id: int
     label: str
     categories: tuple[str, ...]
-    """Database categories to search, from the label, the most likely first (empty: any)."""
+    """Database categories to search, from the label, the most likely first (empty: any; :mod:`.labels`)."""
     mask: np.ndarray
     """(H, W) bool at the working image's resolution."""
     points: np.ndarray
@@ -79,11 +39,18 @@ class ObjectQuery:
     box: tuple[float, float, float, float] | None = None
     """The segment's prompt box (:attr:`~psdr_room_core.method.artifacts.Segment.box`): a model may cover it outside the
     mask without being wrong."""
+    alternates: tuple[str, ...] = ()
+    """What the label may also be (:attr:`~.labels.LabelMeaning.alternates`), for a guessed segment only."""
+    guessed: bool = False
+    """The segment is an automatic guess (it has a score): its label is weak."""
+    room: RoomBox | None = None
+    """The room box the object stands in (its model must fit inside)."""
 
 
 def object_queries(image: Image, panoptic: Panoptic, cloud: PointCloud, room: RoomBox, min_points: int,
                    min_pixels: int) -> list[ObjectQuery]:
-    """A query per object segment with at least ``min_pixels`` pixels and ``min_points`` depth points."""
+    """A query per object segment with at least ``min_pixels`` pixels and ``min_points`` depth points whose label
+    names something the database holds (:func:`~.labels.meaning`)."""
     to_world = np.asarray(room.camera_to_world)
     rgb8 = image.to_uint8()
     scene = cloud.points.astype(np.float64) @ to_world[:3, :3].T + to_world[:3, 3]
@@ -91,16 +58,21 @@ def object_queries(image: Image, panoptic: Panoptic, cloud: PointCloud, room: Ro
     for segment in panoptic.segments:
         if segment.category not in OBJECT_CATEGORIES:
             continue
+        named = meaning(segment.label, segment.category)
+        if named is None:
+            continue
         mask = panoptic.ids == segment.id
         points = scene[cloud.segment == segment.id]
         if mask.sum() < min_pixels or len(points) < min_points:
             continue
-        queries.append(ObjectQuery(segment.id, segment.label, database_categories(segment.label, segment.category),
-                                   mask, points, _square_crop(rgb8, mask), scene, segment.box))
+        guessed = segment.score is not None
+        queries.append(ObjectQuery(segment.id, segment.label, named.categories, mask, points, square_crop(rgb8, mask),
+                                   scene, segment.box, named.alternates if guessed else (), guessed, room))
     return queries
 
 
-def _square_crop(rgb8: np.ndarray, mask: np.ndarray, context: float = 0.1) -> np.ndarray:
+def square_crop(rgb8: np.ndarray, mask: np.ndarray, context: float = 0.1) -> np.ndarray:
+    """A square crop round ``mask``'s bounding box with ``context`` (a share of its size) on each side."""
     ys, xs = np.nonzero(mask)
     cx, cy = (xs.min() + xs.max()) / 2.0, (ys.min() + ys.max()) / 2.0
     half = max(xs.max() - xs.min(), ys.max() - ys.min()) * (0.5 + context) + 1
@@ -169,6 +141,8 @@ class SupportParams:
     grounded: tuple[str, ...] = ("chair", "table", "sofa", "bed", "desk", "rug", "plant", "cabinet", "shelf")
     """Database categories that stand on the floor when no parent holds them and their points' bottom is
     below the room's mid-height (it is hidden behind something); higher up they may hang on a wall."""
+    floor_only: tuple[str, ...] = ("bed", "sofa", "chair", "table", "desk", "ottoman", "refrigerator", "rug")
+    """Database categories that never hang on a wall or float: on a parent, else on the floor."""
 
 
 def mask_distance(mask: np.ndarray, other: np.ndarray) -> float:
@@ -205,18 +179,21 @@ Support = tuple[str, int | None]
 
 
 def support_relations(queries: list[ObjectQuery], floor_mask: np.ndarray, room: RoomBox,
-                      params: SupportParams) -> dict[int, list[Support]]:
+                      params: SupportParams, categories: Mapping[int, str] | None = None) -> dict[int, list[Support]]:
     """Segment id → the supports §4.3's rules allow it, the rules' choice first, by these rules in this order:
     on the floor; on a floor object whose mask touches its own from below, whose top is at its bottom and
     whose points' footprint holds its centre; an object of a ``grounded`` category whose bottom is hidden
-    (below mid-height) on the floor; near a wall, on it; else free.
+    (below mid-height) on the floor; near a wall, on it, unless its category is ``floor_only`` (then on the
+    floor); else free. An object's category is ``categories[segment id]`` (the model placed for it), else its
+    label's first.
 
     A grounded object that a parent could hold may also stand on the floor behind it (a tall cabinet whose
     lower part a low one hides looks the same): both are listed, and the view search decides."""
     relations: dict[int, list[Support]] = {}
     bottoms = {q.segment_id: float(np.percentile(q.points[:, 1], params.bottom_percentile)) for q in queries}
     for q in queries:
-        if abs(bottoms[q.segment_id]) < params.floor_distance and mask_distance(q.mask, floor_mask) < params.edge_px:
+        if abs(bottoms[q.segment_id] - room.floor) < params.floor_distance and \
+                mask_distance(q.mask, floor_mask) < params.edge_px:
             relations[q.segment_id] = [("floor", None)]
     on_floor = [q for q in queries if q.segment_id in relations]
     for q in queries:
@@ -234,8 +211,9 @@ def support_relations(queries: list[ObjectQuery], floor_mask: np.ndarray, room: 
             distance = mask_distance(q.mask, p.mask)
             if rows.mean() < p_rows.mean() and over and on_top and distance < params.edge_px:
                 parents.append((distance, p.segment_id))
-        hidden_bottom = bool(q.categories) and q.categories[0] in params.grounded and bottom < room.half_size[1]
-        grounded: list[Support] = [("floor", None)] if hidden_bottom else []
+        category = (categories or {}).get(q.segment_id) or (q.categories[0] if q.categories else "")
+        hidden_bottom = category in params.grounded and bottom < float(room.center[1])
+        grounded: list[Support] = [("floor", None)] if hidden_bottom or category in params.floor_only else []
         wall, wall_distance = nearest_wall(room, np.median(q.points, axis=0))
         if parents:
             relations[q.segment_id] = [("parent", min(parents)[1]), *grounded]

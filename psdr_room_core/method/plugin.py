@@ -53,11 +53,12 @@ def register_stages(registry: Registry) -> None:
     registry.add_stage("room_init", room.room_init, version="2", params=RoomInitParams)
     registry.add_stage("room_fit", room.room_fit, uses=["renderer", "optimizer"], version="2",
                        params=settings.RoomFit)
-    registry.add_stage("retrieve_objects", objects.retrieve_objects, uses=["retrieval"], version="2",
+    registry.add_stage("group_objects", objects.group_objects, uses=["retrieval"], params=settings.GroupObjects)
+    registry.add_stage("retrieve_objects", objects.retrieve_objects, uses=["retrieval"], version="3",
                        params=settings.RetrieveObjects)
-    registry.add_stage("place_objects", objects.place_objects, uses=["retrieval"], version="3",
+    registry.add_stage("place_objects", objects.place_objects, uses=["retrieval"], version="4",
                        params=settings.PlaceObjects)
-    registry.add_stage("fit_objects", objects.fit_objects, uses=["renderer", "optimizer"], version="3",
+    registry.add_stage("fit_objects", objects.fit_objects, uses=["renderer", "optimizer"], version="4",
                        params=settings.FitObjects)
     registry.add_stage("assign_materials", materials.assign_materials, uses=["renderer", "material_graph", "texture"],
                        sidecars=[CROPS_SUFFIX], version="3", params=settings.AssignMaterials)
@@ -96,4 +97,7 @@ def run_metrics(run: RunRecord) -> dict[str, Any]:
     if room is not None:
         out["room_box"] = {"size": [2 * float(h) for h in room.half_size], "yaw_deg": math.degrees(float(room.yaw)),
                            "camera_height": room.extra.get("camera_height"), "ceiling_visible": room.ceiling_visible}
+        held = run.artifacts.get("room_box_objects")
+        if held is not None:  # grown where fit_objects' objects reach beyond it
+            out["room_box"]["size_holding_objects"] = [2 * float(h) for h in held.half_size]
     return out

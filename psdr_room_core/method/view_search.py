@@ -22,9 +22,10 @@ from functools import cached_property
 import cv2
 import numpy as np
 
-from .artifacts import Camera
+from .artifacts import Camera, RoomBox, rotation_y
 from .objects import pose_matrix
 from .silhouette import MeshCaster, Window, world_to_camera
+from .sizes import SizePrior
 
 
 def point_depth(camera: Camera, camera_to_world: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -58,6 +59,8 @@ class ViewTarget:
     """(h, w) bool: pixels the model may cover or not (its prompt box outside the mask)."""
     box: tuple[int, int, int, int] | None = None
     """The prompt box at the search resolution (x0, y0, x1, y1): the visible model should span it."""
+    room: RoomBox | None = None
+    """The room box the model must stay inside (None: anywhere)."""
 
     # What every pose of every model is measured against: computed once per target, not once per model
     @cached_property
@@ -91,12 +94,13 @@ class ViewTarget:
     @classmethod
     def build(cls, camera: Camera, camera_to_world: np.ndarray, mask: np.ndarray, points: np.ndarray,
               scene_points: np.ndarray, width: int, max_pixels: int = 0,
-              box: tuple[float, float, float, float] | None = None) -> "ViewTarget":
+              box: tuple[float, float, float, float] | None = None, room: RoomBox | None = None) -> "ViewTarget":
         """The target of an object with ``mask`` (working-image resolution) and world ``points`` in a scene of
         world ``scene_points`` (every segment's), seen by ``camera`` resized to ``width``, or narrower where
         the mask would have more than ``max_pixels`` pixels (0: no limit; scores are relative, so a cap buys
         speed for big objects at the cost of their fine detail). Pixels of the prompt ``box`` (working-image
-        pixels) outside the mask are free: the model may cover them or not."""
+        pixels) outside the mask are free: the model may cover them or not. A pose reaching beyond the
+        ``room`` box costs error."""
         scale = min(int(width), camera.width) / camera.width
         if max_pixels > 0:
             scale = min(scale, math.sqrt(max_pixels / max(int(mask.sum()), 1)))
@@ -114,7 +118,7 @@ class ViewTarget:
             free[small_box[1]:small_box[3], small_box[0]:small_box[2]] = True
             free &= ~small
         return cls(cam, c2w, small, point_depth(cam, c2w, points), point_depth(cam, c2w, scene_points), points, free,
-                   small_box)
+                   small_box, room)
 
 
 @dataclass(frozen=True)
@@ -129,7 +133,9 @@ class ViewFit:
     error: float
     """Mask disagreement (wrong pixels / mask pixels, hidden and free pixels not wrong) + ``depth_weight`` × the
     mean relative depth error where the model meets the object's points (+ ``box_weight`` × (1 − IoU of the
-    visible model's box with the prompt box), for a prompted segment)."""
+    visible model's box with the prompt box), for a prompted segment) + the size prior's penalty on the scale
+    (:class:`~psdr_room_core.method.sizes.SizePrior`, where one is given) + ``room_weight`` × how far (metres)
+    its bounding box reaches beyond the target's room box."""
 
 
 @dataclass(frozen=True)
@@ -159,14 +165,16 @@ class SearchParams:
     """Turns (degrees) of the polished best, each refined at the fine levels (with ``polish`` > 0)."""
     rounds: int = 12
     """Most pattern-search moves at one step size."""
+    room_weight: float = 2.0
+    """Error per metre the posed model's bounding box reaches beyond the room box (a model is inside its room)."""
 
 
 class _Scorer:
     """Scores poses of one mesh against one :class:`ViewTarget`."""
 
     def __init__(self, target: ViewTarget, vertices: np.ndarray, faces: np.ndarray, params: SearchParams,
-                 caster: MeshCaster | None = None) -> None:
-        self.target, self.params = target, params
+                 caster: MeshCaster | None = None, prior: SizePrior | None = None) -> None:
+        self.target, self.params, self.prior = target, params, prior
         self.caster = caster or MeshCaster(vertices, faces)
         lo, hi = vertices.min(axis=0), vertices.max(axis=0)
         self.corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
@@ -235,8 +243,20 @@ class _Scorer:
         error = wrong / self.mask_area + self.params.depth_weight * depth_error
         if self.target.box is not None:
             error += self.params.box_weight * (1.0 - np.array([self.box_iou(window, v) for v in visible]))
+        if self.prior is not None:
+            error += np.array([self.prior.penalty(float(np.linalg.norm(pose[:3, 0]))) for pose in poses])
+        if self.target.room is not None and self.params.room_weight > 0:
+            error += self.params.room_weight * self.beyond_room(poses)
         iou = overlap / np.maximum(self.mask_area + visible_area - overlap, 1)
         return [(float(e), float(i)) for e, i in zip(error, iou)]
+
+    def beyond_room(self, poses: list[np.ndarray]) -> np.ndarray:
+        """(K,) how far (metres) each posed bounding box reaches beyond the target's room box."""
+        room = self.target.room
+        assert room is not None
+        corners = np.stack([self.corners @ pose[:3, :3].T + pose[:3, 3] for pose in poses])  # (K, 8, 3)
+        local = (corners - np.asarray(room.center)) @ rotation_y(room.yaw)
+        return np.max(np.maximum(np.abs(local) - np.asarray(room.half_size), 0.0), axis=(1, 2))
 
     def box_iou(self, window: Window, visible: np.ndarray) -> float:
         """IoU of the visible model's bounding box with the target's prompt box."""
@@ -259,13 +279,13 @@ class ViewSearch:
     building it sweeps the ``n_yaw`` moment-matched starts (all rotations in one cast per step; :attr:`start`
     is the best, a cheap score to shortlist models by), :meth:`finish` refines them by the pattern search. With
     ``support_height`` the mesh's bottom stays at that height; ``caster``: the mesh's, when one is at hand (its
-    hierarchy serves every target)."""
+    hierarchy serves every target); ``prior``: the size prior every pose's error includes."""
 
     def __init__(self, target: ViewTarget, vertices: np.ndarray, faces: np.ndarray,
                  params: SearchParams = SearchParams(), support_height: float | None = None,
-                 caster: MeshCaster | None = None) -> None:
+                 caster: MeshCaster | None = None, prior: SizePrior | None = None) -> None:
         self.params, self.support_height = params, support_height
-        self.scorer = _Scorer(target, vertices, faces, params, caster)
+        self.scorer = _Scorer(target, vertices, faces, params, caster, prior)
         box_centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2.0
         self.size = float(np.linalg.norm(np.ptp(vertices, axis=0)))
         # start: the mesh's box centre on the points' median, its size the points' spread; a supported object
@@ -339,10 +359,11 @@ class ViewSearch:
 
 
 def fit_view(target: ViewTarget, vertices: np.ndarray, faces: np.ndarray, params: SearchParams = SearchParams(),
-             support_height: float | None = None) -> ViewFit:
+             support_height: float | None = None, prior: SizePrior | None = None) -> ViewFit:
     """The pose of a mesh (canonical: bottom at 0, centred on the vertical axis) that best explains the
-    object in ``target``; with ``support_height`` its bottom stays at that height (:class:`ViewSearch`)."""
-    return ViewSearch(target, vertices, faces, params, support_height).finish()
+    object in ``target``; with ``support_height`` its bottom stays at that height, with ``prior`` its size is
+    a likelihood (:class:`ViewSearch`)."""
+    return ViewSearch(target, vertices, faces, params, support_height, prior=prior).finish()
 
 
 class _PatternSearch:

@@ -67,6 +67,11 @@ class RoomBox:
     ceiling_visible: bool = True
     extra: dict[str, Any] = field(default_factory=dict)
 
+    @property
+    def floor(self) -> float:
+        """Height of the box's floor (0 for a box standing on the floor; ``room_fit`` may move it a little)."""
+        return float(self.center[1] - self.half_size[1])
+
     def corners(self) -> np.ndarray:
         """The 8 world-space corners, index bits (x, y, z) → sign (-, +)."""
         signs = np.array([[(i >> 0) & 1, (i >> 1) & 1, (i >> 2) & 1] for i in range(8)]) * 2.0 - 1.0
@@ -105,6 +110,8 @@ class Candidate:
     model_id: str
     score: float
     """Retrieval similarity (higher is better; its scale depends on the retrieval implementation)."""
+    category: str = ""
+    """The model's database category."""
 
 
 @dataclass
@@ -127,14 +134,15 @@ class ObjectCandidates:
             write_png(directory / "candidates.png", self.sheet)
         write_json(directory / "candidates.json", {"source": self.source, "objects": [
             {"segment_id": sid, "label": self.labels.get(sid, ""),
-             "candidates": [{"model_id": c.model_id, "score": float(c.score)} for c in ranked]}
+             "candidates": [{"model_id": c.model_id, "score": float(c.score), "category": c.category} for c in ranked]}
             for sid, ranked in sorted(self.ranked.items())]})
 
     @classmethod
     def load(cls, directory: Path) -> "ObjectCandidates":
         data = read_json(directory / "candidates.json")
         try:
-            ranked = {int(o["segment_id"]): [Candidate(str(c["model_id"]), float(c["score"])) for c in o["candidates"]]
+            ranked = {int(o["segment_id"]): [Candidate(str(c["model_id"]), float(c["score"]), str(c.get("category", "")))
+                                             for c in o["candidates"]]
                       for o in data["objects"]}
             labels = {int(o["segment_id"]): str(o.get("label", "")) for o in data["objects"]}
         except (KeyError, TypeError, ValueError) as exc:
@@ -248,6 +256,11 @@ class Placement:
     """One of :data:`SUPPORTS`."""
     anchor: int | None = None
     """The parent's segment id (``parent``) or the room box side (``wall``: 0..3 = -x, +x, -z, +z)."""
+    category: str = "other"
+    """The model's database category (its size range: :mod:`psdr_room_core.method.sizes`)."""
+    explained: float | None = None
+    """How much of its segment the posed model explains (the view search's visible-silhouette IoU); None: not
+    measured."""
 
     @property
     def to_world(self) -> np.ndarray:
@@ -277,7 +290,7 @@ class Placements:
             items.append({"segment_id": p.segment_id, "label": p.label, "model_id": p.model_id,
                           "mesh": f"meshes/{p.segment_id}.obj", "position": [float(v) for v in p.position],
                           "yaw": float(p.yaw), "scale": float(p.scale), "support": p.support, "anchor": p.anchor,
-                          "to_world": p.to_world.tolist()})
+                          "category": p.category, "explained": p.explained, "to_world": p.to_world.tolist()})
         write_json(directory / "placements.json", {"objects": items, "extra": self.extra})
 
     @classmethod
@@ -288,7 +301,9 @@ class Placements:
                                  mesh=ObjectMesh.read_obj(directory / o["mesh"]),
                                  position=tuple(float(v) for v in o["position"]), yaw=float(o["yaw"]),
                                  scale=float(o["scale"]), support=str(o["support"]),
-                                 anchor=None if o.get("anchor") is None else int(o["anchor"]))
+                                 anchor=None if o.get("anchor") is None else int(o["anchor"]),
+                                 category=str(o.get("category", "other")),
+                                 explained=None if o.get("explained") is None else float(o["explained"]))
                        for o in data["objects"]]
         except (KeyError, TypeError, ValueError) as exc:
             raise PsdrRoomError(f"{directory / 'placements.json'}: not as psdr-room writes it ({exc}); fix or regenerate it") from None

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
@@ -27,11 +27,27 @@ from ..artifacts import (
     Placements,
     PointCloud,
     RoomBox,
+    rotation_y,
 )
 from ..convergence import BestIterate, Plateau
 from ..geometry import TriangleMesh, weld
-from ..objects import ObjectQuery, SupportParams, best_yaw, initial_pose, object_queries, support_relations, wall_frame
+from ..grouping import GroupParams, Part, group_segments
+from ..labels import meaning
+from ..objects import (
+    OBJECT_CATEGORIES,
+    ObjectQuery,
+    SupportParams,
+    best_yaw,
+    initial_pose,
+    object_queries,
+    square_crop,
+    support_relations,
+    wall_frame,
+)
+from ..physical import PhysicalParams, Settled, interpenetrations, settle, support_top
 from ..silhouette import silhouette
+from ..sizes import SizePrior, scale_range
+from ..solids import field_lookup, solid_of
 from ..view_search import SearchParams, ViewTarget, fit_view
 from ..visualize import plot_curves, segment_overlay
 
@@ -45,19 +61,79 @@ def _queries(ctx: StageContext, image: Image, panoptic: Panoptic, cloud: PointCl
     return object_queries(image, panoptic, cloud, room, int(ctx.params["min_points"]), int(ctx.params["min_pixels"]))
 
 
+def group_objects(ctx: StageContext, image: Image, panoptic: Panoptic, cloud: PointCloud, camera: Camera,
+                  room: RoomBox, depth: DepthMap) -> dict[str, Any]:
+    """One object per thing: merge the guessed segments that are parts of one object, by their geometry in the
+    fitted room (:func:`~psdr_room_core.method.grouping.group_segments`: stacked parts of a bed or a sofa,
+    segments occupying the same space) where the ``retrieval`` capability's best model of the whole's category
+    explains the two together as well as apart, before the model search. Each pair judged is logged.
+
+    Params: :class:`~psdr_room_core.method.grouping.GroupParams` fields (``enabled``: false passes the
+    segmentation through).
+    """
+    params = dict(ctx.params)
+    if not params.pop("enabled"):
+        return {"panoptic": panoptic, "cloud": cloud}
+    retriever = ctx.impl("retrieval")
+    c2w = np.asarray(room.camera_to_world)
+    rgb8 = image.to_uint8()
+    scene = cloud.points.astype(np.float64) @ c2w[:3, :3].T + c2w[:3, 3]
+
+    def judge(whole: str, union: Part, parts: Sequence[Part]) -> tuple[float, list[float]]:
+        def best(part: Part) -> float:
+            query = ObjectQuery(part.segment.id, part.segment.label, (whole,), part.mask, part.points,
+                                square_crop(rgb8, part.mask), scene, part.segment.box, room=room)
+            ranked = retriever.rank(query, camera, c2w, 1)
+            return ranked[0].score if ranked else 0.0
+
+        return best(union), [best(p) for p in parts]
+
+    group = GroupParams(**{k: tuple(v) if k == "splittable" else v for k, v in params.items()})
+    grouped, regrouped, notes = group_segments(panoptic, cloud, camera, room, depth.metric, group, judge)
+    for note in notes:
+        log.info("group_objects: %s", note)
+    return {"panoptic": grouped, "cloud": regrouped}
+
+
 def retrieve_objects(ctx: StageContext, image: Image, panoptic: Panoptic, cloud: PointCloud, camera: Camera,
                      room: RoomBox) -> ObjectCandidates:
-    """Rank ``top_k`` database models for every object segment with the ``retrieval`` capability.
+    """Rank ``top_k`` database models for every object segment with the ``retrieval`` capability, among the
+    categories its label names (:mod:`~psdr_room_core.method.labels`). A guessed segment's label may mislead (the
+    detector calls desks "bed"): its alternates are ranked too, and taken only where their best scores
+    ``alternate_margin`` (a share) above the label's own best: the shape says otherwise. Both decisions are
+    logged, as are segments whose label names nothing the database holds.
 
-    Params: ``top_k``, ``min_points`` and ``min_pixels`` (smaller segments are left out).
+    Params: ``top_k``, ``alternate_margin``, ``min_points`` and ``min_pixels`` (smaller segments are left out).
     """
     retriever = ctx.impl("retrieval")
     c2w = np.asarray(room.camera_to_world)
     queries = _queries(ctx, image, panoptic, cloud, room)
-    ranked = {q.segment_id: retriever.rank(q, camera, c2w, int(ctx.params["top_k"]))
+    unmodelled = [f"{s.id}:{s.label}" for s in panoptic.segments
+                  if s.category in OBJECT_CATEGORIES and meaning(s.label, s.category) is None]
+    if unmodelled:
+        log.info("retrieve_objects: not in the object database, left out: %s", ", ".join(unmodelled))
+    top_k, margin = int(ctx.params["top_k"]), float(ctx.params["alternate_margin"])
+    ranked = {q.segment_id: _rank_by_label(retriever, q, camera, c2w, top_k, margin)
               for q in ctx.progress(queries, total=len(queries))}
     return ObjectCandidates(ranked=ranked, labels={q.segment_id: q.label for q in queries},
                             source=retriever.describe(), sheet=candidate_sheet(queries, ranked, retriever))
+
+
+def _rank_by_label(retriever: Any, q: ObjectQuery, camera: Camera, c2w: np.ndarray, k: int,
+                   margin: float) -> list[Candidate]:
+    """The ``k`` best models among the label's categories, or among its alternates where the shape says so."""
+    own = retriever.rank(q, camera, c2w, k)
+    if not q.alternates:
+        return own
+    other = retriever.rank(replace(q, categories=q.alternates), camera, c2w, k)
+    if not other:
+        return own
+    best_own = own[0].score if own else 0.0
+    taken = other[0].score > (1.0 + margin) * best_own
+    log.info("retrieve_objects: segment %d '%s' %s %s (%s %.3f against %s %.3f)", q.segment_id, q.label,
+             "is a" if taken else "stays a", other[0].category if taken else (own[0].category if own else q.label),
+             other[0].model_id, other[0].score, own[0].model_id if own else "-", best_own)
+    return other if taken else own
 
 
 def candidate_sheet(queries: list[ObjectQuery], ranked: dict[int, list[Candidate]], retriever: Any,
@@ -100,64 +176,76 @@ def _pick(candidates: list[Candidate], choice: Any, segment_id: int) -> str:
 
 def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image, panoptic: Panoptic,
                   cloud: PointCloud, camera: Camera, room: RoomBox) -> Placements:
-    """Initial poses (§4.3) with the support rules (floor, parent, wall).
+    """Initial poses (§4.3) with the support rules (floor, parent, wall), at real sizes, made physically possible.
 
     ``init=radius`` is the paper's: centre on the points' median, radius ``radius_factor`` × the points'
     radius, the best of ``n_yaw`` rotations by silhouette L1. ``init=silhouette`` (default) sweeps the same
     rotations at the object's apparent size and depth and refines the best by the occlusion-aware view search
     (:func:`~psdr_room_core.method.view_search.fit_view`): the yaw is chosen where it can be seen, which the small
-    paper start cannot, and an object half hidden behind another keeps its whole size.
+    paper start cannot, and an object half hidden behind another keeps its whole size. Database models are real
+    size, so the search's error holds the size prior of the model's category
+    (:class:`~psdr_room_core.method.sizes.SizePrior`, ``size_prior`` weights): a bed is not posed at twice its
+    size to match a depth that may be off.
 
     Objects the segmentation guessed (segments with a ``score``: ``segmentation=layout``'s discoveries) are
-    dropped, and logged, when the fit cannot explain them: the posed model's visible silhouette overlaps the
-    mask by less than ``prune.min_iou``, or it needs a scale outside ``prune.scale`` (database models are
-    real size). Segments a person drew are kept whatever the fit.
+    dropped, and logged, when the posed model's visible silhouette overlaps the mask by less than
+    ``prune.min_iou``. Then :func:`~psdr_room_core.method.physical.settle` (``physical``) drops the objects that
+    need an implausible size and those that occupy another's space (duplicates), and moves the rest inside
+    the room and out of each other. Segments a person drew are kept whatever the fit (scaled into range).
 
     Params: ``init``, ``pick`` (segment id → rank or model id), ``radius_factor``, ``n_yaw``, ``render_width``,
-    ``search`` (:class:`~psdr_room_core.method.view_search.SearchParams` fields but ``n_yaw``), ``support``
-    (:class:`SupportParams` fields), ``prune`` {``min_iou``, ``scale``: [low, high]}, ``min_points``,
-    ``min_pixels``.
+    ``search`` (:class:`~psdr_room_core.method.view_search.SearchParams` fields but ``n_yaw``), ``size_prior``
+    {``scale_weight``, ``range_weight``}, ``support`` (:class:`SupportParams` fields), ``prune`` {``min_iou``},
+    ``physical`` (:class:`~psdr_room_core.method.physical.PhysicalParams` fields), ``min_points``, ``min_pixels``.
     """
     retriever = ctx.impl("retrieval")
+    params = ctx.params
     c2w = np.asarray(room.camera_to_world)
-    cam = camera.resized(min(int(ctx.params["render_width"]), camera.width))
-    picks = {int(k): v for k, v in (ctx.params.get("pick") or {}).items()}
+    cam = camera.resized(min(int(params["render_width"]), camera.width))
+    picks = {int(k): v for k, v in (params.get("pick") or {}).items()}
     queries = [q for q in _queries(ctx, image, panoptic, cloud, room) if candidates.ranked.get(q.segment_id)]
     unknown = set(picks) - {q.segment_id for q in queries}
     if unknown:
         raise PsdrRoomError(f"place_objects.pick: no object segment {sorted(unknown)}; segments: "
                             f"{sorted(q.segment_id for q in queries)} (see the candidates artifact)")
-    init = str(ctx.params["init"])
+    init = str(params["init"])
     if init not in ("silhouette", "radius"):
         raise PsdrRoomError(f"place_objects.init={init}: use 'silhouette' or 'radius' (the paper's)")
-    support = SupportParams(**{k: tuple(v) if k == "grounded" else v for k, v in ctx.params["support"].items()})
-    search = SearchParams(n_yaw=int(ctx.params["n_yaw"]), **ctx.params["search"])
-    relations = support_relations(queries, panoptic.mask("floor"), room, support)
+    support = SupportParams(**{k: tuple(v) if k in ("grounded", "floor_only") else v
+                               for k, v in params["support"].items()})
+    search = SearchParams(n_yaw=int(params["n_yaw"]), **params["search"])
+    chosen = {q.segment_id: _pick(candidates.ranked[q.segment_id], picks.get(q.segment_id), q.segment_id)
+              for q in queries}
+    categories = {sid: retriever.category(model_id) for sid, model_id in chosen.items()}
+    relations = support_relations(queries, panoptic.mask("floor"), room, support, categories)
     guessed = {s.id for s in panoptic.segments if s.score is not None}
-    min_iou, (low, high) = float(ctx.params["prune"]["min_iou"]), map(float, ctx.params["prune"]["scale"])
+    min_iou = float(params["prune"]["min_iou"])
     placed: dict[int, Placement] = {}
     pruned: list[str] = []
     order = sorted(queries, key=lambda q: relations[q.segment_id][0][0] == "parent")  # parents before children
     for q in order:
-        model_id = _pick(candidates.ranked[q.segment_id], picks.get(q.segment_id), q.segment_id)
+        model_id, category = chosen[q.segment_id], categories[q.segment_id]
         mesh = retriever.mesh(model_id)
+        prior = SizePrior.of(category, np.ptp(mesh.vertices, axis=0), **params["size_prior"])
         supports = [(k, a) for k, a in relations[q.segment_id] if k != "parent" or a in placed] or [("free", None)]
+        explained = None
         if init == "silhouette":  # each support the rules allow (a dropped parent holds nothing); the view search picks
-            target = ViewTarget.build(camera, c2w, q.mask, q.points, q.scene_points, int(ctx.params["render_width"]),
-                                      box=q.box)
-            fits = [(fit_view(target, mesh.vertices, mesh.faces, search, _support_height(k, a, placed)), k, a)
-                    for k, a in supports]
+            target = ViewTarget.build(camera, c2w, q.mask, q.points, q.scene_points, int(params["render_width"]),
+                                      box=q.box, room=room)
+            fits = [(fit_view(target, mesh.vertices, mesh.faces, search, _support_height(k, a, placed, q, room), prior),
+                     k, a) for k, a in supports]
             view, kind, anchor = min(fits, key=lambda f: f[0].error)
-            position, yaw, scale = view.position, view.yaw, view.scale
-            if q.segment_id in guessed and (view.iou < min_iou or not low <= scale <= high):
-                pruned.append(f"{q.segment_id}:{q.label} (IoU {view.iou:.2f}, scale {scale:.2f})")
+            position, yaw, scale, explained = view.position, view.yaw, view.scale, view.iou
+            if q.segment_id in guessed and view.iou < min_iou:
+                pruned.append(f"{q.segment_id}:{q.label} ({model_id.split('/')[-1]}): explains {view.iou:.2f} of "
+                              "its segment")
                 continue
         else:
             kind, anchor = supports[0]
             target = cv2.resize(q.mask.astype(np.uint8), (cam.width, cam.height), interpolation=cv2.INTER_AREA) > 0
-            position, scale = initial_pose(q.points, mesh.vertices, float(ctx.params["radius_factor"]))
-            yaw, _ = best_yaw(cam, c2w, mesh.vertices, mesh.faces, position, scale, target, int(ctx.params["n_yaw"]))
-            height = _support_height(kind, anchor, placed)
+            position, scale = initial_pose(q.points, mesh.vertices, float(params["radius_factor"]))
+            yaw, _ = best_yaw(cam, c2w, mesh.vertices, mesh.faces, position, scale, target, int(params["n_yaw"]))
+            height = _support_height(kind, anchor, placed, q, room)
             if height is not None:
                 position[1] = height
         if kind == "wall":
@@ -167,20 +255,37 @@ def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image,
             position = position + (offset + 0.5 * scale * depth - inward @ position) * inward
         placed[q.segment_id] = Placement(segment_id=q.segment_id, label=q.label, model_id=model_id, mesh=mesh,
                                          position=tuple(map(float, position)), yaw=float(yaw), scale=float(scale),
-                                         support=kind, anchor=anchor)
+                                         support=kind, anchor=anchor, category=category, explained=explained)
     if pruned:
         log.info("place_objects: dropped %d guessed object(s) no model explains: %s", len(pruned), ", ".join(pruned))
-    return Placements(objects=[placed[q.segment_id] for q in queries if q.segment_id in placed],
-                      extra={"pruned": pruned})
+    objects = [placed[q.segment_id] for q in queries if q.segment_id in placed]
+    settled = _settle(objects, room, cam, panoptic, params["physical"], "place_objects", final=False)
+    return Placements(objects=settled.placements, extra={"pruned": pruned + settled.dropped, "settled": settled.changed})
 
 
-def _top(p: Placement) -> float:
-    return p.position[1] + p.scale * float(p.mesh.vertices[:, 1].max())
+def _settle(objects: list[Placement], room: RoomBox, camera: Camera, panoptic: Panoptic, physical: Any, stage: str,
+            final: bool) -> Settled:
+    """:func:`~psdr_room_core.method.physical.settle` with its changes logged (segments with no score were drawn)."""
+    drawn = {s.id for s in panoptic.segments if s.score is None}
+    counts = np.bincount(panoptic.ids.ravel())
+    pixels = {s.id: int(counts[s.id]) for s in panoptic.segments if s.id < len(counts)}
+    settled = settle(objects, room, camera, drawn, pixels, PhysicalParams(**physical), final)
+    for note in settled.changed:
+        log.info("%s: %s", stage, note)
+    if settled.dropped:
+        log.info("%s: dropped %d object(s): %s", stage, len(settled.dropped), "; ".join(settled.dropped))
+    return settled
 
 
-def _support_height(kind: str, anchor: int | None, placed: dict[int, Placement]) -> float | None:
-    """Where a supported object's bottom stays: the floor, its parent's top; None for wall and free objects."""
-    return 0.0 if kind == "floor" else _top(placed[anchor]) if kind == "parent" else None
+def _support_height(kind: str, anchor: int | None, placed: dict[int, Placement], q: ObjectQuery,
+                    room: RoomBox) -> float | None:
+    """Where a supported object's bottom stays: the room's floor, its parent's surface under its points; None for
+    wall and free objects."""
+    if kind == "floor":
+        return room.floor
+    if kind == "parent":
+        return support_top(placed[anchor], np.median(q.points[:, [0, 2]], axis=0))  # type: ignore[index]
+    return None
 
 
 # ------------------------------------------------------------------------------------------ refinement
@@ -241,8 +346,9 @@ def gaussian_pyramid_blur(masks: torch.Tensor, sigmas: tuple[float, ...]) -> tor
 
 class PoseModel:
     """Differentiable object poses with their support constraints (§4.3): scale, horizontal translation and
-    yaw per object; floor objects keep their bottom on the floor, children on their parent's top, wall
-    objects slide and scale along their wall facing into the room."""
+    yaw per object; floor objects keep their bottom on the floor, children on the spot of their parent's
+    surface they were placed on (its height scales with the parent), wall objects slide and scale along their
+    wall facing into the room. :meth:`size_penalty` is the size prior of each object's category."""
 
     def __init__(self, placements: Placements, room: RoomBox, unit: float) -> None:
         import torch
@@ -251,6 +357,18 @@ class PoseModel:
         self.room = room
         self.unit = unit
         self.index = {p.segment_id: i for i, p in enumerate(self.placements)}
+        self.rest = {i: (p.position[1] - self.placements[self.index[p.anchor]].position[1])
+                     / self.placements[self.index[p.anchor]].scale
+                     for i, p in enumerate(self.placements) if p.support == "parent"}
+        """Child index → its height above its parent's origin, in the parent's model units."""
+        self.ranges = [scale_range(p.category, np.ptp(p.mesh.vertices, axis=0)) for p in self.placements]
+        self.pairs = [(i, j) for i, a in enumerate(self.placements) for j, b in enumerate(self.placements)
+                      if i < j and a.anchor != b.segment_id and b.anchor != a.segment_id and _near(a, b)]
+        """Pairs of objects that may touch (neither stands on the other): their interpenetration is paid for."""
+        self.solids = {i: solid_of(self.placements[i]) for pair in self.pairs for i in pair}
+        self.fields = {i: torch.from_numpy(solid.depth)[None, None] for i, solid in self.solids.items()}
+        self.samples = {i: torch.from_numpy(solid.centres[::max(1, len(solid.centres) // 200)])
+                        for i, solid in self.solids.items()}
         n = len(self.placements)
         self.theta = {"translation": torch.zeros(n, 3, requires_grad=True),
                       "log_scale": torch.zeros(n, requires_grad=True),
@@ -281,7 +399,7 @@ class PoseModel:
                 position = position + horizontal
                 if p.support == "parent":
                     parent_position, _, parent_scale = poses[self.index[p.anchor]]
-                    top = parent_position[1] + parent_scale * float(self.placements[self.index[p.anchor]].mesh.vertices[:, 1].max())
+                    top = parent_position[1] + parent_scale * self.rest[i]
                     position = torch.stack([position[0], top, position[2]])
             poses[i] = (position, yaw, scale)
         return poses
@@ -292,12 +410,56 @@ class PoseModel:
 
         out = {}
         for i, (position, yaw, scale) in enumerate(self.poses()):
-            c, s = torch.cos(yaw), torch.sin(yaw)
-            zero, one = torch.zeros_like(c), torch.ones_like(c)
-            rotation = torch.stack([torch.stack([c, zero, s]), torch.stack([zero, one, zero]), torch.stack([-s, zero, c])])
             local = torch.as_tensor(self.welded[i].vertices, dtype=torch.float32)
-            out[f"object_{self.placements[i].segment_id}"] = (scale * local) @ rotation.T + position
+            out[f"object_{self.placements[i].segment_id}"] = (scale * local) @ _rotation(yaw).T + position
         return out
+
+    def size_penalty(self, scale_weight: float, range_weight: float) -> torch.Tensor:
+        """[P] each object's size prior (:class:`~psdr_room_core.method.sizes.SizePrior`) at its current scale."""
+        import torch
+
+        log_scale = torch.stack([torch.log(scale) for _, _, scale in self.poses()])
+        low = torch.tensor([math.log(lo) if lo > 0 else -math.inf for lo, _ in self.ranges])
+        high = torch.tensor([math.log(hi) for _, hi in self.ranges])
+        outside = torch.relu(low - log_scale) + torch.relu(log_scale - high)
+        return scale_weight * log_scale.abs() + range_weight * outside
+
+    def collision_penalty(self) -> torch.Tensor:
+        """[P] how deep each object passes through the others: for each pair, the mean depth (metres) of each
+        one's sampled volume inside the other, both ways, half to each."""
+        import torch
+
+        if not self.pairs:
+            return torch.zeros(len(self.placements))
+        poses = self.poses()
+        rotations = {i: _rotation(poses[i][1]) for i in self.solids}
+        world = {i: poses[i][2] * self.samples[i] @ rotations[i].T + poses[i][0] for i in self.solids}
+        partners: dict[int, list[int]] = {i: [] for i in self.solids}
+        for i, j in self.pairs:
+            partners[i].append(j)
+            partners[j].append(i)
+        depth: dict[tuple[int, int], torch.Tensor] = {}  # (a, b): b's samples' mean depth inside a, metres
+        for a, others in partners.items():
+            position, _, scale = poses[a]
+            local = (torch.cat([world[b] for b in others]) - position) @ rotations[a] / scale
+            inside = scale * field_lookup(self.solids[a], self.fields[a], local)
+            for b, part in zip(others, torch.split(inside, [len(self.samples[b]) for b in others])):
+                depth[(a, b)] = part.mean()
+        shares: list[list[torch.Tensor]] = [[] for _ in self.placements]
+        for i, j in self.pairs:
+            half = 0.5 * (depth[(i, j)] + depth[(j, i)])
+            shares[i].append(half)
+            shares[j].append(half)
+        return torch.stack([torch.stack(s).sum() if s else torch.zeros(()) for s in shares])
+
+    def room_penalty(self, vertices: dict[str, torch.Tensor]) -> torch.Tensor:
+        """[P] how far (metres) each object's mesh reaches beyond the room box, at its farthest vertex."""
+        import torch
+
+        rotation = torch.as_tensor(rotation_y(self.room.yaw), dtype=torch.float32)
+        centre = torch.as_tensor(np.asarray(self.room.center), dtype=torch.float32)
+        half = torch.as_tensor(np.asarray(self.room.half_size), dtype=torch.float32)
+        return torch.stack([torch.relu(((v - centre) @ rotation).abs() - half).max() for v in vertices.values()])
 
     def placements_now(self) -> list[Placement]:
         return [replace(p, position=tuple(float(v) for v in position.detach()), yaw=float(yaw),
@@ -308,22 +470,32 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
                 panoptic: Panoptic, image: Image) -> dict[str, Any]:
     """Refine all object poses jointly (§4.3, eq. 3) by differentiable rendering of their masks and depth.
 
-    Minimises ``Σ_i L1(M_i^r · D^r, M_i^t · D_i) / d + w_blur · Σ_i L1(G(M_i^r), G(M_i^t))`` with ``d`` the
-    targets' 98th-percentile depth and ``G`` Gaussian blurs of ``blur_sigmas`` pixels (a prompted segment's free
-    pixels, its prompt box outside its mask, left out: :class:`ObjectTargets`), over each object's
-    scale, horizontal translation and yaw under its support constraint (:class:`PoseModel`), with the
-    ``renderer`` and the ``optimizer``. Params: ``iterations``, ``render_width``, ``blur_sigmas``,
-    ``blur_weight``, ``learning_rates`` {translation (room half-size units), log_scale, yaw (degrees)},
-    ``overlap_iou`` (pairs of fitted objects overlapping more than this are reported), ``yaw_test``
-    {``at``: fraction of the iterations after which :func:`try_yaw_turns` runs, ``angles``, ``min_gain``},
-    ``convergence`` (:class:`~psdr_room_core.method.convergence.Plateau` fields). The fit runs until the yaw
-    test (or a plateau of the loss before it), then, where an object turned or the loss had not flattened, on
-    to ``iterations`` (or a plateau); each phase leaves its best iterate.
+    Minimises ``Σ_i L1(M_i^r · D^r, M_i^t · D_i) / d + w_blur · Σ_i L1(G(M_i^r), G(M_i^t)) + Σ_i P_i(s_i) +
+    w_room · Σ_i R_i + w_collision · Σ_i C_i`` with ``d`` the targets' 98th-percentile depth, ``G`` Gaussian blurs
+    of ``blur_sigmas`` pixels (a prompted segment's free pixels, its prompt box outside its mask, left out:
+    :class:`ObjectTargets`), ``P_i`` the size prior of object i's category on its scale (``size_prior`` weights:
+    :meth:`PoseModel.size_penalty`), ``R_i`` how far it reaches beyond the room box (:meth:`PoseModel.room_penalty`)
+    and ``C_i`` how deep it passes through the others (:meth:`PoseModel.collision_penalty`),
+    over each object's scale, horizontal translation and yaw under its support constraint (:class:`PoseModel`),
+    with the ``renderer`` and the ``optimizer``. The fit runs until the yaw test (or a plateau of the loss
+    before it), then, where an object turned or the loss had not flattened, on to ``iterations`` (or a
+    plateau); each phase leaves its best iterate. The fitted scene is then made physically possible
+    (:func:`~psdr_room_core.method.physical.settle`, ``physical``: place_objects' settings): real sizes, inside
+    the room (which grows where an object the photo shows cannot be brought inside it: the room box after the
+    objects, ``room``), no interpenetration beyond ``physical.penetration``, duplicates dropped; what remains
+    passing through something is reported.
+
+    Params: ``iterations``, ``render_width``, ``blur_sigmas``, ``blur_weight``, ``size_prior``
+    {``scale_weight``, ``range_weight``}, ``room_weight``, ``collision_weight``, ``learning_rates`` {translation (room half-size units), log_scale, yaw
+    (degrees)}, ``yaw_test`` {``at``: fraction of the iterations after which :func:`try_yaw_turns` runs,
+    ``angles``, ``min_gain``}, ``convergence`` (:class:`~psdr_room_core.method.convergence.Plateau` fields),
+    ``physical``.
     """
     import torch
 
     if not placements.objects:
-        return {"placements": placements, "log": OptimizationLog(history=[], images={}, summary={"objects": 0})}
+        return {"placements": placements, "log": OptimizationLog(history=[], images={}, summary={"objects": 0}),
+                "room": room}
     params = ctx.params
     cam = camera.resized(min(int(params["render_width"]), camera.width))
     targets = object_targets(placements, panoptic, depth, (cam.width, cam.height))
@@ -339,22 +511,29 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
     depth_scale = float(np.percentile(valid, 98)) if valid.size else 1.0
     sigmas = tuple(float(s) for s in params["blur_sigmas"])
     t_blur = gaussian_pyramid_blur(t_masks, sigmas)
+    size_weights = (float(params["size_prior"]["scale_weight"]), float(params["size_prior"]["range_weight"]))
 
-    def per_object(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
-        """Eq. 3's term of each object [P], and the logged terms."""
-        masks, weighted_depth, alpha = renderer.render(model.vertices(), iteration)
+    def per_object(iteration: int) -> tuple[torch.Tensor, torch.Tensor, dict[str, float]]:
+        """Eq. 3's term of each object [P], each object's mask IoU [P], and the logged terms."""
+        vertices = model.vertices()
+        masks, weighted_depth, alpha = renderer.render(vertices, iteration)
         rendered_depth = weighted_depth / alpha.clamp_min(1e-3)
         depth_term = (t_weights * (masks * rendered_depth - t_masked).abs()).mean(dim=(1, 2)) / depth_scale
         blur_term = (t_weights * (gaussian_pyramid_blur(masks, sigmas) - t_blur).abs()).mean(dim=(2, 3)).sum(dim=0)
-        iou = ((masks * t_masks).sum((1, 2)) / (masks + t_masks - masks * t_masks).sum((1, 2)).clamp_min(1e-6)).mean()
+        size_term = model.size_penalty(*size_weights)
+        room_term = float(params["room_weight"]) * model.room_penalty(vertices)
+        collision_term = float(params["collision_weight"]) * model.collision_penalty()
+        ious = (masks * t_masks).sum((1, 2)) / (masks + t_masks - masks * t_masks).sum((1, 2)).clamp_min(1e-6)
         terms = {"mask_depth_l1": depth_term.sum().item(), "blurred_mask_l1": blur_term.sum().item(),
-                 "mean_iou": iou.item()}
-        return depth_term + float(params["blur_weight"]) * blur_term, terms
+                 "size_prior": size_term.sum().item(), "beyond_room": room_term.sum().item(),
+                 "interpenetration": collision_term.sum().item(), "mean_iou": ious.mean().item()}
+        total = depth_term + float(params["blur_weight"]) * blur_term + size_term + room_term + collision_term
+        return total, ious.detach(), terms
 
     best = BestIterate(model.theta)
 
     def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
-        terms, logged = per_object(iteration)
+        terms, _, logged = per_object(iteration)
         total = terms.sum()
         best.observe(float(total.detach()), iteration)
         return total, logged
@@ -375,13 +554,36 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
                                       lambda it: ctx.progress(it, total=iterations - first), plateau)
         best.restore()
     with torch.no_grad():
-        fitted = Placements(objects=model.placements_now())
-    overlaps = find_overlaps(fitted, float(params["overlap_iou"]))
+        ious = per_object(len(history))[1].numpy()
+        posed = [replace(p, explained=float(iou)) for p, iou in zip(model.placements_now(), ious)]
+    settled = _settle(posed, room, cam, panoptic, params["physical"], "fit_objects", final=True)
+    through = interpenetrations(settled.placements, float(params["physical"]["penetration"]))
     final = {k: v for k, v in history[best.iteration].items() if k != "seconds"}
-    fitted.extra = {"overlaps": overlaps, "turned": turned, "final": final}
-    log = _objects_log(history, image, camera, room, placements, fitted, panoptic, overlaps)
-    log.summary.update(turned=turned, final=final, best_iteration=best.iteration)
-    return {"placements": fitted, "log": log}
+    fitted = Placements(objects=settled.placements, extra={
+        "interpenetrations": through, "turned": turned, "final": final, "dropped": settled.dropped,
+        "settled": settled.changed})
+    log = _objects_log(history, image, camera, room, placements, fitted, panoptic, through)
+    log.summary.update(turned=turned, final=final, best_iteration=best.iteration, dropped=settled.dropped)
+    return {"placements": fitted, "log": log, "room": settled.room}
+
+
+def _rotation(yaw: torch.Tensor) -> torch.Tensor:
+    """R_y(yaw) as a differentiable 3x3 tensor."""
+    import torch
+
+    c, s = torch.cos(yaw), torch.sin(yaw)
+    zero, one = torch.zeros_like(c), torch.ones_like(c)
+    return torch.stack([torch.stack([c, zero, s]), torch.stack([zero, one, zero]), torch.stack([-s, zero, c])])
+
+
+def _near(a: Placement, b: Placement, margin: float = 0.25) -> bool:
+    """Whether two objects' bounding spheres come within ``margin`` metres (they may touch while fitted)."""
+    def sphere(p: Placement) -> tuple[np.ndarray, float]:
+        v = p.world_vertices()
+        return (v.min(axis=0) + v.max(axis=0)) / 2.0, 0.5 * float(np.linalg.norm(np.ptp(v, axis=0)))
+
+    (ca, ra), (cb, rb) = sphere(a), sphere(b)
+    return float(np.linalg.norm(ca - cb)) < ra + rb + margin
 
 
 def try_yaw_turns(model: PoseModel, evaluate: Callable[[], torch.Tensor], angles: list[float],
@@ -424,27 +626,6 @@ def footprint(p: Placement) -> tuple[np.ndarray, float, float]:
     return xz, p.position[1] + lo[1], p.position[1] + hi[1]
 
 
-def find_overlaps(placements: Placements, threshold: float) -> list[dict[str, Any]]:
-    """Pairs of objects whose bounding boxes intersect with a volume IoU above ``threshold``: interpenetration
-    the mask/depth loss does not see (it is reported, not silently optimised through)."""
-    boxes = [footprint(p) for p in placements.objects]
-    found = []
-    for i in range(len(boxes)):
-        for j in range(i + 1, len(boxes)):
-            (a, a0, a1), (b, b0, b1) = boxes[i], boxes[j]
-            height = min(a1, b1) - max(a0, b0)
-            if height <= 0:
-                continue
-            area, _ = cv2.intersectConvexConvex(a.astype(np.float32), b.astype(np.float32))
-            inter = float(area) * height
-            union = cv2.contourArea(a.astype(np.float32)) * (a1 - a0) + cv2.contourArea(b.astype(np.float32)) * (b1 - b0) - inter
-            iou = inter / union if union > 0 else 0.0
-            if iou > threshold:
-                found.append({"objects": [placements.objects[i].segment_id, placements.objects[j].segment_id],
-                              "iou": round(iou, 4)})
-    return found
-
-
 def _outlines(rgb8: np.ndarray, camera: Camera, room: RoomBox, placements: Placements) -> np.ndarray:
     out = rgb8.copy()
     c2w = np.asarray(room.camera_to_world)
@@ -461,7 +642,7 @@ def _outlines(rgb8: np.ndarray, camera: Camera, room: RoomBox, placements: Place
 
 
 def _objects_log(history: list[dict[str, float]], image: Image, camera: Camera, room: RoomBox, before: Placements,
-                 after: Placements, panoptic: Panoptic, overlaps: list[dict[str, Any]]) -> OptimizationLog:
+                 after: Placements, panoptic: Panoptic, through: list[tuple[int, int, float]]) -> OptimizationLog:
     base = segment_overlay(image.to_uint8(), panoptic, alpha=0.25)
     seconds = [h["seconds"] for h in history]
     curves = {k: [h[k] for h in history] for k in history[0] if k != "seconds"}
@@ -472,6 +653,6 @@ def _objects_log(history: list[dict[str, float]], image: Image, camera: Camera, 
         summary={"objects": len(after.objects), "iterations": len(history),
                  "steady_iteration_seconds": float(np.median(seconds[1:])) if len(seconds) > 1 else seconds[0],
                  "initial": {k: v for k, v in history[0].items() if k != "seconds"},
-                 "overlaps": overlaps,
+                 "interpenetrations": through,
                  "supports": {p.segment_id: p.support for p in after.objects}},
     )

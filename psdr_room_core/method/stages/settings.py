@@ -43,8 +43,22 @@ class RoomFit:
 
 
 @dataclass
+class GroupObjects:
+    enabled: bool = setting()
+    splittable: list[str] = setting()
+    parts: dict[str, list[str]] = setting()
+    edge_px: float = setting(ge=0)
+    rests_share: float = setting(ge=0, le=1)
+    slack: float = setting(ge=1)
+    same_space: float = setting(gt=0, le=1)
+    margin: float = setting(ge=0)
+    keep_score: float = setting(ge=0)
+
+
+@dataclass
 class RetrieveObjects:
     top_k: int = setting(ge=1)
+    alternate_margin: float = setting(ge=0)
     min_points: int = setting(ge=0)
     min_pixels: int = setting(ge=0)
 
@@ -59,12 +73,29 @@ class ViewSearch:
     depth_weight: float = setting(ge=0)
     box_weight: float = setting(ge=0)
     hidden_margin: float = setting(ge=0)
+    room_weight: float = setting(ge=0)
 
 
 @dataclass
 class Prune:
     min_iou: float = setting(ge=0, le=1)
-    scale: list[float] = setting(gt=0, length=2)
+
+
+@dataclass
+class SizePriorWeights:
+    scale_weight: float = setting(ge=0)
+    range_weight: float = setting(ge=0)
+
+
+@dataclass
+class Physical:
+    size_tolerance: float = setting(ge=0)
+    duplicate_share: float = setting(gt=0, le=1)
+    penetration: float = setting(ge=0)
+    max_shift: float = setting(ge=0)
+    directions: int = setting(ge=1)
+    keep_iou: float = setting(ge=0, le=1)
+    max_growth: float = setting(ge=0)
 
 
 @dataclass
@@ -74,6 +105,7 @@ class Support:
     wall_distance: float = setting(ge=0)
     bottom_percentile: float = setting(ge=0, le=100)
     grounded: list[str] = setting()
+    floor_only: list[str] = setting()
 
 
 @dataclass
@@ -84,7 +116,9 @@ class PlaceObjects:
     n_yaw: int = setting(ge=1)
     render_width: int = setting(ge=16)
     search: ViewSearch = setting()
+    size_prior: SizePriorWeights = setting()
     prune: Prune = setting()
+    physical: Physical = setting()
     min_points: int = setting(ge=0)
     min_pixels: int = setting(ge=0)
     support: Support = setting()
@@ -118,9 +152,12 @@ class FitObjects:
     render_width: int = setting(ge=16)
     blur_sigmas: list[float] = setting(gt=0)
     blur_weight: float = setting(ge=0)
+    size_prior: SizePriorWeights = setting()
+    room_weight: float = setting(ge=0)
+    collision_weight: float = setting(ge=0)
     yaw_test: YawTest = setting()
-    overlap_iou: float = setting(ge=0, le=1)
     learning_rates: FitObjectsRates = setting()
+    physical: Physical = setting()
 
 
 @dataclass

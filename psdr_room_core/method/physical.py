@@ -1,0 +1,413 @@
+"""A physically possible scene (§4.3, after each pose stage): real sizes, one object per thing, inside the room,
+nothing passing through anything.
+
+Masks and depth say where an object is seen, not whether the scene could stand. :func:`settle` makes it so,
+changing what the photo shows as little as it can (each change is chosen by how well the object's silhouette
+keeps its place in the picture, and logged), dropping an object only as the last resort:
+
+1. **real size**: a model outside its category's real sizes (:mod:`.sizes`) by up to ``size_tolerance`` (log
+   units) is scaled into them, moved along its camera ray so it keeps its apparent size; beyond that it needs
+   an implausible size and a guessed object is dropped (an object a person drew is scaled into range);
+2. **one object per thing**: of two objects of one kind (one category, or one of unknown kind) that share more
+   than ``duplicate_share`` of the smaller one's volume (a bed found twice, in the photo and in a mirror), the
+   one that explains less is dropped (objects of two kinds sharing space collide: rule 4);
+3. **inside the room**: an object crossing a side of the room box is moved along its camera ray, back in
+   (along its wall, for a wall object) or made smaller in place, whichever keeps its silhouette best (at least
+   ``keep_iou`` of it); where none does, the room box is wrong there (its sides are estimates, often of walls
+   the photo does not show), and in the ``final`` settling it grows to hold the object, by at most
+   ``max_growth``: a guessed object farther out stands where no room is, its depth is implausible, and it is
+   dropped;
+4. **no interpenetration**: of two objects passing through each other by more than ``penetration`` metres
+   (:func:`~.solids.overlap`), the one whose freeing change keeps its silhouette best (at least ``keep_iou``)
+   takes it: a horizontal step (up to ``max_shift``) or shrinking in place within its category's sizes (a big
+   table stepping back 10 cm changes the picture less than the chair tucked under it stepping out); else, in
+   the ``final`` settling, the one that explains less is dropped (unless a person drew both). Before it (after ``place_objects``) such a pair
+   is left to the joint fit, which pays for interpenetration.
+
+How much an object explains is the share of its segment its posed model covers (IoU) times the segment's
+pixels: a bed that explains most of a large segment outweighs a picture that explains all of a small one.
+An object's children (objects standing on it) move and are dropped with it.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .artifacts import Camera, Placement, RoomBox, rotation_y
+from .labels import ANY, meaning
+from .silhouette import silhouette
+from .sizes import scale_range
+from .solids import overlap, solid_of, to_model
+
+log = logging.getLogger("psdr_room")
+
+
+@dataclass(frozen=True)
+class PhysicalParams:
+    """Knobs of :func:`settle` (lengths in metres)."""
+
+    size_tolerance: float = 0.15
+    """How far (log units: 0.15 ≈ 16%) outside its category's sizes a model may be before it is implausible."""
+    duplicate_share: float = 0.5
+    """Two objects sharing this share of the smaller one's volume are one thing found twice."""
+    penetration: float = 0.03
+    """Interpenetration allowed (a resting contact measures about one voxel)."""
+    max_shift: float = 0.5
+    """Longest horizontal move that resolves a collision."""
+    directions: int = 16
+    """Horizontal directions tried for a move."""
+    keep_iou: float = 0.5
+    """A change must keep this IoU of the object's silhouette with its silhouette before."""
+    max_growth: float = 1.0
+    """The room box grows by at most this beyond each side to hold an object."""
+
+
+@dataclass
+class Settled:
+    """What :func:`settle` did."""
+
+    placements: list[Placement]
+    room: RoomBox
+    """The room box, grown where objects the photo shows reach beyond it (``final`` settling only)."""
+    dropped: list[str] = field(default_factory=list)
+    """``<segment>:<label> (<model>): <why>`` per dropped object."""
+    changed: list[str] = field(default_factory=list)
+    """``<segment>:<label> (<model>): <what>`` per scaled or moved object, and the room's growth."""
+
+
+def evidence(placement: Placement, drawn: set[int], pixels: Mapping[int, int]) -> tuple[bool, float, int]:
+    """How strongly an object is attested (higher: kept): a person drew it, then the pixels of its segment the
+    posed model explains (IoU × segment pixels), then its segment id (older first)."""
+    explained = (placement.explained or 0.0) * pixels.get(placement.segment_id, 1)
+    return placement.segment_id in drawn, explained, -placement.segment_id
+
+
+def _name(p: Placement) -> str:
+    return f"{p.segment_id}:{p.label} ({p.model_id.split('/')[-1]})"
+
+
+def _stands_on(child: Placement, parent: Placement) -> bool:
+    return child.support == "parent" and child.anchor == parent.segment_id
+
+
+def _one_kind(a: Placement, b: Placement) -> bool:
+    """Whether two objects may be one thing: one category, or one of them of unknown kind (its label named none)."""
+    unknown = {p.segment_id for p in (a, b) if (meaning(p.label) or ANY).primary == "object"}
+    return a.category == b.category or bool(unknown)
+
+
+def along_ray(p: Placement, scale: float, camera_origin: np.ndarray) -> Placement:
+    """``p`` at ``scale``, moved along the camera ray through its origin so it keeps its apparent size; a
+    supported object keeps its height (it stays on its support)."""
+    ratio = scale / p.scale
+    position = np.asarray(p.position, np.float64)
+    moved = camera_origin + (position - camera_origin) * ratio
+    if p.support in ("floor", "parent"):
+        moved[1] = position[1]
+    return replace(p, scale=float(scale), position=tuple(float(v) for v in moved))
+
+
+def room_frame(room: RoomBox, points: np.ndarray) -> np.ndarray:
+    """World points in the room box's own frame (axes along its sides, origin at its centre)."""
+    return (points - np.asarray(room.center)) @ rotation_y(room.yaw)
+
+
+def room_excess(p: Placement, room: RoomBox, tolerance: float = 1e-3) -> np.ndarray:
+    """(3,) how far the object reaches beyond the room box along each of the box's axes, signed (0: inside, or
+    within ``tolerance``; positive: beyond the + side, negative: beyond the − side); NaN where it is longer
+    than the room there."""
+    local = room_frame(room, p.world_vertices())
+    half = np.asarray(room.half_size)
+    lo, hi = local.min(axis=0), local.max(axis=0)
+    out = np.zeros(3)
+    for axis in range(3):
+        if hi[axis] - lo[axis] > 2 * half[axis] + tolerance:
+            out[axis] = np.nan
+        elif hi[axis] > half[axis] + tolerance:
+            out[axis] = hi[axis] - half[axis]
+        elif lo[axis] < -half[axis] - tolerance:
+            out[axis] = lo[axis] + half[axis]
+    return out
+
+
+def grown(room: RoomBox, points: np.ndarray, margin: float = 0.01) -> RoomBox:
+    """The room box with each side moved out just enough to hold ``points`` (world); the floor stays."""
+    local = room_frame(room, points)
+    half = np.asarray(room.half_size, np.float64)
+    lo = np.minimum(-half, local.min(axis=0) - margin)
+    hi = np.maximum(half, local.max(axis=0) + margin)
+    lo[1] = -half[1]  # the floor is the floor
+    centre_local = (lo + hi) / 2.0
+    centre = np.asarray(room.center, np.float64) + rotation_y(room.yaw) @ centre_local
+    return replace(room, center=centre, half_size=(hi - lo) / 2.0)
+
+
+def support_top(parent: Placement, world_xz: np.ndarray) -> float:
+    """Height of the parent's surface under a world point (x, z): the top of its solid's column there, or of its
+    nearest solid column."""
+    solid = solid_of(parent)
+    model = to_model(parent, np.array([world_xz[0], parent.position[1], world_xz[1]], np.float64)[None])[0]
+    columns = solid.inside.any(axis=1)
+    if not columns.any():
+        return parent.position[1] + parent.scale * float(parent.mesh.vertices[:, 1].max())
+    index = np.rint((model[[0, 2]] - solid.origin[[0, 2]]) / solid.pitch).astype(int)
+    filled = np.argwhere(columns)
+    nearest = filled[np.argmin(np.sum((filled - index) ** 2, axis=1))]
+    top = int(np.flatnonzero(solid.inside[nearest[0], :, nearest[1]])[-1])
+    height = solid.origin[1] + (top + 0.5) * solid.pitch
+    return parent.position[1] + parent.scale * min(float(height), float(parent.mesh.vertices[:, 1].max()))
+
+
+class _Scene:
+    """The objects being settled, with what :func:`settle` reports."""
+
+    def __init__(self, placements: list[Placement], room: RoomBox, camera: Camera, drawn: set[int],
+                 pixels: Mapping[int, int], params: PhysicalParams) -> None:
+        self.objects = {p.segment_id: p for p in placements}
+        self.room, self.camera, self.drawn, self.pixels, self.params = room, camera, drawn, pixels, params
+        self.c2w = np.asarray(room.camera_to_world)
+        self.origin = self.c2w[:3, 3]
+        self.dropped: list[str] = []
+        self.changed: list[str] = []
+
+    # -- bookkeeping
+    def strength(self, segment_id: int) -> tuple[bool, float, int]:
+        return evidence(self.objects[segment_id], self.drawn, self.pixels)
+
+    def drop(self, segment_id: int, why: str) -> None:
+        if segment_id not in self.objects:
+            return
+        self.dropped.append(f"{_name(self.objects.pop(segment_id))}: {why}")
+        for child in [c for c in self.objects.values() if c.support == "parent" and c.anchor == segment_id]:
+            self.drop(child.segment_id, f"it stood on {segment_id}, dropped")
+
+    def put(self, moved: Placement, what: str) -> None:
+        """Replace an object by its moved or scaled self, its children moved along by as much (a change under
+        half a centimetre or half a percent is not worth a word)."""
+        before = self.objects[moved.segment_id]
+        step = np.subtract(moved.position, before.position) * [1.0, 0.0, 1.0]
+        self.objects[moved.segment_id] = moved
+        moved_by = float(np.linalg.norm(np.subtract(moved.position, before.position)))
+        if moved_by > 0.005 or abs(moved.scale / before.scale - 1) > 0.005:
+            self.changed.append(f"{_name(before)}: {what}")
+        for child in [c for c in self.objects.values() if _stands_on(c, moved)]:
+            self.objects[child.segment_id] = self.shifted(child, step)
+
+    # -- measures
+    def looks(self, p: Placement) -> np.ndarray:
+        return silhouette(self.camera, self.c2w, p.world_vertices(), p.mesh.faces)
+
+    def kept_look(self, before: Placement) -> Callable[[Placement], float]:
+        """IoU of a changed object's silhouette with ``before``'s."""
+        reference = self.looks(before)
+
+        def iou(after: Placement) -> float:
+            now = self.looks(after)
+            union = int((now | reference).sum())
+            return float((now & reference).sum()) / union if union else 0.0
+
+        return iou
+
+    def collisions(self, p: Placement) -> list[tuple[int, float]]:
+        """(other id, interpenetration) of every object ``p`` passes through by more than allowed."""
+        found = []
+        for other in self.objects.values():
+            if other.segment_id == p.segment_id or _stands_on(p, other) or _stands_on(other, p):
+                continue  # a child rests on its parent by construction
+            thickness = overlap(p, other).thickness
+            if thickness > self.params.penetration:
+                found.append((other.segment_id, thickness))
+        return found
+
+    def inside(self, p: Placement) -> bool:
+        return not np.any(np.nan_to_num(room_excess(p, self.room), nan=1.0))
+
+    def reach(self, p: Placement) -> float:
+        """How far ``p`` reaches beyond the room box (its largest excess; inf where it is longer than the room)."""
+        return float(np.max(np.abs(np.nan_to_num(room_excess(p, self.room), nan=np.inf))))
+
+    # -- moves
+    def shifted(self, p: Placement, step: np.ndarray) -> Placement:
+        """``p`` moved by ``step`` (on its parent's surface there, for a child)."""
+        moved = replace(p, position=tuple(float(v) for v in np.asarray(p.position) + step))
+        if p.support == "parent" and p.anchor in self.objects:
+            top = support_top(self.objects[p.anchor], np.asarray(moved.position)[[0, 2]])
+            moved = replace(moved, position=(moved.position[0], top, moved.position[2]))
+        return moved
+
+    def directions(self, p: Placement) -> list[np.ndarray]:
+        """Horizontal unit directions ``p`` may move in: along its wall for a wall object."""
+        if p.support == "wall":
+            tangent = rotation_y(self.room.yaw)[:, 0 if p.anchor in (2, 3) else 2]
+            return [tangent, -tangent]
+        angles = np.arange(self.params.directions) * 2 * math.pi / self.params.directions
+        return [np.array([math.cos(a), 0.0, math.sin(a)]) for a in angles]
+
+    def smallest(self, p: Placement) -> float:
+        """The smallest scale ``p`` may take (its category's, less the tolerance; 0 for a drawn object)."""
+        if p.segment_id in self.drawn:
+            return 0.0
+        low, _ = scale_range(p.category, np.ptp(p.mesh.vertices, axis=0))
+        return low * math.exp(-self.params.size_tolerance)
+
+    @staticmethod
+    def first(change: Callable[[float], Placement], ok: Callable[[Placement], bool],
+              steps: np.ndarray) -> Placement | None:
+        """``change(step)`` for the first of ``steps`` that is ``ok``."""
+        for step in steps:
+            candidate = change(float(step))
+            if ok(candidate):
+                return candidate
+        return None
+
+    def shortest(self, change: Callable[[float], Placement], ok: Callable[[Placement], bool], longest: float,
+                 resolution: float = 0.01) -> Placement | None:
+        """``change(d)`` for about the smallest ``d`` in (0, ``longest``] that is ``ok``: the first of four
+        even steps that is, then halved down to ``resolution``."""
+        bad = 0.0
+        for d in np.linspace(longest / 4, longest, 4):
+            if ok(change(float(d))):
+                good = float(d)
+                break
+            bad = float(d)
+        else:
+            return None
+        while good - bad > resolution:
+            middle = (good + bad) / 2.0
+            if ok(change(middle)):
+                good = middle
+            else:
+                bad = middle
+        return change(good)
+
+    # -- the rules
+    def keep_sizes(self) -> None:
+        for p in list(self.objects.values()):
+            low, high = scale_range(p.category, np.ptp(p.mesh.vertices, axis=0))
+            outside = max(0.0, math.log(low / p.scale) if low > 0 else 0.0, math.log(p.scale / high))
+            if outside == 0.0:
+                continue
+            if outside > self.params.size_tolerance and p.segment_id not in self.drawn:
+                size = np.round(np.ptp(p.mesh.vertices, axis=0) * p.scale, 2).tolist()
+                self.drop(p.segment_id, f"needs {p.scale:.2f}x its size ({size} m), outside a {p.category}'s")
+                continue
+            scaled = along_ray(p, min(max(p.scale, low), high), self.origin)
+            self.put(scaled, f"scaled {p.scale:.2f} -> {scaled.scale:.2f} (a {p.category}'s real size)")
+
+    def remove_duplicates(self) -> None:
+        ids = sorted(self.objects, key=self.strength, reverse=True)
+        for k, a in enumerate(ids):
+            for b in ids[k + 1:]:
+                if a in self.objects and b in self.objects and b not in self.drawn and \
+                        _one_kind(self.objects[a], self.objects[b]):
+                    shared = overlap(self.objects[a], self.objects[b]).shared
+                    if shared >= self.params.duplicate_share:
+                        self.drop(b, f"occupies the space of {_name(self.objects[a])} ({shared:.0%} of it)")
+
+    def keep_inside(self, final: bool) -> None:
+        for p in sorted(self.objects.values(), key=lambda o: o.support == "parent"):
+            if p.segment_id not in self.objects or self.inside(p):
+                continue
+            excess = np.nan_to_num(room_excess(p, self.room), nan=0.0)
+            inward = -(rotation_y(self.room.yaw) @ np.array([excess[0], 0.0, excess[2]]))
+            ratios = np.linspace(0.98, 0.4, 30)
+            options = [
+                self.first(lambda r: along_ray(p, p.scale * r, self.origin),
+                           lambda c: c.scale >= self.smallest(p) and self.inside(c), ratios),
+                self.first(lambda r: replace(p, scale=p.scale * r),
+                           lambda c: c.scale >= self.smallest(p) and self.inside(c), ratios),
+            ]
+            if not excess[1]:
+                options.append(self.shifted(p, inward * 1.001))
+            kept = self.kept_look(p)
+            scored = sorted(((kept(c), k, c) for k, c in enumerate(options) if c is not None and self.inside(c)),
+                            key=lambda t: (-t[0], t[1]))
+            if scored and scored[0][0] >= self.params.keep_iou:
+                iou, _, best = scored[0]
+                self.put(best, f"brought inside the room (scale {p.scale:.2f} -> {best.scale:.2f}, moved "
+                               f"{float(np.linalg.norm(np.subtract(best.position, p.position))):.2f} m; "
+                               f"silhouette IoU {iou:.2f} with before)")
+            elif not final:
+                continue
+            elif self.reach(p) > self.params.max_growth and p.segment_id not in self.drawn:
+                self.drop(p.segment_id, f"{self.reach(p):.2f} m beyond the room box, and no change keeps its "
+                                        "silhouette: its depth is implausible")
+            else:
+                self.room = grown(self.room, p.world_vertices())
+                self.changed.append(f"room box grown to {np.round(2 * np.asarray(self.room.half_size), 2).tolist()} m "
+                                    f"to hold {_name(p)} (no change kept its silhouette)")
+
+    def free_place(self, p: Placement) -> tuple[Placement, float] | None:
+        """(``p`` freed (through nothing, reaching no farther beyond the room) by the change that keeps its
+        silhouette best, that silhouette's IoU with before), of: about the shortest horizontal step per direction,
+        and the least shrinking in place (down to its category's smallest size); None where no change keeps
+        ``keep_iou`` of the silhouette."""
+        reach = self.reach(p)
+
+        def free(c: Placement) -> bool:
+            return self.reach(c) <= reach + 1e-3 and not self.collisions(c)
+
+        options = [self.shortest(lambda d: self.shifted(p, d * direction), free, self.params.max_shift)
+                   for direction in self.directions(p)]
+        smallest = self.smallest(p) / p.scale
+        options.append(self.first(lambda r: replace(p, scale=p.scale * r), free,
+                                  np.linspace(0.97, 0.6, 13)[np.linspace(0.97, 0.6, 13) >= smallest]))
+        kept = self.kept_look(p)
+        scored = [(c, kept(c)) for c in options if c is not None]
+        best = max(scored, key=lambda t: t[1], default=None)
+        return best if best is not None and best[1] >= self.params.keep_iou else None
+
+    def separate(self, final: bool, rounds: int = 3) -> None:
+        for _ in range(rounds):
+            pairs = []
+            for p in self.objects.values():
+                pairs += [(p.segment_id, other, depth) for other, depth in self.collisions(p) if p.segment_id < other]
+            if not pairs:
+                return
+            for a, b, depth in sorted(pairs, key=lambda t: -t[2]):
+                if a not in self.objects or b not in self.objects:
+                    continue
+                if not any(o == b for o, _ in self.collisions(self.objects[a])):
+                    continue
+                weaker, stronger = sorted((a, b), key=self.strength)
+                moves = [(found, mover, other) for mover, other in ((weaker, stronger), (stronger, weaker))
+                         if (found := self.free_place(self.objects[mover])) is not None]
+                if moves:  # the change that alters the picture least (the weaker's on a tie)
+                    (moved, iou), mover, other = max(moves, key=lambda m: m[0][1])
+                    before = self.objects[mover]
+                    shift = float(np.linalg.norm(np.subtract(moved.position, before.position)))
+                    how = f"moved {shift:.2f} m" if shift > 1e-6 else f"scaled {before.scale:.2f} -> {moved.scale:.2f}"
+                    self.put(moved, f"{how} out of {_name(self.objects[other])} (silhouette IoU {iou:.2f} with before)")
+                elif final and weaker not in self.drawn:  # two objects a person drew stay: what is left is reported
+                    self.drop(weaker, f"passes {depth:.2f} m through {_name(self.objects[stronger])}, with no "
+                                      f"free place within {self.params.max_shift:g} m for either")
+
+
+def settle(placements: list[Placement], room: RoomBox, camera: Camera, drawn: set[int], pixels: Mapping[int, int],
+           params: PhysicalParams, final: bool = True) -> Settled:
+    """The objects made physically possible (module docstring), judged in ``camera``'s picture (a small one
+    will do); ``drawn``: segment ids a person drew; ``pixels``: each segment's pixel count; ``final``: the last
+    settling, which may grow the room box and drop what it cannot part."""
+    scene = _Scene(placements, room, camera, drawn, pixels, params)
+    scene.keep_sizes()
+    scene.remove_duplicates()
+    scene.keep_inside(final)
+    scene.separate(final)
+    kept = [scene.objects[p.segment_id] for p in placements if p.segment_id in scene.objects]
+    return Settled(kept, scene.room, scene.dropped, scene.changed)
+
+
+def interpenetrations(placements: list[Placement], threshold: float) -> list[tuple[int, int, float]]:
+    """(segment, segment, metres) of every pair passing through each other by more than ``threshold``."""
+    found = []
+    for i, a in enumerate(placements):
+        for b in placements[i + 1:]:
+            thickness = overlap(a, b).thickness
+            if thickness > threshold:
+                found.append((a.segment_id, b.segment_id, round(thickness, 3)))
+    return found

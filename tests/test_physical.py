@@ -1,0 +1,173 @@
+"""Real sizes, solids and a physically possible scene (§4.3 after the fits): sizes.py, solids.py, physical.py."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from psdr_room_core.method.artifacts import Camera, ObjectMesh, Placement, RoomBox
+from psdr_room_core.method.geometry import box_mesh
+from psdr_room_core.method.physical import PhysicalParams, interpenetrations, room_excess, settle, support_top
+from psdr_room_core.method.sizes import CATEGORY_SIZES, SizePrior, dimensions, scale_range
+from psdr_room_core.method.solids import overlap, voxel_solid
+from psdr_room_plugins.object_db import ObjectDatabase, builtin_database
+
+C2W = np.eye(4)
+C2W[:3, :3] = np.diag([-1.0, -1.0, 1.0])  # OpenCV camera looking along world +Z, Y up
+C2W[:3, 3] = [0.0, 1.5, -2.5]
+ROOM = RoomBox(camera_to_world=C2W, center=np.array([0.0, 1.5, 1.0]), half_size=np.array([3.0, 1.5, 3.5]), yaw=0.0)
+CAMERA = Camera.from_vfov(160, 120, 60.0)
+PARAMS = PhysicalParams()
+
+
+@pytest.fixture(scope="module")
+def db() -> ObjectDatabase:
+    return builtin_database()
+
+
+def placed(db: ObjectDatabase, model_id: str, segment_id: int, position: tuple[float, float, float],
+           yaw_deg: float = 0.0, scale: float = 1.0, explained: float = 0.8) -> Placement:
+    """A database model standing on the floor."""
+    record = db.record(model_id)
+    return Placement(segment_id, record.category, model_id, db.mesh(model_id), position, math.radians(yaw_deg), scale,
+                     "floor", None, record.category, explained)
+
+
+def cube_mesh() -> ObjectMesh:
+    """A 1 m cube standing on y = 0, one group."""
+    cube = box_mesh(np.array([0.0, 0.5, 0.0]), np.array([0.5, 0.5, 0.5]))
+    return ObjectMesh(vertices=cube.vertices, faces=cube.faces, face_group=np.zeros(len(cube.faces), np.int64),
+                      groups=("body",), colors=np.array([[0.5, 0.5, 0.5]]))
+
+
+# --------------------------------------------------------------------------------------------- sizes
+def test_every_built_in_model_is_inside_its_categorys_real_sizes(db: ObjectDatabase) -> None:
+    """The ranges are what furniture measures: each of the 226 models at its own size lies inside its
+    category's (so a prior centred on real size never pushes a right model away)."""
+    for record in db.records:
+        low, high = scale_range(record.category, record.extent)
+        assert low <= 1.0 <= high, (record.id, record.extent, CATEGORY_SIZES[record.category])
+    assert set(db.categories()) <= set(CATEGORY_SIZES)
+
+
+def test_a_double_sized_bed_is_far_outside_the_bed_range_and_pays_for_it(db: ObjectDatabase) -> None:
+    record = db.record("kenney/bedSingle")
+    height, length, width = dimensions(record.extent, 2.07)
+    assert length == pytest.approx(4.66, abs=0.01) and length > CATEGORY_SIZES["bed"].length[1]
+    prior = SizePrior.of("bed", record.extent, scale_weight=0.3, range_weight=5.0)
+    assert prior.low < 1.0 < prior.high and prior.outside(1.0) == 0.0
+    assert prior.outside(2.07) == pytest.approx(math.log(2.07 / prior.high))
+    assert prior.penalty(2.07) > 1.0 > prior.penalty(1.05) and prior.clamp(2.07) == prior.high
+
+
+# --------------------------------------------------------------------------------------------- solids
+def test_two_boxes_interpenetrate_by_their_overlap() -> None:
+    a = Placement(1, "box", "test/cube", cube_mesh(), (0.0, 0.0, 1.0), 0.0, 1.0)
+    for gap, expected in ((0.1, 0.1), (0.3, 0.3)):
+        b = replace(a, segment_id=2, position=(1.0 - gap, 0.0, 1.0))
+        found = overlap(a, b)
+        assert found.thickness == pytest.approx(expected, abs=0.03)
+        assert found.shared == pytest.approx(gap, abs=0.04)
+    apart = replace(a, segment_id=3, position=(1.2, 0.0, 1.0))
+    assert overlap(a, apart).thickness == 0.0
+    twin = replace(a, segment_id=4, model_id="test/cube-twin")
+    assert overlap(a, twin).shared == pytest.approx(1.0, abs=0.02)
+
+
+def test_the_space_under_a_table_is_empty_and_a_cabinet_without_a_bottom_is_solid(db: ObjectDatabase) -> None:
+    table = voxel_solid(db.mesh("kenney/table").vertices, db.mesh("kenney/table").faces)
+    middle = table.inside[:, table.inside.shape[1] // 2, :]
+    top = table.inside[:, -4, :]
+    assert middle.mean() < 0.15 and top.mean() > 0.8
+    mesh = db.mesh("parametric/cabinet_011")
+    cabinet = voxel_solid(mesh.vertices, mesh.faces)
+    assert cabinet.inside[:, cabinet.inside.shape[1] // 2, :].mean() > 0.6
+
+
+def test_a_pillow_rests_on_the_bed_surface_not_on_its_headboard(db: ObjectDatabase) -> None:
+    bed = placed(db, "kenney/bedDouble", 1, (0.0, 0.0, 2.0), yaw_deg=180.0)
+    mattress = support_top(bed, np.array([0.0, 2.0]))
+    headboard = bed.position[1] + float(bed.mesh.vertices[:, 1].max())
+    assert 0.3 < mattress < headboard - 0.1
+
+
+# --------------------------------------------------------------------------------------------- settle
+def test_an_object_that_needs_twice_its_real_size_is_dropped_with_the_reason(db: ObjectDatabase) -> None:
+    bed = placed(db, "kenney/bedSingle", 5, (0.0, 0.0, 2.0), yaw_deg=90.0, scale=2.07)
+    settled = settle([bed], ROOM, CAMERA, drawn=set(), pixels={5: 4000}, params=PARAMS)
+    assert settled.placements == [] and len(settled.dropped) == 1
+    assert settled.dropped[0].startswith("5:bed (bedSingle): needs 2.07x its size") and "bed's" in settled.dropped[0]
+    drawn = settle([bed], ROOM, CAMERA, drawn={5}, pixels={5: 4000}, params=PARAMS)  # a person drew it: scaled in
+    (kept,) = drawn.placements
+    assert kept.scale == pytest.approx(scale_range("bed", db.record("kenney/bedSingle").extent)[1])
+    slightly = settle([replace(bed, scale=1.15)], ROOM, CAMERA, drawn=set(), pixels={5: 4000}, params=PARAMS)
+    assert len(slightly.placements) == 1 and slightly.placements[0].scale < 1.12  # 2.59 m long, 4% over: scaled in
+
+
+def test_a_mirror_duplicate_is_removed(db: ObjectDatabase) -> None:
+    """A bed found twice (in the photo and in its mirror image): two beds posed in nearly the same space. The
+    one that explains less of its segment goes."""
+    bed = placed(db, "kenney/bedDouble", 5, (0.0, 0.0, 2.0), yaw_deg=180.0, explained=0.8)
+    mirrored = placed(db, "parametric/bed_003", 9, (0.15, 0.0, 2.1), yaw_deg=175.0, explained=0.5)
+    settled = settle([bed, mirrored], ROOM, CAMERA, drawn=set(), pixels={5: 5000, 9: 5000}, params=PARAMS)
+    assert [p.segment_id for p in settled.placements] == [5]
+    assert settled.dropped[0].startswith("9:bed (bed_003): occupies the space of 5:bed (bedDouble)")
+
+
+def test_two_objects_passing_through_each_other_are_moved_apart(db: ObjectDatabase) -> None:
+    """A nightstand sunk 15 cm into the bed beside it moves out (the weaker of the two), by a step that keeps its
+    silhouette best (here mostly away from the camera)."""
+    bed = placed(db, "kenney/bedDouble", 5, (0.0, 0.0, 2.0), yaw_deg=180.0, explained=0.8)
+    half = 0.5 * float(np.ptp(bed.mesh.vertices[:, 0]))
+    stand = placed(db, "parametric/cabinet_011", 6, (half + 0.2 - 0.15, 0.0, 3.0), yaw_deg=180.0, explained=0.9)
+    assert interpenetrations([bed, stand], 0.05)
+    settled = settle([bed, stand], ROOM, CAMERA, drawn=set(), pixels={5: 6000, 6: 800}, params=PARAMS)
+    assert [p.segment_id for p in settled.placements] == [5, 6] and not settled.dropped
+    assert interpenetrations(settled.placements, PARAMS.penetration) == []
+    moved = settled.placements[1]
+    assert settled.placements[0] == bed and 0.1 < np.linalg.norm(np.subtract(moved.position, stand.position)) <= 0.5
+
+
+def test_an_object_beyond_the_room_is_brought_in_or_the_room_grows(db: ObjectDatabase) -> None:
+    chair = placed(db, "parametric/chair_004", 3, (0.0, 0.0, 4.45))  # its back 10 cm through the far wall
+    assert room_excess(chair, ROOM)[2] > 0.05
+    settled = settle([chair], ROOM, CAMERA, drawn=set(), pixels={3: 500}, params=PARAMS)
+    (inside,) = settled.placements
+    assert not np.any(room_excess(inside, settled.room)) and settled.room is ROOM
+    assert "brought inside the room" in settled.changed[0]
+    far = replace(chair, position=(0.0, 0.0, 6.0))  # 1.7 m beyond: no change keeps its silhouette
+    drawn = settle([far], ROOM, CAMERA, drawn={3}, pixels={3: 500}, params=replace(PARAMS, keep_iou=1.0))
+    assert drawn.placements == [far] and not np.any(room_excess(far, drawn.room))  # a person drew it: the room grows
+    assert drawn.room.half_size[2] > ROOM.half_size[2] and drawn.room.half_size[0] == ROOM.half_size[0]
+    assert drawn.room.center[1] - drawn.room.half_size[1] == pytest.approx(0.0)  # the floor stays
+    guessed = settle([far], ROOM, CAMERA, drawn=set(), pixels={3: 500}, params=replace(PARAMS, keep_iou=1.0))
+    assert guessed.placements == [] and "beyond the room box" in guessed.dropped[0]  # more than max_growth out
+    near = settle([replace(far, position=(0.0, 0.0, 5.0))], ROOM, CAMERA, drawn=set(), pixels={3: 500},
+                  params=replace(PARAMS, keep_iou=1.0))
+    assert len(near.placements) == 1 and near.room.half_size[2] > ROOM.half_size[2]  # 0.7 m out: the room grows
+    kept = settle([far], ROOM, CAMERA, drawn=set(), pixels={3: 500}, params=PARAMS, final=False)
+    assert kept.room is ROOM and len(kept.placements) == 1  # place_objects leaves it to fit_objects
+
+
+def test_eq3_pays_for_interpenetration_and_its_gradient_parts_the_objects() -> None:
+    """PoseModel.collision_penalty: two 1 m cubes overlapping by 0.3 m cost the mean depth of each one's volume
+    inside the other (a third of it, at up to 0.15 m), its gradient moves them apart, and cubes apart cost nothing."""
+    import torch
+
+    from psdr_room_core.method.artifacts import Placements
+    from psdr_room_core.method.stages.objects import PoseModel
+
+    a = Placement(1, "box", "test/cube", cube_mesh(), (0.0, 0.0, 1.0), 0.0, 1.0, "floor")
+    b = replace(a, segment_id=2, position=(0.7, 0.0, 1.0))
+    model = PoseModel(Placements(objects=[a, b]), ROOM, unit=1.0)
+    penalty = model.collision_penalty()
+    first, second = penalty.detach().tolist()
+    assert first == pytest.approx(second) and 0.01 < first < 0.06, penalty
+    penalty.sum().backward()
+    grad = model.theta["translation"].grad
+    assert grad is not None and grad[0, 0] > 0 > grad[1, 0]  # descent moves a to -x, b to +x
+    apart = PoseModel(Placements(objects=[a, replace(b, position=(1.2, 0.0, 1.0))]), ROOM, unit=1.0)
+    assert torch.all(apart.collision_penalty() == 0)
