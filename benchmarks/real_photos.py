@@ -13,6 +13,12 @@ copied alone into a temporary folder and run through the ``psdr-room`` command w
   matched one-to-one (greedy, best IoU first) at box IoU >= 0.5 by an object segment's box (``seg``) and
   by a fitted object (``obj``: the box of its mesh projected with the fitted camera, its database
   category among the reference's);
+* what the object stage did with what perception found (:mod:`psdr_room_core.method.physical`'s measures):
+  ``lost``: references matched by an object segment but by no fitted object; ``dup``: pairs of fitted objects
+  of one category that are one thing twice (sharing half the smaller one's volume, or half their silhouettes);
+  ``size``: fitted
+  objects outside their category's real sizes (:mod:`psdr_room_core.method.sizes`); ``pen``: pairs passing
+  through each other by more than 5 cm; ``out``: objects reaching more than 5 cm beyond the final room box;
 * ``si-log`` / ``AbsRel`` of the estimated depth against sensor depth (a ``*depth*`` image in the photo's
   folder, decoded as ``gt_depth_format`` says), on the pixels both have;
 * RMSE (1/8-size images) and SSIM of the render against the photo at initialisation and after the fit;
@@ -50,7 +56,10 @@ import numpy as np
 
 from psdr_room_core.method.artifacts import Camera, DepthMap, Image, Panoptic, Placements, RoomBox
 from psdr_room_core.method.objects import OBJECT_CATEGORIES
+from psdr_room_core.method.physical import interpenetrations, room_excess
 from psdr_room_core.method.silhouette import silhouette
+from psdr_room_core.method.sizes import scale_range
+from psdr_room_core.method.solids import overlap
 from psdr_room_core.method.visualize import segment_overlay
 from psdr_room_plugins.detectors.nanodet import box_iou
 from psdr_room_plugins.object_db import ObjectDatabase, builtin_database
@@ -63,6 +72,8 @@ REPO = Path(__file__).resolve().parents[1]
 PHOTOS = REPO.parent / "shared" / "data" / "photos"
 OUT = REPO / "outputs" / "benchmarks" / "real_photos"
 IOU = 0.5
+PENETRATION = 0.05
+"""Interpenetration (and reach beyond the room box) counted, metres."""
 
 REFERENCE_CLASSES: dict[str, tuple[str, ...] | None] = {
     # furniture: the database categories a fitted model may have to count
@@ -233,6 +244,9 @@ def evaluate(entry: Entry, run_dir: Path, db: ObjectDatabase, seconds: float, sh
     fitted = art / ("placements_fit" if (art / "placements_fit").is_dir() else "placements")
     placements = Placements.load(fitted) if fitted.is_dir() else Placements(objects=[])
     row["fitted"] = len(placements.objects)
+    room_dir = next((art / n for n in ("room_box_objects", "room_box_fit") if (art / n).is_dir()), None)
+    row.update(physical_rows(placements, RoomBox.load(room_dir) if room_dir else None, db,
+                             Camera.load(art / ("camera_fit" if (art / "camera_fit").is_dir() else "camera"))))
     fitted_boxes, fitted_masks, categories = [], [], []
     if placements.objects:
         camera = Camera.load(art / "camera_fit")
@@ -256,10 +270,11 @@ def evaluate(entry: Entry, run_dir: Path, db: ObjectDatabase, seconds: float, sh
         ref_boxes = [b for _, b in references]
         eligible = np.array([[c in REFERENCE_CLASSES[n] for c in categories] for n, _ in references], bool)
         found = match(ref_boxes, fitted_boxes, eligible.reshape(len(references), len(fitted_boxes)))
-        row.update(references=len(references), seg_recall=len(match(ref_boxes, segment_boxes)),
-                   obj_recall=len(found), ignored=sorted(set(ignored)))
-        row["unmapped"] = sorted({n for n in ignored if n not in REFERENCE_CLASSES})
+        by_segment = {r for r, _ in match(ref_boxes, segment_boxes)}
         matched_refs = {r for r, _ in found}
+        row.update(references=len(references), seg_recall=len(by_segment), obj_recall=len(found),
+                   lost=sorted(references[r][0] for r in by_segment - matched_refs), ignored=sorted(set(ignored)))
+        row["unmapped"] = sorted({n for n in ignored if n not in REFERENCE_CLASSES})
     else:
         matched_refs = set()
     if entry.depth is not None and (art / "depth").is_dir():
@@ -278,6 +293,31 @@ def evaluate(entry: Entry, run_dir: Path, db: ObjectDatabase, seconds: float, sh
     write_sheet(sheets / f"{entry.name}.png", image, panoptic, fitted_masks, references, matched_refs,
                 cv2.imread(str(render))[..., ::-1] if render.is_file() else None)
     return row
+
+
+def physical_rows(placements: Placements, room: RoomBox | None, db: ObjectDatabase, camera: Camera) -> dict:
+    """The fitted scene's duplicates, implausible sizes, interpenetrations and reach beyond the room box."""
+    objects = placements.objects
+    small = camera.resized(min(160, camera.width))
+    c2w = np.asarray(room.camera_to_world) if room is not None else None
+    looks = [silhouette(small, c2w, p.world_vertices(), p.mesh.faces) for p in objects] if c2w is not None else []
+    kinds = [db.record(p.model_id).category if p.model_id in db else p.category for p in objects]
+    duplicates = []
+    for i, a in enumerate(objects):
+        for j in range(i + 1, len(objects)):
+            b = objects[j]
+            union = (looks[i] | looks[j]).sum() if looks else 0
+            seen = (looks[i] & looks[j]).sum() / union if union else 0.0
+            if kinds[i] == kinds[j] and (overlap(a, b).shared >= 0.5 or seen >= 0.5):
+                duplicates.append((a.segment_id, b.segment_id))
+    sizes = []
+    for p, category in zip(objects, kinds):
+        low, high = scale_range(category, np.ptp(p.mesh.vertices, axis=0))
+        if not low * 0.99 <= p.scale <= high * 1.01:
+            sizes.append(f"{p.segment_id}:{p.model_id.split('/')[-1]} x{p.scale:.2f}")
+    out = [p.segment_id for p in objects if room is not None and np.any(np.nan_to_num(room_excess(p, room, PENETRATION), nan=1.0))]
+    return {"duplicates": duplicates, "implausible": sizes, "through": interpenetrations(objects, PENETRATION),
+            "outside": out}
 
 
 def write_sheet(path: Path, image: Image, panoptic: Panoptic, fitted: list, references: list,
@@ -317,16 +357,26 @@ def _ratio(row: dict, key: str) -> str:
     return f"{row[key]}/{row['references']}" if "references" in row else "-"
 
 
+def _count(row: dict, key: str) -> int:
+    return len(row.get(key, []))
+
+
+PHYSICAL = (("lost", "lost"), ("dup", "duplicates"), ("size", "implausible"), ("pen", "through"), ("out", "outside"))
+"""Column → row key of the object stage's counts."""
+
+
 def format_table(rows: list[dict]) -> str:
-    header = (f"{'photo':<24} {'FoV err':>7} {'segs':>4} {'fit':>4} {'seg rec':>7} {'obj rec':>7} {'si-log':>6} "
-              f"{'AbsRel':>6} {'RMSE init→fit':>15} {'SSIM init→fit':>13} {'FLIP init→fit':>13} {'s':>5}")
+    header = (f"{'photo':<24} {'FoV err':>7} {'segs':>4} {'fit':>4} {'seg rec':>7} {'obj rec':>7} "
+              + " ".join(f"{c:>4}" for c, _ in PHYSICAL)
+              + f" {'si-log':>6} {'AbsRel':>6} {'RMSE init→fit':>15} {'SSIM init→fit':>13} {'FLIP init→fit':>13} {'s':>5}")
     lines = [header, "-" * len(header)]
     for r in rows:
         rmse = f"{r['rmse_init']:.3f}→{r['rmse']:.3f}" if "rmse" in r else "-"
         ssim = f"{r['ssim_init']:.3f}→{r['ssim']:.3f}" if "ssim" in r else "-"
         flip = f"{r['flip_init']:.3f}→{r['flip']:.3f}" if "flip" in r else "-"
+        counts = " ".join(f"{_count(r, key) if key in r else '-':>4}" for _, key in PHYSICAL)
         lines.append(f"{r['photo']:<24} {_cell(r.get('fov_error'), '+.2f', 7)} {r['segments']:>4} {r['fitted']:>4} "
-                     f"{_ratio(r, 'seg_recall'):>7} {_ratio(r, 'obj_recall'):>7} {_cell(r.get('silog'), '.3f', 6)} "
+                     f"{_ratio(r, 'seg_recall'):>7} {_ratio(r, 'obj_recall'):>7} {counts} {_cell(r.get('silog'), '.3f', 6)} "
                      f"{_cell(r.get('absrel'), '.3f', 6)} {rmse:>15} {ssim:>13} {flip:>13} {r['seconds']:5.0f}")
     boxed = [r for r in rows if "references" in r]
     fov = [abs(r["fov_error"]) for r in rows if "fov_error" in r]
@@ -338,11 +388,18 @@ def format_table(rows: list[dict]) -> str:
         f"{sum(r['segments'] for r in rows):>4} {sum(r['fitted'] for r in rows):>4} "
         f"{(str(sum(r['seg_recall'] for r in boxed)) + '/' + str(refs)) if boxed else '-':>7} "
         f"{(str(sum(r['obj_recall'] for r in boxed)) + '/' + str(refs)) if boxed else '-':>7} "
-        f"{_cell(_median(rows, 'silog'), '.3f', 6)} {_cell(_median(rows, 'absrel'), '.3f', 6)} "
+        + " ".join(f"{sum(_count(r, key) for r in rows):>4}" for _, key in PHYSICAL) +
+        f" {_cell(_median(rows, 'silog'), '.3f', 6)} {_cell(_median(rows, 'absrel'), '.3f', 6)} "
         f"{_better(improved, 'rmse', lower=True):>15} {_better(improved, 'ssim', lower=False):>13} "
         f"{_better([r for r in improved if 'flip' in r], 'flip', lower=True):>13} {sum(r['seconds'] for r in rows):5.0f}")
     lines.append("(FoV err: median |error| in the total row; si-log, AbsRel: medians; RMSE/SSIM/FLIP: photos improved by "
-                 "the fit (renders denoised unless denoiser=none); recall at box IoU >= 0.5)")
+                 "the fit (renders denoised unless denoiser=none); recall at box IoU >= 0.5; lost: references a segment "
+                 "matches and no fitted object does; dup, size, pen, out: duplicate pairs, implausible sizes, pairs "
+                 f"through each other and objects beyond the room by > {PENETRATION * 100:g} cm)")
+    for r in rows:
+        details = [f"{c} {r[key]}" for c, key in PHYSICAL if r.get(key)]
+        if details:
+            lines.append(f"  {r['photo']}: " + "; ".join(details))
     unmapped = sorted({n for r in boxed for n in r.get("unmapped", [])})
     if unmapped:
         lines.append(f"reference classes not in REFERENCE_CLASSES (ignored): {', '.join(unmapped)}")
@@ -373,7 +430,7 @@ def stage_table(rows: list[dict]) -> str:
 def compare_table(before: list[dict], after: list[dict]) -> str:
     """Recall and fit columns of an earlier run (``before``) beside this one's, per photo."""
     old = {r["photo"]: r for r in before}
-    header = (f"{'photo':<24} {'segs':>9} {'fit':>9} {'seg rec':>13} {'obj rec':>13} {'RMSE fit':>13} "
+    header = (f"{'photo':<24} {'segs':>9} {'fit':>9} {'seg rec':>13} {'obj rec':>13} {'lost':>7} {'RMSE fit':>13} "
               f"{'SSIM fit':>13} {'FLIP fit':>13}")
     lines = [header, "-" * len(header)]
 
@@ -386,8 +443,9 @@ def compare_table(before: list[dict], after: list[dict]) -> str:
 
     for r in after:
         o = old.get(r["photo"])
+        lost = f"{_count(o, 'lost') if o and 'lost' in o else '-'}→{_count(r, 'lost') if 'lost' in r else '-'}"
         lines.append(f"{r['photo']:<24} {pair(o, r, 'segments'):>9} {pair(o, r, 'fitted'):>9} "
-                     f"{pair(o, r, 'seg_recall'):>13} {pair(o, r, 'obj_recall'):>13} {pair(o, r, 'rmse', '.3f'):>13} "
+                     f"{pair(o, r, 'seg_recall'):>13} {pair(o, r, 'obj_recall'):>13} {lost:>7} {pair(o, r, 'rmse', '.3f'):>13} "
                      f"{pair(o, r, 'ssim', '.3f'):>13} {pair(o, r, 'flip', '.3f'):>13}")
     return "\n".join(lines)
 
@@ -403,6 +461,8 @@ def main() -> None:
     parser.add_argument("--cache", type=Path, help="the shared cache (default: OUT/cache)")
     parser.add_argument("--save", type=Path, help="write the rows here (default: OUT/rows.json)")
     parser.add_argument("--compare", type=Path, help="rows.json of an earlier run to print beside this one")
+    parser.add_argument("--no-run", action="store_true",
+                        help="evaluate the run folders already in OUT/runs again (after changing this script)")
     args = parser.parse_args()
     entries = read_index(args.photos.resolve())
     if args.only:
@@ -419,7 +479,11 @@ def main() -> None:
     rows = []
     for entry in entries:
         run_dir = args.out / "runs" / entry.name
-        seconds = run_pipeline(entry, run_dir, cache, args.set, args.until)
+        if args.no_run:
+            metrics = json.loads((run_dir / "metrics.json").read_text())
+            seconds = sum(v["compute_seconds"] for v in metrics["stages"].values())
+        else:
+            seconds = run_pipeline(entry, run_dir, cache, args.set, args.until)
         rows.append(evaluate(entry, run_dir, db, seconds, args.out / "sheets"))
         print(f"{entry.name}: {rows[-1]['fitted']} objects, {seconds:.0f} s", file=sys.stderr, flush=True)
     save = args.save or args.out / "rows.json"
