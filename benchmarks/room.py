@@ -4,9 +4,11 @@ For each scene (default: 10 ``random`` seeds, plus one of each hard case), runs 
 ``room_fit`` with the default implementations (the FoV is estimated, not given; the depth sidecar has a
 smooth 5% error and blurred edges, as an estimator's would, unless ``--depth-noise 0``) and prints the FoV error,
 the room box 3D IoU after ``room_init`` and after ``room_fit``, the per-iteration time of ``room_fit``
-(first iteration, with JIT compilation, apart from the steady state), and the total stage time.
+(first iteration, with JIT compilation, apart from the steady state), the total stage time, and where the
+floor came from (``floor`` points, or what ``room_init`` guessed it from when none were in view). ``--bare``
+copies each photo alone into a folder, so the offline segmentation and depth see what a new user's photo gives.
 
-    python benchmarks/room.py [--scenes 10] [--data DIR] [--no-hard] [--renderer-timing]
+    python benchmarks/room.py [--scenes 10] [--data DIR] [--no-hard] [--bare]
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import shutil
 import statistics
 import tempfile
 from pathlib import Path
@@ -36,12 +39,18 @@ def iou(truth: dict, box: RoomBox) -> float:
     return room_iou(reference, box)
 
 
-def evaluate(scene: Path, run_dir: Path, overrides: list[str], true_fov: bool = False) -> dict:
-    """Run one scene up to room_fit; return its row of the table."""
+def evaluate(scene: Path, run_dir: Path, overrides: list[str], true_fov: bool = False, bare: bool = False) -> dict:
+    """Run one scene up to room_fit (``bare``: its photo alone, without the depth and segmentation beside it);
+    return its row of the table."""
     truth = json.loads((scene / "ground_truth.json").read_text())
     if true_fov:  # isolate the room stage from the FoV estimate
         overrides = ["fov=fixed", f"fov.fixed.vfov_deg={truth['vfov_deg']}", *overrides]
-    record = execute(compose_config([f"image={scene / 'photo.png'}", "run.until=room_fit", *overrides]), run_dir)
+    photo = scene / "photo.png"
+    if bare:
+        photo = run_dir.parent / "bare" / scene.name / "photo.png"
+        photo.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(scene / "photo.png", photo)
+    record = execute(compose_config([f"image={photo}", "run.until=room_fit", *overrides]), run_dir)
     camera, log = record.artifacts["camera"], record.artifacts["room_fit_log"]
     return {
         "scene": scene.name,
@@ -52,16 +61,17 @@ def evaluate(scene: Path, run_dir: Path, overrides: list[str], true_fov: bool = 
         "first_it": log.summary["first_iteration_seconds"],
         "it": log.summary["steady_iteration_seconds"],
         "stages": sum(r.seconds for r in record.stages),
+        "floor": record.artifacts["room_box"].extra.get("floor_source", "floor"),
     }
 
 
 def print_table(rows: list[dict], title: str) -> None:
     print(f"\n{title}")
     print(f"{'scene':<28}{'FoV err':>9}{'fitted':>8}{'IoU init':>10}{'IoU fit':>9}{'1st it (s)':>12}{'it (s)':>8}"
-          f"{'stages (s)':>12}")
+          f"{'stages (s)':>12}  floor from")
     for r in rows:
         print(f"{r['scene']:<28}{r['fov_error']:>+9.2f}{r['fov_error_fit']:>+8.2f}{r['iou_init']:>10.3f}{r['iou_fit']:>9.3f}"
-              f"{r['first_it']:>12.2f}{r['it']:>8.3f}{r['stages']:>12.1f}")
+              f"{r['first_it']:>12.2f}{r['it']:>8.3f}{r['stages']:>12.1f}  {r['floor']}")
     if len(rows) > 1:
         mean = {k: statistics.fmean(r[k] for r in rows) for k in ("iou_init", "iou_fit", "it", "stages")}
         fov = statistics.median(abs(r["fov_error"]) for r in rows)
@@ -80,6 +90,7 @@ def main() -> None:
     parser.add_argument("--depth-noise", type=float, default=0.05,
                         help="relative error of the depth given to the pipeline, as from a depth estimator (0: exact)")
     parser.add_argument("--true-fov", action="store_true", help="give the pipeline the true FoV (fov=fixed)")
+    parser.add_argument("--bare", action="store_true", help="each photo alone: offline segmentation and depth")
     parser.add_argument("overrides", nargs="*", help="config overrides for every run, e.g. room_fit.iterations=50")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
@@ -92,7 +103,7 @@ def main() -> None:
                 width = args.width
                 write_scene(generate(seed, case, width, round(width * 3 / 4)), scene, args.spp, args.depth_noise)
             row = evaluate(scene, Path(tmp) / "runs" / scene.name, [f"cache_dir={Path(tmp) / 'cache'}", *args.overrides],
-                           args.true_fov)
+                           args.true_fov, args.bare)
             rows["random" if case == "random" else "hard"].append(row)
             print(f"  {scene.name}: IoU {row['iou_init']:.3f} -> {row['iou_fit']:.3f}", flush=True)
     print_table(rows["random"], f"{args.scenes} random synthetic rooms ({args.width}x{round(args.width * 3 / 4)} photos)")

@@ -186,12 +186,17 @@ def test_without_a_floor_the_room_stands_on_the_ceiling_or_the_walls() -> None:
     assert on_ceiling.camera_height == pytest.approx(ceiling_distance / (RoomInitParams().height_ratio - 1), rel=0.05)
 
 
-def test_nothing_to_stand_the_room_on_is_a_one_line_error() -> None:
-    clouds, _, _ = render_room(np.array([0.5, 1.4, -1.3]), -6.0, 10.0, 2.0, np.random.default_rng(3))
+def test_a_room_stands_on_one_wall_or_the_camera_when_nothing_else_shows_the_floor() -> None:
+    clouds, rotation, _ = render_room(np.array([0.5, 1.4, -1.3]), -6.0, 10.0, 2.0, np.random.default_rng(3))
+    true_up = rotation.T @ np.array([0.0, 1.0, 0.0])
     wall = clouds["wall"][np.abs(clouds["wall"][:, 0] - np.median(clouds["wall"][:, 0])) < 0.01]  # a sliver
-    with pytest.raises(ValueError, match="only 0 floor points") as error:
-        init_room_box({"floor": clouds["floor"][:0], "wall": wall})
-    assert "\n" not in str(error.value) and "'floor'" in str(error.value)
+    one_wall = init_room_box({"floor": clouds["floor"][:0], "wall": wall})
+    assert one_wall.floor_source in ("wall", "camera")
+    assert np.degrees(np.arccos(np.clip(one_wall.floor_plane[:3] @ true_up, -1, 1))) < 12.0  # the camera's tilt
+    lowest = float(np.max(-(wall @ one_wall.floor_plane[:3])))
+    assert one_wall.camera_height >= max(1.1 * lowest, RoomInitParams().camera_height) - 1e-9
+    beside = init_room_box({"wall": wall, "objects": wall + 3 * one_wall.floor_plane[:3] * -1})  # something lower
+    assert beside.camera_height > one_wall.camera_height
     with pytest.raises(ValueError, match="no wall, floor or ceiling point"):
         init_room_box({})
 

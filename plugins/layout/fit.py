@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field
 
 import cv2
@@ -11,8 +12,10 @@ from psdr_room_core.method.artifacts import Camera, Detections, Image, Panoptic
 
 from ..vanishing_points import VanishingPointParams, estimate_camera, line_segments
 from . import box
-from .manhattan import ManhattanFrame, frame_from_vanishing_points
+from .manhattan import ManhattanFrame, frame_from_vanishing_points, looking_down
 from .orientation import orientation_map, segment_families
+
+log = logging.getLogger("psdr_room")
 
 
 @dataclass(frozen=True)
@@ -43,6 +46,10 @@ class LayoutParams:
     """Random hypotheses scored before the local search."""
     n_starts: int = 8
     """Best random hypotheses refined by pattern search."""
+    min_floor: float = 0.02
+    """A fitted box showing less floor than this fraction of the photo is fitted again looking down ..."""
+    look_down_deg: float = 30.0
+    """... when an axis points at least this far below the optical axis (90: never)."""
     search_range: box.SearchRange = field(default_factory=box.SearchRange)
     """Where hypotheses are sampled."""
     seed: int = 0
@@ -138,8 +145,29 @@ def _room_labels(panoptic: Panoptic, shape: tuple[int, int]) -> tuple[np.ndarray
 
 def fit_layout(image: Image, camera: Camera, params: LayoutParams, detections: Detections | None = None,
                panoptic: Panoptic | None = None) -> Layout:
-    """The box room that best explains the photo's line orientations (and ``panoptic``'s room labels)."""
+    """The box room that best explains the photo's line orientations (and ``panoptic``'s room labels).
+
+    When the box fitted upright shows no floor, the photo may look steeply down at one (a tiled floor's
+    lines are a wall's seen from level): the frame with the axis nearest the optical axis as up
+    (:func:`.manhattan.looking_down`) is fitted too, and the better-scoring layout wins.
+    """
     frame = manhattan_frame(image, camera)
+    layout = _fit_in_frame(frame, image, camera, params, detections, panoptic)
+    shape = _grid_shape(image, params.grid_side)
+    labels, _ = layout.trace(camera, shape[1], shape[0])
+    down = looking_down(camera, frame, params.look_down_deg) if params.look_down_deg < 90 else None
+    if down is not None and (labels == box.FLOOR).mean() < params.min_floor:
+        steep = _fit_in_frame(down, image, camera, params, detections, panoptic)
+        log.info("layout: no floor in the upright fit (score %.3f); looking %.0f° down at a floor scores %.3f",
+                 layout.score, np.degrees(np.arcsin(-down.rotation[2, 1])), steep.score)
+        if steep.score > layout.score:
+            layout = steep
+    return layout
+
+
+def _fit_in_frame(frame: ManhattanFrame, image: Image, camera: Camera, params: LayoutParams,
+                  detections: Detections | None, panoptic: Panoptic | None) -> Layout:
+    """The best box in ``frame`` (see :func:`fit_layout`)."""
     shape = _grid_shape(image, params.grid_side)
     zoom = np.diag([shape[1] / image.width, shape[0] / image.height, 1.0])
     segments = line_segments(image.rgb, VanishingPointParams()) * np.tile(np.diag(zoom)[:2], 2)

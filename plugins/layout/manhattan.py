@@ -65,6 +65,23 @@ def frame_from_vanishing_points(camera: Camera, vanishing_points: np.ndarray | l
     return ManhattanFrame(rotation=rotation, vanishing_points=_image_vps(camera, rotation), observed=True)
 
 
+def looking_down(camera: Camera, frame: ManhattanFrame, min_pitch_deg: float) -> ManhattanFrame | None:
+    """The same axes with another one as up: the horizontal axis nearest the optical axis, when it points
+    below it by at least ``min_pitch_deg`` (a photo looking steeply down at a floor, whose lines look like
+    a wall's seen from level). None when no axis does."""
+    horizontal = (frame.rotation[:, 0], frame.rotation[:, 2])
+    nearest = int(np.argmax([abs(axis[2]) for axis in horizontal]))
+    down = horizontal[nearest] * np.sign(horizontal[nearest][2])
+    if down[1] <= 0 or down[2] < np.sin(np.radians(min_pitch_deg)):
+        return None
+    y = -down
+    forward = np.array([0.0, 0.0, 1.0]) + down[2] * y  # the optical axis on the new horizontal plane
+    z = max((frame.rotation[:, 1], horizontal[1 - nearest]), key=lambda axis: abs(axis @ forward))
+    z = z * np.sign(z @ forward)
+    rotation = _nearest_rotation(np.stack([np.cross(y, z), y, z], axis=1))
+    return ManhattanFrame(rotation=rotation, vanishing_points=_image_vps(camera, rotation), observed=frame.observed)
+
+
 def _image_vps(camera: Camera, rotation: np.ndarray) -> np.ndarray:
     vps = (camera.K @ rotation).T
     return vps / np.linalg.norm(vps, axis=1, keepdims=True)

@@ -29,6 +29,8 @@ class LayoutFit:
     floor_colour: float = setting(ge=0)
     n_random: int = setting(ge=1)
     n_starts: int = setting(ge=1)
+    min_floor: float = setting(ge=0, le=1)
+    look_down_deg: float = setting(ge=0, le=90)
     search: SearchRange = setting()
     seed: int = setting()
 

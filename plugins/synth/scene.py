@@ -15,8 +15,10 @@ from psdr_room_core.method.artifacts import rotation_y
 from .raycast import raycast
 from .room import Box, Furniture, Light, SyntheticRoom, camera_pose
 
-HARD_CASES = ("no_ceiling", "cut_wall", "strong_perspective")
-"""Cases the benchmark must also cover: ceiling out of view, a wall cut by the frame, a wide close-up view."""
+HARD_CASES = ("no_ceiling", "cut_wall", "strong_perspective", "floor_only", "one_wall", "ceiling_only", "close_up")
+"""Cases the benchmark must also cover: ceiling out of view, a wall cut by the frame, a wide close-up view, and
+photos that show too little of the room to stand it on its floor: the floor alone (looking down 40-70°), one
+wall alone, the ceiling alone (looking up 40-70°), a close-up of one piece of furniture."""
 
 
 def _furniture_parts(kind: str, rng: np.random.Generator) -> tuple[tuple[float, float, float], list[tuple]]:
@@ -88,8 +90,13 @@ def _place_furniture(room: Box, rng: np.random.Generator, count: int) -> list[Fu
     return result
 
 
-VISIBLE = {"random": (3, True), "no_ceiling": (2, False), "cut_wall": (2, None), "strong_perspective": (2, None)}
-"""Per case: walls that must be seen, and whether the ceiling must (True), must not (False) or may be seen."""
+VISIBLE = {"random": (True, (3, 4), True), "no_ceiling": (True, (2, 4), False), "cut_wall": (True, (2, 4), None),
+           "strong_perspective": (True, (2, 4), None), "floor_only": (True, (0, 0), False),
+           "one_wall": (None, (1, 1), False), "ceiling_only": (False, (0, 0), True), "close_up": (None, (0, 4), None)}
+"""Per case: whether the floor must (True), must not (False) or may (None) be seen, how many walls (least,
+most), and the same for the ceiling."""
+CLOSE_UP_FRACTION = 0.3
+"""A close-up's nearest piece of furniture covers at least this fraction of the photo."""
 MIN_FRACTION = 0.02
 """A surface counts as seen when it covers at least this fraction of the photo."""
 
@@ -103,13 +110,16 @@ def generate(seed: int, case: str = "random", width: int = 320, height: int = 24
     if case not in VISIBLE:
         raise ValueError(f"unknown case '{case}'; choose random or one of {', '.join(HARD_CASES)}")
     rng = np.random.default_rng(seed)
-    walls, ceiling = VISIBLE[case]
-    for _ in range(200):
+    floor, (least, most), ceiling = VISIBLE[case]
+    for _ in range(400):
         room = _sample(rng, seed, case, width, height, objects)
         _, ids, segments = raycast(dataclasses.replace(room, width=64, height=48))
-        seen = {s.label: s.category for s in segments if (ids == s.id).mean() >= MIN_FRACTION}
-        categories = list(seen.values())
-        if "floor" in categories and categories.count("wall") >= walls and ceiling in (None, "ceiling" in categories):
+        shares = {s.id: (ids == s.id).mean() for s in segments}
+        categories = [s.category for s in segments if shares[s.id] >= MIN_FRACTION]
+        furniture = max([shares[s.id] for s in segments if s.category not in ("wall", "floor", "ceiling")], default=0)
+        if (floor in (None, "floor" in categories) and least <= categories.count("wall") <= most
+                and ceiling in (None, "ceiling" in categories)
+                and (case != "close_up" or furniture >= CLOSE_UP_FRACTION)):
             return room
     raise RuntimeError(f"no {case} room satisfying the visibility rules for seed {seed}")
 
@@ -130,7 +140,18 @@ def _sample(rng: np.random.Generator, seed: int, case: str, width: int, height: 
         room_yaw = math.radians(rng.choice([-1, 1]) * rng.uniform(38.0, 44.0))
     elif case == "strong_perspective":
         vfov, back = rng.uniform(72.0, 75.0), rng.uniform(0.25, 0.4)
-    if case != "no_ceiling":  # look down enough that the floor shows in front of the far wall
+    elif case == "floor_only":  # a big room seen steeply from above: its walls stay beyond the frame
+        pitch, vfov, back = -rng.uniform(40.0, 70.0), rng.uniform(40.0, 55.0), rng.uniform(1.5, 2.5)
+        size[[0, 2]] = rng.uniform(7.0, 9.0, 2)
+    elif case == "ceiling_only":
+        pitch, vfov, back = rng.uniform(40.0, 70.0), rng.uniform(40.0, 55.0), rng.uniform(1.5, 2.5)
+        size[[0, 2]] = rng.uniform(7.0, 9.0, 2)
+    elif case == "one_wall":  # facing a wall from close by, level
+        pitch, vfov, room_yaw = rng.uniform(-8.0, 0.0), rng.uniform(40.0, 50.0), math.radians(rng.uniform(-8.0, 8.0))
+        back = size[2] - rng.uniform(1.2, 1.8)
+    elif case == "close_up":  # one piece of furniture fills the frame
+        pitch, vfov = -rng.uniform(25.0, 45.0), rng.uniform(40.0, 55.0)
+    if case in ("random", "cut_wall", "strong_perspective"):  # look down enough that the floor shows in front of the far wall
         floor_visible = math.degrees(math.atan(cam_height / (0.6 * (size[2] - back)))) - vfov / 2 + 2.0
         pitch = min(pitch, -floor_visible)
     half = size / 2

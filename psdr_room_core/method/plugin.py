@@ -19,6 +19,7 @@ from .capabilities import CAPABILITIES, DESCRIPTIONS
 from .crops import CROPS_SUFFIX
 from .room_box import RoomInitParams
 from .stages import appearance, export, lighting, materials, objects, preprocess, room, settings
+from .stages.room import guesses
 
 
 @hookimpl
@@ -100,4 +101,5 @@ def run_metrics(run: RunRecord) -> dict[str, Any]:
         held = run.artifacts.get("room_box_objects")
         if held is not None:  # grown where fit_objects' objects reach beyond it
             out["room_box"]["size_holding_objects"] = [2 * float(h) for h in held.half_size]
+        out["guessed"] = guesses(room)
     return out

@@ -78,6 +78,9 @@ class RoomInitParams:
     behind_margin: float = setting(0.15, ge=0)
     """Minimum camera clearance of box sides that no wall bounds (e.g. the unseen back wall). Photos are
     typically taken 0.5-1 m in front of the back wall with a median point distance of 2.5-3.5 m."""
+    camera_height: float = setting(1.5, gt=0)
+    """Camera height above the floor (depth units) assumed when neither floor, ceiling nor two walls show where
+    the floor is: the 1.5 m the layout depth assumes too."""
     seed: int = 0
     """Seed of the RANSAC generators."""
 
@@ -103,7 +106,8 @@ class RoomInitResult:
     camera_height: float
     """Camera centre height above the floor."""
     floor_source: str = "floor"
-    """Where the floor plane came from: ``floor`` points, or, with none in view, the ``ceiling`` or the ``walls``."""
+    """Where the floor plane came from: ``floor`` points, or, with none in view, the ``ceiling``, two ``walls``,
+    one ``wall`` and the camera held level, or the ``camera`` alone (see :func:`floor_without_floor_points`)."""
 
 
 def fit_floor_plane(
@@ -133,21 +137,24 @@ def camera_to_world_from_floor(floor_plane: np.ndarray) -> np.ndarray:
 def init_room_box(points: dict[str, np.ndarray], params: RoomInitParams = RoomInitParams()) -> RoomInitResult:
     """Coarse room box from camera-frame points labelled "floor", "wall", "ceiling" (paper §4.2).
 
-    Missing or empty categories are allowed. Without a visible floor (:func:`floor_without_floor_points`) the
-    floor plane is inferred from the ceiling or the walls; ``floor_source`` says which. Non-finite points and
-    points not in front of the camera (z <= 0, e.g. missing depth) are ignored. Raises ``ValueError`` when
-    neither floor, ceiling nor two walls can be found.
+    Missing or empty categories are allowed; ``objects`` (optional) are the points of everything else, which
+    only bound the floor from above when it is not seen. Without a visible floor
+    (:func:`floor_without_floor_points`) the floor plane is inferred from the ceiling, the walls or the
+    camera; ``floor_source`` says which. Non-finite points and points not in front of the camera (z <= 0,
+    e.g. missing depth) are ignored. Raises ``ValueError`` only when no room point has a depth.
     """
     clouds = {name: _valid_points(points.get(name)) for name in ("floor", "wall", "ceiling")}
     if not sum(len(c) for c in clouds.values()):
         raise ValueError("room_init: no wall, floor or ceiling point has a depth; label them and check the depth")
+    objects = _valid_points(points.get("objects"))
     scale = _scene_scale(clouds)
     threshold = params.ransac_threshold * scale
     if len(clouds["floor"]) >= _MIN_FLOOR_POINTS:
         floor_plane, _ = fit_floor_plane(clouds["floor"], threshold, params.ransac_iterations, params.seed)
         floor_source = "floor"
     else:
-        floor_plane, floor_source = floor_without_floor_points(clouds, threshold, scale, params)
+        floor_plane, floor_source = floor_without_floor_points({**clouds, "objects": objects}, threshold, scale,
+                                                               params)
     camera_to_world = camera_to_world_from_floor(floor_plane)
     world = {name: _transform(cloud, camera_to_world) for name, cloud in clouds.items()}
     camera_height = float(floor_plane[3])
@@ -182,29 +189,41 @@ def floor_without_floor_points(clouds: dict[str, np.ndarray], threshold: float, 
 
     From the ceiling plane when one is seen: parallel to it, the camera ``1 / (height_ratio - 1)`` of the
     ceiling's distance above it (a camera at 1.5 m under a 2.8 m ceiling). Else from two walls: up is their
-    normals' cross product, and the floor lies just below the lowest wall point (10% lower), at least half
-    the scene scale below the camera. Raises ``ValueError`` when neither is seen.
+    normals' cross product. Else from what the photo leaves: up is the image's up (the camera held level), made
+    parallel to the one wall seen if there is one (``wall``), or not (``camera``). Without a ceiling the
+    floor lies just below the lowest point seen (10% lower: objects and walls stand on it), and at least
+    ``camera_height`` below the camera.
     """
     if len(clouds["ceiling"]) >= _MIN_FLOOR_POINTS:
         ceiling, _ = fit_floor_plane(clouds["ceiling"], threshold, params.ransac_iterations, params.seed)
         up = -ceiling[:3]  # the ceiling's normal points down, to the camera
         return np.append(up, ceiling[3] / (params.height_ratio - 1.0)), "ceiling"
+    normals = _wall_normals(clouds["wall"], threshold, params)
+    pairs = [(a, b) for i, a in enumerate(normals) for b in normals[i + 1:] if abs(a @ b) < 0.3]
+    image_up = np.array([0.0, -1.0, 0.0])  # camera y points down
+    if pairs:
+        up, source = np.cross(*pairs[0]), "walls"
+    elif normals:
+        up, source = _project_on_plane(image_up, normals[0]), "wall"
+    else:
+        up, source = image_up, "camera"
+    up = up / np.linalg.norm(up) * (1.0 if up[1] < 0 else -1.0)
+    seen = np.concatenate([clouds[name] for name in ("wall", "floor", "objects") if name in clouds])
+    drop = float(np.max(-(seen @ up))) if len(seen) else 0.0
+    return np.append(up, max(1.1 * drop, params.camera_height if source != "walls" else 0.5 * scale)), source
+
+
+def _wall_normals(points: np.ndarray, threshold: float, params: RoomInitParams) -> list[np.ndarray]:
+    """Normals of the planes found one after another in the wall points (at most ``max_walls``)."""
     rng = np.random.default_rng((params.seed, 2))
-    remaining, normals = clouds["wall"], []
+    remaining, normals = points, []
     while len(remaining) >= _MIN_FLOOR_POINTS and len(normals) < params.max_walls:
         plane, inliers = _ransac_plane(remaining, threshold, params.ransac_iterations, rng)
-        if inliers.sum() < max(params.min_wall_inliers * len(clouds["wall"]), _MIN_PLANE_POINTS):
+        if inliers.sum() < max(params.min_wall_inliers * len(points), _MIN_PLANE_POINTS):
             break
         normals.append(plane[:3])
         remaining = remaining[~inliers]
-    pairs = [(a, b) for i, a in enumerate(normals) for b in normals[i + 1:] if abs(a @ b) < 0.3]
-    if not pairs:
-        raise ValueError(f"room_init: only {len(clouds['floor'])} floor points and no ceiling or two walls to stand "
-                         "the room on; the segmentation needs a visible floor (label it 'floor')")
-    up = np.cross(*pairs[0])
-    up = up / np.linalg.norm(up) * (1.0 if up[1] < 0 else -1.0)  # image up: camera y points down
-    drop = float(np.max(-(clouds["wall"] @ up)))
-    return np.append(up, max(1.1 * drop, 0.5 * scale)), "walls"
+    return normals
 
 
 def box_iou_3d(
@@ -319,8 +338,8 @@ def _room_height(world: dict[str, np.ndarray], camera_height: float, params: Roo
             return height, True
     upper = np.concatenate([world["wall"], world["ceiling"]])
     if len(upper) < _MIN_PLANE_POINTS:
-        upper = world["floor"]
-    top = max(float(np.percentile(upper[:, 1], params.extent_percentile)), camera_height)
+        upper = np.concatenate([upper, world["floor"]])
+    top = max(float(np.percentile(upper[:, 1], params.extent_percentile)) if len(upper) else 0.0, camera_height)
     return max(params.ceiling_margin * top, params.height_ratio * camera_height), False
 
 

@@ -41,17 +41,32 @@ if TYPE_CHECKING:
 log = logging.getLogger("psdr_room")
 
 
+FLOOR_GUESSES = {"ceiling": "the ceiling (parallel, a camera height below the usual ceiling height)",
+                 "walls": "two walls (up is along both) below the lowest point seen",
+                 "wall": "one wall and the camera held level, below the lowest point seen or 1.5 camera units",
+                 "camera": "the camera held level, below the lowest point seen or 1.5 camera units"}
+"""How each ``floor_source`` other than ``floor`` guessed the floor (logged; metrics.json and the report say it)."""
+
+
+def guesses(room: RoomBox) -> list[str]:
+    """What a run had to guess about ``room`` because the photo did not show it (empty when nothing)."""
+    source = room.extra.get("floor_source", "floor")
+    return [] if source == "floor" else [f"no floor in view: the floor plane from {FLOOR_GUESSES[source]}"]
+
+
 def room_init(ctx: StageContext, cloud: PointCloud) -> RoomBox:
     """Fit the initial room box and the camera pose in the room's frame (params: ``RoomInitParams``)."""
     params = RoomInitParams(**{**ctx.params, "seed": ctx.seed})
     points = {c: cloud.category_points(c).astype(np.float64) for c in ROOM_CATEGORIES}
+    others = [s.id for s in cloud.segments if s.category not in ROOM_CATEGORIES]
+    points["objects"] = cloud.points[np.isin(cloud.segment, others)].astype(np.float64)
     try:
         fit = init_room_box(points, params)
     except ValueError as exc:
         raise PsdrRoomError(str(exc)) from None
     if fit.floor_source != "floor":
-        log.warning("room_init: no floor in view; the floor plane is inferred from the %s (camera %.2f above it)",
-                    fit.floor_source, fit.camera_height)
+        log.warning("room_init: no floor in view; guessed: the floor plane from %s (camera %.2f above it)",
+                    FLOOR_GUESSES[fit.floor_source], fit.camera_height)
     return RoomBox(
         camera_to_world=fit.camera_to_world,
         center=fit.center,
