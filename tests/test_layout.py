@@ -240,6 +240,30 @@ def test_a_bare_photo_looking_down_at_a_tiled_floor_stands_the_room_on_it(tmp_pa
     assert floor[3] == pytest.approx(1.5, rel=0.15)
 
 
+def test_a_bare_photo_of_the_ceiling_alone_still_gives_a_room(tmp_path: Path) -> None:
+    """Looking 65° up at a panelled ceiling that fills the photo: nothing shows the floor, yet the run goes on
+    to a room (its floor guessed below the camera, logged), it does not stop with an error."""
+    from psdr_room_core.engine.cli import compose_config
+    from psdr_room_core.engine.plugins import plugin_system
+    from psdr_room_core.engine.run import execute
+
+    rotation = _rotation(20.0, -65.0)
+    camera = _camera(rotation)
+    true_frame = ManhattanFrame(rotation=rotation, vanishing_points=np.asarray(camera.extra["vanishing_points"]),
+                                observed=True)
+    image, labels, _ = _render(camera, true_frame)
+    assert (labels == box.CEILING).mean() > 0.97
+    photo = tmp_path / "ceiling.png"
+    cv2.imwrite(str(photo), image.to_uint8()[..., ::-1])
+    plugins = plugin_system()
+    overrides = [f"image={photo}", f"cache_dir={tmp_path / 'cache'}", "run.until=room_init", "report.enabled=false",
+                 "detector=none", "fov=fixed", "fov.fixed.vfov_deg=55.0", "segmentation=layout", "depth=layout",
+                 "segmentation.layout.n_random=1500", "depth.layout.n_random=1500"]
+    record = execute(compose_config(overrides, plugins), tmp_path / "run", plugins)
+    room = record.artifacts["room_box"]
+    assert np.all(np.asarray(room.half_size) > 0) and room.extra["camera_height"] > 0
+
+
 def test_the_floor_colour_runs_up_from_the_bottom_band() -> None:
     """A plain carpet (no lines to say it is floor) running up to the far wall is floor evidence as far as its
     colour goes; the walls beside it, a rug of another colour and everything above the horizon are not."""
