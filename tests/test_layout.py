@@ -9,6 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
+from psdr_room_core.engine.dag import RunRecord
 from psdr_room_core.method.artifacts import Camera, Detection, Detections, Image, Panoptic, Segment
 from psdr_room_plugins.layout import box
 from psdr_room_plugins.layout.depth import LayoutDepth, object_depth
@@ -187,23 +188,39 @@ def test_boxes_yaml_replaces_the_detector(tmp_path: Path) -> None:
     assert [d.label for d in record.artifacts["detections"].items] == ["sofa"]
 
 
-def test_a_bare_photo_without_floor_or_prompts_still_gives_a_room(tmp_path: Path) -> None:
-    """Looking up at a plain room: no floor in view, the detector finds nothing, no proposal stands out. The
-    pipeline stands the room on its ceiling (logged) and places no object, without an error."""
+def _run_bare(image: Image, tmp_path: Path, until: str) -> RunRecord:
+    """``image`` alone through the offline layout segmentation and depth (no detector, a 55° FoV) until
+    ``until``: the run record."""
     from psdr_room_core.engine.cli import compose_config
     from psdr_room_core.engine.plugins import plugin_system
     from psdr_room_core.engine.run import execute
 
+    photo = tmp_path / "photo.png"
+    cv2.imwrite(str(photo), image.to_uint8()[..., ::-1])
+    plugins = plugin_system()
+    overrides = [f"image={photo}", f"cache_dir={tmp_path / 'cache'}", f"run.until={until}", "report.enabled=false",
+                 "detector=none", "fov=fixed", "fov.fixed.vfov_deg=55.0", "segmentation=layout", "depth=layout",
+                 "segmentation.layout.n_random=1500", "depth.layout.n_random=1500"]
+    return execute(compose_config(overrides, plugins), tmp_path / "run", plugins)
+
+
+def _render_true(rotation: np.ndarray) -> tuple[Image, np.ndarray]:
+    """The room seen by a camera whose frame axes are ``rotation`` (rendered in that true frame, whichever
+    axis the vanishing points would call up): the image and its surface labels."""
+    camera = _camera(rotation)
+    frame = ManhattanFrame(rotation=rotation, vanishing_points=np.asarray(camera.extra["vanishing_points"]),
+                           observed=True)
+    image, labels, _ = _render(camera, frame)
+    return image, labels
+
+
+def test_a_bare_photo_without_floor_or_prompts_still_gives_a_room(tmp_path: Path) -> None:
+    """Looking up at a plain room: no floor in view, the detector finds nothing, no proposal stands out. The
+    pipeline stands the room on its ceiling (logged) and places no object, without an error."""
     camera = _camera(_rotation(28.0, -25.0))  # pitched up: floor out of view
     image, labels, _ = _render(camera, frame_from_vanishing_points(camera, camera.extra["vanishing_points"]))
     assert not (labels == box.FLOOR).any() and (labels == box.CEILING).any()
-    photo = tmp_path / "up.png"
-    cv2.imwrite(str(photo), image.to_uint8()[..., ::-1])
-    plugins = plugin_system()
-    overrides = [f"image={photo}", f"cache_dir={tmp_path / 'cache'}", "run.until=place_objects", "report.enabled=false",
-                 "detector=none", "fov=fixed", "fov.fixed.vfov_deg=55.0", "segmentation=layout", "depth=layout",
-                 "segmentation.layout.n_random=1500", "depth.layout.n_random=1500"]
-    record = execute(compose_config(overrides, plugins), tmp_path / "run", plugins)
+    record = _run_bare(image, tmp_path, "place_objects")
     room = record.artifacts["room_box"]
     assert room.extra["floor_source"] in ("ceiling", "walls")
     assert record.artifacts["placements"].objects == []
@@ -214,23 +231,10 @@ def test_a_bare_photo_looking_down_at_a_tiled_floor_stands_the_room_on_it(tmp_pa
     so the upright layout shows no floor; fitted again looking down, the floor is found where it is the photo,
     and the room's floor plane is within 10° and 15% (of the 1.5 m camera height the layout assumes) of the
     truth."""
-    from psdr_room_core.engine.cli import compose_config
-    from psdr_room_core.engine.plugins import plugin_system
-    from psdr_room_core.engine.run import execute
-
     rotation = _rotation(20.0, 65.0)
-    camera = _camera(rotation)
-    true_frame = ManhattanFrame(rotation=rotation, vanishing_points=np.asarray(camera.extra["vanishing_points"]),
-                                observed=True)
-    image, labels, _ = _render(camera, true_frame)
+    image, labels = _render_true(rotation)
     assert (labels == box.FLOOR).mean() > 0.97
-    photo = tmp_path / "down.png"
-    cv2.imwrite(str(photo), image.to_uint8()[..., ::-1])
-    plugins = plugin_system()
-    overrides = [f"image={photo}", f"cache_dir={tmp_path / 'cache'}", "run.until=room_init", "report.enabled=false",
-                 "detector=none", "fov=fixed", "fov.fixed.vfov_deg=55.0", "segmentation=layout", "depth=layout",
-                 "segmentation.layout.n_random=1500", "depth.layout.n_random=1500"]
-    record = execute(compose_config(overrides, plugins), tmp_path / "run", plugins)
+    record = _run_bare(image, tmp_path, "room_init")
     panoptic = record.artifacts["panoptic"]
     assert panoptic.mask("floor").mean() > 0.9
     room = record.artifacts["room_box"]
@@ -243,24 +247,9 @@ def test_a_bare_photo_looking_down_at_a_tiled_floor_stands_the_room_on_it(tmp_pa
 def test_a_bare_photo_of_the_ceiling_alone_still_gives_a_room(tmp_path: Path) -> None:
     """Looking 65° up at a panelled ceiling that fills the photo: nothing shows the floor, yet the run goes on
     to a room (its floor guessed below the camera, logged), it does not stop with an error."""
-    from psdr_room_core.engine.cli import compose_config
-    from psdr_room_core.engine.plugins import plugin_system
-    from psdr_room_core.engine.run import execute
-
-    rotation = _rotation(20.0, -65.0)
-    camera = _camera(rotation)
-    true_frame = ManhattanFrame(rotation=rotation, vanishing_points=np.asarray(camera.extra["vanishing_points"]),
-                                observed=True)
-    image, labels, _ = _render(camera, true_frame)
+    image, labels = _render_true(_rotation(20.0, -65.0))
     assert (labels == box.CEILING).mean() > 0.97
-    photo = tmp_path / "ceiling.png"
-    cv2.imwrite(str(photo), image.to_uint8()[..., ::-1])
-    plugins = plugin_system()
-    overrides = [f"image={photo}", f"cache_dir={tmp_path / 'cache'}", "run.until=room_init", "report.enabled=false",
-                 "detector=none", "fov=fixed", "fov.fixed.vfov_deg=55.0", "segmentation=layout", "depth=layout",
-                 "segmentation.layout.n_random=1500", "depth.layout.n_random=1500"]
-    record = execute(compose_config(overrides, plugins), tmp_path / "run", plugins)
-    room = record.artifacts["room_box"]
+    room = _run_bare(image, tmp_path, "room_init").artifacts["room_box"]
     assert np.all(np.asarray(room.half_size) > 0) and room.extra["camera_height"] > 0
 
 
