@@ -33,7 +33,6 @@ import numpy as np
 from .artifacts import Camera, Panoptic, PointCloud, RoomBox, Segment
 from .labels import primary_category
 from .objects import OBJECT_CATEGORIES, mask_distance
-from .physical import room_frame
 from .sizes import size_range
 
 log = logging.getLogger("psdr_room")
@@ -117,7 +116,7 @@ def _stood_on(upper: Part, lower: Part, camera: Camera, camera_to_world: np.ndar
 
 def _fits(category: str, points: np.ndarray, room: RoomBox, slack: float) -> bool:
     """Whether ``points`` (world) are no bigger than one ``category`` object (× ``slack``)."""
-    local = room_frame(room, points)
+    local = room.local(points)
     lo, hi = np.percentile(local, 2, axis=0), np.percentile(local, 98, axis=0)
     top = float(np.percentile(points[:, 1], 98))
     across = sorted((float(hi[0] - lo[0]), float(hi[2] - lo[2])), reverse=True)
@@ -130,7 +129,7 @@ def _footprint_share(a: np.ndarray, b: np.ndarray, room: RoomBox, margin: float)
     ``margin``) as a share of the smaller, 0 where their heights do not overlap."""
     boxes = []
     for points in (a, b):
-        local = room_frame(room, points)
+        local = room.local(points)
         boxes.append((np.percentile(local, 5, axis=0) - margin, np.percentile(local, 95, axis=0) + margin))
     (alo, ahi), (blo, bhi) = boxes
     if min(ahi[1], bhi[1]) <= max(alo[1], blo[1]):

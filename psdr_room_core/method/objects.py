@@ -156,7 +156,7 @@ def mask_distance(mask: np.ndarray, other: np.ndarray) -> float:
 def nearest_wall(room: RoomBox, point: np.ndarray) -> tuple[int, float]:
     """(index, distance) of the room box's nearest vertical side to a world point; sides are numbered
     -x, +x, -z, +z of the box's own frame."""
-    local = rotation_y(room.yaw).T @ (np.asarray(point) - np.asarray(room.center))
+    local = room.local(point)
     half = np.asarray(room.half_size)
     distances = [local[0] + half[0], half[0] - local[0], local[2] + half[2], half[2] - local[2]]
     index = int(np.argmin(np.abs(distances)))

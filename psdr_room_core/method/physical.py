@@ -112,16 +112,11 @@ def along_ray(p: Placement, scale: float, camera_origin: np.ndarray) -> Placemen
     return replace(p, scale=float(scale), position=tuple(float(v) for v in moved))
 
 
-def room_frame(room: RoomBox, points: np.ndarray) -> np.ndarray:
-    """World points in the room box's own frame (axes along its sides, origin at its centre)."""
-    return (points - np.asarray(room.center)) @ rotation_y(room.yaw)
-
-
 def room_excess(p: Placement, room: RoomBox, tolerance: float = 1e-3) -> np.ndarray:
     """(3,) how far the object reaches beyond the room box along each of the box's axes, signed (0: inside, or
     within ``tolerance``; positive: beyond the + side, negative: beyond the − side); NaN where it is longer
     than the room there."""
-    local = room_frame(room, p.world_vertices())
+    local = room.local(p.world_vertices())
     half = np.asarray(room.half_size)
     lo, hi = local.min(axis=0), local.max(axis=0)
     out = np.zeros(3)
@@ -137,7 +132,7 @@ def room_excess(p: Placement, room: RoomBox, tolerance: float = 1e-3) -> np.ndar
 
 def grown(room: RoomBox, points: np.ndarray, margin: float = 0.01) -> RoomBox:
     """The room box with each side moved out just enough to hold ``points`` (world); the floor stays."""
-    local = room_frame(room, points)
+    local = room.local(points)
     half = np.asarray(room.half_size, np.float64)
     lo = np.minimum(-half, local.min(axis=0) - margin)
     hi = np.maximum(half, local.max(axis=0) + margin)

@@ -22,7 +22,7 @@ from functools import cached_property
 import cv2
 import numpy as np
 
-from .artifacts import Camera, RoomBox, rotation_y
+from .artifacts import Camera, RoomBox
 from .objects import pose_matrix
 from .silhouette import MeshCaster, Window, world_to_camera
 from .sizes import SizePrior
@@ -255,7 +255,7 @@ class _Scorer:
         room = self.target.room
         assert room is not None
         corners = np.stack([self.corners @ pose[:3, :3].T + pose[:3, 3] for pose in poses])  # (K, 8, 3)
-        local = (corners - np.asarray(room.center)) @ rotation_y(room.yaw)
+        local = room.local(corners)
         return np.max(np.maximum(np.abs(local) - np.asarray(room.half_size), 0.0), axis=(1, 2))
 
     def box_iou(self, window: Window, visible: np.ndarray) -> float:

@@ -72,6 +72,10 @@ class RoomBox:
         """Height of the box's floor (0 for a box standing on the floor; ``room_fit`` may move it a little)."""
         return float(self.center[1] - self.half_size[1])
 
+    def local(self, points: np.ndarray) -> np.ndarray:
+        """World points (..., 3) in the box's own frame: axes along its sides, origin at its centre."""
+        return (np.asarray(points) - np.asarray(self.center)) @ rotation_y(self.yaw)
+
     def corners(self) -> np.ndarray:
         """The 8 world-space corners, index bits (x, y, z) → sign (-, +)."""
         signs = np.array([[(i >> 0) & 1, (i >> 1) & 1, (i >> 2) & 1] for i in range(8)]) * 2.0 - 1.0
