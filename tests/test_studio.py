@@ -249,20 +249,44 @@ def test_a_stop_during_a_run_is_at_once_and_leaves_whole_cache_entries(room: Sim
 
 
 def _click(driver: Any, text: str) -> None:
+    from selenium.common.exceptions import StaleElementReferenceException
     from selenium.webdriver.common.by import By
 
-    driver.find_element(By.XPATH, f"//button[normalize-space()='{text}']").click()
+    def press() -> bool:  # a button re-rendered between its lookup and the click is looked up again
+        try:
+            driver.find_element(By.XPATH, f"//button[normalize-space()='{text}']").click()
+            return True
+        except StaleElementReferenceException:
+            return False
+
+    _wait(press, 20, f"the button {text!r}", driver)
 
 
 def _choose(driver: Any, label: str, prefix: str) -> None:
-    """Open the dropdown labelled ``label`` and click its option starting with ``prefix``."""
+    """Open the dropdown labelled ``label`` and click its option starting with ``prefix``; options that the page
+    re-renders meanwhile are looked up again, and a dropdown that closed itself on a re-render is opened again."""
+    from selenium.common.exceptions import StaleElementReferenceException
     from selenium.webdriver.common.by import By
 
-    field = driver.find_element(By.XPATH, f"//label[normalize-space()='{label}']")
-    driver.find_element(By.ID, field.get_attribute("for")).click()
-    option = _wait(lambda: next((o for o in driver.find_elements(By.CSS_SELECTOR, "[role=option]")
-                                 if o.text.startswith(prefix)), None), 10, f"option {prefix!r} of {label}")
-    option.click()
+    opened = [-1e9]
+
+    def pick() -> bool:
+        try:
+            options = [o for o in driver.find_elements(By.CSS_SELECTOR, "[role=option]") if o.is_displayed()]
+            if not options and time.monotonic() - opened[0] > 3.0:
+                field = driver.find_element(By.XPATH, f"//label[normalize-space()='{label}']")
+                driver.find_element(By.ID, field.get_attribute("for")).click()
+                opened[0] = time.monotonic()
+                return False
+            option = next((o for o in options if o.text.startswith(prefix)), None)
+            if option is None:
+                return False
+            option.click()
+            return True
+        except StaleElementReferenceException:
+            return False
+
+    _wait(pick, 30, f"option {prefix!r} of {label}", driver)
 
 
 def _status(driver: Any) -> str:
@@ -293,6 +317,13 @@ def _drag(driver: Any, canvas: Any, start: tuple[int, int], end: tuple[int, int]
      .move_by_offset(dx // 2, dy // 2).move_by_offset(dx - dx // 2, dy - dy // 2).release().perform())
 
 
+def _ready_to_drag(driver: Any, what: str) -> None:
+    """Wait until the page asks to drag ``what`` (said once the view is at the photo's camera and the selection is
+    on), and the browser has drawn that view."""
+    _wait(lambda: f"Drag {what} on the photo" in _status(driver), 20, f"the request to drag {what}", driver)
+    time.sleep(0.5)
+
+
 def test_draw_a_box_preview_pick_fit_edit_in_a_real_browser(studio: str, room: SimpleNamespace,
                                                            tmp_path: Path) -> None:
     from selenium.webdriver.common.by import By
@@ -310,7 +341,7 @@ def test_draw_a_box_preview_pick_fit_edit_in_a_real_browser(studio: str, room: S
         # A box dragged over the photo, seen from its camera, lands on the photo where it was dragged.
         _choose(driver, "Label", "sofa")
         _click(driver, "Draw a box")
-        time.sleep(1.5)  # the browser's view moves to the photo's camera
+        _ready_to_drag(driver, "a rectangle around the object")
         camera = json.loads((room.run_dir / "artifacts" / "camera_fit" / "camera.json").read_text())
         scale = canvas.size["height"] / camera["height"]  # the photo fills the canvas's height (same vertical FoV)
 
@@ -381,7 +412,7 @@ def test_draw_a_box_preview_pick_fit_edit_in_a_real_browser(studio: str, room: S
         assert len(before_crops) >= 2 and not crops_file.exists()
         _choose(driver, "Crop", "0:")
         _click(driver, "Move crop")
-        time.sleep(1.5)
+        _ready_to_drag(driver, "crop 0's new window")
         _drag(driver, canvas, offset(x0, y0), offset(x1, y1))
         _wait(lambda: crops_file.is_file(), 20, "the crops file", driver)
         moved = yaml.safe_load(crops_file.read_text())["crops"]

@@ -501,12 +501,14 @@ class StudioApp:
             self.say(f"**Not changed:** {plain(str(exc))}")
             return
         self.view.photo_view(event.client, self.session.record.artifacts)
-        self.say(f"Drag {target} on the photo (the view is at the photo's camera).")
 
         @self.server.scene.on_rect_select()
         def _(selection: Any) -> None:
             self.server.scene.remove_rect_select_callback(_)
             self.act(lambda: take(selection.client.camera, selection.screen_min, selection.screen_max))
+
+        # Said last: the browser takes messages in order, so once this shows, the view and the selection are ready.
+        self.say(f"Drag {target} on the photo (the view is at the photo's camera).")
 
     def photo_box(self, client_camera: Any, screen_min: tuple[float, float], screen_max: tuple[float, float]) -> Box:
         """The box (photo pixels) a rectangle on the canvas covers on the photo, clipped to it."""
