@@ -1,0 +1,181 @@
+"""``segmentation=eyes``, ``depth=eyes`` and ``detector=eyes``: psdr-room's own network, trained on its renders
+(:mod:`.train`) and shipped in the package (``eyes.onnx`` with ``eyes.json``: its sha256 and how it was made),
+run with onnxruntime alone.
+
+The photo is stretched to the network's 320×240 input; its outputs (a quarter of that) are resized back to the
+working image: surface logits bilinearly, then argmax; depth bilinearly; instances (:func:`.decode.instances`)
+by nearest neighbour inside the full-resolution object pixels.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from psdr_room_core.engine import threads as run_threads
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method.artifacts import Camera, DepthMap, Detection, Detections, Image, Panoptic, Segment
+
+from .decode import instances
+from .labels import CATEGORIES, SURFACES
+
+SHIPPED = Path(__file__).resolve().parent / "eyes.onnx"
+INPUT_SIZE = (240, 320)
+STUFF = ("wall", "floor", "ceiling")
+"""Surface classes that become one segment each; windows and doors one per connected region."""
+
+
+def shipped_note() -> dict:
+    """``eyes.json`` beside the shipped network (how it was made), or {} when none is shipped."""
+    note = SHIPPED.with_suffix(".json")
+    return json.loads(note.read_text()) if note.is_file() else {}
+
+
+def missing(path: Path) -> str | None:
+    """Why the network at ``path`` cannot run (None: it can)."""
+    if not path.is_file():
+        return f"no eyes network at {path} (train one with psdr-room-train and copy its eyes.onnx there)"
+    return None
+
+
+@functools.lru_cache(maxsize=2)
+def _session(path: str, threads: int, digest: str) -> object:
+    """An onnxruntime session of the file at ``path`` whose content has sha256 ``digest``."""
+    import onnxruntime as ort
+
+    options = ort.SessionOptions()
+    options.intra_op_num_threads = threads
+    try:
+        return ort.InferenceSession(path, options, providers=["CPUExecutionProvider"])
+    except Exception:  # onnxruntime raises its own types for damaged files
+        raise PsdrRoomError(f"{path}: not a loadable ONNX network; train or copy it again (psdr-room-train "
+                            "writes eyes.onnx)") from None
+
+
+_RECENT: dict[tuple[str, bytes], dict[str, np.ndarray]] = {}
+"""Outputs of the last few (network, image) pairs: the three stages that use the network run it once."""
+
+
+class Eyes:
+    """The shipped (or another trained) eyes network on one photo's working image."""
+
+    def __init__(self, path: str | None = None, intra_op_threads: int = 0, center_threshold: float = 0.3,
+                 min_instance_fraction: float = 0.002) -> None:
+        self.path = Path(path) if path else SHIPPED
+        self.threads = int(intra_op_threads)
+        self.center_threshold = float(center_threshold)
+        self.min_instance_fraction = float(min_instance_fraction)
+
+    def external_files(self, photo: Path) -> list[Path]:
+        return [self.path]
+
+    def unavailable(self, photo: Path) -> str | None:
+        return missing(self.path)
+
+    def outputs(self, image: Image) -> dict[str, np.ndarray]:
+        """The network's outputs for ``image`` (name → [C, 60, 80]); one run per image, shared by the stages
+        of one process."""
+        reason = missing(self.path)
+        if reason:
+            raise PsdrRoomError(reason)
+        rgb = np.ascontiguousarray(image.rgb, np.float32)
+        digest = hashlib.sha256(self.path.read_bytes()).hexdigest()
+        key = (digest, hashlib.sha256(rgb.tobytes()).digest())
+        if key not in _RECENT:
+            session = _session(str(self.path), self.threads or run_threads.count(), digest)
+            small = cv2.resize(rgb, INPUT_SIZE[::-1], interpolation=cv2.INTER_AREA)
+            names = [o.name for o in session.get_outputs()]  # type: ignore[attr-defined]
+            values = session.run(names, {"image": np.ascontiguousarray(small.transpose(2, 0, 1)[None])})  # type: ignore[attr-defined]
+            while len(_RECENT) >= 4:
+                _RECENT.pop(next(iter(_RECENT)))
+            _RECENT[key] = {name: value[0] for name, value in zip(names, values)}
+        return _RECENT[key]
+
+    def describe(self) -> str:
+        note = shipped_note() if self.path == SHIPPED else {}
+        return f"eyes ({self.path.name}{', sha256 ' + note['sha256'][:12] if note else ''})"
+
+    # -- what the outputs say ------------------------------------------------------------------------------
+    def surfaces(self, image: Image, out: dict[str, np.ndarray]) -> np.ndarray:
+        """Surface class per working-image pixel (:data:`.labels.SURFACES`)."""
+        logits = np.stack([cv2.resize(c, (image.width, image.height), interpolation=cv2.INTER_LINEAR)
+                           for c in out["surface"]])
+        return logits.argmax(axis=0)
+
+    def objects(self, image: Image, out: dict[str, np.ndarray], surface: np.ndarray) -> list[tuple[np.ndarray, str, float]]:
+        """(mask, category name, score) of each piece of furniture found, at working resolution."""
+        found = instances(out["surface"], out["category"], out["center"], out["offset"], self.center_threshold)
+        if not found:
+            return []
+        owner = np.zeros(found[0].mask.shape, np.int32)
+        for k, item in reversed(list(enumerate(found))):  # the best centre keeps a shared cell
+            owner[item.mask] = k + 1
+        full = cv2.resize(owner, (image.width, image.height), interpolation=cv2.INTER_NEAREST)
+        full[surface != SURFACES.index("object")] = 0
+        least = self.min_instance_fraction * image.width * image.height
+        result = []
+        for k, item in enumerate(found):
+            mask = full == k + 1
+            if mask.sum() >= least:
+                result.append((mask, CATEGORIES[item.category], item.score))
+        return result
+
+
+def _category(name: str) -> str:
+    """The room category of an eyes furniture category (ceiling lights and lamps are ``lamp``)."""
+    return "lamp" if name == "lamp" else "object"
+
+
+class EyesSegmentation(Eyes):
+    """Panoptic segmentation by the eyes network: wall, floor and ceiling one segment each, windows and doors
+    per region, one segment per piece of furniture labelled with its category."""
+
+    def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic:
+        out = self.outputs(image)
+        surface = self.surfaces(image, out)
+        ids = np.zeros(surface.shape, np.int32)
+        segments: list[Segment] = []
+        least = max(1, int(self.min_instance_fraction * surface.size))
+        for name in ("wall", "floor", "ceiling", "window", "door"):
+            mask = (surface == SURFACES.index(name)).astype(np.uint8)
+            if name in STUFF:
+                parts = [mask.astype(bool)]
+            else:
+                count, labels = cv2.connectedComponents(mask, connectivity=8)
+                parts = [labels == c for c in range(1, count)]
+            for part in parts:
+                if part.sum() >= least:
+                    segments.append(Segment(len(segments) + 1, name, name))
+                    ids[part] = segments[-1].id
+        for mask, name, _ in self.objects(image, out, surface):
+            segments.append(Segment(len(segments) + 1, _category(name), name))
+            ids[mask] = segments[-1].id
+        return Panoptic(ids=ids, segments=segments)
+
+
+class EyesDepth(Eyes):
+    """Relative depth by the eyes network, normalised to a unit range (``metric=False``) as the paper's."""
+
+    def estimate(self, image: Image, camera: Camera, panoptic: Panoptic, photo: Path) -> DepthMap:
+        log_depth = cv2.resize(self.outputs(image)["depth"][0], (image.width, image.height),
+                               interpolation=cv2.INTER_LINEAR)
+        depth = np.exp(log_depth - log_depth.max()).astype(np.float32)
+        return DepthMap(depth=depth, valid=np.isfinite(depth) & (depth > 0), metric=False, source=self.describe())
+
+
+class EyesDetector(Eyes):
+    """Furniture boxes from the eyes network's instances (label: its category; score: the centre's)."""
+
+    def detect(self, image: Image, photo: Path) -> Detections:
+        out = self.outputs(image)
+        items = []
+        for mask, name, score in self.objects(image, out, self.surfaces(image, out)):
+            ys, xs = np.nonzero(mask)
+            box = (float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1))
+            items.append(Detection(name, _category(name), box, min(max(score, 0.0), 1.0)))
+        return Detections(sorted(items, key=lambda d: -d.score), source=self.describe())

@@ -1,0 +1,280 @@
+"""``psdr-room-train``: train the eyes network on a ``psdr-room-synth-data`` data set and export its ONNX.
+
+Seeded and resumable: the run folder keeps ``checkpoint.pt`` (weights, optimiser, epoch, history) after every
+``--validate-every`` epochs, and a second call with the same folder goes on from it; then the held-out synthetic
+samples (the highest seeds) are scored and ``curves.png`` is redrawn. At the end ``eyes.onnx`` (float16 weights) and
+``eyes.json`` (its sha256, the data seeds, the command, the commit and the validation scores) are written.
+Uses CUDA when there is a GPU (``--device auto``), else the CPU (``OMP_WAIT_POLICY=PASSIVE`` and one thread
+per core are set: more threads than cores on a busy machine run several times slower).
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+LOSS_WEIGHTS = {"surface": 1.0, "category": 1.0, "center": 1.0, "offset": 0.1, "depth": 1.0}
+TIMING_STEPS = 20
+"""Steps timed before ``--minutes`` sets the number of steps."""
+FREEZE = ("none", "stride8", "encoder")
+"""What of the encoder stays fixed: nothing, the layers up to stride 8, or all of it (:meth:`.encoder.OnnxEncoder.frozen`)."""
+
+
+def losses(out: dict, batch: dict) -> dict:
+    """Each head's loss on a batch (torch tensors; targets from :func:`.data.example`)."""
+    import torch
+    import torch.nn.functional as F
+
+    from .data import IGNORE
+
+    terms = {"surface": F.cross_entropy(out["surface"], batch["surface"])}
+    labelled = (batch["category"] != IGNORE).sum()
+    terms["category"] = (F.cross_entropy(out["category"], batch["category"], ignore_index=IGNORE, reduction="sum")
+                         / labelled.clamp(min=1))
+    p, gt = out["center"].clamp(1e-4, 1 - 1e-4), batch["center"]  # CenterNet's penalty-reduced focal loss
+    positive = gt.eq(1.0).float()
+    focal = -(positive * (1 - p) ** 2 * torch.log(p) + (1 - positive) * (1 - gt) ** 4 * p ** 2 * torch.log(1 - p))
+    terms["center"] = focal.sum() / positive.sum().clamp(min=1)
+    weight = batch["offset_weight"]
+    terms["offset"] = ((out["offset"] - batch["offset"]).abs() * weight).sum() / (2 * weight.sum()).clamp(min=1)
+    valid = batch["depth"] > 0
+    difference = torch.where(valid, out["depth"] - torch.log(batch["depth"].clamp(min=1e-3)), 0.0)
+    count = valid.flatten(1).sum(1).clamp(min=1)
+    mean = difference.flatten(1).sum(1) / count
+    squared = (difference ** 2).flatten(1).sum(1) / count
+    terms["depth"] = (squared - 0.85 * mean ** 2).clamp(min=0).sqrt().mean()  # scale-invariant log error
+    return terms
+
+
+def validate(net, pack, indices: Sequence[int], device: str, batch_size: int) -> dict[str, float]:
+    """Held-out scores: surface pixel accuracy, object-pixel category accuracy, depth AbsRel and δ<1.25 after
+    a median scale, and instance recall (decoded instances with mask IoU ≥ 0.5 per reference instance)."""
+    import torch
+
+    from .data import example
+    from .decode import instances, median_scaled
+    from .labels import OBJECT
+
+    net.eval()
+    counts = {"surface": [0, 0], "category": [0, 0], "recall": [0, 0]}
+    absrel, delta = [], []
+    with torch.no_grad():
+        for start in range(0, len(indices), batch_size):
+            items = [example(pack, int(i), None) for i in indices[start:start + batch_size]]
+            images = torch.from_numpy(np.stack([it["image"] for it in items])).to(device).float() / 255.0
+            out = {k: v.float().cpu().numpy() for k, v in net(images).items()}
+            for b, item in enumerate(items):
+                surface = out["surface"][b].argmax(0)
+                counts["surface"][0] += int((surface == item["surface"]).sum())
+                counts["surface"][1] += surface.size
+                labelled = item["category"] >= 0
+                counts["category"][0] += int((out["category"][b].argmax(0)[labelled] == item["category"][labelled]).sum())
+                counts["category"][1] += int(labelled.sum())
+                reference = item["depth"][0]
+                if (reference > 0).any():
+                    depth = median_scaled(out["depth"][b][0], reference)[reference > 0]
+                    truth = reference[reference > 0]
+                    absrel.append(float(np.mean(np.abs(depth - truth) / truth)))
+                    delta.append(float(np.mean(np.maximum(depth / truth, truth / depth) < 1.25)))
+                found = instances(out["surface"][b], out["category"][b], out["center"][b], out["offset"][b])
+                truth_ids = [v for v in np.unique(pack.instance[int(indices[start + b])]) if v != 0]
+                instance_map = pack.instance[int(indices[start + b])]
+                for value in truth_ids:
+                    mask = (instance_map == value) & (item["surface"] == OBJECT)
+                    if mask.sum() < 6:
+                        continue
+                    counts["recall"][1] += 1
+                    counts["recall"][0] += any((m.mask & mask).sum() / (m.mask | mask).sum() >= 0.5 for m in found)
+    net.train()
+    return {"surface_accuracy": counts["surface"][0] / max(counts["surface"][1], 1),
+            "category_accuracy": counts["category"][0] / max(counts["category"][1], 1),
+            "instance_recall": counts["recall"][0] / max(counts["recall"][1], 1),
+            "depth_absrel": float(np.mean(absrel)) if absrel else float("nan"),
+            "depth_delta1": float(np.mean(delta)) if delta else float("nan")}
+
+
+_PACK = None
+
+
+def _keep_pack(pack) -> None:  # a worker process's pack (inherited by fork, not pickled)
+    global _PACK
+    _PACK = pack
+
+
+def _make_batch(group: tuple[np.ndarray, np.ndarray]) -> dict[str, np.ndarray]:
+    from .data import example
+
+    items = [example(_PACK, int(i), np.random.default_rng(int(s))) for i, s in zip(*group)]
+    return {key: np.stack([it[key] for it in items]) for key in items[0]}
+
+
+def _batches(pack, indices: np.ndarray, batch_size: int, seed: int, epoch: int, workers: int):
+    """Augmented training batches of one epoch (numpy), shuffled by (seed, epoch); made by ``workers``
+    processes when more than one (each sample's augmentation is seeded, so the batches are the same)."""
+    rng = np.random.default_rng([seed, epoch])
+    order = rng.permutation(indices)
+    seeds = rng.integers(0, 2**31, len(order))
+    groups = [(order[k:k + batch_size], seeds[k:k + batch_size]) for k in range(0, len(order) - batch_size + 1, batch_size)]
+    _keep_pack(pack)
+    if workers <= 1:
+        yield from (_make_batch(g) for g in groups)
+        return
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
+        yield from pool.map(_make_batch, groups)
+
+
+def _commit() -> str:
+    try:
+        return subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=True,
+                              cwd=Path(__file__).resolve().parent).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+
+
+def plot(history: list[dict], path: Path) -> None:
+    """Training loss per epoch and validation scores, as a PNG."""
+    import cv2
+
+    from psdr_room_core.method.visualize import plot_curves
+
+    curves = {"training loss": [h["loss"] for h in history]}
+    for key in ("surface_accuracy", "category_accuracy", "instance_recall", "depth_absrel"):
+        curves[f"validation {key}"] = [h[key] for h in history]
+    cv2.imwrite(str(path), plot_curves(curves, size=(640, 300), title="eyes training (per epoch)")[..., ::-1])
+
+
+def train(args: argparse.Namespace) -> dict:
+    """Train (or resume) per ``args``; the final validation scores."""
+    import torch
+
+    from .data import Pack, build_pack
+    from .network import EyesNet, export_onnx
+
+    torch.manual_seed(args.seed)
+    device = ("cuda" if torch.cuda.is_available() else "cpu") if args.device == "auto" else args.device
+    if device == "cpu":
+        torch.set_num_threads(args.threads or os.cpu_count() or 1)
+    else:
+        torch.backends.cudnn.benchmark = True  # one input size: let cuDNN pick its fastest convolutions
+    args.out.mkdir(parents=True, exist_ok=True)
+    pack_path = args.pack or args.out / "pack.npz"
+    if args.pack is None and not pack_path.is_file():
+        print(f"psdr-room-train: packing {args.data} into {pack_path}", flush=True)
+        build_pack(args.data, pack_path, limit=args.limit)
+    pack = Pack.load(pack_path)
+    training, held = pack.split(args.validation)
+    net = EyesNet().to(device)
+    for key in net.encoder.frozen(args.freeze):
+        net.encoder.params[key].requires_grad_(False)
+    groups = [{"params": [p for p in net.encoder_parameters() if p.requires_grad], "lr": args.lr_encoder},
+              {"params": net.head_parameters(), "lr": args.lr_head}]
+    optimiser = torch.optim.AdamW([g for g in groups if g["params"]], weight_decay=1e-4)
+    steps_per_epoch = max(1, len(training) // args.batch)
+    total = args.epochs * steps_per_epoch if not args.steps else args.steps
+    base = [g["lr"] for g in optimiser.param_groups]
+    checkpoint = args.out / "checkpoint.pt"
+    history: list[dict] = []
+    epoch = step = 0
+    if checkpoint.is_file():
+        state = torch.load(checkpoint, map_location=device, weights_only=False)
+        net.load_state_dict(state["net"])
+        optimiser.load_state_dict(state["optimiser"])
+        epoch, step, history = state["epoch"], state["step"], state["history"]
+        print(f"psdr-room-train: resuming {checkpoint} at epoch {epoch}, step {step}", flush=True)
+    print(f"psdr-room-train: {len(training)} training and {len(held)} held-out samples, batch {args.batch}, "
+          f"{total} steps on {device}, encoder frozen: {args.freeze}", flush=True)
+    net.train()
+    first, began = step, time.monotonic()
+    while step < total:
+        sums, count = {}, 0
+        for batch in _batches(pack, training, args.batch, args.seed, epoch, args.workers):
+            if step >= total:
+                break
+            warm = min(1.0, (step + 1) / args.warmup)
+            for group, lr in zip(optimiser.param_groups, base):
+                group["lr"] = lr * warm * 0.5 * (1 + math.cos(math.pi * step / total))
+            tensors = {k: torch.from_numpy(v).to(device, non_blocking=True) for k, v in batch.items()}
+            terms = losses(net(tensors["image"].float() / 255.0), tensors)
+            loss = sum(LOSS_WEIGHTS[k] * v for k, v in terms.items())
+            optimiser.zero_grad(set_to_none=True)
+            loss.backward()
+            torch.nn.utils.clip_grad_norm_(net.parameters(), 5.0)
+            optimiser.step()
+            step += 1
+            count += 1
+            if args.minutes and step == first + TIMING_STEPS:  # fit the schedule into the time given
+                per_step = (time.monotonic() - began) / TIMING_STEPS
+                total = min(total, first + TIMING_STEPS + int(args.minutes * 60 * 0.85 / per_step))
+                print(f"psdr-room-train: {per_step:.3f} s per step: {total} steps in {args.minutes} min", flush=True)
+            for k, v in {"loss": loss, **terms}.items():
+                sums[k] = sums.get(k, 0.0) + float(v)
+        epoch += 1
+        if epoch % args.validate_every and step < total:
+            continue
+        scores = validate(net, pack, held, device, args.batch)
+        history.append({"epoch": epoch, "step": step, "seconds": time.monotonic() - began,
+                        **{k: v / max(count, 1) for k, v in sums.items()}, **scores})
+        print("psdr-room-train: " + " ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
+                                             for k, v in history[-1].items()), flush=True)
+        partial = checkpoint.with_suffix(".part")
+        torch.save({"net": net.state_dict(), "optimiser": optimiser.state_dict(), "epoch": epoch, "step": step,
+                    "history": history}, partial)
+        partial.replace(checkpoint)
+        plot(history, args.out / "curves.png")
+    onnx_path = export_onnx(net.cpu(), args.out / "eyes.onnx", half=True)
+    note = {"sha256": hashlib.sha256(onnx_path.read_bytes()).hexdigest(), "command": " ".join(sys.argv),
+            "commit": _commit(), "data_seeds": [int(pack.seeds.min()), int(pack.seeds.max())],
+            "samples": len(pack), "held_out": len(held), "epochs": epoch, "steps": step, "device": device,
+            "freeze": args.freeze, "validation": history[-1] if history else {}}
+    (args.out / "eyes.json").write_text(json.dumps(note, indent=2) + "\n")
+    print(f"psdr-room-train: wrote {onnx_path} ({onnx_path.stat().st_size / 1e6:.1f} MB)", flush=True)
+    return note["validation"]
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    """Entry point of ``psdr-room-train``."""
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+    parser = argparse.ArgumentParser(description="Train the eyes network on a psdr-room-synth-data data set.")
+    parser.add_argument("--data", type=Path, help="data set folder (packed into OUT/pack.npz on first use)")
+    parser.add_argument("--pack", type=Path, help="a pack made before (instead of --data)")
+    parser.add_argument("--out", type=Path, required=True, help="run folder: checkpoint, curves, eyes.onnx")
+    parser.add_argument("--epochs", type=int, default=12)
+    parser.add_argument("--steps", type=int, default=0, help="stop after this many steps (0: the epochs')")
+    parser.add_argument("--minutes", type=float, default=0.0,
+                        help="fewer steps when the epochs' would take longer than this (timed on the first steps)")
+    parser.add_argument("--batch", type=int, default=8)
+    parser.add_argument("--lr-head", type=float, default=1e-3)
+    parser.add_argument("--lr-encoder", type=float, default=1e-4)
+    parser.add_argument("--warmup", type=int, default=200, help="steps of linear learning-rate warm-up")
+    parser.add_argument("--freeze", choices=FREEZE, default="stride8")
+    parser.add_argument("--validation", type=float, default=0.05, help="fraction of samples held out")
+    parser.add_argument("--validate-every", type=int, default=1, help="score the held-out samples (and save a "
+                        "checkpoint) every this many epochs, and after the last")
+    parser.add_argument("--limit", type=int, help="pack at most this many samples")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--device", default="auto", help="auto, cpu or cuda")
+    parser.add_argument("--threads", type=int, default=0, help="torch threads on the CPU (0: one per core)")
+    parser.add_argument("--workers", type=int, default=1, help="processes making augmented batches")
+    args = parser.parse_args(argv)
+    if args.data is None and args.pack is None:
+        parser.error("give --data (a psdr-room-synth-data folder) or --pack")
+    if args.pack is not None and not args.pack.is_file():
+        parser.error(f"--pack {args.pack}: no such file (make one with --data)")
+    if args.pack is None and not (args.out / "pack.npz").is_file() and not any(args.data.glob("*.npz")):
+        parser.error(f"--data {args.data}: no samples there (make them with psdr-room-synth-data --out {args.data})")
+    if min(args.batch, args.epochs) < 1 or not 0 < args.validation < 1:
+        parser.error("--batch and --epochs must be at least 1 and --validation between 0 and 1")
+    train(args)

@@ -1,0 +1,196 @@
+"""The eyes network's parts: the data engine's labels, the encoder read from the bundled ONNX, training, export."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from psdr_room_core.engine.plugins import plugin_system
+from psdr_room_plugins.eyes import labels
+from psdr_room_plugins.object_db.database import CATEGORIES
+from psdr_room_plugins.synth.dataset import label_maps, main, photo_textures, render_photo, sample_room, tools
+
+
+@pytest.fixture(scope="module")
+def made() -> dict:
+    return tools(plugin_system().registry)
+
+
+def test_the_network_classes_are_the_databases_categories() -> None:
+    assert labels.CATEGORIES == CATEGORIES
+
+
+def _nearest_hits(origin: np.ndarray, directions: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(distance along each ray, index of the triangle hit first; inf / -1 where none): Möller-Trumbore on every
+    ray-triangle pair, written here so that it shares nothing with the renderer."""
+    a, b, c = triangles[:, 0], triangles[:, 1], triangles[:, 2]
+    e1, e2 = b - a, c - a
+    best_t, best = np.full(len(directions), np.inf), np.full(len(directions), -1)
+    for start in range(0, len(triangles), 512):
+        s = slice(start, start + 512)
+        p = np.cross(directions[:, None], e2[None, s])
+        det = np.einsum("rtk,tk->rt", p, e1[s])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = 1.0 / det
+            tv = origin - a[s]
+            u = np.einsum("rtk,tk->rt", p, tv) * inv
+            q = np.cross(tv, e1[s])
+            v = np.einsum("rk,tk->rt", directions, q) * inv
+            t = np.einsum("tk,tk->t", q, e2[s])[None] * inv
+        ok = (np.abs(det) > 1e-12) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-6)
+        t = np.where(ok, t, np.inf)
+        k = t.argmin(axis=1)
+        nearer = t[np.arange(len(t)), k] < best_t
+        best_t[nearer], best[nearer] = t[np.arange(len(t)), k][nearer], start + k[nearer]
+    return best_t, best
+
+
+def test_labels_of_a_generated_room_are_exact_at_pixel_centres(made: dict) -> None:
+    """Every pixel's class, instance and depth match an independent ray cast through its centre."""
+    sample = sample_room(3, made["database"], made["library"], [], width=64, height=48)
+    maps = label_maps(sample, made["renderer"])
+    meshes = {**sample.meshes, **{n: m for n, (m, _) in sample.emitters.items()}}
+    triangles = np.concatenate([m.vertices[m.faces] for m in meshes.values()])
+    owner = np.concatenate([np.full(len(m.faces), k) for k, m in enumerate(meshes.values())])
+    camera, pose = sample.camera, sample.camera_to_world
+    v, u = np.mgrid[0:camera.height, 0:camera.width] + 0.5
+    rays = np.stack([(u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, np.ones_like(u)], -1).reshape(-1, 3)
+    depth, hit = _nearest_hits(pose[:3, 3], rays @ pose[:3, :3].T, triangles)  # t along a z = 1 ray is z-depth
+    truth = np.array([sample.labels[n] for n in meshes])[owner[hit]]
+    got = {k: maps[k].reshape(-1) for k in ("surface", "category", "instance")}
+    agree = [float((got[k] == truth[:, i]).mean()) for i, k in enumerate(("surface", "category", "instance"))]
+    assert min(agree) > 0.97, agree  # a pixel centre within a hair of an edge may go either way
+    # depth is a filtered mean of the renderer's samples (Gaussian film filter, 2 px radius): it lies within the
+    # true depths of the pixels around
+    grid = depth.reshape(camera.height, camera.width)
+    padded = np.pad(grid, 2, mode="reflect", reflect_type="odd")  # the border pixels reach beyond the last centre
+    around = np.stack([padded[2 + dy:2 + dy + camera.height, 2 + dx:2 + dx + camera.width]
+                       for dy in range(-2, 3) for dx in range(-2, 3)])
+    low, high = (a.reshape(-1) for a in (around.min(axis=0), around.max(axis=0)))
+    same = (got["instance"] == truth[:, 2]) & (got["surface"] == truth[:, 0]) & (maps["depth"].reshape(-1) > 0)
+    assert same.mean() > 0.9
+    got_depth = maps["depth"].reshape(-1).astype(float)
+    inside = (got_depth >= low * 0.99) & (got_depth <= high * 1.01)  # float16 and the filter's tails
+    assert inside[same].all(), np.abs(got_depth - depth)[same & ~inside]
+    assert np.median(np.abs(got_depth - depth)[same] / depth[same]) < 5e-3
+    assert {labels.SURFACES[s] for s in np.unique(got["surface"])} >= {"wall", "floor", "object"}
+
+
+def test_the_data_engine_is_deterministic_and_writes_whole_samples(tmp_path: Path, made: dict) -> None:
+    main(["--out", str(tmp_path), "--seeds", "5", "--spp", "2", "--width", "48", "--height", "36"])
+    first = (tmp_path / "000005.jpg").read_bytes(), dict(np.load(tmp_path / "000005.npz"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["000005.jpg", "000005.npz"]
+    (tmp_path / "000005.jpg").unlink()
+    main(["--out", str(tmp_path), "--seeds", "5", "--spp", "2", "--width", "48", "--height", "36"])
+    again = dict(np.load(tmp_path / "000005.npz"))
+    assert all(np.array_equal(first[1][k], again[k]) for k in first[1])
+    image = render_photo(sample_room(5, made["database"], made["library"], [], 48, 36), made["renderer"],
+                         made["denoiser"], 2)
+    assert image.shape == (36, 48, 3) and image.std() > 5
+
+
+def test_photo_textures_take_the_colour_map_of_a_set(tmp_path: Path) -> None:
+    for name in ("set/wood_diff_1k.jpg", "set/wood_nor_gl_1k.jpg", "set/wood_rough_1k.jpg", "plain/brick.png"):
+        (tmp_path / name).parent.mkdir(exist_ok=True)
+        (tmp_path / name).write_bytes(b"")
+    assert [p.name for p in photo_textures(tmp_path)] == ["brick.png", "wood_diff_1k.jpg"]
+
+
+def test_the_encoder_read_from_the_onnx_gives_the_onnxs_feature_maps() -> None:
+    import onnx
+    import onnxruntime as ort
+    import torch
+
+    from psdr_room_plugins.eyes.encoder import FEATURES, OnnxEncoder, default_onnx
+
+    model = onnx.load(str(default_onnx()))
+    for tensor in FEATURES.values():
+        model.graph.output.append(onnx.helper.make_tensor_value_info(tensor, onnx.TensorProto.FLOAT, None))
+    x = np.random.default_rng(0).normal(size=(1, 3, 416, 416)).astype(np.float32)
+    expected = ort.InferenceSession(model.SerializeToString()).run(list(FEATURES.values()), {"image": x})
+    with torch.no_grad():
+        got = OnnxEncoder()(torch.from_numpy(x))
+    for (name, value), reference in zip(got.items(), expected):
+        assert value.shape == reference.shape and np.abs(value.numpy() - reference).max() < 1e-4, name
+    with torch.no_grad():  # any size runs: 240 rows are not a multiple of 32
+        assert OnnxEncoder()(torch.zeros(1, 3, 240, 320))["p5"].shape == (1, 128, 8, 10)
+
+
+@pytest.fixture(scope="module")
+def pack(tmp_path_factory: pytest.TempPathFactory, made: dict):
+    from psdr_room_plugins.eyes.data import build_pack
+
+    folder = tmp_path_factory.mktemp("eyes_data")
+    main(["--out", str(folder), "--seeds", "1-4", "--spp", "2"])
+    return build_pack(folder, folder / "pack.npz")
+
+
+def test_two_training_steps_lower_the_loss(pack) -> None:
+    import torch
+
+    from psdr_room_plugins.eyes.data import example
+    from psdr_room_plugins.eyes.network import EyesNet
+    from psdr_room_plugins.eyes.train import LOSS_WEIGHTS, losses
+
+    torch.manual_seed(0)
+    net = EyesNet()
+    items = [example(pack, i, None) for i in range(len(pack))]
+    batch = {k: torch.from_numpy(np.stack([it[k] for it in items])) for k in items[0]}
+    batch["image"] = batch["image"].float() / 255.0
+    optimiser = torch.optim.AdamW([{"params": net.head_parameters(), "lr": 1e-3},
+                                   {"params": net.encoder_parameters(), "lr": 1e-4}])
+
+    def total() -> torch.Tensor:
+        return sum(LOSS_WEIGHTS[k] * v for k, v in losses(net(batch["image"]), batch).items())
+
+    first = total()
+    for _ in range(2):
+        optimiser.zero_grad()
+        total().backward()
+        optimiser.step()
+    with torch.no_grad():
+        assert float(total()) < float(first)
+
+
+def test_psdr_room_train_resumes_and_exports_a_network_onnxruntime_runs(pack, tmp_path: Path) -> None:
+    import onnxruntime as ort
+
+    from psdr_room_plugins.eyes.network import OUTPUTS
+    from psdr_room_plugins.eyes.train import main as train
+
+    pack_file = tmp_path / "pack.npz"
+    pack.save(pack_file)
+    run = ["--pack", str(pack_file), "--out", str(tmp_path / "run"), "--batch", "2", "--validation", "0.25"]
+    train([*run, "--steps", "1"])
+    train([*run, "--steps", "2"])
+    note = json.loads((tmp_path / "run" / "eyes.json").read_text())
+    assert note["steps"] == 2 and note["samples"] == 4 and note["held_out"] == 1
+    assert note["sha256"] == hashlib.sha256((tmp_path / "run" / "eyes.onnx").read_bytes()).hexdigest()
+    assert (tmp_path / "run" / "curves.png").is_file()
+    session = ort.InferenceSession(str(tmp_path / "run" / "eyes.onnx"))
+    out = session.run(None, {"image": np.full((1, 3, 240, 320), 0.5, np.float32)})
+    assert [o.shape[1] for o in out] == list(OUTPUTS.values()) and all(np.isfinite(o).all() for o in out)
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["--seeds", "abc"], "--seeds abc: give a range"),
+    (["--textures", "/no/such/folder"], "--textures /no/such/folder: no such folder"),
+])
+def test_the_data_engine_refuses_bad_arguments_in_one_line(tmp_path: Path, capsys: pytest.CaptureFixture,
+                                                           argv: list[str], says: str) -> None:
+    with pytest.raises(SystemExit) as exit_:
+        main(["--out", str(tmp_path / "data"), *argv])
+    assert exit_.value.code == 2 and says in capsys.readouterr().err
+    assert not (tmp_path / "data").exists()
+
+
+def test_psdr_room_train_refuses_a_folder_without_samples(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from psdr_room_plugins.eyes.train import main as train
+
+    with pytest.raises(SystemExit) as exit_:
+        train(["--data", str(tmp_path), "--out", str(tmp_path / "run")])
+    assert exit_.value.code == 2 and "no samples there" in capsys.readouterr().err
