@@ -19,8 +19,12 @@ copied alone into a temporary folder and run through the ``psdr-room`` command w
   ``size``: fitted
   objects outside their category's real sizes (:mod:`psdr_room_core.method.sizes`); ``pen``: pairs passing
   through each other by more than 5 cm; ``out``: objects reaching more than 5 cm beyond the final room box;
-* ``si-log`` / ``AbsRel`` of the estimated depth against sensor depth (a ``*depth*`` image in the photo's
-  folder, decoded as ``gt_depth_format`` says), on the pixels both have;
+* ``si-log`` / ``AbsRel`` / ``δ1`` (share of pixels within 1.25× after a median scale) of the estimated depth
+  against sensor depth (a ``*depth*`` image in the photo's folder, decoded as ``gt_depth_format`` says), on
+  the pixels both have;
+* ``w/f/c``: wall/floor/ceiling pixel accuracy of the segmentation against the polygons drawn by hand in
+  ``benchmarks/layout_labels/`` (LabelMe files whose ``imagePath`` names the photo as ``index.csv`` does; only
+  the pixels they label count);
 * RMSE (1/8-size images) and SSIM of the render against the photo at initialisation and after the fit;
 * the wall time of the run; a second table gives every stage's compute time.
 
@@ -47,7 +51,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -69,6 +73,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from preprocess import depth_errors  # noqa: E402  (sibling benchmark)
 
 REPO = Path(__file__).resolve().parents[1]
+LAYOUT_LABELS = REPO / "benchmarks" / "layout_labels"
 PHOTOS = REPO.parent / "shared" / "data" / "photos"
 OUT = REPO / "outputs" / "benchmarks" / "real_photos"
 IOU = 0.5
@@ -284,7 +289,18 @@ def evaluate(entry: Entry, run_dir: Path, db: ObjectDatabase, seconds: float, sh
         truth = cv2.resize(truth, size, interpolation=cv2.INTER_NEAREST)
         valid = cv2.resize(valid.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST).astype(bool)
         depth = DepthMap.load(art / "depth")
-        row["silog"], row["absrel"] = depth_errors(depth.depth, truth, valid & depth.valid & (depth.depth > 0))
+        both = valid & depth.valid & (depth.depth > 0)
+        row["silog"], row["absrel"] = depth_errors(depth.depth, truth, both)
+        scaled = depth.depth[both] * np.median(truth[both] / depth.depth[both])
+        row["delta1"] = float(np.mean(np.maximum(scaled / truth[both], truth[both] / scaled) < 1.25))
+    labels = room_labels(entry, (image.width, image.height))
+    if labels is not None:
+        category = np.array([""] + [s.category for s in panoptic.segments], dtype=object)
+        lookup = {s.id: k + 1 for k, s in enumerate(panoptic.segments)}
+        index = np.vectorize(lambda v: lookup.get(int(v), 0), otypes=[np.int64])(panoptic.ids)
+        predicted = category[index]
+        labelled = labels != ""
+        row["room_accuracy"] = float(np.mean(predicted[labelled] == labels[labelled]))
     fit = metrics.get("fit_appearance_log", {})
     for key in ("rmse_init", "rmse", "ssim_init", "ssim", "flip_init", "flip", "denoiser"):
         if key in fit:
@@ -293,6 +309,25 @@ def evaluate(entry: Entry, run_dir: Path, db: ObjectDatabase, seconds: float, sh
     write_sheet(sheets / f"{entry.name}.png", image, panoptic, fitted_masks, references, matched_refs,
                 cv2.imread(str(render))[..., ::-1] if render.is_file() else None)
     return row
+
+
+def room_labels(entry: Entry, size: tuple[int, int]) -> np.ndarray | None:
+    """The hand-drawn wall/floor/ceiling label of each pixel ('' where none) at ``size`` (width, height), from
+    the LabelMe file of ``LAYOUT_LABELS`` that names the photo; None when there is none."""
+    name = f"{entry.image.parent.name}/{entry.image.name}"
+    for file in sorted(LAYOUT_LABELS.glob("*.json")):
+        data = json.loads(file.read_text())
+        if data.get("imagePath") != name:
+            continue
+        label = np.zeros((entry.size[1], entry.size[0]), np.uint8)
+        classes = ("", "wall", "floor", "ceiling")
+        for shape in data["shapes"]:
+            if shape["label"] in classes[1:]:
+                points = np.round(np.asarray(shape["points"], np.float64)).astype(np.int32)
+                cv2.fillPoly(label, [points], classes.index(shape["label"]))
+        small = cv2.resize(label, size, interpolation=cv2.INTER_NEAREST)
+        return np.array(classes, dtype=object)[small]
+    return None
 
 
 def physical_rows(placements: Placements, room: RoomBox | None, db: ObjectDatabase, camera: Camera) -> dict:
@@ -368,7 +403,7 @@ PHYSICAL = (("lost", "lost"), ("dup", "duplicates"), ("size", "implausible"), ("
 def format_table(rows: list[dict]) -> str:
     header = (f"{'photo':<24} {'FoV err':>7} {'segs':>4} {'fit':>4} {'seg rec':>7} {'obj rec':>7} "
               + " ".join(f"{c:>4}" for c, _ in PHYSICAL)
-              + f" {'si-log':>6} {'AbsRel':>6} {'RMSE init→fit':>15} {'SSIM init→fit':>13} {'FLIP init→fit':>13} {'s':>5}")
+              + f" {'si-log':>6} {'AbsRel':>6} {'δ1':>5} {'w/f/c':>5} {'RMSE init→fit':>15} {'SSIM init→fit':>13} {'FLIP init→fit':>13} {'s':>5}")
     lines = [header, "-" * len(header)]
     for r in rows:
         rmse = f"{r['rmse_init']:.3f}→{r['rmse']:.3f}" if "rmse" in r else "-"
@@ -377,7 +412,8 @@ def format_table(rows: list[dict]) -> str:
         counts = " ".join(f"{_count(r, key) if key in r else '-':>4}" for _, key in PHYSICAL)
         lines.append(f"{r['photo']:<24} {_cell(r.get('fov_error'), '+.2f', 7)} {r['segments']:>4} {r['fitted']:>4} "
                      f"{_ratio(r, 'seg_recall'):>7} {_ratio(r, 'obj_recall'):>7} {counts} {_cell(r.get('silog'), '.3f', 6)} "
-                     f"{_cell(r.get('absrel'), '.3f', 6)} {rmse:>15} {ssim:>13} {flip:>13} {r['seconds']:5.0f}")
+                     f"{_cell(r.get('absrel'), '.3f', 6)} {_cell(r.get('delta1'), '.2f', 5)} "
+                     f"{_cell(r.get('room_accuracy'), '.2f', 5)} {rmse:>15} {ssim:>13} {flip:>13} {r['seconds']:5.0f}")
     boxed = [r for r in rows if "references" in r]
     fov = [abs(r["fov_error"]) for r in rows if "fov_error" in r]
     refs = sum(r["references"] for r in boxed)
@@ -390,9 +426,11 @@ def format_table(rows: list[dict]) -> str:
         f"{(str(sum(r['obj_recall'] for r in boxed)) + '/' + str(refs)) if boxed else '-':>7} "
         + " ".join(f"{sum(_count(r, key) for r in rows):>4}" for _, key in PHYSICAL) +
         f" {_cell(_median(rows, 'silog'), '.3f', 6)} {_cell(_median(rows, 'absrel'), '.3f', 6)} "
+        f"{_cell(_median(rows, 'delta1'), '.2f', 5)} {_cell(_mean(rows, 'room_accuracy'), '.2f', 5)} "
         f"{_better(improved, 'rmse', lower=True):>15} {_better(improved, 'ssim', lower=False):>13} "
         f"{_better([r for r in improved if 'flip' in r], 'flip', lower=True):>13} {sum(r['seconds'] for r in rows):5.0f}")
-    lines.append("(FoV err: median |error| in the total row; si-log, AbsRel: medians; RMSE/SSIM/FLIP: photos improved by "
+    lines.append("(FoV err: median |error| in the total row; si-log, AbsRel, δ1: medians; w/f/c: mean wall/floor/ceiling "
+                 "pixel accuracy; RMSE/SSIM/FLIP: photos improved by "
                  "the fit (renders denoised unless denoiser=none); recall at box IoU >= 0.5; lost: references a segment "
                  "matches and no fitted object does; dup, size, pen, out: duplicate pairs, implausible sizes, pairs "
                  f"through each other and objects beyond the room by > {PENETRATION * 100:g} cm)")
@@ -409,6 +447,11 @@ def format_table(rows: list[dict]) -> str:
 def _median(rows: list[dict], key: str) -> float | None:
     values = [r[key] for r in rows if key in r]
     return float(np.median(values)) if values else None
+
+
+def _mean(rows: list[dict], key: str) -> float | None:
+    values = [r[key] for r in rows if key in r]
+    return float(np.mean(values)) if values else None
 
 
 def _better(rows: list[dict], key: str, lower: bool) -> str:
@@ -430,8 +473,8 @@ def stage_table(rows: list[dict]) -> str:
 def compare_table(before: list[dict], after: list[dict]) -> str:
     """Recall and fit columns of an earlier run (``before``) beside this one's, per photo."""
     old = {r["photo"]: r for r in before}
-    header = (f"{'photo':<24} {'segs':>9} {'fit':>9} {'seg rec':>13} {'obj rec':>13} {'lost':>7} {'RMSE fit':>13} "
-              f"{'SSIM fit':>13} {'FLIP fit':>13}")
+    header = (f"{'photo':<24} {'segs':>9} {'fit':>9} {'seg rec':>13} {'obj rec':>13} {'lost':>7} {'AbsRel':>13} "
+              f"{'δ1':>11} {'w/f/c':>11} {'RMSE fit':>13} {'SSIM fit':>13} {'FLIP fit':>13}")
     lines = [header, "-" * len(header)]
 
     def pair(a: dict | None, b: dict, key: str, fmt: str = "") -> str:
@@ -445,8 +488,32 @@ def compare_table(before: list[dict], after: list[dict]) -> str:
         o = old.get(r["photo"])
         lost = f"{_count(o, 'lost') if o and 'lost' in o else '-'}→{_count(r, 'lost') if 'lost' in r else '-'}"
         lines.append(f"{r['photo']:<24} {pair(o, r, 'segments'):>9} {pair(o, r, 'fitted'):>9} "
-                     f"{pair(o, r, 'seg_recall'):>13} {pair(o, r, 'obj_recall'):>13} {lost:>7} {pair(o, r, 'rmse', '.3f'):>13} "
+                     f"{pair(o, r, 'seg_recall'):>13} {pair(o, r, 'obj_recall'):>13} {lost:>7} "
+                     f"{pair(o, r, 'absrel', '.3f'):>13} {pair(o, r, 'delta1', '.2f'):>11} "
+                     f"{pair(o, r, 'room_accuracy', '.2f'):>11} {pair(o, r, 'rmse', '.3f'):>13} "
                      f"{pair(o, r, 'ssim', '.3f'):>13} {pair(o, r, 'flip', '.3f'):>13}")
+
+    def total(rows: list[dict], key: str) -> str:
+        boxed = [r for r in rows if "references" in r]
+        return f"{sum(r[key] for r in boxed)}/{sum(r['references'] for r in boxed)}" if boxed else "-"
+
+    def summary(rows: list[dict], key: str, how: Callable[[list[float]], float], fmt: str) -> str:
+        values = [r[key] for r in rows if key in r]
+        return format(how(values), fmt) if values else "-"
+
+    shown = {r["photo"] for r in after}
+    earlier = [o for o in before if o["photo"] in shown]
+    lines.append("-" * len(header))
+    lines.append(f"{'total (' + str(len(after)) + ' photos)':<24} "
+                 f"{str(sum(r['segments'] for r in earlier)) + '→' + str(sum(r['segments'] for r in after)):>9} "
+                 f"{str(sum(r['fitted'] for r in earlier)) + '→' + str(sum(r['fitted'] for r in after)):>9} "
+                 f"{total(earlier, 'seg_recall') + '→' + total(after, 'seg_recall'):>13} "
+                 f"{total(earlier, 'obj_recall') + '→' + total(after, 'obj_recall'):>13} "
+                 f"{str(sum(_count(r, 'lost') for r in earlier)) + '→' + str(sum(_count(r, 'lost') for r in after)):>7} "
+                 f"{summary(earlier, 'absrel', np.median, '.3f') + '→' + summary(after, 'absrel', np.median, '.3f'):>13} "
+                 f"{summary(earlier, 'delta1', np.median, '.2f') + '→' + summary(after, 'delta1', np.median, '.2f'):>11} "
+                 f"{summary(earlier, 'room_accuracy', np.mean, '.2f') + '→' + summary(after, 'room_accuracy', np.mean, '.2f'):>11}")
+    lines.append("(total: recall sums, median AbsRel and δ1, mean w/f/c)")
     return "\n".join(lines)
 
 

