@@ -3,46 +3,8 @@
 - :mod:`.labels`: its classes; :mod:`.encoder`: the bundled NanoDet-g read from its ONNX as a torch module;
   :mod:`.network`: encoder + heads, ONNX export; :mod:`.data`: packs, augmentation, targets;
   :mod:`.train`: ``psdr-room-train``; :mod:`.decode`: what the outputs mean (numpy);
-- :mod:`.perception`: ``segmentation=eyes``, ``depth=eyes`` and ``detector=eyes`` (onnxruntime only).
+- :mod:`.perception`: ``segmentation=eyes``, ``depth=eyes`` and ``detector=eyes`` (onnxruntime only), registered
+  by :mod:`.plugin` (the entry point; this package imports nothing, so training runs with torch, onnx and cv2).
 
 The data it learns from comes from ``psdr-room-synth-data`` (:mod:`psdr_room_plugins.synth.dataset`).
 """
-
-from __future__ import annotations
-
-from dataclasses import dataclass
-from typing import Optional
-
-from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Registry
-from psdr_room_core.engine.settings import setting
-
-
-@dataclass
-class EyesSettings:
-    """Which network file, onnxruntime's threads, and how instances are read from its outputs."""
-
-    path: Optional[str] = setting()
-    intra_op_threads: int = setting(ge=0)
-    center_threshold: float = setting(gt=0, lt=1)
-    min_instance_fraction: float = setting(ge=0, lt=1)
-
-
-def _factory(kind: str):  # type: ignore[no-untyped-def]
-    def make(**params: object) -> object:
-        from . import perception  # onnxruntime and cv2 only when used
-
-        return getattr(perception, kind)(**params)
-
-    make.__doc__ = {"EyesSegmentation": "walls, floor, ceiling, windows, doors and furniture instances from "
-                                        "psdr-room's own network (trained on its renders)",
-                    "EyesDepth": "relative depth from psdr-room's own network (trained on its renders)",
-                    "EyesDetector": "furniture boxes from psdr-room's own network (trained on its renders)"}[kind]
-    return make
-
-
-@hookimpl
-def register_implementations(registry: Registry) -> None:
-    for capability, kind in (("segmentation", "EyesSegmentation"), ("depth", "EyesDepth"),
-                             ("detector", "EyesDetector")):
-        registry.add_implementation(capability, "eyes", _factory(kind), params=EyesSettings)
