@@ -92,7 +92,8 @@ def augment_photo(image: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """A render made to look like another camera's photo: exposure, gamma, white balance, saturation, blur,
     sensor noise and JPEG (uint8 RGB in and out)."""
     x = image.astype(np.float32) / 255.0
-    x = np.clip(x * rng.uniform(0.6, 1.4), 0, 1) ** rng.uniform(0.8, 1.25)
+    x = np.clip(x * np.exp(rng.uniform(np.log(0.6), np.log(2.0))), 0, 1) ** rng.uniform(0.7, 1.25)  # renders
+    # exposed for a bright window leave the room dark: brighten more often than darken
     x = x * rng.uniform(0.85, 1.15, 3)
     grey = x.mean(axis=2, keepdims=True)
     x = grey + (x - grey) * rng.uniform(0.6, 1.3)

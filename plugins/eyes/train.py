@@ -118,22 +118,25 @@ def _make_batch(group: tuple[np.ndarray, np.ndarray]) -> dict[str, np.ndarray]:
     return {key: np.stack([it[key] for it in items]) for key in items[0]}
 
 
-def _batches(pack, indices: np.ndarray, batch_size: int, seed: int, epoch: int, workers: int):
-    """Augmented training batches of one epoch (numpy), shuffled by (seed, epoch); made by ``workers``
-    processes when more than one (each sample's augmentation is seeded, so the batches are the same)."""
+def _batches(indices: np.ndarray, batch_size: int, seed: int, epoch: int, pool=None):
+    """Augmented training batches of one epoch (numpy) of the kept pack, shuffled by (seed, epoch); made by
+    ``pool``'s processes when given (each sample's augmentation is seeded, so the batches are the same)."""
     rng = np.random.default_rng([seed, epoch])
     order = rng.permutation(indices)
     seeds = rng.integers(0, 2**31, len(order))
     groups = [(order[k:k + batch_size], seeds[k:k + batch_size]) for k in range(0, len(order) - batch_size + 1, batch_size)]
+    yield from (pool.map(_make_batch, groups) if pool is not None else map(_make_batch, groups))
+
+
+def _workers(pack, count: int):
+    """A pool of ``count`` processes that inherit ``pack`` (fork: not copied per batch), or None for one."""
     _keep_pack(pack)
-    if workers <= 1:
-        yield from (_make_batch(g) for g in groups)
-        return
+    if count <= 1:
+        return None
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
-    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
-        yield from pool.map(_make_batch, groups)
+    return ProcessPoolExecutor(count, mp_context=multiprocessing.get_context("fork"))
 
 
 def _commit() -> str:
@@ -197,10 +200,11 @@ def train(args: argparse.Namespace) -> dict:
     print(f"psdr-room-train: {len(training)} training and {len(held)} held-out samples, batch {args.batch}, "
           f"{total} steps on {device}, encoder frozen: {args.freeze}", flush=True)
     net.train()
+    pool = _workers(pack, args.workers)
     first, began = step, time.monotonic()
     while step < total:
         sums, count = {}, 0
-        for batch in _batches(pack, training, args.batch, args.seed, epoch, args.workers):
+        for batch in _batches(training, args.batch, args.seed, epoch, pool):
             if step >= total:
                 break
             warm = min(1.0, (step + 1) / args.warmup)
@@ -234,6 +238,8 @@ def train(args: argparse.Namespace) -> dict:
                     "history": history}, partial)
         partial.replace(checkpoint)
         plot(history, args.out / "curves.png")
+    if pool is not None:
+        pool.shutdown(cancel_futures=True)
     onnx_path = export_onnx(net.cpu(), args.out / "eyes.onnx", half=True)
     note = {"sha256": hashlib.sha256(onnx_path.read_bytes()).hexdigest(), "command": " ".join(sys.argv),
             "commit": _commit(), "data_seeds": [int(pack.seeds.min()), int(pack.seeds.max())],
