@@ -140,11 +140,12 @@ def _workers(pack, count: int):
 
 
 def _commit() -> str:
+    """The code's git commit (``PSDR_ROOM_COMMIT`` where the checkout has no git, e.g. a copy on a GPU machine)."""
     try:
         return subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=True,
                               cwd=Path(__file__).resolve().parent).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
-        return "unknown"
+        return os.environ.get("PSDR_ROOM_COMMIT", "unknown")
 
 
 def plot(history: list[dict], path: Path) -> None:
@@ -241,7 +242,8 @@ def train(args: argparse.Namespace) -> dict:
     if pool is not None:
         pool.shutdown(cancel_futures=True)
     onnx_path = export_onnx(net.cpu(), args.out / "eyes.onnx", half=True)
-    note = {"sha256": hashlib.sha256(onnx_path.read_bytes()).hexdigest(), "command": " ".join(sys.argv),
+    note = {"sha256": hashlib.sha256(onnx_path.read_bytes()).hexdigest(),
+            "command": " ".join(["psdr-room-train", *sys.argv[1:]]),
             "commit": _commit(), "data_seeds": [int(pack.seeds.min()), int(pack.seeds.max())],
             "samples": len(pack), "held_out": len(held), "epochs": epoch, "steps": step, "device": device,
             "freeze": args.freeze, "validation": history[-1] if history else {}}
