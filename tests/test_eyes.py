@@ -194,3 +194,29 @@ def test_psdr_room_train_refuses_a_folder_without_samples(tmp_path: Path, capsys
     with pytest.raises(SystemExit) as exit_:
         train(["--data", str(tmp_path), "--out", str(tmp_path / "run")])
     assert exit_.value.code == 2 and "no samples there" in capsys.readouterr().err
+
+
+def test_the_shipped_network_is_whole_and_sees_the_example_room() -> None:
+    """The packaged eyes.onnx matches its note, fits the size budget, and on the bundled example (a real photo)
+    finds walls and a floor, some furniture, and a depth that grows towards the far wall."""
+    import cv2
+
+    from conftest import EXAMPLE
+    from psdr_room_core.method.artifacts import Camera, Detections, Image
+    from psdr_room_plugins.eyes.perception import SHIPPED, EyesDepth, EyesSegmentation, shipped_note
+
+    note = shipped_note()
+    assert note["sha256"] == hashlib.sha256(SHIPPED.read_bytes()).hexdigest()
+    assert SHIPPED.stat().st_size <= 25e6 and note["samples"] >= 1000
+    rgb = cv2.imread(str(EXAMPLE))[..., ::-1].astype(np.float32) / 255.0
+    image = Image(rgb=rgb)
+    camera = Camera(image.width, image.height, 519.0, 519.0, image.width / 2, image.height / 2)
+    panoptic = EyesSegmentation().segment(image, camera, Detections([]), EXAMPLE)
+    categories = {s.category for s in panoptic.segments}
+    assert {"wall", "floor"} <= categories and categories & {"object", "lamp"}
+    depth = EyesDepth().estimate(image, camera, panoptic, EXAMPLE)
+    assert depth.valid.all() and not depth.metric
+    floor = panoptic.ids == next(s.id for s in panoptic.segments if s.category == "floor")
+    rows = np.nonzero(floor.any(axis=1))[0]
+    near, far = rows.max(), rows.min()  # the floor recedes up the photo
+    assert np.median(depth.depth[near][floor[near]]) < np.median(depth.depth[far][floor[far]])

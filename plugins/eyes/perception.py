@@ -133,7 +133,16 @@ def _category(name: str) -> str:
 
 class EyesSegmentation(Eyes):
     """Panoptic segmentation by the eyes network: wall, floor and ceiling one segment each, windows and doors
-    per region, one segment per piece of furniture labelled with its category."""
+    per region, one segment per piece of furniture labelled with its category. It does not take box prompts:
+    ``segmentation=auto`` passes it over for a photo with the user's boxes beside it, which ``layout`` cuts out."""
+
+    def unavailable(self, photo: Path) -> str | None:
+        from psdr_room_plugins.detectors.boxes_file import sidecar_path
+
+        boxes = sidecar_path(photo)
+        if boxes.is_file():
+            return f"the photo has your boxes ({boxes.name}), which segmentation=layout cuts out"
+        return missing(self.path)
 
     def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic:
         out = self.outputs(image)

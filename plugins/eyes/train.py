@@ -25,7 +25,7 @@ import numpy as np
 
 LOSS_WEIGHTS = {"surface": 1.0, "category": 1.0, "center": 1.0, "offset": 0.1, "depth": 1.0}
 TIMING_STEPS = 20
-"""Steps timed before ``--minutes`` sets the number of steps."""
+"""``--minutes`` times steps TIMING_STEPS..2·TIMING_STEPS of a run (after its warm-up) to set the number of steps."""
 FREEZE = ("none", "stride8", "encoder")
 """What of the encoder stays fixed: nothing, the layers up to stride 8, or all of it (:meth:`.encoder.OnnxEncoder.frozen`)."""
 
@@ -140,12 +140,15 @@ def _workers(pack, count: int):
 
 
 def _commit() -> str:
-    """The code's git commit (``PSDR_ROOM_COMMIT`` where the checkout has no git, e.g. a copy on a GPU machine)."""
+    """The code's git commit: ``PSDR_ROOM_COMMIT`` when set (a copy of the checkout on another machine may carry
+    a stale or no ``.git``), else ``git rev-parse HEAD``."""
+    if os.environ.get("PSDR_ROOM_COMMIT"):
+        return os.environ["PSDR_ROOM_COMMIT"]
     try:
         return subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=True,
                               cwd=Path(__file__).resolve().parent).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
-        return os.environ.get("PSDR_ROOM_COMMIT", "unknown")
+        return "unknown"
 
 
 def plot(history: list[dict], path: Path) -> None:
@@ -202,7 +205,8 @@ def train(args: argparse.Namespace) -> dict:
           f"{total} steps on {device}, encoder frozen: {args.freeze}", flush=True)
     net.train()
     pool = _workers(pack, args.workers)
-    first, began = step, time.monotonic()
+    first = step
+    began = timed = time.monotonic()
     while step < total:
         sums, count = {}, 0
         for batch in _batches(training, args.batch, args.seed, epoch, pool):
@@ -220,12 +224,15 @@ def train(args: argparse.Namespace) -> dict:
             optimiser.step()
             step += 1
             count += 1
-            if args.minutes and step == first + TIMING_STEPS:  # fit the schedule into the time given
-                per_step = (time.monotonic() - began) / TIMING_STEPS
-                total = min(total, first + TIMING_STEPS + int(args.minutes * 60 * 0.85 / per_step))
+            if step == first + TIMING_STEPS:  # past the warm-up (first batches, cuDNN's choices): start the clock
+                timed = time.monotonic()
+            if args.minutes and step == first + 2 * TIMING_STEPS:  # fit the schedule into the time given
+                per_step = (time.monotonic() - timed) / TIMING_STEPS
+                left = args.minutes * 60 * 0.9 - (time.monotonic() - began)
+                total = min(total, step + max(0, int(left / per_step)))
                 print(f"psdr-room-train: {per_step:.3f} s per step: {total} steps in {args.minutes} min", flush=True)
             for k, v in {"loss": loss, **terms}.items():
-                sums[k] = sums.get(k, 0.0) + float(v)
+                sums[k] = sums.get(k, 0.0) + float(v.detach())
         epoch += 1
         if epoch % args.validate_every and step < total:
             continue
@@ -262,7 +269,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--epochs", type=int, default=12)
     parser.add_argument("--steps", type=int, default=0, help="stop after this many steps (0: the epochs')")
     parser.add_argument("--minutes", type=float, default=0.0,
-                        help="fewer steps when the epochs' would take longer than this (timed on the first steps)")
+                        help="fewer steps when the epochs' would take longer than this (timed after the warm-up)")
     parser.add_argument("--batch", type=int, default=8)
     parser.add_argument("--lr-head", type=float, default=1e-3)
     parser.add_argument("--lr-encoder", type=float, default=1e-4)
