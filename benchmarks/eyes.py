@@ -26,11 +26,20 @@ import cv2
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from real_photos import PHOTOS, REFERENCE_CLASSES, Entry, mask_box, match, read_index, read_references, room_labels  # noqa: E402
+from real_photos import (  # noqa: E402
+    PHOTOS,
+    REFERENCE_CLASSES,
+    Entry,
+    depth_scores,
+    mask_box,
+    match,
+    read_index,
+    read_references,
+    room_accuracy,
+)
 
 from psdr_room_core.method.artifacts import Camera, Detections, Image  # noqa: E402
 from psdr_room_plugins.eyes.perception import SHIPPED, EyesDepth, EyesSegmentation  # noqa: E402
-from psdr_room_plugins.sidecar_depth import read_depth  # noqa: E402
 
 MAX_SIDE = 800
 """The long side of the pipeline's working image (``load_image.max_side``)."""
@@ -53,23 +62,11 @@ def evaluate(entry: Entry, network: Path) -> dict:
         boxes = [b for b in (mask_box(panoptic.ids == s.id) for s in objects) if b is not None]
         row.update(references=len(references), seg_recall=len(match(references, boxes)))
     if entry.depth is not None:
-        file, encoding, units = entry.depth
-        truth, valid = read_depth(file, encoding=encoding, scale=units)
-        truth = cv2.resize(truth, (image.width, image.height), interpolation=cv2.INTER_NEAREST)
-        valid = cv2.resize(valid.astype(np.uint8), (image.width, image.height), interpolation=cv2.INTER_NEAREST) > 0
-        depth = EyesDepth(path=str(network)).estimate(image, camera, panoptic, entry.image).depth
-        both = valid & (depth > 0)
-        scaled = depth[both] * np.median(truth[both] / depth[both])
-        row["absrel"] = float(np.mean(np.abs(scaled - truth[both]) / truth[both]))
-        row["delta1"] = float(np.mean(np.maximum(scaled / truth[both], truth[both] / scaled) < 1.25))
-    labels = room_labels(entry, (image.width, image.height))
-    if labels is not None:
-        category = np.array([""] + [s.category for s in panoptic.segments], dtype=object)
-        index = np.zeros(panoptic.ids.shape, np.int64)
-        for k, s in enumerate(panoptic.segments):
-            index[panoptic.ids == s.id] = k + 1
-        labelled = labels != ""
-        row["room_accuracy"] = float(np.mean(category[index][labelled] == labels[labelled]))
+        depth = EyesDepth(path=str(network)).estimate(image, camera, panoptic, entry.image)
+        row.update(depth_scores(entry, depth.depth, depth.valid))
+    accuracy = room_accuracy(entry, panoptic)
+    if accuracy is not None:
+        row["room_accuracy"] = accuracy
     return row
 
 

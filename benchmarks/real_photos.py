@@ -283,24 +283,11 @@ def evaluate(entry: Entry, run_dir: Path, db: ObjectDatabase, seconds: float, sh
     else:
         matched_refs = set()
     if entry.depth is not None and (art / "depth").is_dir():
-        file, encoding, units = entry.depth
-        truth, valid = read_depth(file, encoding=encoding, scale=units)
-        size = (image.width, image.height)
-        truth = cv2.resize(truth, size, interpolation=cv2.INTER_NEAREST)
-        valid = cv2.resize(valid.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST).astype(bool)
         depth = DepthMap.load(art / "depth")
-        both = valid & depth.valid & (depth.depth > 0)
-        row["silog"], row["absrel"] = depth_errors(depth.depth, truth, both)
-        scaled = depth.depth[both] * np.median(truth[both] / depth.depth[both])
-        row["delta1"] = float(np.mean(np.maximum(scaled / truth[both], truth[both] / scaled) < 1.25))
-    labels = room_labels(entry, (image.width, image.height))
-    if labels is not None:
-        category = np.array([""] + [s.category for s in panoptic.segments], dtype=object)
-        lookup = {s.id: k + 1 for k, s in enumerate(panoptic.segments)}
-        index = np.vectorize(lambda v: lookup.get(int(v), 0), otypes=[np.int64])(panoptic.ids)
-        predicted = category[index]
-        labelled = labels != ""
-        row["room_accuracy"] = float(np.mean(predicted[labelled] == labels[labelled]))
+        row.update(depth_scores(entry, depth.depth, depth.valid))
+    accuracy = room_accuracy(entry, panoptic)
+    if accuracy is not None:
+        row["room_accuracy"] = accuracy
     fit = metrics.get("fit_appearance_log", {})
     for key in ("rmse_init", "rmse", "ssim_init", "ssim", "flip_init", "flip", "denoiser"):
         if key in fit:
@@ -309,6 +296,35 @@ def evaluate(entry: Entry, run_dir: Path, db: ObjectDatabase, seconds: float, sh
     write_sheet(sheets / f"{entry.name}.png", image, panoptic, fitted_masks, references, matched_refs,
                 cv2.imread(str(render))[..., ::-1] if render.is_file() else None)
     return row
+
+
+def depth_scores(entry: Entry, depth: np.ndarray, valid: np.ndarray) -> dict[str, float]:
+    """si-log, AbsRel and δ1 (after a median scale) of ``depth`` (working resolution) against the photo's sensor
+    depth, on the pixels both have."""
+    file, encoding, units = entry.depth  # type: ignore[misc]
+    truth, known = read_depth(file, encoding=encoding, scale=units)
+    size = (depth.shape[1], depth.shape[0])
+    truth = cv2.resize(truth, size, interpolation=cv2.INTER_NEAREST)
+    known = cv2.resize(known.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST).astype(bool)
+    both = known & valid & (depth > 0)
+    silog, absrel = depth_errors(depth, truth, both)
+    scaled = depth[both] * np.median(truth[both] / depth[both])
+    return {"silog": silog, "absrel": absrel,
+            "delta1": float(np.mean(np.maximum(scaled / truth[both], truth[both] / scaled) < 1.25))}
+
+
+def room_accuracy(entry: Entry, panoptic: Panoptic) -> float | None:
+    """Share of the hand-labelled wall/floor/ceiling pixels (:func:`room_labels`) whose segment has that
+    category; None when the photo has no labels."""
+    labels = room_labels(entry, (panoptic.ids.shape[1], panoptic.ids.shape[0]))
+    if labels is None:
+        return None
+    category = np.array([""] + [s.category for s in panoptic.segments], dtype=object)
+    index = np.zeros(panoptic.ids.shape, np.int64)
+    for k, segment in enumerate(panoptic.segments):
+        index[panoptic.ids == segment.id] = k + 1
+    labelled = labels != ""
+    return float(np.mean(category[index][labelled] == labels[labelled]))
 
 
 def room_labels(entry: Entry, size: tuple[int, int]) -> np.ndarray | None:
