@@ -70,6 +70,7 @@ class Eyes:
         self.threads = int(intra_op_threads)
         self.center_threshold = float(center_threshold)
         self.min_instance_fraction = float(min_instance_fraction)
+        self._digest: str | None = None
 
     def external_files(self, photo: Path) -> list[Path]:
         return [self.path]
@@ -84,7 +85,9 @@ class Eyes:
         if reason:
             raise PsdrRoomError(reason)
         rgb = np.ascontiguousarray(image.rgb, np.float32)
-        digest = hashlib.sha256(self.path.read_bytes()).hexdigest()
+        if self._digest is None:  # the file is read once per instance (one per stage and run)
+            self._digest = hashlib.sha256(self.path.read_bytes()).hexdigest()
+        digest = self._digest
         key = (digest, hashlib.sha256(rgb.tobytes()).digest())
         if key not in _RECENT:
             session = _session(str(self.path), self.threads or run_threads.count(), digest)

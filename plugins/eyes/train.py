@@ -87,9 +87,8 @@ def validate(net, pack, indices: Sequence[int], device: str, batch_size: int) ->
                     absrel.append(float(np.mean(np.abs(depth - truth) / truth)))
                     delta.append(float(np.mean(np.maximum(depth / truth, truth / depth) < 1.25)))
                 found = instances(out["surface"][b], out["category"][b], out["center"][b], out["offset"][b])
-                truth_ids = [v for v in np.unique(pack.instance[int(indices[start + b])]) if v != 0]
                 instance_map = pack.instance[int(indices[start + b])]
-                for value in truth_ids:
+                for value in np.unique(instance_map[instance_map != 0]):
                     mask = (instance_map == value) & (item["surface"] == OBJECT)
                     if mask.sum() < 6:
                         continue
