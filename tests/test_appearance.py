@@ -308,7 +308,8 @@ def test_edits_rerender_without_optimising(exported: Path, tmp_path: Path, capsy
     with pytest.raises(PsdrRoomError, match="not a library material"):
         from psdr_room_core.method.edit import apply_edit, load_state
 
-        apply_edit(load_state(exported), "material.floor", "no_such_graph", TorchGraphLibrary(use_plugins=False))
+        library = TorchGraphLibrary(use_plugins=False)
+        apply_edit(load_state(exported, library), "material.floor", "no_such_graph", library)
 
 
 def test_edit_never_replaces_a_folder_it_did_not_write(exported: Path, tmp_path: Path,

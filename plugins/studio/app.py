@@ -261,7 +261,7 @@ class StudioApp:
         record = self.session.record
         if record is None or "scene" not in record.artifacts or not scene.is_file():
             return
-        state = load_state(scene.parent)
+        state = load_state(scene.parent, self.library)
         self.scene_parts = {p["part"]: p for p in state["parts"]}
         self.part.options = list(self.scene_parts)
         self.material_edits = {}

@@ -9,12 +9,14 @@ Edits (``KEY=VALUE``, values in YAML):
 * ``material.<part>=<library graph>``: the part wears that procedural material (its own parameter values,
   the part's texture transform kept);
 * ``material.<part>=homogeneous``: the part becomes a flat colour (its current mean colour);
-* ``material.<part>.<node>.<param>=<value>``: a graph parameter of a procedural part (clamped to its range);
+* ``material.<part>.<node>.<param>=<value>``: a graph parameter of a procedural part;
 * ``material.<part>.base_color|roughness|specular|scale|rotation=<value>``: base colour (linear RGB, of a
   homogeneous part), roughness, specular, and the texture transform of a procedural one;
 * ``light.scale=<s or [r, g, b]>``: every light's radiance times ``s`` (per channel for ``[r, g, b]``: a colour
   filter that warms or cools the light); ``light.<name>.radiance=<rgb or number>``;
 * ``camera.fov=<degrees>``: the vertical field of view.
+
+A value outside its range (a graph parameter's, roughness 0..1, ...) is refused with the range, never clamped.
 
 The edited scene is written to ``--out`` (default ``<scene>-edited``) as a complete scene folder (XML,
 meshes, maps, ``scene.glb``, ``appearance.json``), and rendered to ``render.png`` there (denoised by
@@ -24,7 +26,6 @@ meshes, maps, ``scene.glb``, ``appearance.json``), and rendered to ``render.png`
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import shutil
@@ -38,39 +39,29 @@ import numpy as np
 import yaml
 
 from psdr_room_core.engine.errors import PsdrRoomError
-from psdr_room_core.engine.ownership import check_replaceable, claim, plain_name
+from psdr_room_core.engine.ownership import check_replaceable, claim
 from psdr_room_core.engine.plugins import plugin_system
 
 from .artifacts import Light, PartAppearance, appearance_fields, write_png
 from .geometry import TriangleMesh
 from .rgb_scene import build_scene, to_srgb8
+from .scene_state import check_state, read_state
 from .stages.export import read_mesh_ply, scene_folder
 
 HOMOGENEOUS_KEYS = ("base_color", "roughness", "specular")
 
 
-def load_state(scene_dir: Path) -> dict[str, Any]:
-    """A scene folder's ``appearance.json``, checked."""
+def load_state(scene_dir: Path, library: Any) -> dict[str, Any]:
+    """A scene folder's ``appearance.json``, checked against the schema (:mod:`..scene_state`) and ``library``."""
     path = scene_dir / "appearance.json"
     if not path.is_file():
         raise PsdrRoomError(f"{scene_dir}: no appearance.json; pass the scene/ folder of a psdr-room run")
-    try:
-        state = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise PsdrRoomError(f"{path}: invalid JSON ({exc.msg} at line {exc.lineno}); re-export the scene") from None
-    missing = [k for k in ("camera", "camera_to_world", "parts", "lights", "fixtures", "texture_size") if k not in state]
-    if missing:
-        raise PsdrRoomError(f"{path}: missing {', '.join(missing)}; re-export the scene with this version")
-    appearance_fields({"parts": state["parts"], "radiance": {}}, path)
-    for field, names in (("part", [p.get("part") for p in state["parts"]]),
-                         ("light", [light.get("name") for light in state["lights"]]), ("fixture", state["fixtures"])):
-        for name in names:
-            plain_name(name, path, field)  # each names a file under meshes/
-    return state
+    return read_state(path, library)
 
 
 def apply_edit(state: dict[str, Any], key: str, raw: str, library: Any) -> None:
-    """Apply one ``KEY=VALUE`` edit to a scene state in place (see the module docstring)."""
+    """Apply one ``KEY=VALUE`` edit to a scene state in place (see the module docstring); a value outside its
+    range is refused with the range (the scene's schema, :func:`..scene_state.check_state`)."""
     try:
         value = yaml.safe_load(raw)
     except yaml.YAMLError:
@@ -89,6 +80,7 @@ def apply_edit(state: dict[str, Any], key: str, raw: str, library: Any) -> None:
     else:
         raise PsdrRoomError(f"edit {key}: unknown; use material.<part>[.<param>], light.scale, light.<name>.radiance "
                             "or camera.fov")
+    check_state(state, library, f"edit {key}={raw}")
 
 
 def _number(value: Any, key: str) -> float:
@@ -141,9 +133,9 @@ def _edit_material(state: dict[str, Any], key: str, rest: str, value: Any, libra
         if field == "base_color":
             if part.kind != "homogeneous":
                 raise PsdrRoomError(f"edit {key}: {part_name} is procedural; edit its graph's colour parameters")
-            part = replace(part, base_color=tuple(min(max(c, 0.0), 1.0) for c in _rgb(value, key)))
+            part = replace(part, base_color=tuple(_rgb(value, key)))
         else:
-            part = replace(part, **{field: min(max(_number(value, key), 0.0), 1.0)})
+            part = replace(part, **{field: _number(value, key)})
     elif field in ("scale", "rotation"):
         number = _number(value, key)
         if field == "scale" and number <= 0:
@@ -155,11 +147,7 @@ def _edit_material(state: dict[str, Any], key: str, rest: str, value: Any, libra
         bounds = library.material(part.material).bounds
         if field not in bounds:
             raise PsdrRoomError(f"edit {key}: {part.material} has no parameter '{field}'; it has {', '.join(bounds)}")
-        b = bounds[field]
-        clamped = np.clip(np.asarray(value, dtype=np.float64), b.lo, b.hi)
-        if clamped.shape != tuple(b.value.shape):
-            raise PsdrRoomError(f"edit {key}: expected shape {tuple(b.value.shape)}, got {clamped.shape}")
-        part = replace(part, params={**part.params, field: clamped.tolist()})
+        part = replace(part, params={**part.params, field: value})
     state["parts"][index] = {**state["parts"][index], **part.__dict__, "base_color": list(part.base_color)}
 
 
@@ -196,8 +184,8 @@ def edit_scene(scene: Path, edits: list[str], out: Path, spp: int = 64, max_dept
     if out.resolve() == scene_dir:
         raise PsdrRoomError(f"--out {out}: must differ from the scene folder it edits")
     check_replaceable(out, "--out")
-    state = load_state(scene_dir)
     library = registry.implementation("material_graph", "torch_graph").factory()
+    state = load_state(scene_dir, library)
     for edit in edits:
         key, sep, raw = edit.partition("=")
         if not sep:
