@@ -235,7 +235,7 @@ def evaluate(scene: Scene, retriever: SilhouetteRetrieval, small: SilhouetteRetr
     start = time.perf_counter()
     out = fit_objects(ctx, initial, scene.camera, scene.room, scene.depth, scene.panoptic, scene.image)
     row["fit_s"] = time.perf_counter() - start
-    row["it_s"] = out["log"].summary["steady_iteration_seconds"]
+    row["it_s"] = ctx.timings["steady_iteration_seconds"]
     diagonal = 2 * float(np.linalg.norm(scene.room.half_size))
     for name, placements in (("init", initial), ("fit", out["placements"])):
         errors = [pose_errors(p, truth[p.segment_id]) for p in placements.objects]

@@ -101,7 +101,7 @@ def row(name: str, m: dict, extra: dict[str, float]) -> str:
             f"{fit.get('flip_init', float('nan')):.3f}", f"{fit.get('flip', float('nan')):.3f}",
             f"{extra['albedo_err']:.3f}" if "albedo_err" in extra else "–",
             f"{extra['light_ratio']:.2f}" if "light_ratio" in extra else "–",
-            f"{fit.get('seconds_per_iteration', float('nan')):.2f}",
+            f"{stages.get('fit_appearance', {}).get('timings', {}).get('steady_iteration_seconds', float('nan')):.2f}",
             f"{sum(s['compute_seconds'] for s in stages.values()):.0f}"]
     return "| " + " | ".join(cols) + " |"
 

@@ -51,15 +51,16 @@ def evaluate(scene: Path, run_dir: Path, overrides: list[str], true_fov: bool = 
         photo.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(scene / "photo.png", photo)
     record = execute(compose_config([f"image={photo}", "run.until=room_fit", *overrides]), run_dir)
-    camera, log = record.artifacts["camera"], record.artifacts["room_fit_log"]
+    camera = record.artifacts["camera"]
+    timings = next(r.timings for r in record.stages if r.name == "room_fit")
     return {
         "scene": scene.name,
         "fov_error": camera.vfov_deg - truth["vfov_deg"],
         "fov_error_fit": record.artifacts["camera_fit"].vfov_deg - truth["vfov_deg"],
         "iou_init": iou(truth, record.artifacts["room_box"]),
         "iou_fit": iou(truth, record.artifacts["room_box_fit"]),
-        "first_it": log.summary["first_iteration_seconds"],
-        "it": log.summary["steady_iteration_seconds"],
+        "first_it": timings["first_iteration_seconds"],
+        "it": timings["steady_iteration_seconds"],
         "stages": sum(r.seconds for r in record.stages),
         "floor": record.artifacts["room_box"].extra.get("floor_source", "floor"),
     }

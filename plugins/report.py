@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import base64
 import html
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
@@ -16,6 +17,8 @@ import numpy as np
 from psdr_room_core.engine.dag import RunRecord
 from psdr_room_core.engine.files import write_whole
 from psdr_room_core.engine.hookspecs import hookimpl
+from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.settings import setting
 from psdr_room_core.method.artifacts import OptimizationLog
 from psdr_room_core.method.stages.room import guesses
 from psdr_room_core.method.visualize import depth_colormap, legend, room_edges_overlay, segment_overlay
@@ -164,6 +167,22 @@ def render_report(run: RunRecord, alpha: float) -> str:
 <script>{SCRIPT}</script>
 </body></html>
 """
+
+
+@dataclass
+class ReportSettings:
+    """The ``report`` node of the config."""
+
+    enabled: bool
+    """Write ``report.html`` into the run directory."""
+    overlay_alpha: float = setting(ge=0, le=1)
+    """Opacity of the segmentation drawn over the photo."""
+
+
+@hookimpl
+def register_settings(registry: Registry) -> None:
+    """The report's settings (``report.enabled``, ``report.overlay_alpha``)."""
+    registry.add_settings("report", ReportSettings)
 
 
 @hookimpl

@@ -38,6 +38,7 @@ class MitsubaSettings:
     seed: int = setting()
     threads: int = setting(ge=0)
     freeze: bool = setting()
+    reproducible: bool = setting()
 
 
 @hookimpl

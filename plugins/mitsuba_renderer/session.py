@@ -106,6 +106,7 @@ class MitsubaRenderer:
         seed: int = 0,
         threads: int = 0,
         freeze: bool = True,
+        reproducible: bool = True,
     ) -> None:
         """Parameters (``renderer.mitsuba.*``):
 
@@ -126,6 +127,10 @@ class MitsubaRenderer:
         freeze: record each render pass once and replay its kernels on later calls (``dr.freeze``) instead
             of tracing the integrator in Python every iteration: the same images and gradients, several
             times less overhead per iteration (path-traced RGB; masks and depth are traced every time).
+        reproducible: gradient passes on one Dr.Jit thread (CPU), so that their scatter-adds sum in one
+            order and a fit gives the same bits on every run and machine (threads' atomics reorder the sums,
+            ~1e-7 apart, and a result that differs in its last bits changes every later stage's cache key);
+            false: every thread, faster. CUDA's atomics are never in a fixed order.
         """
         for name, value, low in (("spp", spp, 1), ("spp_boundary", spp_boundary, 1), ("rgb_spp", rgb_spp, 1),
                                  ("max_depth", max_depth, 1), ("rgb_sppi", rgb_sppi, 0), ("threads", threads, 0)):
@@ -146,6 +151,7 @@ class MitsubaRenderer:
         self.seed = int(seed)
         self.threads = int(threads)
         self.freeze = bool(freeze)
+        self.reproducible = bool(reproducible)
         self._variant: str | None = None
 
     # ---------------------------------------------------------------------------------------- set-up
@@ -697,6 +703,9 @@ def _make_function() -> Any:
             needs = list(ctx.needs_input_grad[4:])
             grads: list[torch.Tensor | None] = [None] * len(ctx.keys)
             if any(needs):
+                threads = dr.thread_count()
+                if scene.owner.renderer.reproducible:
+                    dr.set_thread_count(1)
                 values = scene.set_inputs(ctx.keys, ctx.arrays, needs)
                 seed_grad = int(mi.sample_tea_32(ctx.seed, 1)[0]) & 0x7FFFFFFF
                 for integrator, grad in zip(ctx.passes, grad_outputs):
@@ -712,6 +721,7 @@ def _make_function() -> Any:
                     dtype, device = ctx.types[i]
                     grads[i] = torch.from_numpy(g).to(device=device, dtype=dtype)
                 scene.detach_all(ctx.keys)
+                dr.set_thread_count(threads)
             return (None, None, None, None, *grads)
 
     return RenderFunction

@@ -1,7 +1,7 @@
 """Content-addressed stage cache: keys from what a stage computes on, entries committed atomically.
 
-A stage's key hashes its name, its function's and implementations' names and versions, its resolved
-config, and the digests of its inputs (artifacts, and files it reads such as the photo). An entry is a
+A stage's key hashes its name, its function's and implementations' names, versions and code fingerprints
+(:mod:`.fingerprint`), its resolved config, and the digests of its inputs (artifacts, and files it reads such as the photo). An entry is a
 directory ``<root>/entries/<key[:2]>/<key>/`` with one sub-directory per output artifact and a
 ``manifest.json`` naming each output's kind and content digest. Entries are written into
 ``<root>/tmp/`` and renamed into place, so a reader sees a complete entry or none; a per-key file lock
@@ -22,6 +22,7 @@ import logging
 import os
 import shutil
 import socket
+import tempfile
 import time
 import uuid
 from collections.abc import Iterator, Mapping
@@ -70,6 +71,7 @@ def stage_key(
     stage: str,
     function: str,
     function_version: str,
+    function_code: str,
     config: Mapping[str, Any],
     implementations: Mapping[str, Mapping[str, Any]],
     inputs: Mapping[str, str],
@@ -77,13 +79,14 @@ def stage_key(
 ) -> str:
     """The cache key of one stage execution.
 
-    ``implementations`` maps capability → {name, version, params}; ``inputs`` maps input name → artifact
-    digest; ``files`` maps file role → content digest.
+    ``function_code``: the fingerprint of the stage function's code (:mod:`.fingerprint`); ``implementations``
+    maps capability → {name, version, code, params}; ``inputs`` maps input name → artifact digest; ``files``
+    maps file role → content digest.
     """
     payload = {
         "schema": SCHEMA,
         "stage": stage,
-        "function": [function, function_version],
+        "function": [function, function_version, function_code],
         "config": config,
         "implementations": implementations,
         "inputs": inputs,
@@ -138,7 +141,16 @@ class Store:
             raise PsdrRoomError(
                 f"cache_dir={self.root}: cannot be created ({exc.strerror}); set cache_dir= to a writable directory"
             ) from None
-        self._remove_stale_tmp()
+        if self.writable():
+            self._remove_stale_tmp()
+
+    def writable(self) -> bool:
+        """Whether entries can be committed here (False for a read-only shared cache or file system)."""
+        try:
+            with tempfile.TemporaryFile(dir=self.root / "tmp"):
+                return True
+        except OSError:
+            return False
 
     def _entry_path(self, key: str) -> Path:
         return self.root / "entries" / key[:2] / key
@@ -199,11 +211,18 @@ class Store:
                 fcntl.flock(fh, fcntl.LOCK_UN)
 
     def commit(
-        self, key: str, stage: str, outputs: Mapping[str, Artifact], seconds: float, replace: bool = False
+        self,
+        key: str,
+        stage: str,
+        outputs: Mapping[str, Artifact],
+        seconds: float,
+        replace: bool = False,
+        timings: Mapping[str, float] | None = None,
     ) -> Entry:
         """Write ``outputs`` as the entry for ``key``, atomically; return the committed entry. An entry already
         there is kept (another process computed the same key: equal) unless ``replace``: a forced recompute
-        (``run.only``, ``run.from``) supersedes the entry it recomputed."""
+        (``run.only``, ``run.from``) supersedes the entry it recomputed. ``seconds`` and the stage's own
+        ``timings`` go to the manifest, outside every digest."""
         tmp = self.root / "tmp" / f"{key}@{socket.gethostname()}@{os.getpid()}@{uuid.uuid4().hex[:8]}"
         tmp.mkdir(parents=True)
         try:
@@ -214,6 +233,7 @@ class Store:
                 "stage": stage,
                 "outputs": described,
                 "seconds": seconds,
+                "timings": dict(timings or {}),
                 "created": time.time(),
             }
             (tmp / "manifest.json").write_text(json.dumps(manifest, indent=2, sort_keys=True))

@@ -8,11 +8,12 @@ and plugin config directories (the ``conf_searchpath`` hook) are added to Hydra'
 from __future__ import annotations
 
 import logging
+import os
 import re
 import sys
 import traceback
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 import hydra
 from hydra import compose, initialize_config_module
@@ -21,14 +22,16 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.core.override_parser.types import Override
 from hydra.errors import OverrideParseException
 from hydra.types import RunMode
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf
 
 from . import threads
-from .dag import AUTO
+from .dag import AUTO, Pipeline
 from .errors import PsdrRoomError
 from .inputs import find_photos, require_file
+from .ownership import check_replaceable, claim
 from .plugins import PluginSystem, plugin_system
-from .run import execute, resolve_config
+from .run import execute, plan, resolve_config
+from .settings import check_config
 
 CONFIG_MODULE = "psdr_room_conf"
 _VALUE_FLAGS = {
@@ -103,6 +106,61 @@ def hydra_quote(text: str) -> str:
     return "'" + text.replace("${", "\\${") + "'"
 
 
+def quote_photo(argv: list[str]) -> list[str]:
+    """``image=PATH`` naming an existing file that Hydra's override grammar would not read as that one path
+    (non-ASCII letters, brackets, ``#``, quotes, or a ``,`` outside ``--multirun``): quoted for it, so that
+    paths work as people name them."""
+    _, flags = split_arguments(argv)
+    out = []
+    for arg in argv:
+        raw = arg.removeprefix("image=")
+        if arg.startswith("image=") and raw[:1] not in ("'", '"') and Path(raw).expanduser().is_file():
+            parsed = _parse(arg)
+            if parsed is None or (parsed.is_sweep_override() and not flags & {"--multirun", "-m"}):
+                arg = f"image={hydra_quote(raw)}"
+        out.append(arg)
+    return out
+
+
+def check_run_folder(parsed: list[Override]) -> None:
+    """Refuse, before Hydra writes into it, a run folder given by ``hydra.run.dir=`` that is a file or holds
+    files psdr-room did not write, and a run folder (or the default ``outputs/``) that cannot be written."""
+    given = [o for o in parsed if o.key_or_group == "hydra.run.dir" and not o.is_sweep_override()]
+    value = str(given[-1].value()) if given else "outputs"
+    if "${" in value:
+        return  # a folder named by interpolation is resolved by Hydra; execute() checks it then
+    folder = Path(value).expanduser()
+    if given:
+        check_replaceable(folder, "hydra.run.dir")
+    existing = next(p for p in (folder, *folder.absolute().parents) if p.exists())
+    if not os.access(existing, os.W_OK | os.X_OK):
+        what = f"hydra.run.dir={value}" if given else f"the run folder {folder.absolute()}"
+        raise PsdrRoomError(
+            f"{what}: {existing} cannot be written (permission denied); give hydra.run.dir= a folder you can write to"
+        )
+
+
+def unknown_override(key: str, plugins: PluginSystem) -> PsdrRoomError:
+    """The one-line error for overriding ``key`` that is not in the composed config: the same words as for an
+    unknown key added with ``+`` (a did-you-mean and the valid names), never Hydra's hint to add it."""
+    composed = OmegaConf.to_container(compose_config([], plugins), resolve=False)
+    assert isinstance(composed, dict)
+    data: dict[str, Any] = {str(k): v for k, v in composed.items()}
+    node = data
+    *parents, last = key.split(".")
+    for part in parents:
+        node = node.setdefault(part, {}) if isinstance(node.get(part), dict | None) else {}
+    node[last] = None
+    try:
+        check_config(data, Pipeline.from_config(data).nodes, plugins.registry)
+    except PsdrRoomError as exc:
+        return exc
+    return PsdrRoomError(
+        f"{key} is not in the config, and the schema of its stage or plugin does not say it "
+        f"takes it; check the name against: psdr-room --cfg job"
+    )
+
+
 def compose_config(overrides: list[str], plugins: PluginSystem | None = None) -> DictConfig:
     """Compose the config as the CLI would (for tests, benchmarks and the preflight check)."""
     plugins = plugins or plugin_system()
@@ -113,14 +171,16 @@ def compose_config(overrides: list[str], plugins: PluginSystem | None = None) ->
 def preflight(argv: list[str], plugins: PluginSystem) -> None:
     """Check the overrides before Hydra runs; raise :class:`PsdrRoomError` with one line if one is wrong."""
     overrides, flags = split_arguments(argv)
+    if "image=" in overrides:
+        raise PsdrRoomError("image= is empty; add image=PATH/TO/photo.jpg to the command line")
     try:
         parsed: list[Override] = OverridesParser.create().parse_overrides(overrides)
     except OverrideParseException as exc:
         photo = next((o for o in overrides if o.startswith("image=")), None)
-        if photo is not None and not _parses(photo):
+        if photo is not None and _parse(photo) is None:  # quote_photo() quoted it if the file existed
             raise PsdrRoomError(
-                f"{photo}: the path holds characters Hydra's override grammar reserves (such as "
-                f"'=' or brackets); quote it: image=\"'{photo[6:]}'\""
+                f"{photo[6:]}: no such file; pass image=PATH to an existing photo (quote a path Hydra's "
+                f"grammar cannot read: image=\"'{photo[6:]}'\")"
             ) from None
         raise PsdrRoomError(f"invalid override: {str(exc).splitlines()[0]}") from None
     for override in parsed:
@@ -128,8 +188,11 @@ def preflight(argv: list[str], plugins: PluginSystem) -> None:
         if group in plugins.registry.capabilities and not override.is_delete():
             for name in override.sweep_string_iterator() if override.is_sweep_override() else [override.value()]:
                 plugins.registry.implementation(group, str(name))
-    if flags & ({"--multirun", "-m"} | _INFO_FLAGS):
-        return  # sweeps are composed per job by Hydra; info flags need no image
+    if flags & _INFO_FLAGS:
+        return  # info flags need no image and write nothing
+    if flags & {"--multirun", "-m"}:
+        return  # sweeps are composed and checked per job (in a new folder each) by Hydra
+    check_run_folder(parsed)
     image = [o for o in parsed if o.key_or_group == "image"]
     if image and image[0].is_sweep_override():
         raw = next(o for o in overrides if o.startswith("image="))
@@ -145,23 +208,28 @@ def preflight(argv: list[str], plugins: PluginSystem) -> None:
     except PsdrRoomError:
         raise
     except Exception as exc:  # Hydra/OmegaConf composition errors are multi-line: keep the first lines
+        missing = re.match(r"Could not override '([^']+)'", str(exc))
+        if missing:
+            raise unknown_override(missing.group(1), plugins) from None
         lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
         raise PsdrRoomError(f"invalid override: {' '.join(lines[:2])}") from None
-    require_file(Path(str(resolve_config(cfg)["image"])).expanduser())
+    data = resolve_config(cfg)
+    plan(data, plugins)
+    require_file(Path(str(data["image"])).expanduser())
 
 
-def _parses(override: str) -> bool:
+def _parse(override: str) -> Override | None:
+    """``override`` parsed by Hydra's grammar, or None when the grammar cannot read it."""
     try:
-        OverridesParser.create().parse_overrides([override])
+        return OverridesParser.create().parse_overrides([override])[0]
     except OverrideParseException:
-        return False
-    return True
+        return None
 
 
 def main() -> None:
     """Entry point of ``psdr-room``."""
     try:
-        argv = expand_photos(sys.argv[1:])
+        argv = quote_photo(expand_photos(sys.argv[1:]))
         plugins = plugin_system()
         preflight(argv, plugins)
     except PsdrRoomError as exc:
@@ -176,6 +244,7 @@ def _app(cfg: DictConfig) -> None:
     run_dir = Path(hydra_cfg.runtime.output_dir)
     sweeping = hydra_cfg.mode == RunMode.MULTIRUN
     try:
+        claim(run_dir)  # new, empty or ours (preflight checked it before Hydra wrote into it)
         count, source = threads.allotment(cfg.run.get("threads"), hydra_cfg.launcher)
         threads.apply(count)
         if source != "cores":  # an allotment (sweep worker, scheduler, run.threads): say where it came from
@@ -183,6 +252,9 @@ def _app(cfg: DictConfig) -> None:
         execute(cfg, run_dir)
     except PsdrRoomError as exc:
         _fail_run(str(exc), exc.exit_code, sweeping)
+    except PermissionError as exc:
+        where = exc.filename or exc
+        _fail_run(f"{where}: permission denied; make it readable (or writable), or choose another path", 2, sweeping)
     except KeyboardInterrupt:
         _fail_run("interrupted; finished stages are cached, rerun the same command to resume", 130, False)
     except Exception as exc:

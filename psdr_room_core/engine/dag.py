@@ -31,6 +31,7 @@ from .artifacts import Artifact, artifact_kind_of
 from .cache import Entry, Store, digest_dir, digest_file, stage_key
 from .capabilities import Availability
 from .errors import PsdrRoomError
+from .fingerprint import code_fingerprint
 from .memory import PeakMemory
 from .plugins import PluginSystem, StageDef
 
@@ -188,6 +189,9 @@ class StageContext:
     seed: int
     photo: Path
     implementations: dict[str, Any]
+    timings: dict[str, float] = field(default_factory=dict)
+    """Seconds the stage measured of its own work (say, per iteration): kept in the cache entry's manifest and
+    ``metrics.json``, never in an artifact, so that no result's digest depends on the clock."""
 
     def impl(self, capability: str) -> Any:
         """The selected implementation of ``capability`` (declared in the stage's ``uses``)."""
@@ -222,6 +226,8 @@ class StageRecord:
     """Capability → implementation name."""
     peak_rss_mb: float = 0.0
     """Highest resident memory of the process while this run did the stage's work (MiB; :mod:`.memory`)."""
+    timings: dict[str, float] = field(default_factory=dict)
+    """What the stage measured of its own work when the entry was made (:attr:`StageContext.timings`)."""
 
 
 @dataclass
@@ -320,7 +326,12 @@ class Runner:
             else:
                 instances[capability] = self._construct(capability, name, group)
             impl = self.plugins.registry.implementation(capability, name)
-            described[capability] = {"name": name, "version": impl.version, "params": dict(group.get(name) or {})}
+            described[capability] = {
+                "name": name,
+                "version": impl.version,
+                "code": code_fingerprint(impl.factory),
+                "params": dict(group.get(name) or {}),
+            }
         return instances, described, selected_by
 
     def _construct(self, capability: str, name: str, node: Mapping[str, Any]) -> Any:
@@ -378,6 +389,7 @@ class Runner:
             stage=node.name,
             function=stage.name,
             function_version=stage.version,
+            function_code=code_fingerprint(stage.fn),
             config={"params": node.params, "seed": self.seed, "outputs": node.outputs},
             implementations=described,
             inputs={param: record.digests[artifact] for param, artifact in node.inputs.items()},
@@ -416,6 +428,7 @@ class Runner:
             outputs={node.outputs[n]: d for n, d in entry.digests.items()},
             implementations={c: d["name"] for c, d in described.items()},
             peak_rss_mb=peak.megabytes,
+            timings=dict(entry.manifest.get("timings") or {}),
         )
         record.stages.append(stage_record)
         self.plugins.hook.after_stage(record=stage_record, outputs=outputs)
@@ -440,7 +453,9 @@ class Runner:
         try:
             result = stage.fn(ctx, **inputs)
             outputs = self._check_outputs(node, result)
-            return self.write_store.commit(key, node.name, outputs, time.perf_counter() - start, replace=forced)
+            return self.write_store.commit(
+                key, node.name, outputs, time.perf_counter() - start, replace=forced, timings=ctx.timings
+            )
         except BaseException as exc:
             self.plugins.hook.on_stage_error(stage=node.name, key=key, error=exc)
             raise

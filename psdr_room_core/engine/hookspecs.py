@@ -8,8 +8,8 @@ the ``psdr_room`` group of its distribution's metadata::
 
 The built-in plugins are found the same way. When plugins are loaded: ``add_hookspecs`` (hooks a plugin
 declares for others to implement; the method's are in :mod:`psdr_room_core.method.hookspecs`), then
-``register_capabilities`` and ``register_artifacts`` of every plugin, then ``register_implementations`` and
-``register_stages``. ``conf_searchpath`` when Hydra composes the configuration. Then for each run
+``register_capabilities`` and ``register_artifacts`` of every plugin, then ``register_implementations``,
+``register_stages`` and ``register_settings``. ``conf_searchpath`` when Hydra composes the configuration. Then for each run
 ``before_run``, for every stage ``before_stage`` followed by ``after_stage`` or ``on_stage_error``,
 ``run_metrics`` when the run's ``metrics.json`` is written, and finally ``after_run``.
 """
@@ -67,6 +67,12 @@ def register_stages(registry: Registry) -> None:
     A stage is a plain function ``fn(ctx, **inputs) -> {output_name: artifact}``; which stages run and how
     their inputs and outputs are wired is decided by the config (``conf/stage/*.yaml``), not here.
     """
+
+
+@hookspec
+def register_settings(registry: Registry) -> None:
+    """Declare the top-level config nodes this plugin reads with ``registry.add_settings(name, params)``
+    (a stage's or an implementation's own settings are declared with it, not here)."""
 
 
 @hookspec

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import glob
+import os
 from pathlib import Path
 
 from .errors import PsdrRoomError
@@ -12,13 +13,15 @@ EXTENSIONS = (".jpg", ".jpeg", ".png", ".tif", ".tiff", ".webp", ".mpo")
 
 
 def require_file(path: Path) -> None:
-    """One line for a photo path that is a directory, does not exist or is empty."""
+    """One line for a photo path that is a directory, does not exist, is empty or cannot be read."""
     if path.is_dir():
         raise PsdrRoomError(f"{path}: is a directory; pass image=PATH to a photo file")
     if not path.is_file():
         raise PsdrRoomError(f"{path}: no such file; pass image=PATH to an existing photo")
     if path.stat().st_size == 0:
         raise PsdrRoomError(f"{path}: the file is empty; copy the photo again")
+    if not os.access(path, os.R_OK):
+        raise PsdrRoomError(f"{path}: cannot be read (permission denied); make it readable (chmod a+r) or copy it")
 
 
 def find_photos(spec: str) -> list[Path]:

@@ -3,8 +3,8 @@
 Built-in plugins (this distribution's own entry points) are loaded exactly like third-party ones, first. Loading
 goes in phases so that no plugin depends on another's load order: every plugin's ``add_hookspecs`` (hooks a
 plugin declares for others, as the method does for its model registries and material libraries), then every
-``register_capabilities`` and ``register_artifacts``, then each plugin's ``register_implementations`` and
-``register_stages``. A plugin that fails to import, implements an unknown hook, or raises while registering is
+``register_capabilities`` and ``register_artifacts``, then each plugin's ``register_implementations``,
+``register_stages`` and ``register_settings``. A plugin that fails to import, implements an unknown hook, or raises while registering is
 reported in a one-line warning and left out; only a run that selects something it would have provided fails,
 with a message that names the plugin and its error.
 """
@@ -86,6 +86,8 @@ class Registry:
     """Artifact kind → type, for loading cached, injected or published artifacts."""
     implementations: dict[tuple[str, str], Implementation] = field(default_factory=dict)
     stages: dict[str, StageDef] = field(default_factory=dict)
+    settings: dict[str, type | None] = field(default_factory=dict)
+    """Top-level config node a plugin reads → its schema (None: not checked beyond its name)."""
     conflicts: dict[tuple[str, str], list[Origin]] = field(default_factory=dict)
     failures: dict[str, str] = field(default_factory=dict)
     """Plugin name → why it was left out."""
@@ -155,6 +157,14 @@ class Registry:
         self.stages[name] = StageDef(
             name, fn, version, uses, reads_photo, tuple(sidecars), description, self._origin, params
         )
+
+    def add_settings(self, name: str, params: type | None = None) -> None:
+        """Declare ``name``, a top-level config node this plugin reads (the report's ``report``), with the
+        dataclass schema of its keys (:mod:`psdr_room_core.engine.settings`); an undeclared top-level key
+        that is neither a stage nor a capability is refused before any stage runs."""
+        if not name.isidentifier():
+            raise ValueError(f"settings name '{name}' is not an identifier")
+        self.settings.setdefault(name, params)
 
     # ------------------------------------------------------------------ lookups used by the runner
     def implementation(self, capability: str, name: str) -> Implementation:
@@ -260,7 +270,11 @@ def load_plugins(extra: Iterable[tuple[object, Origin]] = (), discover: bool = T
             _report_failure(registry, origin, f"could not be registered: {exc}")
             continue
         registered.append((plugin, origin))
-    for phase in (("register_capabilities", "register_artifacts"), ("register_implementations", "register_stages")):
+    phases = (
+        ("register_capabilities", "register_artifacts"),
+        ("register_implementations", "register_stages", "register_settings"),
+    )
+    for phase in phases:
         for plugin, origin in list(registered):
             if not _register(manager, plugin, origin, registry, phase):
                 registered.remove((plugin, origin))
@@ -274,7 +288,8 @@ def _register(
     """Run one plugin's registration hooks of one phase; on error, roll back what it added, leave it out and
     return False."""
     before = {
-        name: dict(getattr(registry, name)) for name in ("capabilities", "artifacts", "implementations", "stages")
+        name: dict(getattr(registry, name))
+        for name in ("capabilities", "artifacts", "implementations", "stages", "settings")
     }
     registry._origin = origin
     try:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 import os
 import shutil
 import tempfile
@@ -20,6 +21,8 @@ from .errors import PsdrRoomError
 from .ownership import check_writable_into, claim
 from .plugins import PluginSystem, plugin_system
 from .settings import check_config
+
+log = logging.getLogger("psdr_room")
 
 PUBLISHED = ("artifacts", "metrics.json", "run.json")
 """What :func:`publish` writes (and replaces) in every run directory; an artifact type with a ``published_as``
@@ -46,21 +49,36 @@ def resolve_config(cfg: DictConfig) -> dict[str, Any]:
     return {str(key): value for key, value in data.items()}
 
 
+def plan(data: Mapping[str, Any], plugins: PluginSystem) -> tuple[Pipeline, dict[str, Path]]:
+    """The pipeline of a resolved config and its injected artifact folders, every key and setting checked
+    (the command line calls it before Hydra writes anything; :func:`execute` again)."""
+    mode = str(data["cache"])
+    if mode not in CACHE_MODES:
+        raise PsdrRoomError(f"cache={mode} is not a cache mode; use one of {', '.join(CACHE_MODES)}")
+    injected = {name: Path(str(path)).expanduser().absolute() for name, path in (data.get("inject") or {}).items()}
+    pipeline = Pipeline.from_config(data, provided=injected)
+    check_config(data, pipeline.nodes, plugins.registry)
+    return pipeline, injected
+
+
 def execute(cfg: DictConfig, run_dir: Path, plugins: PluginSystem | None = None) -> RunRecord:
     """Run the configured pipeline and publish its results in ``run_dir``."""
     plugins = plugins or plugin_system()
     data = resolve_config(cfg)
+    pipeline, injected = plan(data, plugins)
     mode = str(data["cache"])
-    if mode not in CACHE_MODES:
-        raise PsdrRoomError(f"cache={mode} is not a cache mode; use one of {', '.join(CACHE_MODES)}")
     check_writable_into(run_dir, published(plugins), "run directory")
     photo = Path(str(data["image"])).expanduser().absolute()
-    injected = {name: Path(str(path)).expanduser().absolute() for name, path in (data.get("inject") or {}).items()}
-    pipeline = Pipeline.from_config(data, provided=injected)
-    check_config(data, pipeline.nodes, plugins.registry)
     run = data["run"]
     selection = pipeline.select(only=run.get("only"), start=run.get("from"), until=run.get("until"))
     store = Store(Path(str(data["cache_dir"])))
+    if mode == "readwrite" and not store.writable():
+        log.warning(
+            "cache_dir=%s is read-only: finished stages are read from it, new results are not stored "
+            "(set cache_dir= to a writable folder to keep them)",
+            store.root,
+        )
+        mode = "read"
     with tempfile.TemporaryDirectory(prefix="psdr-room-scratch-") as scratch:
         runner = Runner(plugins, data, photo, store, Store(Path(scratch)), mode, injected)
         record = runner.run(selection)
@@ -78,6 +96,7 @@ def metrics(record: RunRecord, plugins: PluginSystem) -> dict[str, Any]:
                 "seconds": round(r.seconds, 4),
                 "compute_seconds": round(r.compute_seconds, 4),
                 "peak_rss_mb": round(r.peak_rss_mb, 1),
+                **({"timings": {k: round(v, 4) for k, v in r.timings.items()}} if r.timings else {}),
                 "cached": r.cached,
                 "key": r.key,
             }

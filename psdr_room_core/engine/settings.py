@@ -15,9 +15,10 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import difflib
 import operator
 import typing
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from typing import TYPE_CHECKING, Any
 
 from omegaconf import MISSING, OmegaConf
@@ -28,6 +29,13 @@ from .errors import PsdrRoomError
 
 if TYPE_CHECKING:
     from .plugins import Registry
+
+
+ENGINE_KEYS = ("image", "seed", "cache", "cache_dir", "run", "inject")
+"""Top-level config keys the engine itself reads (besides stage nodes, capability groups and the nodes plugins
+declare with ``registry.add_settings``)."""
+RUN_KEYS = ("only", "from", "until", "threads")
+"""The keys of the ``run`` node."""
 
 
 @dataclasses.dataclass
@@ -60,10 +68,10 @@ def check_settings(schema: type, values: Mapping[str, Any], where: str) -> None:
         OmegaConf.to_container(merged, throw_on_missing=True)
     except ConfigKeyError as exc:
         parent, _, key = (exc.full_key or "?").rpartition(".")
-        known = ", ".join(f.name for f in dataclasses.fields(_schema_at(schema, parent)))
+        names = [f.name for f in dataclasses.fields(_schema_at(schema, parent))]
         raise PsdrRoomError(
-            f"{_join(where, exc.full_key or '?')} is not a setting of {_join(where, parent)}; "
-            f"known: {known or '(none)'}"
+            f"{_join(where, exc.full_key or '?')} is not a setting of {_join(where, parent)}"
+            f"{did_you_mean(key, names)}; known: {', '.join(names) or '(none)'}"
         ) from None
     except MissingMandatoryValue as exc:
         raise PsdrRoomError(
@@ -80,10 +88,37 @@ def check_settings(schema: type, values: Mapping[str, Any], where: str) -> None:
     _check_rules(schema, merged, where)
 
 
+def did_you_mean(word: str, known: Iterable[str]) -> str:
+    """`` (did you mean X?)`` for the known name closest to a mistyped ``word``, else an empty string."""
+    close = difflib.get_close_matches(word, list(known), n=1, cutoff=0.6)
+    return f" (did you mean {close[0]}?)" if close else ""
+
+
+def check_keys(data: Mapping[str, Any], nodes: list[StageNode], registry: Registry) -> None:
+    """Refuse, in one line with a did-you-mean and the valid names, a top-level key that is neither the
+    engine's, a stage node, a capability group nor a plugin's declared settings, and an unknown ``run.*`` key;
+    check the declared settings against their schemas."""
+    known = sorted({*ENGINE_KEYS, *(node.name for node in nodes), *registry.capabilities, *registry.settings})
+    for key in data:
+        if key not in known:
+            raise PsdrRoomError(
+                f"{key} is not a setting{did_you_mean(key, known)}; the settings are: {', '.join(known)}"
+            )
+    for key in data.get("run") or {}:
+        if key not in RUN_KEYS:
+            raise PsdrRoomError(
+                f"run.{key} is not a setting of run{did_you_mean(key, RUN_KEYS)}; known: {', '.join(RUN_KEYS)}"
+            )
+    for name, schema in registry.settings.items():
+        if schema is not None and isinstance(data.get(name), Mapping):
+            check_settings(schema, data[name], name)
+
+
 def check_config(data: Mapping[str, Any], nodes: list[StageNode], registry: Registry) -> None:
-    """Check every stage node of the pipeline (with its ``_uses_`` settings over the capability groups) and
+    """Check the top-level keys (:func:`check_keys`), every stage node of the pipeline (with its ``_uses_`` settings over the capability groups) and
     every implementation node of the capability groups (``<capability>.<name>``, in config order) against the schemas their plugins declared (those
     without one are not checked)."""
+    check_keys(data, nodes, registry)
     for node in nodes:
         stage = registry.stages.get(node.function)
         if stage is not None and stage.params is not None:

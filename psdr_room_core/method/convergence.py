@@ -11,8 +11,21 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 if TYPE_CHECKING:
     import torch
+
+
+def untimed(history: Sequence[dict[str, float]], timings: dict[str, float]) -> list[dict[str, float]]:
+    """An optimizer's per-iteration log without its wall-clock ``seconds``, which go to ``timings`` instead
+    (``first_iteration_seconds``, ``steady_iteration_seconds``: the median after the first), so that the
+    artifacts a fit makes are the same on every run."""
+    seconds = [h["seconds"] for h in history if "seconds" in h]
+    if seconds:
+        timings["first_iteration_seconds"] = seconds[0]
+        timings["steady_iteration_seconds"] = float(np.median(seconds[1:] or seconds))
+    return [{k: v for k, v in h.items() if k != "seconds"} for h in history]
 
 
 @dataclass(frozen=True)

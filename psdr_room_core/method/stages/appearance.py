@@ -24,7 +24,7 @@ from ..artifacts import (
     RoomBox,
     SceneAppearance,
 )
-from ..convergence import Plateau
+from ..convergence import Plateau, untimed
 from ..image_metrics import downsampled, flip, rmse, ssim, ssim_map
 from ..rgb_scene import build_scene, finished_render, graph_maps, initial_parts, part_meshes, render_part_ids
 from ..shading import linear_to_srgb, srgb_to_linear
@@ -223,9 +223,9 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
         return total, {k: float(v.detach()) for k, v in parts.items()}
 
     rates = {name: float(params["learning_rates"][group]) for name, group in model.group.items()}
-    history = ctx.impl("optimizer").minimize(model.theta, rates, loss, int(params["iterations"]),
-                                             lambda it: ctx.progress(it, total=int(params["iterations"])),
-                                             stop=Plateau(**params["convergence"]))
+    history = untimed(ctx.impl("optimizer").minimize(model.theta, rates, loss, int(params["iterations"]),
+                                                     lambda it: ctx.progress(it, total=int(params["iterations"])),
+                                                     stop=Plateau(**params["convergence"])), ctx.timings)
     final_spp, denoiser = int(params["final_spp"]), ctx.impl("denoiser")
     with torch.no_grad():
         initial = AppearanceModel(parts, lights, library, model.map_size, seen).inputs()
@@ -237,8 +237,7 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     parts, radiance = model.result()
     metrics = {**_agreement(start, final, photo), **_agreement(start_noisy, final_noisy, photo, "_noisy"),
                "denoiser": denoiser.describe(), "iterations": len(history), "fitted_parts": sorted(seen),
-               "plain_parts": sorted(model.plain),
-               "seconds_per_iteration": float(np.median([h["seconds"] for h in history])) if history else 0.0}
+               "plain_parts": sorted(model.plain)}
     scorer = lpips.installed()
     if scorer is not None:  # the paper's perceptual metric, only with its real weights
         metrics.update(lpips_init=scorer(start, photo), lpips=scorer(final, photo))

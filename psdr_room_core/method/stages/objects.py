@@ -29,7 +29,7 @@ from ..artifacts import (
     RoomBox,
     rotation_y,
 )
-from ..convergence import BestIterate, Plateau
+from ..convergence import BestIterate, Plateau, untimed
 from ..geometry import TriangleMesh, weld
 from ..grouping import GroupParams, Part, group_segments
 from ..labels import meaning
@@ -558,7 +558,8 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
         posed = [replace(p, explained=float(iou)) for p, iou in zip(model.placements_now(), ious)]
     settled = _settle(posed, room, cam, panoptic, params["physical"], "fit_objects", final=True)
     through = interpenetrations(settled.placements, float(params["physical"]["penetration"]))
-    final = {k: v for k, v in history[best.iteration].items() if k != "seconds"}
+    history = untimed(history, ctx.timings)
+    final = history[best.iteration]
     fitted = Placements(objects=settled.placements, extra={
         "interpenetrations": through, "turned": turned, "final": final, "dropped": settled.dropped,
         "settled": settled.changed})
@@ -644,15 +645,13 @@ def _outlines(rgb8: np.ndarray, camera: Camera, room: RoomBox, placements: Place
 def _objects_log(history: list[dict[str, float]], image: Image, camera: Camera, room: RoomBox, before: Placements,
                  after: Placements, panoptic: Panoptic, through: list[tuple[int, int, float]]) -> OptimizationLog:
     base = segment_overlay(image.to_uint8(), panoptic, alpha=0.25)
-    seconds = [h["seconds"] for h in history]
-    curves = {k: [h[k] for h in history] for k in history[0] if k != "seconds"}
+    curves = {k: [h[k] for h in history] for k in history[0]}
     return OptimizationLog(
         history=history,
         images={"before": _outlines(base, camera, room, before), "after": _outlines(base, camera, room, after),
                 "loss": plot_curves(curves, title="fit_objects")},
         summary={"objects": len(after.objects), "iterations": len(history),
-                 "steady_iteration_seconds": float(np.median(seconds[1:])) if len(seconds) > 1 else seconds[0],
-                 "initial": {k: v for k, v in history[0].items() if k != "seconds"},
+                 "initial": history[0],
                  "interpenetrations": through,
                  "supports": {p.segment_id: p.support for p in after.objects}},
     )

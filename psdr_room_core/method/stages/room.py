@@ -30,6 +30,7 @@ from ..artifacts import (
     RoomBox,
     rotation_y,
 )
+from ..convergence import untimed
 from ..geometry import quad_mesh
 from ..rgb_scene import room_quad_indices, room_quads
 from ..room_box import RoomInitParams, box_iou_3d, init_room_box
@@ -224,8 +225,10 @@ def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, 
         terms = {f"iou_{name}": ious[k].item() for name, k in ROOM_PARTS.items()} | {"depth_l1": l1.item()}
         return -torch.stack(ious).sum() + float(params["depth_weight"]) * l1, terms
 
-    history = ctx.impl("optimizer").minimize(theta, dict(params["learning_rates"]), loss, int(params["iterations"]),
-                                             lambda it: ctx.progress(it, total=int(params["iterations"])))
+    history = untimed(ctx.impl("optimizer").minimize(theta, dict(params["learning_rates"]), loss,
+                                                     int(params["iterations"]),
+                                                     lambda it: ctx.progress(it, total=int(params["iterations"]))),
+                      ctx.timings)
     with torch.no_grad():
         half_size = np.asarray(room.half_size) * np.exp(theta["log_scale"].numpy().astype(np.float64))
         center = np.asarray(room.center) + scale * theta["translation"].numpy().astype(np.float64)
@@ -251,18 +254,14 @@ def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, 
 
 def _fit_log(history: list[dict[str, float]], image: Image, before: tuple[Camera, RoomBox],
              after: tuple[Camera, RoomBox], panoptic: Panoptic) -> OptimizationLog:
-    """Loss curves, before/after overlays (Fig. 3 of the paper) and timings of a room fit."""
+    """Loss curves and before/after overlays (Fig. 3 of the paper) of a room fit."""
     base = segment_overlay(image.to_uint8(), panoptic, alpha=0.35)
-    seconds = [h["seconds"] for h in history]
-    curves = {k: [h[k] for h in history] for k in history[0] if k != "seconds"}
+    curves = {k: [h[k] for h in history] for k in history[0]}
     return OptimizationLog(
         history=history,
         images={"before": room_edges_overlay(base, *before), "after": room_edges_overlay(base, *after),
                 "loss": plot_curves(curves, title="room_fit")},
-        summary={"iterations": len(history), "first_iteration_seconds": seconds[0],
-                 "steady_iteration_seconds": float(np.median(seconds[1:])) if len(seconds) > 1 else seconds[0],
-                 "initial": {k: v for k, v in history[0].items() if k != "seconds"},
-                 "final": {k: v for k, v in history[-1].items() if k != "seconds"}},
+        summary={"iterations": len(history), "initial": history[0], "final": history[-1]},
     )
 
 
