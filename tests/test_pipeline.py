@@ -11,6 +11,7 @@ import subprocess
 import time
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 
@@ -151,8 +152,9 @@ def test_multirun_shares_the_cache(first_run: tuple[Path, dict[str, str]]) -> No
 def test_summary_lists_each_run_and_why_one_failed(first_run: tuple[Path, dict[str, str]], tmp_path: Path) -> None:
     root, env = first_run
     failed = tmp_path / "failed"
-    assert psdr_room(f"image={EXAMPLE}", f"hydra.run.dir={failed}", "fit_appearance.spp=0", env=env,
-                     check=False).returncode == 2
+    blank = tmp_path / "blank.png"  # fails in load_image, once the run has begun (settings fail before Hydra writes)
+    cv2.imwrite(str(blank), np.full((240, 320, 3), 128, np.uint8))
+    assert psdr_room(f"image={blank}", f"hydra.run.dir={failed}", env=env, check=False).returncode == 2
     summary = shutil.which("psdr-room-summary") or "psdr-room-summary"
     result = subprocess.run([summary, str(root / "run1"), str(tmp_path), "--out", str(tmp_path)], capture_output=True,
                             text=True, env=env)
@@ -161,12 +163,12 @@ def test_summary_lists_each_run_and_why_one_failed(first_run: tuple[Path, dict[s
     rows = list(csv.DictReader((tmp_path / "summary.csv").open()))
     assert [r["status"] for r in rows] == ["ok", "failed"]
     ok, bad = rows
-    assert "fit_appearance.spp=0 is out of range" in bad["error"] and bad["rmse"] == ""
+    assert "every pixel has the same colour" in bad["error"] and bad["rmse"] == ""
     assert ok["photo"] == str(EXAMPLE) and "renderer=mitsuba" in ok["implementations"]
     assert float(ok["vfov_deg"]) == pytest.approx(metrics(root / "run1")["vfov_deg"], rel=1e-3)
     assert all(ok[f"{s}_s"] != "" for s in STAGES) and float(ok["ssim"]) > 0 and int(ok["objects"]) > 0
     page = (tmp_path / "summary.html").read_text()
-    assert page.count("data:image/png;base64,") == 1 and "fit_appearance.spp=0 is out of range" in page
+    assert page.count("data:image/png;base64,") == 1 and "every pixel has the same colour" in page
     missing = subprocess.run([summary, str(tmp_path / "nowhere")], capture_output=True, text=True, env=env)
     assert missing.returncode == 2 and missing.stderr.count("\n") == 1 and "not a folder" in missing.stderr
 

@@ -121,8 +121,9 @@ def check_graph(material: Any, params: Any, library: Any, where: str) -> None:
         if array.shape != tuple(bound.value.shape) or not np.all(np.isfinite(array)):
             raise PsdrRoomError(f"{where}: {key}={json.dumps(value)} is invalid; allowed: numbers of shape "
                                 f"{tuple(bound.value.shape)}")
-        lo, hi = np.asarray(bound.lo, dtype=np.float64), np.asarray(bound.hi, dtype=np.float64)
-        if np.any(array < lo) or np.any(array > hi):
+        lo, hi = np.asarray(bound.lo, dtype=np.float32), np.asarray(bound.hi, dtype=np.float32)
+        single = array.astype(np.float32)  # the graph's precision: a slider's 0.05 is its bound float32(0.05)
+        if np.any(single < lo) or np.any(single > hi):
             raise PsdrRoomError(f"{where}: {key}={json.dumps(value)} is out of range; allowed: "
                                 f"{_span(lo)} to {_span(hi)}")
 
