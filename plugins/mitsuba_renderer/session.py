@@ -18,9 +18,10 @@ halves a ``fit_appearance`` iteration; the inputs are copied into Dr.Jit's own m
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -671,6 +672,21 @@ def _opaque_seed(seed: int) -> Any:
     return _opaque(mi.UInt32, seed) if not mi.variant().startswith("scalar") else seed
 
 
+@contextlib.contextmanager
+def _one_thread(enabled: bool) -> Iterator[None]:
+    """Dr.Jit on one worker thread inside (when ``enabled``), so that scatter-adds sum in one order; the
+    thread count is restored however the block ends."""
+    import drjit as dr
+
+    threads = dr.thread_count()
+    if enabled:
+        dr.set_thread_count(1)
+    try:
+        yield
+    finally:
+        dr.set_thread_count(threads)
+
+
 def _make_function() -> Any:
     import torch
 
@@ -703,25 +719,22 @@ def _make_function() -> Any:
             needs = list(ctx.needs_input_grad[4:])
             grads: list[torch.Tensor | None] = [None] * len(ctx.keys)
             if any(needs):
-                threads = dr.thread_count()
-                if scene.owner.renderer.reproducible:
-                    dr.set_thread_count(1)
-                values = scene.set_inputs(ctx.keys, ctx.arrays, needs)
-                seed_grad = int(mi.sample_tea_32(ctx.seed, 1)[0]) & 0x7FFFFFFF
-                for integrator, grad in zip(ctx.passes, grad_outputs):
-                    if grad is None:
-                        continue
-                    grad_np = grad.detach().to("cpu", torch.float32).numpy()
-                    grad_in = mi.TensorXf(_owned(mi, grad_np), grad_np.shape)
-                    scene.backward_pass(integrator, grad_in, seed_grad, ctx.spp[1])
-                flat = {i: dr.ravel(dr.grad(value)) for i, (value, need) in enumerate(zip(values, needs)) if need}
-                dr.eval(*flat.values())  # one kernel for every gradient, not one per parameter
-                for i, g_flat in flat.items():
-                    g = np.array(g_flat, dtype=np.float32).reshape(ctx.shapes[i])
-                    dtype, device = ctx.types[i]
-                    grads[i] = torch.from_numpy(g).to(device=device, dtype=dtype)
-                scene.detach_all(ctx.keys)
-                dr.set_thread_count(threads)
+                with _one_thread(scene.owner.renderer.reproducible):
+                    values = scene.set_inputs(ctx.keys, ctx.arrays, needs)
+                    seed_grad = int(mi.sample_tea_32(ctx.seed, 1)[0]) & 0x7FFFFFFF
+                    for integrator, grad in zip(ctx.passes, grad_outputs):
+                        if grad is None:
+                            continue
+                        grad_np = grad.detach().to("cpu", torch.float32).numpy()
+                        grad_in = mi.TensorXf(_owned(mi, grad_np), grad_np.shape)
+                        scene.backward_pass(integrator, grad_in, seed_grad, ctx.spp[1])
+                    flat = {i: dr.ravel(dr.grad(value)) for i, (value, need) in enumerate(zip(values, needs)) if need}
+                    dr.eval(*flat.values())  # one kernel for every gradient, not one per parameter
+                    for i, g_flat in flat.items():
+                        g = np.array(g_flat, dtype=np.float32).reshape(ctx.shapes[i])
+                        dtype, device = ctx.types[i]
+                        grads[i] = torch.from_numpy(g).to(device=device, dtype=dtype)
+                    scene.detach_all(ctx.keys)
             return (None, None, None, None, *grads)
 
     return RenderFunction
