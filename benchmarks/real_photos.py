@@ -26,7 +26,9 @@ copied alone into a temporary folder and run through the ``psdr-room`` command w
   ``benchmarks/layout_labels/`` (LabelMe files whose ``imagePath`` names the photo as ``index.csv`` does; only
   the pixels they label count);
 * RMSE (1/8-size images) and SSIM of the render against the photo at initialisation and after the fit;
-* the wall time of the run; a second table gives every stage's compute time.
+* the wall time of the run; a second table gives every stage's compute time;
+* what the run guessed (:mod:`psdr_room_core.method.guesses`: a weak FoV, a floor the photo does not show),
+  below the table, and the runs that failed, each with its error line (the other photos still run).
 
 Totals per column close the table. A contact sheet per photo (photo with reference boxes | segmentation |
 fitted objects' outlines | final render) is written to ``OUT/sheets/<photo>.png``; the rows to
@@ -59,6 +61,7 @@ import cv2
 import numpy as np
 
 from psdr_room_core.method.artifacts import Camera, DepthMap, Image, Panoptic, Placements, RoomBox
+from psdr_room_core.method.guesses import guesses
 from psdr_room_core.method.objects import OBJECT_CATEGORIES
 from psdr_room_core.method.physical import interpenetrations, room_excess
 from psdr_room_core.method.silhouette import silhouette
@@ -215,8 +218,10 @@ def mask_box(mask: np.ndarray) -> np.ndarray | None:
 
 
 # ---------------------------------------------------------------------------------------------- one photo
-def run_pipeline(entry: Entry, run_dir: Path, cache: Path, overrides: list[str], until: str | None) -> float:
-    """The photo alone in a temporary folder through the ``psdr-room`` command; wall seconds (exits on failure)."""
+def run_pipeline(entry: Entry, run_dir: Path, cache: Path, overrides: list[str],
+                 until: str | None) -> tuple[float, str | None]:
+    """The photo alone in a temporary folder through the ``psdr-room`` command: wall seconds, and the error's
+    last line when the run failed (the other photos still run: a photo that ends in an error is a result)."""
     if run_dir.exists():
         shutil.rmtree(run_dir)
     with tempfile.TemporaryDirectory() as bare:
@@ -228,8 +233,9 @@ def run_pipeline(entry: Entry, run_dir: Path, cache: Path, overrides: list[str],
         result = subprocess.run(command, capture_output=True, text=True)
         seconds = time.perf_counter() - start
     if result.returncode != 0:
-        sys.exit(f"real_photos: {entry.name} failed:\n{result.stderr[-3000:]}")
-    return seconds
+        lines = [line for line in result.stderr.splitlines() if line.strip()]
+        return seconds, lines[-1] if lines else f"exit status {result.returncode}"
+    return seconds, None
 
 
 def evaluate(entry: Entry, run_dir: Path, db: ObjectDatabase, seconds: float, sheets: Path) -> dict:
@@ -241,6 +247,8 @@ def evaluate(entry: Entry, run_dir: Path, db: ObjectDatabase, seconds: float, sh
     objects = [s for s in panoptic.segments if s.category in OBJECT_CATEGORIES]
     row: dict = {"photo": entry.name, "seconds": seconds, "segments": len(objects),
                  "stages": {k: v["compute_seconds"] for k, v in metrics["stages"].items()},
+                 "guessed": guesses(Camera.load(art / "camera"), RoomBox.load(art / "room_box")
+                                    if (art / "room_box").is_dir() else None),
                  "implementations": {k: v["name"] for k, v in metrics.get("implementations", {}).items()}}
     if entry.fy is not None:
         camera = Camera.load(art / "camera")
@@ -454,6 +462,9 @@ def format_table(rows: list[dict]) -> str:
         details = [f"{c} {r[key]}" for c, key in PHYSICAL if r.get(key)]
         if details:
             lines.append(f"  {r['photo']}: " + "; ".join(details))
+    for r in rows:
+        for guess in r.get("guessed", []):
+            lines.append(f"  {r['photo']} guessed: {guess}")
     unmapped = sorted({n for r in boxed for n in r.get("unmapped", [])})
     if unmapped:
         lines.append(f"reference classes not in REFERENCE_CLASSES (ignored): {', '.join(unmapped)}")
@@ -559,14 +570,21 @@ def main() -> None:
     cache = (args.cache or args.out / "cache").resolve()
     os.environ.setdefault("PSDR_ROOM_CACHE_DIR", str(cache))  # the object database's own records and thumbnails
     db = builtin_database()
-    rows = []
+    rows, failed = [], {}
     for entry in entries:
         run_dir = args.out / "runs" / entry.name
         if args.no_run:
+            if not (run_dir / "metrics.json").is_file():
+                failed[entry.name] = "no finished run in " + str(run_dir)
+                continue
             metrics = json.loads((run_dir / "metrics.json").read_text())
             seconds = sum(v["compute_seconds"] for v in metrics["stages"].values())
         else:
-            seconds = run_pipeline(entry, run_dir, cache, args.set, args.until)
+            seconds, error = run_pipeline(entry, run_dir, cache, args.set, args.until)
+            if error is not None:
+                failed[entry.name] = error
+                print(f"{entry.name}: failed after {seconds:.0f} s: {error}", file=sys.stderr, flush=True)
+                continue
         rows.append(evaluate(entry, run_dir, db, seconds, args.out / "sheets"))
         print(f"{entry.name}: {rows[-1]['fitted']} objects, {seconds:.0f} s", file=sys.stderr, flush=True)
     save = args.save or args.out / "rows.json"
@@ -575,6 +593,9 @@ def main() -> None:
     print(f"Real photos run bare ({args.photos}; overrides: {' '.join(args.set) or 'none'}"
           f"{'; until ' + args.until if args.until else ''})\n")
     print(format_table(rows))
+    print(f"\nfinished: {len(rows)}/{len(rows) + len(failed)}")
+    for name, error in failed.items():
+        print(f"  {name} failed: {error}")
     print("\nseconds per stage (compute):")
     print(stage_table(rows))
     if args.compare:

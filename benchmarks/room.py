@@ -6,9 +6,11 @@ smooth 5% error and blurred edges, as an estimator's would, unless ``--depth-noi
 the room box 3D IoU after ``room_init`` and after ``room_fit``, the per-iteration time of ``room_fit``
 (first iteration, with JIT compilation, apart from the steady state), the total stage time, and where the
 floor came from (``floor`` points, or what ``room_init`` guessed it from when none were in view). ``--bare``
-copies each photo alone into a folder, so the offline segmentation and depth see what a new user's photo gives.
+copies each photo alone into a folder, so the offline segmentation and depth see what a new user's photo gives;
+``--until export_scene`` runs every stage (a photo that shows little of a room must still give a scene), with the
+same IoU columns.
 
-    python benchmarks/room.py [--scenes 10] [--data DIR] [--no-hard] [--bare]
+    python benchmarks/room.py [--scenes 10] [--data DIR] [--no-hard | --cases CASE...] [--bare] [--until STAGE]
 """
 
 from __future__ import annotations
@@ -39,9 +41,10 @@ def iou(truth: dict, box: RoomBox) -> float:
     return room_iou(reference, box)
 
 
-def evaluate(scene: Path, run_dir: Path, overrides: list[str], true_fov: bool = False, bare: bool = False) -> dict:
-    """Run one scene up to room_fit (``bare``: its photo alone, without the depth and segmentation beside it);
-    return its row of the table."""
+def evaluate(scene: Path, run_dir: Path, overrides: list[str], true_fov: bool = False, bare: bool = False,
+             until: str = "room_fit") -> dict:
+    """Run one scene up to ``until`` (at least room_fit; ``bare``: its photo alone, without the depth and
+    segmentation beside it); return its row of the table."""
     truth = json.loads((scene / "ground_truth.json").read_text())
     if true_fov:  # isolate the room stage from the FoV estimate
         overrides = ["fov=fixed", f"fov.fixed.vfov_deg={truth['vfov_deg']}", *overrides]
@@ -50,7 +53,7 @@ def evaluate(scene: Path, run_dir: Path, overrides: list[str], true_fov: bool = 
         photo = run_dir.parent / "bare" / scene.name / "photo.png"
         photo.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(scene / "photo.png", photo)
-    record = execute(compose_config([f"image={photo}", "run.until=room_fit", *overrides]), run_dir)
+    record = execute(compose_config([f"image={photo}", f"run.until={until}", *overrides]), run_dir)
     camera = record.artifacts["camera"]
     timings = next(r.timings for r in record.stages if r.name == "room_fit")
     return {
@@ -86,17 +89,20 @@ def main() -> None:
     parser.add_argument("--scenes", type=int, default=10, help="random scenes, seeds 0..N-1")
     parser.add_argument("--data", type=Path, help="keep the rendered scenes here (reused when present)")
     parser.add_argument("--no-hard", action="store_true", help="skip the hard cases")
+    parser.add_argument("--cases", nargs="+", choices=HARD_CASES, default=list(HARD_CASES), metavar="CASE",
+                        help=f"the hard cases to run (default: all of {', '.join(HARD_CASES)})")
     parser.add_argument("--width", type=int, default=640, help="photo width (height = 3/4); real photos are at least 640")
     parser.add_argument("--spp", type=int, default=64)
     parser.add_argument("--depth-noise", type=float, default=0.05,
                         help="relative error of the depth given to the pipeline, as from a depth estimator (0: exact)")
     parser.add_argument("--true-fov", action="store_true", help="give the pipeline the true FoV (fov=fixed)")
     parser.add_argument("--bare", action="store_true", help="each photo alone: offline segmentation and depth")
+    parser.add_argument("--until", default="room_fit", help="the last stage of each run (export_scene: all of them)")
     parser.add_argument("overrides", nargs="*", help="config overrides for every run, e.g. room_fit.iterations=50")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         data = args.data or Path(tmp) / "scenes"
-        cases = [("random", s) for s in range(args.scenes)] + ([] if args.no_hard else [(c, 0) for c in HARD_CASES])
+        cases = [("random", s) for s in range(args.scenes)] + ([] if args.no_hard else [(c, 0) for c in args.cases])
         rows: dict[str, list[dict]] = {"random": [], "hard": []}
         for case, seed in cases:
             scene = data / f"scene_{case}_{seed:04d}_noise{args.depth_noise:g}"
@@ -104,7 +110,7 @@ def main() -> None:
                 width = args.width
                 write_scene(generate(seed, case, width, round(width * 3 / 4)), scene, args.spp, args.depth_noise)
             row = evaluate(scene, Path(tmp) / "runs" / scene.name, [f"cache_dir={Path(tmp) / 'cache'}", *args.overrides],
-                           args.true_fov, args.bare)
+                           args.true_fov, args.bare, args.until)
             rows["random" if case == "random" else "hard"].append(row)
             print(f"  {scene.name}: IoU {row['iou_init']:.3f} -> {row['iou_fit']:.3f}", flush=True)
     print_table(rows["random"], f"{args.scenes} random synthetic rooms ({args.width}x{round(args.width * 3 / 4)} photos)")

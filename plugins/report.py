@@ -20,7 +20,7 @@ from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Registry
 from psdr_room_core.engine.settings import setting
 from psdr_room_core.method.artifacts import OptimizationLog
-from psdr_room_core.method.stages.room import guesses
+from psdr_room_core.method.guesses import guesses
 from psdr_room_core.method.visualize import depth_colormap, legend, room_edges_overlay, segment_overlay
 
 PICTURE_KINDS = ("optimization_log", "materials", "lights")
@@ -127,7 +127,7 @@ def render_report(run: RunRecord, alpha: float) -> str:
     if room is not None:
         size = " × ".join(f"{2 * h:.2f}" for h in room.half_size)
         facts.append(f"room box {size} (x × y × z), camera height {room.extra.get('camera_height', float('nan')):.2f}")
-        facts.extend(f"guessed: {html.escape(guess)}" for guess in guesses(room))
+        facts.extend(f"guessed: {html.escape(guess)}" for guess in guesses(camera, run.artifacts.get("room_box")))
     fit = run.artifacts.get("fit_appearance_log")
     if fit is not None and "rmse" in fit.summary:
         s = fit.summary

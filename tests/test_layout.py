@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -11,6 +13,8 @@ import pytest
 
 from psdr_room_core.engine.dag import RunRecord
 from psdr_room_core.method.artifacts import Camera, Detection, Detections, Image, Panoptic, Segment
+from psdr_room_core.method.guesses import fov_guesses
+from psdr_room_core.method.stages.room import FLOOR_GUESSES
 from psdr_room_plugins.layout import box
 from psdr_room_plugins.layout.depth import LayoutDepth, object_depth
 from psdr_room_plugins.layout.fit import floor_colour_region
@@ -224,6 +228,8 @@ def test_a_bare_photo_without_floor_or_prompts_still_gives_a_room(tmp_path: Path
     room = record.artifacts["room_box"]
     assert room.extra["floor_source"] in ("ceiling", "walls")
     assert record.artifacts["placements"].objects == []
+    guessed = json.loads((tmp_path / "run" / "metrics.json").read_text())["guessed"]
+    assert guessed == [f"no floor in view: the floor plane from {FLOOR_GUESSES[room.extra['floor_source']]}"]
 
 
 def test_a_bare_photo_looking_down_at_a_tiled_floor_stands_the_room_on_it(tmp_path: Path) -> None:
@@ -251,6 +257,16 @@ def test_a_bare_photo_of_the_ceiling_alone_still_gives_a_room(tmp_path: Path) ->
     assert (labels == box.CEILING).mean() > 0.97
     room = _run_bare(image, tmp_path, "room_init").artifacts["room_box"]
     assert np.all(np.asarray(room.half_size) > 0) and room.extra["camera_height"] > 0
+
+
+def test_what_was_guessed_is_said() -> None:
+    """The FoV of a photo whose lines give no vanishing points, or barely any, is a guess, and says so; a fixed
+    FoV (the user's) and a well-supported one are not."""
+    fallback = Camera.from_vfov(160, 120, 55.0, method="vanishing_points/fallback")
+    weak = replace(Camera.from_vfov(160, 120, 58.0, method="vanishing_points/orthogonal_pair"), confidence=0.02)
+    strong = replace(weak, confidence=0.6)
+    assert "fallback 55.0°" in fov_guesses(fallback)[0] and "58.0° is uncertain" in fov_guesses(weak)[0]
+    assert fov_guesses(strong) == [] == fov_guesses(Camera.from_vfov(160, 120, 55.0, method="fixed"))
 
 
 def test_the_floor_colour_runs_up_from_the_bottom_band() -> None:

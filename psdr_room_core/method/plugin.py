@@ -4,7 +4,9 @@ own hooks, stages and run figures, registered here in one place."""
 from __future__ import annotations
 
 import json
+import logging
 import math
+from pathlib import Path
 from typing import Any
 
 import pluggy
@@ -17,9 +19,11 @@ from psdr_room_core.engine.settings import NoSettings
 from . import artifacts, hookspecs
 from .capabilities import CAPABILITIES, DESCRIPTIONS
 from .crops import CROPS_SUFFIX
+from .guesses import guesses
 from .room_box import RoomInitParams
 from .stages import appearance, export, lighting, materials, objects, preprocess, room, settings
-from .stages.room import guesses
+
+log = logging.getLogger("psdr_room")
 
 
 @hookimpl
@@ -101,5 +105,12 @@ def run_metrics(run: RunRecord) -> dict[str, Any]:
         held = run.artifacts.get("room_box_objects")
         if held is not None:  # grown where fit_objects' objects reach beyond it
             out["room_box"]["size_holding_objects"] = [2 * float(h) for h in held.half_size]
-        out["guessed"] = guesses(room)
+    out["guessed"] = guesses(run.artifacts.get("camera"), run.artifacts.get("room_box"))
     return out
+
+
+@hookimpl
+def after_run(run: RunRecord, run_dir: Path) -> None:
+    """Say, one line each, what the run guessed because the photo did not show it (:mod:`.guesses`)."""
+    for guess in guesses(run.artifacts.get("camera"), run.artifacts.get("room_box")):
+        log.warning("guessed: %s", guess)
