@@ -2,7 +2,9 @@
 # Prepare a machine for psdr-room: Debian libraries (as root), a virtualenv in .venv with pinned packages.
 # Idempotent and quick when nothing changed; run (not sourced) by scripts/demo.sh and scripts/test.sh.
 # --test also installs what only the tests use: Debian chromium and chromium-driver (the report and studio browser
-# tests) and, where npm exists, the Khronos glTF validator (into .venv/node_modules).
+# tests), Debian blender, python3-numpy and Mesa's EGL (the Blender export tests, EEVEE headless: about 90 MB
+# installed, a minute or two),
+# and, where npm exists, the Khronos glTF validator (into .venv/node_modules).
 # `source scripts/env.sh` then puts the tools on your shell's PATH.
 set -euo pipefail
 
@@ -12,10 +14,15 @@ PYTHON="${PYTHON:-python3}"
 # libllvm19: Dr.Jit's LLVM backend (1.5 crashes on Debian's default LLVM 14/15); libusb-1.0-0: open3d.
 DEB_PACKAGES=(libllvm19 libusb-1.0-0 libgl1 libgomp1)
 TESTING=0
-[[ "${1:-}" == "--test" ]] && TESTING=1 && DEB_PACKAGES+=(chromium chromium-driver)
+TEST_ONLY=(chromium chromium-driver blender python3-numpy libegl-mesa0 libgl1-mesa-dri)
+[[ "${1:-}" == "--test" ]] && TESTING=1 && DEB_PACKAGES+=("${TEST_ONLY[@]}")
 GLTF_VALIDATOR="gltf-validator@2.0.0-dev.3.10"
 
 say() { printf 'psdr-room setup: %s\n' "$*" >&2; }
+only_test_packages() {  # every argument is one of TEST_ONLY
+    local pkg
+    for pkg in "$@"; do [[ " ${TEST_ONLY[*]} " == *" $pkg "* ]] || return 1; done
+}
 
 missing=()
 for pkg in "${DEB_PACKAGES[@]}"; do
@@ -26,8 +33,8 @@ if ((${#missing[@]})); then
         say "installing Debian packages: ${missing[*]}"
         DEBIAN_FRONTEND=noninteractive apt-get update -qq
         DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
-    elif [[ " chromium chromium-driver " == *" ${missing[*]} "* ]]; then
-        say "${missing[*]} missing: the report and studio browser tests will be skipped (sudo apt-get install -y chromium chromium-driver runs them)"
+    elif only_test_packages "${missing[@]}"; then
+        say "${missing[*]} missing: the tests that need them (browser, Blender) will be skipped (sudo apt-get install -y ${missing[*]} runs them)"
     else
         say "missing Debian packages: ${missing[*]}"
         say "install them with: sudo apt-get install -y ${missing[*]}   (then rerun this command)"

@@ -159,6 +159,14 @@ def cache_dir_is_a_file(folder: Path) -> list[str]:
 
 
 # ------------------------------------------------------------------------------------------ the corpus
+def blender_elsewhere(folder: Path) -> list[str]:
+    """A complete-looking scene folder and a Blender that is not there."""
+    scene = scene_folder(folder)
+    for name in ("scene.glb", "scene.xml"):
+        (scene / name).write_bytes(b"not read")
+    return [str(scene), "--blender", "no-such-blender"]
+
+
 CASES: dict[str, Case] = {
     # photos
     "photo_missing": Case(lambda f: [f"image={f / 'nope.jpg'}"], "nope.jpg: no such file"),
@@ -203,6 +211,10 @@ CASES: dict[str, Case] = {
     "learning_rate_negative": Case(overrides("fit_appearance.learning_rates.graph=-1"),
                                    "fit_appearance.learning_rates.graph=-1.0 is out of range; allowed: a number >= 0"),
     "max_side_zero": Case(overrides("load_image.max_side=0"), "load_image.max_side=0 is out of range"),
+    "unknown_nested_stage_key": Case(overrides("fit_appearance.learning_rates.glos=1"),
+                                     "fit_appearance.learning_rates.glos is not a setting of fit_appearance.learning_rates"),
+    "paint_range_reversed": Case(overrides("fit_appearance.paint.albedo=[0.5,0.2]"),
+                                 "fit_appearance.paint.albedo=[0.5, 0.2]: the lowest must be below the highest"),
     "probability_over_one": Case(overrides("place_objects.prune.min_iou=1.5"), "place_objects.prune.min_iou=1.5"),
     "list_of_wrong_length": Case(overrides("init_lights.ceiling_grid=[3]"), "init_lights.ceiling_grid=[3] is invalid"),
     "word_not_a_choice": Case(overrides("renderer.mitsuba.variant=gpu"), "renderer.mitsuba.variant=gpu is not one"),
@@ -273,6 +285,14 @@ CASES: dict[str, Case] = {
         "camera.width=\"wide\" is invalid", "psdr-room-edit"),
     "scene_part_unknown_key": Case(edit("light.scale=2", appearance={"parts": [part(shine=1)]}),
                                    "parts[0]: unknown key(s) shine", "psdr-room-edit"),
+    # scene folders for psdr-room-blender
+    "blender_no_such_folder": Case(lambda folder: [str(folder / "nowhere")], "nowhere: no scene.glb",
+                                   "psdr-room-blender"),
+    "blender_scene_without_glb": Case(lambda folder: [str(scene_folder(folder))], "scene: no scene.glb",
+                                      "psdr-room-blender"),
+    "blender_not_installed": Case(blender_elsewhere, "no-such-blender: Blender not found", "psdr-room-blender"),
+    "blender_zero_samples": Case(lambda folder: [str(scene_folder(folder)), "--spp", "0"], "--spp must be at least 1",
+                                 "psdr-room-blender"),
 }
 
 

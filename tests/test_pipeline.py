@@ -106,13 +106,14 @@ def test_scene_loads_in_mitsuba(first_run: tuple[Path, dict[str, str]]) -> None:
 
     mi.set_variant("scalar_rgb")
     scene_dir = root / "run1" / "scene"
-    scene = mi.load_file(str(scene_dir / "scene.xml"), spp=4, optimize=False)  # keep shapes apart
+    scene = mi.load_file(str(scene_dir / "scene.xml"), spp=4)  # as a user loads it: every part keeps its id
     state = json.loads((scene_dir / "appearance.json").read_text())
     ids = {s.id() for s in scene.shapes()}
     lights = {l["name"] for l in state["lights"]}
     lamp_parts = {l["part"] for l in state["lights"] if l["part"]}
     parts = {p["part"] for p in state["parts"]} - lamp_parts
     assert ids == parts | lights | set(state["fixtures"])
+    assert {f"{i}.vertex_positions" for i in ids} <= set(mi.traverse(scene).keys())
     assert {"floor", "ceiling", "wall_x_neg", "wall_x_pos", "wall_z_neg", "wall_z_pos"} <= ids
     assert any(l.startswith("light_ceiling") or l == "light_behind_camera" for l in lights)
     placed = json.loads((root / "run1" / "artifacts" / "placements_fit" / "placements.json").read_text())

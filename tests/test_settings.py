@@ -44,7 +44,7 @@ def test_shipped_config_fits_the_schemas(option: str) -> None:
     ("fit_objects.learning_rates.yaw=-1", "fit_objects.learning_rates.yaw=-1.0 is out of range; allowed: a number >= 0"),
     ("load_image.max_side=0", "load_image.max_side=0 is out of range; allowed: an integer >= 64"),
     ("+room_init.ransac_iters=5", "room_init.ransac_iters is not a setting of room_init (did you mean ransac_iterations?); known: ransac_threshold,"),
-    ("+fit_appearance.weights.colur=1", "fit_appearance.weights.colur is not a setting of fit_appearance.weights (did you mean colour?); known: image, colour, texture"),
+    ("+fit_appearance.weights.colur=1", "fit_appearance.weights.colur is not a setting of fit_appearance.weights (did you mean colour?); known: image, colour, texture, paint"),
     ("renderer.mitsuba.rgb_guiding=fast", "renderer.mitsuba.rgb_guiding=fast is not one of the choices; allowed: one of none, grid, octree"),
     ("init_lights.ceiling_grid=[3,3,3]", "init_lights.ceiling_grid=[3, 3, 3] is invalid; allowed: a list of integers >= 1, 2 of them"),
     ("segmentation.layout.discovery.min_visible=1.5", "segmentation.layout.discovery.min_visible=1.5 is out of range; allowed: a number >= 0 and <= 1"),

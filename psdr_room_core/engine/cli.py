@@ -143,7 +143,7 @@ def check_run_folder(parsed: list[Override]) -> None:
 def unknown_override(key: str, plugins: PluginSystem) -> PsdrRoomError:
     """The one-line error for overriding ``key`` that is not in the composed config: the same words as for an
     unknown key added with ``+`` (a did-you-mean and the valid names), never Hydra's hint to add it."""
-    composed = OmegaConf.to_container(compose_config([], plugins), resolve=False)
+    composed = OmegaConf.to_container(compose_config([], plugins), resolve=True)  # stages refer to each other
     assert isinstance(composed, dict)
     data: dict[str, Any] = {str(k): v for k, v in composed.items()}
     node = data

@@ -62,7 +62,9 @@ def setting(
 
 
 def check_settings(schema: type, values: Mapping[str, Any], where: str) -> None:
-    """Raise a one-line :class:`PsdrRoomError` unless ``values`` (the config node ``where``) fits ``schema``."""
+    """Raise a one-line :class:`PsdrRoomError` unless ``values`` (the config node ``where``) fits ``schema``: its
+    types, the bounds of each field (:func:`setting`), and the rules across fields that a schema's
+    ``__post_init__`` checks (raising :class:`PsdrRoomError`; it runs on the values, after the bounds)."""
     try:
         merged = OmegaConf.merge(OmegaConf.structured(schema), dict(values))
         OmegaConf.to_container(merged, throw_on_missing=True)
@@ -86,6 +88,7 @@ def check_settings(schema: type, values: Mapping[str, Any], where: str) -> None:
             f"allowed: {_allowed(schema, key)}"
         ) from None
     _check_rules(schema, merged, where)
+    OmegaConf.to_object(merged)  # the schemas' __post_init__ rules
 
 
 def did_you_mean(word: str, known: Iterable[str]) -> str:

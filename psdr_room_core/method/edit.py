@@ -191,7 +191,7 @@ def edit_scene(scene: Path, edits: list[str], out: Path, spp: int = 64, max_dept
         if not sep:
             raise PsdrRoomError(f"edit {edit!r}: expected KEY=VALUE")
         apply_edit(state, key.strip(), raw, library)
-    files = scene_folder(rebuild(scene_dir, state, library), state, spp, max_depth, glb=True)
+    files = scene_folder(rebuild(scene_dir, state, library), state, spp, max_depth, glb=True, usd=True)
     out.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=".edit-", dir=out.parent))
     try:

@@ -1,6 +1,13 @@
-"""A glTF 2.0 binary (``.glb``) of the reconstructed scene: one mesh per scene part with a metallic-roughness
-PBR material (constant, or embedded PNG maps on the planar texture coordinates), the lights as emissive
-meshes (``KHR_materials_emissive_strength`` carries radiance above 1), and the photo's camera."""
+"""A glTF 2.0 binary (``.glb``) of the reconstructed scene: one named node and mesh per scene part with a
+metallic-roughness PBR material (constant, or embedded PNG maps on the planar texture coordinates) and its
+fitted specular (``KHR_materials_specular``), the lights as emissive meshes (``KHR_materials_emissive_strength``
+carries radiance above 1) with a spot light standing in for each (``KHR_lights_punctual``: rasterisers light
+nothing from emissive meshes), and the photo's camera with its aspect ratio.
+
+The stand-ins are approximations (glTF has no area light): a Lambertian panel of radiance L and area A emits
+pi L A; a spot light over a hemisphere (outer cone pi / 2) of the same power has intensity L A / 2. A path
+tracer that lights from emissive meshes (Cycles, a three.js path tracer) counts the light twice from a raw import:
+``psdr-room-blender`` builds the scene for Blender with area lights instead."""
 
 from __future__ import annotations
 
@@ -18,6 +25,12 @@ from .shading import linear_to_srgb
 
 CV_TO_GL = np.diag([1.0, -1.0, -1.0, 1.0])
 """OpenCV camera axes (x right, y down, z forward) → glTF's (x right, y up, looking down −z)."""
+LUMENS_PER_WATT = 683.0
+"""glTF light intensities are photometric (candela); radiance is radiometric: the conversion glTF importers
+(Blender's among them) undo."""
+GLTF_F0 = 0.04
+"""A glTF dielectric's normal-incidence reflectance at its default IOR 1.5; a principled BSDF's ``specular`` s
+has 0.08 s (Mitsuba, Blender), so ``KHR_materials_specular`` scales it by 2 s."""
 
 
 class _Buffer:
@@ -87,20 +100,31 @@ def scene_glb(scene: RgbScene, camera: Camera, camera_to_world: np.ndarray) -> b
             pbr["roughnessFactor"] = 1.0
         else:
             pbr["roughnessFactor"] = float(surface.roughness)
-        add(name, np.asarray(mesh.vertices), np.asarray(mesh.faces), {"pbrMetallicRoughness": pbr},
+        f0_scale = float(surface.specular) * 0.08 / GLTF_F0
+        add(name, np.asarray(mesh.vertices), np.asarray(mesh.faces), {
+            "pbrMetallicRoughness": pbr,
+            "extensions": {"KHR_materials_specular": {"specularColorFactor": [f0_scale] * 3}}},
             surface.uv if surface.mapped else None)
+    lights = []
     for name, (mesh, radiance) in scene.emitters.items():
         strength = max(max(radiance), 1e-6)
         add(name, np.asarray(mesh.vertices), np.asarray(mesh.faces), {
             "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0},
             "emissiveFactor": [float(c) / strength for c in radiance],
             "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": float(strength)}}}, None)
+        centre, normal, area, _ = emitter_frame(mesh.vertices, mesh.faces)
+        lights.append({"name": f"{name}_stand_in", "type": "spot", "color": [float(c) / strength for c in radiance],
+                       "intensity": LUMENS_PER_WATT * strength * area / 2.0,
+                       "spot": {"innerConeAngle": 0.0, "outerConeAngle": math.pi / 2}})
+        nodes.append({"name": f"{name}_stand_in", "matrix": _facing(centre, normal),
+                      "extensions": {"KHR_lights_punctual": {"light": len(lights) - 1}}})
 
     pose = np.asarray(camera_to_world, dtype=np.float64) @ CV_TO_GL
     nodes.append({"name": "camera", "camera": 0, "matrix": [float(v) for v in pose.T.reshape(-1)]})
+    used = ["KHR_materials_emissive_strength", "KHR_materials_specular"] + (["KHR_lights_punctual"] if lights else [])
     gltf: dict[str, Any] = {
         "asset": {"version": "2.0", "generator": "psdr-room"},
-        "extensionsUsed": ["KHR_materials_emissive_strength"],
+        "extensionsUsed": used,
         "scene": 0,
         "scenes": [{"name": "psdr-room", "nodes": list(range(len(nodes)))}],
         "nodes": nodes,
@@ -112,6 +136,8 @@ def scene_glb(scene: RgbScene, camera: Camera, camera_to_world: np.ndarray) -> b
         "bufferViews": buf.views,
         "accessors": buf.accessors,
     }
+    if lights:
+        gltf["extensions"] = {"KHR_lights_punctual": {"lights": lights}}
     if textures:
         gltf.update(textures=textures, images=images,
                     samplers=[{"magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497}])
@@ -122,3 +148,28 @@ def scene_glb(scene: RgbScene, camera: Camera, camera_to_world: np.ndarray) -> b
     text += b" " * (-len(text) % 4)
     body = struct.pack("<I4s", len(text), b"JSON") + text + struct.pack("<I4s", len(buf.data), b"BIN\x00") + bytes(buf.data)
     return struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body
+
+
+def _facing(position: np.ndarray, direction: np.ndarray) -> list[float]:
+    """A node matrix (column-major) at ``position`` whose −z axis (where glTF lights point) is ``direction``."""
+    back = -direction / np.linalg.norm(direction)
+    helper = np.array([0.0, 1.0, 0.0]) if abs(back[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    x = np.cross(helper, back)
+    x /= np.linalg.norm(x)
+    matrix = np.eye(4)
+    matrix[:3, 0], matrix[:3, 1], matrix[:3, 2], matrix[:3, 3] = x, np.cross(back, x), back, position
+    return [float(v) for v in matrix.T.reshape(-1)]
+
+
+def emitter_frame(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """An emitting mesh's area-weighted centre, mean emitting direction (unit; its counter-clockwise side), area,
+    and flatness: the length of the area-weighted mean normal (1 for a flat panel, near 0 for a closed shape)."""
+    corners = np.asarray(vertices, np.float64)[np.asarray(faces)]
+    cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    areas = np.linalg.norm(cross, axis=1) / 2
+    area = float(areas.sum())
+    centre = (corners.mean(axis=1) * areas[:, None]).sum(axis=0) / max(area, 1e-12)
+    normal = cross.sum(axis=0) / 2
+    length = float(np.linalg.norm(normal))
+    direction = normal / length if length > 1e-12 else np.array([0.0, -1.0, 0.0])
+    return centre, direction, area, length / max(area, 1e-12)

@@ -26,6 +26,7 @@ from ..artifacts import (
 )
 from ..convergence import Plateau, untimed
 from ..image_metrics import downsampled, flip, rmse, ssim, ssim_map
+from ..material_priors import LUMINANCE, PaintPrior, painted, within_paint
 from ..rgb_scene import build_scene, finished_render, graph_maps, initial_parts, part_meshes, render_part_ids
 from ..shading import linear_to_srgb, srgb_to_linear
 from ..visualize import plot_curves
@@ -38,6 +39,16 @@ def _logit(x: float) -> torch.Tensor:
     return torch.tensor([np.log(x / (1 - x))], dtype=torch.float32)
 
 
+def paint_colour(hue: torch.Tensor, lightness: torch.Tensor, prior: PaintPrior) -> torch.Tensor:
+    """A base colour whose luminance lies in ``prior.albedo``: the hue of ``sigmoid(hue)`` at the luminance
+    ``sigmoid(lightness)`` places in the range (a channel that would pass 1 stops there)."""
+    low, high = prior.albedo
+    colour = torch.sigmoid(hue)
+    colour = colour / colour.max()  # its luminance is then at least the smallest weight, 0.0722
+    target = low + (high - low) * torch.sigmoid(lightness)
+    return torch.clamp(colour * (target / (colour @ torch.tensor(LUMINANCE))), max=1.0)
+
+
 class AppearanceModel:
     """The optimised parameters of eq. 4: per optimised homogeneous part a base colour, roughness and specular
     (each through a sigmoid); per optimised procedural part its graph's free unconstrained parameters and a
@@ -47,10 +58,18 @@ class AppearanceModel:
     light would let each ceiling panel tint the surfaces under it (green on one chair, yellow on the next):
     the photo's lights share one white balance, and the surfaces carry the colour. Parts not in ``free`` keep
     their initial material. Procedural parts in ``plain`` are drawn with their maps' mean colour and roughness
-    and written as homogeneous (see :func:`plain_parts`)."""
+    and written as homogeneous (see :func:`plain_parts`).
+
+    The walls and the ceiling are paint (:mod:`..material_priors`, ``paint``): a homogeneous one's base colour
+    keeps its luminance in ``paint.albedo`` (a hue and a lightness through sigmoids, :func:`paint_colour`), a
+    procedural one's mean map luminance is pulled into it by a loss term (:meth:`paint_penalty`; made plain, it is
+    brought into it), and every wall's and the ceiling's specular stays at most ``paint.max_specular``. Without
+    this the fit may match the photo with black walls that mirror the lights, a scene that falls apart once a
+    light moves."""
 
     def __init__(self, parts: list[PartAppearance], lights: Lights, library: Any, map_size: int,
-                 free: set[str] | None = None, radiance_range: float = 16.0, colour_range: float = 2.0) -> None:
+                 free: set[str] | None = None, radiance_range: float = 16.0, colour_range: float = 2.0,
+                 paint: PaintPrior | None = None) -> None:
         self.parts = parts
         self.lights = lights
         self.library = library
@@ -59,6 +78,7 @@ class AppearanceModel:
         self.plain: set[str] = set()
         self.log_range = float(np.log(max(radiance_range, 1.0 + 1e-6)))
         self.log_colour_range = float(np.log(max(colour_range, 1.0 + 1e-6)))
+        self.paint = paint or PaintPrior()
         self.theta: dict[str, torch.Tensor] = {}
         self.group: dict[str, str] = {}
         for p in self.optimised():
@@ -67,10 +87,16 @@ class AppearanceModel:
                 graph = {k: v for k, v in p.params.items() if not material.bounds[k].fixed}
                 for key, value in (material.unconstrained(graph) if graph else {}).items():
                     self._add(f"{p.part}/graph/{key}", value.detach().clone().float(), "graph")
+            elif painted(p.part):
+                low, high = self.paint.albedo
+                start = float(np.clip(np.dot(p.base_color, LUMINANCE), low, high))
+                self._add(f"{p.part}/base_color", torch.cat([_logit(c) for c in p.base_color]), "base_color")
+                self._add(f"{p.part}/lightness", _logit((start - low) / (high - low)), "base_color")
+                self._add(f"{p.part}/roughness", _logit(p.roughness), "roughness")
             else:
                 self._add(f"{p.part}/base_color", torch.cat([_logit(c) for c in p.base_color]), "base_color")
                 self._add(f"{p.part}/roughness", _logit(p.roughness), "roughness")
-            self._add(f"{p.part}/specular", _logit(p.specular), "specular")
+            self._add(f"{p.part}/specular", _logit(p.specular / self._max_specular(p.part)), "specular")
         for light in lights.lights:
             self._add(f"{light.name}/radiance", torch.zeros(1), "radiance")
         if lights.lights:
@@ -78,6 +104,22 @@ class AppearanceModel:
 
     def optimised(self) -> list[PartAppearance]:
         return [p for p in self.parts if p.part in self.free]
+
+    def _max_specular(self, part: str) -> float:
+        return self.paint.max_specular if painted(part) else 1.0
+
+    def paint_penalty(self, inputs: dict[str, dict[str, torch.Tensor]]) -> torch.Tensor | None:
+        """The paint prior on procedural walls and ceilings (their graphs' colours are bounded per graph, not by
+        luminance): the squared relative distance of each one's mean map luminance outside ``paint.albedo``,
+        summed; ``None`` when no such part is optimised."""
+        low, high = self.paint.albedo
+        terms = []
+        for p in self.optimised():
+            if p.kind == "procedural" and painted(p.part):
+                luminance = (inputs["base_color"][p.part] @ torch.tensor(LUMINANCE)).mean()
+                terms.append((torch.relu(low - luminance) / max(low, 1e-6)) ** 2
+                             + (torch.relu(luminance - high) / max(1 - high, 1e-6)) ** 2)
+        return torch.stack(terms).sum() if terms else None
 
     def _add(self, name: str, value: torch.Tensor, group: str) -> None:
         self.theta[name] = value.requires_grad_(True)
@@ -91,12 +133,16 @@ class AppearanceModel:
         """Keyword arguments of ``render_rgb`` for the current parameters (the optimised parts and the lights)."""
         base, rough, spec = {}, {}, {}
         for p in self.optimised():
-            spec[p.part] = torch.sigmoid(self.theta[f"{p.part}/specular"])
+            spec[p.part] = self._max_specular(p.part) * torch.sigmoid(self.theta[f"{p.part}/specular"])
             if p.kind == "procedural":
                 base[p.part], rough[p.part] = graph_maps(self.library, p, self.map_size, self._graph(p.part))
                 if p.part in self.plain:
                     base[p.part], rough[p.part] = (m.mean((0, 1), keepdim=True).expand_as(m).contiguous()
                                                    for m in (base[p.part], rough[p.part]))
+            elif painted(p.part):
+                base[p.part] = paint_colour(self.theta[f"{p.part}/base_color"], self.theta[f"{p.part}/lightness"],
+                                            self.paint)
+                rough[p.part] = torch.sigmoid(self.theta[f"{p.part}/roughness"])
             else:
                 base[p.part] = torch.sigmoid(self.theta[f"{p.part}/base_color"])
                 rough[p.part] = torch.sigmoid(self.theta[f"{p.part}/roughness"])
@@ -123,7 +169,7 @@ class AppearanceModel:
                 common = dict(base_color=mean_base, roughness=float(values["roughness"][p.part].mean()),
                               specular=float(values["specular"][p.part]))
                 if p.part in self.plain:
-                    parts.append(PartAppearance(p.part, "homogeneous", **common))
+                    parts.append(within_paint(PartAppearance(p.part, "homogeneous", **common), self.paint))
                     continue
                 if p.kind == "procedural":
                     constrained = self.library.material(p.material).values(self._graph(p.part))
@@ -139,21 +185,23 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     ``max_depth`` bounces) at ``render_width``:
 
     ``w_image · L1(R↓, I↓) + w_colour · mean_i L1(μ(R on part i's sampled mask), C_i)
-    + w_texture · mean_crops d(T(R crop), T(I crop))``
+    + w_texture · mean_crops d(T(R crop), T(I crop)) + w_paint · P``
 
     with ↓ an area down-sampling by ``downsample``, ``C_i`` the part's median photo colour from
     ``assign_materials`` and its sampled mask the rendered part's pixels that median was taken over (the
     assignment's ``samples``; the whole rendered mask when that leaves fewer than ``min_region_px``): the
     paper's mean over the whole mask also averages the clutter in front of a wall, which ``C_i`` leaves out,
     and pulls the wall towards a colour it does not have. ``T`` is the ``texture`` descriptor on the crop
-    pairs. All terms compare sRGB values; the down-sampled image and the means are averaged in linear light
+    pairs, and ``P`` the paint prior on procedural walls and ceilings (:meth:`AppearanceModel.paint_penalty`).
+    All terms compare sRGB values; the down-sampled image and the means are averaged in linear light
     first. Parameters: see
     :class:`AppearanceModel` (procedural maps evaluated at ``map_size``); ``learning_rates`` per group
     (graph, base_color, roughness, specular, radiance, light_colour), ``iterations``, ``spp`` / ``grad_spp`` (primal and
     gradient samples per pixel), ``final_spp`` (the final render), ``min_region_px`` (smaller parts get no
     colour term, and are not optimised), ``crops_per_part`` (largest first), ``max_crop_aspect`` (see
-    :func:`squarish`), ``radiance_range`` (how far each light's intensity may move from its initial one) and
-    ``colour_range`` (how far the lights' shared colour may move from its initial one, per channel).
+    :func:`squarish`), ``radiance_range`` (how far each light's intensity may move from its initial one),
+    ``colour_range`` (how far the lights' shared colour may move from its initial one, per channel) and ``paint``
+    (the walls' and ceiling's range: :class:`~psdr_room_core.method.material_priors.PaintPrior`).
 
     The init and final renders (``final_spp``) are pictures, not loss terms: the ``denoiser`` cleans them with
     the scene's albedo and normal. The log's summary has their RMSE (1/8 size), SSIM and ꟻLIP against the photo
@@ -166,7 +214,8 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     width = min(int(params["render_width"]), camera.width)
     scale = width / camera.width
     emitting = {light.part for light in lights.lights if light.part}  # lamp parts are lights now
-    parts = [p for p in initial_parts(materials, library) if p.part not in emitting]
+    paint = PaintPrior(**params["paint"])
+    parts = [within_paint(p, paint) for p in initial_parts(materials, library) if p.part not in emitting]
     meshes = part_meshes(room, placements)
     scene = build_scene(meshes, parts, lights.lights, lights.fixtures, library, int(params["map_size"]))
     geometry = scene.renderer(renderer, camera, c2w, width)
@@ -193,7 +242,8 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     # Parts the camera does not see keep their initial material: only indirect light shows them, and it
     # trades off freely against the lights' radiance.
     model = AppearanceModel(parts, lights, library, int(params["map_size"]), free=seen,
-                            radiance_range=float(params["radiance_range"]), colour_range=float(params["colour_range"]))
+                            radiance_range=float(params["radiance_range"]), colour_range=float(params["colour_range"]),
+                            paint=paint)
     crops = []
     for p in materials.parts:
         for rect in p.crops[: int(params["crops_per_part"])]:
@@ -218,7 +268,11 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
         return out
 
     def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
-        parts = terms(geometry.render_rgb(**model.inputs(), iteration=iteration, spp=spp, grad_spp=grad_spp))
+        inputs = model.inputs()
+        parts = terms(geometry.render_rgb(**inputs, iteration=iteration, spp=spp, grad_spp=grad_spp))
+        paint_term = model.paint_penalty(inputs)
+        if paint_term is not None:
+            parts["paint"] = paint_term
         total = sum(weights[k] * v for k, v in parts.items())
         return total, {k: float(v.detach()) for k, v in parts.items()}
 
@@ -228,7 +282,7 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
                                                      stop=Plateau(**params["convergence"])), ctx.timings)
     final_spp, denoiser = int(params["final_spp"]), ctx.impl("denoiser")
     with torch.no_grad():
-        initial = AppearanceModel(parts, lights, library, model.map_size, seen).inputs()
+        initial = AppearanceModel(parts, lights, library, model.map_size, seen, paint=paint).inputs()
         start_noisy, start = picture(geometry, denoiser, initial, final_spp, 10**6)
         final_noisy, final = picture(geometry, denoiser, model.inputs(), final_spp, 10**6 + 1)
         if params["plain_check"]:
@@ -245,7 +299,8 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
              metrics["rmse_init"], metrics["rmse"], metrics["ssim_init"], metrics["ssim"], metrics["flip_init"],
              metrics["flip"], metrics["denoiser"])
     as8 = lambda x: (np.clip(x, 0, 1) * 255 + 0.5).astype(np.uint8)  # noqa: E731
-    curves = {k: [h[k] for h in history] for k in ("loss", "image", "colour", "texture") if history and k in history[0]}
+    curves = {k: [h[k] for h in history] for k in ("loss", "image", "colour", "texture", "paint")
+              if history and k in history[0]}
     images = {"photo_init_final": np.hstack([as8(photo), as8(start), as8(final)])}
     if crops:
         images["crop_pairs"] = _crop_pairs(photo, start, final, [c[0] for c in crops])

@@ -1,10 +1,11 @@
 """Export: the reconstructed scene as Mitsuba 3 XML (separate, welded room and object meshes, baked maps,
-area lights) and as glTF 2.0, with its editable appearance and the point cloud.
+area lights), as glTF 2.0 and as OpenUSD, with its editable appearance and the point cloud.
 
 The room box is written as one quad mesh per side (floor, ceiling, four walls) with normals facing into
 the room: separate meshes keep each side's parameters addressable, and welded quads give correct
 boundary gradients in differentiable renders (``RENDERING-NOTES.md``). Each object is written as one
 world-space mesh per material group (``object_<segment>_<group>``), so each part can get its own material.
+Every part and light is a shape of its own id that ``mi.traverse`` reaches in a default ``mitsuba.load_file``.
 """
 
 from __future__ import annotations
@@ -36,27 +37,47 @@ from ..geometry import TriangleMesh
 from ..gltf import scene_glb
 from ..rgb_scene import RgbScene, build_scene, part_meshes
 from ..shading import linear_to_srgb
+from ..usd import scene_usda
 
 CV_TO_MITSUBA = np.diag([-1.0, -1.0, 1.0, 1.0])
 """OpenCV camera axes (x right, y down, z forward) → Mitsuba's (x left, y up, z forward)."""
 
-def mesh_ply(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray | None = None) -> bytes:
-    """A binary PLY triangle mesh: positions (one vertex per corner), and texture coordinates ``u``, ``v``
-    when given."""
+def mesh_ply(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray | None = None, part: int | None = None) -> bytes:
+    """A binary PLY triangle mesh: positions (one vertex per corner), texture coordinates ``u``, ``v`` when
+    given, and ``part`` as a per-face ``part_x`` property when given (Mitsuba reads it as the mesh attribute
+    ``face_part``; its loader merges meshes of equal materials into one unnamed shape unless they carry an
+    attribute, so the part index keeps every part its own shape, addressable by id)."""
     props = "property float x\nproperty float y\nproperty float z\n" + ("property float u\nproperty float v\n" if uv is not None else "")
+    face_props = "property list uchar int vertex_indices\n" + ("property float part_x\n" if part is not None else "")
     header = (
         "ply\nformat binary_little_endian 1.0\n"
         f"element vertex {len(vertices)}\n{props}"
-        f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n"
+        f"element face {len(faces)}\n{face_props}end_header\n"
     )
     columns = [np.asarray(vertices, np.float64)] + ([np.asarray(uv, np.float64)] if uv is not None else [])
-    tris = np.empty(len(faces), dtype=[("n", "u1"), ("i", "<i4", (3,))])
+    tris = np.empty(len(faces), dtype=_face_dtype(part is not None))
     tris["n"], tris["i"] = 3, faces
+    if part is not None:
+        tris["part"] = part
     return header.encode("ascii") + np.hstack(columns).astype("<f4").tobytes() + tris.tobytes()
+
+
+def _face_dtype(with_part: bool) -> np.dtype:
+    """A PLY face record of :func:`mesh_ply`: three indices, and the part index when written."""
+    return np.dtype([("n", "u1"), ("i", "<i4", (3,))] + ([("part", "<f4")] if with_part else []))
 
 
 def _matrix(m: np.ndarray) -> str:
     return " ".join(f"{float(x):.9g}" for x in np.asarray(m).reshape(-1))
+
+
+MAP_CHANNELS = ("base_color", "roughness")
+"""The principled inputs a part's baked maps hold."""
+
+
+def map_path(part: str, channel: str) -> str:
+    """Where a part's baked map of ``channel`` lies in a scene folder."""
+    return f"textures/{part}_{channel}.png"
 
 
 def _texture(name: str, channel: str, value: Any, files: dict[str, bytes]) -> list[str]:
@@ -64,7 +85,7 @@ def _texture(name: str, channel: str, value: Any, files: dict[str, bytes]) -> li
     roughness as a linear PNG)."""
     array = np.asarray(value, dtype=np.float64)
     if array.ndim == 3:
-        path = f"textures/{name}_{channel}.png"
+        path = map_path(name, channel)
         if channel == "base_color":
             files[path] = _png8(linear_to_srgb(array))
             raw = "false"
@@ -115,9 +136,9 @@ def scene_xml(camera: Camera, camera_to_world: np.ndarray, scene: RgbScene, para
         "        </film>",
         "    </sensor>",
     ]
-    for name, mesh in scene.meshes.items():
+    for part, (name, mesh) in enumerate(scene.meshes.items()):
         surface = scene.surfaces[name]
-        files[f"meshes/{name}.ply"] = mesh_ply(mesh.vertices, mesh.faces, surface.uv if surface.mapped else None)
+        files[f"meshes/{name}.ply"] = mesh_ply(mesh.vertices, mesh.faces, surface.uv if surface.mapped else None, part)
         inputs = (_texture(name, "base_color", surface.base_color, files)
                   + _texture(name, "roughness", surface.roughness, files)
                   + [f'<float name="specular" value="{float(surface.specular):.6g}"/>'])
@@ -130,8 +151,8 @@ def scene_xml(camera: Camera, camera_to_world: np.ndarray, scene: RgbScene, para
             "        </bsdf></bsdf>",
             "    </shape>",
         ]
-    for name, (mesh, radiance) in scene.emitters.items():
-        files[f"meshes/{name}.ply"] = mesh_ply(mesh.vertices, mesh.faces)
+    for part, (name, (mesh, radiance)) in enumerate(scene.emitters.items(), start=len(scene.meshes)):
+        files[f"meshes/{name}.ply"] = mesh_ply(mesh.vertices, mesh.faces, part=part)
         rgb = " ".join(f"{float(c):.6g}" for c in radiance)
         lines += [
             f'    <shape type="ply" id={quoteattr(name)}>',
@@ -156,10 +177,12 @@ def read_mesh_ply(data: bytes, source: str) -> tuple[TriangleMesh, np.ndarray | 
         n_faces = int(next(l.split()[2] for l in header if l.startswith("element face")))
     except (StopIteration, ValueError, IndexError):
         raise PsdrRoomError(f"{source}: PLY header without vertex/face counts; re-export the scene") from None
-    columns = sum(1 for l in header if l.startswith("property float"))
+    face_at = next(i for i, l in enumerate(header) if l.startswith("element face"))
+    columns = sum(1 for l in header[:face_at] if l.startswith("property float"))
+    with_part = any(l.startswith("property float part_x") for l in header[face_at:])
     body = data[end + len(b"end_header\n"):]
     size = n_vertices * columns * 4
-    tris = np.frombuffer(body[size:], dtype=[("n", "u1"), ("i", "<i4", (3,))], count=n_faces)
+    tris = np.frombuffer(body[size:], dtype=_face_dtype(with_part), count=n_faces)
     table = np.frombuffer(body[:size], dtype="<f4").reshape(n_vertices, columns).astype(np.float64)
     return TriangleMesh(table[:, :3], tris["i"].astype(np.int64)), (table[:, 3:5] if columns >= 5 else None)
 
@@ -179,15 +202,20 @@ def scene_state(camera: Camera, camera_to_world: np.ndarray, parts: list[PartApp
     }
 
 
-def scene_folder(scene: RgbScene, state: dict[str, Any], spp: int, max_depth: int, glb: bool) -> dict[str, bytes]:
-    """The files of a scene folder: ``scene.xml`` with its meshes and maps, ``scene.glb`` (when ``glb``) and
-    ``appearance.json`` (``state``)."""
+def scene_folder(scene: RgbScene, state: dict[str, Any], spp: int, max_depth: int, glb: bool,
+                 usd: bool) -> dict[str, bytes]:
+    """The files of a scene folder: ``scene.xml`` with its meshes and maps, ``scene.glb`` (when ``glb``),
+    ``scene.usda`` (when ``usd``; it shares the maps) and ``appearance.json`` (``state``)."""
     camera = Camera(**state["camera"])
     c2w = np.asarray(state["camera_to_world"], dtype=np.float64)
     files: dict[str, bytes] = {}
     files["scene.xml"] = scene_xml(camera, c2w, scene, {"spp": spp, "max_depth": max_depth}, files).encode()
     if glb:
         files["scene.glb"] = scene_glb(scene, camera, c2w)
+    if usd:
+        maps = {part: {channel: map_path(part, channel) for channel in MAP_CHANNELS if map_path(part, channel) in files}
+                for part in scene.meshes}
+        files["scene.usda"] = scene_usda(scene, camera, c2w, maps).encode()
     files["appearance.json"] = (json.dumps(state, indent=1) + "\n").encode()
     return files
 
@@ -196,11 +224,12 @@ def export_scene(ctx: StageContext, camera: Camera, room: RoomBox, cloud: PointC
                  lights: Lights, appearance: SceneAppearance) -> SceneFiles:
     """Write the fitted scene: ``scene.xml`` (Mitsuba 3; ``mitsuba.load_file`` renders what ``fit_appearance``
     rendered) with its meshes (PLY, texture coordinates on mapped parts) and the procedural parts' maps
-    baked at ``texture_size`` (``textures/``); ``scene.glb`` (glTF 2.0, when ``glb``); ``appearance.json``
+    baked at ``texture_size`` (``textures/``); ``scene.glb`` (glTF 2.0, when ``glb``); ``scene.usda``
+    (OpenUSD, when ``usd``); ``appearance.json``
     (camera, every part's material with its graph parameters, the lights: what ``psdr-room-edit``
     changes); and the segmented point cloud in world coordinates (``point_cloud.ply``).
 
-    Params: ``spp``, ``max_depth`` (the XML's path tracer defaults), ``texture_size``, ``glb``.
+    Params: ``spp``, ``max_depth`` (the XML's path tracer defaults), ``texture_size``, ``glb``, ``usd``.
     """
     params = ctx.params
     lit = [Light(l.name, l.kind, l.mesh, appearance.radiance.get(l.name, l.radiance), l.part) for l in lights.lights]
@@ -208,7 +237,8 @@ def export_scene(ctx: StageContext, camera: Camera, room: RoomBox, cloud: PointC
                         ctx.impl("material_graph"), int(params["texture_size"]))
     c2w = np.asarray(room.camera_to_world)
     state = scene_state(camera, c2w, appearance.parts, lit, list(lights.fixtures), int(params["texture_size"]))
-    files = scene_folder(scene, state, int(params["spp"]), int(params["max_depth"]), bool(params["glb"]))
+    files = scene_folder(scene, state, int(params["spp"]), int(params["max_depth"]), bool(params["glb"]),
+                         bool(params["usd"]))
     world = cloud.points @ c2w[:3, :3].T + c2w[:3, 3]
     files["point_cloud.ply"] = ply_bytes(world, cloud.colors, cloud.segment)
     return SceneFiles(files=files)

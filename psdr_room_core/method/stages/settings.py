@@ -9,6 +9,8 @@ from typing import Any
 
 from psdr_room_core.engine.settings import setting
 
+from ..material_priors import PaintPrior
+
 
 @dataclass
 class LoadImage:
@@ -221,6 +223,7 @@ class AppearanceWeights:
     image: float = setting(ge=0)
     colour: float = setting(ge=0)
     texture: float = setting(ge=0)
+    paint: float = setting(ge=0)
 
 
 @dataclass
@@ -251,6 +254,7 @@ class FitAppearance:
     radiance_range: float = setting(ge=1)
     colour_range: float = setting(ge=1)
     plain_check: bool = setting()
+    paint: PaintPrior = setting()
 
 
 @dataclass
@@ -259,4 +263,5 @@ class ExportScene:
     max_depth: int = setting(ge=1)
     texture_size: int = setting(ge=8)
     glb: bool = setting()
+    usd: bool = setting()
 

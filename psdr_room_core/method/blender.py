@@ -1,0 +1,92 @@
+"""``psdr-room-blender``: an exported scene folder as a Blender scene ready to render (``scene.blend``).
+
+    psdr-room-blender outputs/.../scene                       # writes outputs/.../scene/scene.blend
+    psdr-room-blender outputs/.../scene --render cycles.png --engine cycles --width 320
+
+Blender (3.4 or newer, e.g. Debian's ``blender`` with ``python3-numpy``, which its glTF importer needs) builds
+the scene with :mod:`.blender_scene`: the photo's camera active at the photo's resolution, area lights of the
+fitted radiance, Principled BSDFs with the fitted colour, roughness, specular and maps, ``Standard`` colour
+management; Cycles and EEVEE both render it lit. ``--render`` also renders the camera's view to a PNG.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+from psdr_room_core.engine.errors import PsdrRoomError
+
+SCRIPT = Path(__file__).with_name("blender_scene.py")
+"""The script Blender runs (its own Python: nothing of psdr-room is imported there)."""
+INSTALL = "install Blender 3.4 or newer (Debian: sudo apt-get install blender python3-numpy) or pass --blender PATH"
+
+
+def find_blender(given: str | None) -> str:
+    """The Blender executable: ``given``, else ``$PSDR_ROOM_BLENDER``, else ``blender`` on the PATH."""
+    name = given or os.environ.get("PSDR_ROOM_BLENDER") or "blender"
+    found = shutil.which(name)
+    if found is None:
+        raise PsdrRoomError(f"{name}: Blender not found; {INSTALL}")
+    return found
+
+
+def check_scene(scene: Path) -> None:
+    """Refuse a folder that is not an exported scene with glb (before Blender starts)."""
+    for name in ("scene.glb", "appearance.json", "scene.xml"):
+        if not (scene / name).is_file():
+            raise PsdrRoomError(f"{scene}: no {name}; pass the scene/ folder of a psdr-room run (export_scene.glb=true)")
+
+
+def build_blend(scene: Path, blend: Path, blender: str, render: Path | None = None, engine: str = "cycles",
+                spp: int = 64, width: int | None = None, timeout: float = 1800.0) -> None:
+    """Run Blender on the scene folder ``scene``: save ``blend`` and, with ``render``, a PNG of the camera's view."""
+    check_scene(scene)
+    command = [blender, "-b", "--factory-startup", "--python-exit-code", "1", "--python", str(SCRIPT), "--",
+               str(scene), "--blend", str(blend), "--engine", engine, "--spp", str(spp),
+               *(["--render", str(render)] if render else []), *(["--width", str(width)] if width else [])]
+    try:
+        result = subprocess.run(command, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        raise PsdrRoomError(f"{scene}: Blender did not finish in {timeout:.0f} s") from None
+    if result.returncode != 0:
+        output = result.stdout + result.stderr
+        if "No module named 'numpy'" in output:
+            raise PsdrRoomError(f"{blender}: Blender's glTF importer needs numpy; {INSTALL}")
+        lines = [line for line in output.splitlines() if line.strip() and not line.startswith("Fra:")]
+        error = next((line for line in reversed(lines) if "Error" in line), lines[-1] if lines else "no output")
+        raise PsdrRoomError(f"{scene}: Blender failed (exit {result.returncode}): {error.strip()}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``psdr-room-blender``."""
+    parser = argparse.ArgumentParser(prog="psdr-room-blender", description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.RawDescriptionHelpFormatter,
+                                     epilog=__doc__.split("\n\n", 1)[1])
+    parser.add_argument("scene", type=Path, help="a run's scene/ folder (or an edited one)")
+    parser.add_argument("--out", type=Path, help="the .blend to write (default: <scene>/scene.blend)")
+    parser.add_argument("--render", type=Path, help="also render the photo's camera to this PNG")
+    parser.add_argument("--engine", choices=("cycles", "eevee"), default="cycles",
+                        help="the scene's render engine (default cycles)")
+    parser.add_argument("--spp", type=int, default=64, help="samples per pixel (Cycles) or TAA samples (EEVEE)")
+    parser.add_argument("--width", type=int, help="render width in pixels (default: the photo's; aspect kept)")
+    parser.add_argument("--blender", help="the Blender executable (default: $PSDR_ROOM_BLENDER or blender)")
+    args = parser.parse_args(argv)
+    blend = args.out or args.scene / "scene.blend"
+    try:
+        if args.spp < 1 or (args.width is not None and args.width < 8):
+            raise PsdrRoomError("--spp must be at least 1 and --width at least 8")
+        check_scene(args.scene)
+        build_blend(args.scene, blend, find_blender(args.blender), args.render, args.engine, args.spp, args.width)
+    except PsdrRoomError as exc:
+        print(f"psdr-room-blender: error: {exc}", file=sys.stderr)
+        return 2
+    print(f"Blender scene → {blend}" + (f" (render: {args.render})" if args.render else ""))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,67 @@
+"""What fitted materials may be (priors of eq. 4): the ranges a real material of the kind has, so that a scene
+that matches the photo from its one camera still holds when a light or the camera moves.
+
+**Painted surfaces** (the room's walls and ceiling). Paint makers publish each colour's light reflectance value
+(LRV: the share of visible light a painted surface reflects, luminance-weighted, 0 for ideal black to 100 for
+ideal white). In practice the blackest paint has an LRV of about 5 and the whitest reaches the low 90s, and dark
+wall colours in use sit near 10 (e.g. PPG "Bigfoot", LRV 10, shown on a living-room wall):
+https://e-designcompany.com/what-is-light-reflectance-value-of-colour/. A fitted wall or ceiling therefore keeps
+the luminance of its (linear) base colour within ``albedo`` (default 0.1 to 0.9; its hue and saturation are
+free). Flat to eggshell wall paint reflects much light but no images (https://www.mpi.net, "Gloss and Light
+Reflectance"): its binder (refractive index about 1.5) reflects 4% at normal incidence, a principled
+``specular`` of 0.5; the sheen is in the roughness. A wall or ceiling keeps ``specular`` at most
+``max_specular`` (0.5), whatever its material (paint, plaster, wallpaper, brick).
+
+**Metals**: the scene's BSDF has no metallic input; no part is fitted as a metal (a retrieved metal graph renders
+as its colour and roughness).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.settings import setting
+
+from .artifacts import PartAppearance
+
+LUMINANCE = (0.2126, 0.7152, 0.0722)
+"""Rec. 709 / sRGB luminance weights of linear RGB: how LRV weighs a colour's reflectance."""
+
+
+@dataclass
+class PaintPrior:
+    """The range of a painted room surface's fitted material (see the module docstring for the sources)."""
+
+    albedo: list[float] = setting([0.1, 0.9], ge=0, le=1, length=2)
+    """Luminance of the linear base colour of a homogeneous wall or ceiling: [lowest, highest]."""
+    max_specular: float = setting(0.5, gt=0, le=1)
+    """Highest principled ``specular`` of any wall or ceiling (0.5: 4% reflectance at normal incidence)."""
+
+    def __post_init__(self) -> None:
+        low, high = self.albedo
+        if not low < high:
+            raise PsdrRoomError(f"fit_appearance.paint.albedo={list(self.albedo)}: the lowest must be below the highest")
+
+
+def painted(part: str) -> bool:
+    """Whether a scene part is a painted room surface: a wall or the ceiling."""
+    return part == "ceiling" or part.startswith("wall_")
+
+
+def within_paint(part: PartAppearance, prior: PaintPrior) -> PartAppearance:
+    """``part`` brought into ``prior`` if it is a wall or the ceiling: a homogeneous one's base colour scaled (hue
+    kept) to the nearest luminance in range, any one's specular lowered to the highest allowed. The fit starts
+    there, and a wall the camera does not see (not optimised) is exported so."""
+    if not painted(part.part):
+        return part
+    specular = min(part.specular, prior.max_specular)
+    if part.kind != "homogeneous":
+        return replace(part, specular=specular)
+    colour = np.maximum(np.asarray(part.base_color, np.float64), 1e-6)
+    lum = float(colour @ LUMINANCE)
+    low, high = prior.albedo
+    scaled = np.minimum(colour * (min(max(lum, low), high) / lum), 1.0)
+    return replace(part, base_color=tuple(float(c) for c in scaled), specular=specular)
