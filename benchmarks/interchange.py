@@ -4,10 +4,10 @@ For each run (default: the README example and two shared photos, run bare with d
 ``OUT/runs`` unless a finished run is there), the scene folder is
 
 * rendered by psdr-room's own renderer (``scene.xml`` through the renderer plugin, denoised: what
-  ``psdr-room-edit`` writes as ``render.png``), the reference, downsampled to 320×240;
+  ``psdr-room-edit`` writes as ``render.png``), the reference, downsampled to 320 px wide;
 * loaded with a plain ``mitsuba.load_file`` (default optimisations): the parts and lights of ``appearance.json``
-  that ``mi.traverse`` reaches by id, and a 320×240 render (``--mitsuba-spp``, not denoised);
-* built and rendered at 320×240 by ``psdr-room-blender`` with Cycles (``--cycles-spp``, not denoised) and EEVEE;
+  that ``mi.traverse`` reaches by id, and a 320 px wide render (``--mitsuba-spp``, not denoised);
+* built and rendered 320 px wide by ``psdr-room-blender`` with Cycles (``--cycles-spp``, not denoised) and EEVEE;
 * opened with ``usd-core``: ``pxr.UsdValidation``'s errors on ``scene.usda`` (all registered validators), and the
   meshes, materials and lights read back against ``appearance.json``.
 
@@ -45,7 +45,8 @@ DEFAULT_PHOTOS = (REPO / "examples" / "nyu_basement" / "photo.jpg", PHOTOS / "su
                   PHOTOS / "nyu_metric3d_00000" / "rgb_00000.jpg")
 """The example and two shared photos (a bedroom, a living room)."""
 OUT = REPO / "outputs" / "benchmarks" / "interchange"
-SIZE = (320, 240)
+WIDTH = 320
+"""Every render is compared at this width (the photo's aspect kept: 320×240 for a 4:3 photo)."""
 
 
 def run_photo(photo: Path, run_dir: Path, cache: Path) -> Path:
@@ -69,20 +70,20 @@ def load_rgb(path: Path) -> np.ndarray:
     return cv2.imread(str(path))[..., ::-1].astype(np.float64) / 255.0
 
 
-def fit(image: np.ndarray) -> np.ndarray:
-    return cv2.resize(image, SIZE, interpolation=cv2.INTER_AREA) if image.shape[1::-1] != SIZE else image
+def fit(image: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    return cv2.resize(image, size, interpolation=cv2.INTER_AREA) if image.shape[1::-1] != size else image
 
 
 def luminance(image: np.ndarray) -> float:
     return float((image @ np.array([0.2126, 0.7152, 0.0722])).mean())
 
 
-def mitsuba_check(scene: Path, state: dict, spp: int) -> tuple[np.ndarray, int, int]:
-    """A plain user's load of ``scene.xml``: its 320×240 render (sRGB), and the parts and lights reached by id."""
+def mitsuba_check(scene: Path, state: dict, spp: int, size: tuple[int, int]) -> tuple[np.ndarray, int, int]:
+    """A plain user's load of ``scene.xml``: its render at ``size`` (sRGB), and the parts and lights reached by id."""
     import mitsuba as mi
 
     mi.set_variant("llvm_ad_rgb")
-    loaded = mi.load_file(str(scene / "scene.xml"), width=SIZE[0], height=SIZE[1], spp=spp)
+    loaded = mi.load_file(str(scene / "scene.xml"), width=size[0], height=size[1], spp=spp)
     keys = set(mi.traverse(loaded).keys())
     lamp_parts = {light["part"] for light in state["lights"] if light["part"]}
     wanted = ({p["part"] for p in state["parts"]} - lamp_parts) | {light["name"] for light in state["lights"]}
@@ -119,19 +120,20 @@ def evaluate(run_dir: Path, out: Path, blender: str, cycles_spp: int, mitsuba_sp
     registry = plugin_system().registry
     renderer = registry.implementation("renderer", "mitsuba").factory()
     denoiser = registry.implementation("denoiser", "oidn").factory()
-    reference = fit(render_folder(scene, 256, renderer, denoiser).astype(np.float64) / 255.0)
-    mitsuba, reached, parts = mitsuba_check(scene, state, mitsuba_spp)
+    size = (WIDTH, round(WIDTH * state["camera"]["height"] / state["camera"]["width"]))
+    reference = fit(render_folder(scene, 256, renderer, denoiser).astype(np.float64) / 255.0, size)
+    mitsuba, reached, parts = mitsuba_check(scene, state, mitsuba_spp, size)
     renders = {"mitsuba": mitsuba}
     work = out / "blender" / run_dir.name
     for engine, spp in (("cycles", cycles_spp), ("eevee", 64)):
         png = work / f"{engine}.png"
-        build_blend(scene, work / f"scene_{engine}.blend", blender, png, engine, spp, SIZE[0])
+        build_blend(scene, work / f"scene_{engine}.blend", blender, png, engine, spp, WIDTH)
         renders[engine] = load_rgb(png)
     row = {"run": run_dir.name, "parts": f"{reached}/{parts}", "usd": usd_check(scene, state)}
     for name, image in renders.items():
         row[name] = {"ssim": ssim(image, reference), "luminance": luminance(image) / luminance(reference)}
-    photo = fit(load_rgb(run_dir / "artifacts" / "image" / "image.png"))
-    moved = fit(relit(scene, None, np.array([1.5, 0.0, 0.0]), 128)[1].astype(np.float64) / 255.0)
+    photo = fit(load_rgb(run_dir / "artifacts" / "image" / "image.png"), size)
+    moved = fit(relit(scene, None, np.array([1.5, 0.0, 0.0]), 128)[1].astype(np.float64) / 255.0, size)
     sheet = np.hstack([photo, reference, *renders.values(), moved])
     (out / "sheets").mkdir(parents=True, exist_ok=True)
     cv2.imwrite(str(out / "sheets" / f"{run_dir.name}.png"), (sheet[..., ::-1] * 255 + 0.5).astype(np.uint8))
@@ -158,7 +160,7 @@ def main() -> None:
     for run_dir in runs:
         rows.append(evaluate(run_dir, args.out, blender, args.cycles_spp, args.mitsuba_spp))
         print(f"{run_dir.name}: done", file=sys.stderr, flush=True)
-    print("Exported scenes in other programs, 320×240, against psdr-room's own render (SSIM, luminance ratio)\n")
+    print(f"Exported scenes in other programs, {WIDTH} px wide, against psdr-room's own render (SSIM, luminance ratio)\n")
     header = (f"{'run':<22} {'Mitsuba ids':>11} {'Mitsuba':>14} {'Cycles':>14} {'EEVEE':>14} "
               f"{'USD errors':>10} {'meshes':>7} {'materials':>9} {'lights':>6}")
     print(header)
