@@ -38,6 +38,8 @@ from psdr_room_core.engine.plugins import plugin_system
 from psdr_room_core.method.blender import build_blend, find_blender
 from psdr_room_core.method.edit import render_folder
 from psdr_room_core.method.image_metrics import ssim
+from psdr_room_core.method.material_priors import LUMINANCE
+from psdr_room_core.method.shading import linear_to_srgb
 
 REPO = Path(__file__).resolve().parents[1]
 PHOTOS = REPO.parent / "shared" / "data" / "photos"
@@ -75,7 +77,7 @@ def fit(image: np.ndarray, size: tuple[int, int]) -> np.ndarray:
 
 
 def luminance(image: np.ndarray) -> float:
-    return float((image @ np.array([0.2126, 0.7152, 0.0722])).mean())
+    return float((image @ np.array(LUMINANCE)).mean())
 
 
 def mitsuba_check(scene: Path, state: dict, spp: int, size: tuple[int, int]) -> tuple[np.ndarray, int, int]:
@@ -89,9 +91,7 @@ def mitsuba_check(scene: Path, state: dict, spp: int, size: tuple[int, int]) -> 
     wanted = ({p["part"] for p in state["parts"]} - lamp_parts) | {light["name"] for light in state["lights"]}
     wanted |= set(state["fixtures"])
     reached = sum(f"{name}.vertex_positions" in keys for name in wanted)
-    linear = np.clip(np.array(mi.render(loaded, spp=spp)), 0.0, None)
-    srgb = np.where(linear <= 0.0031308, 12.92 * linear, 1.055 * np.power(linear, 1 / 2.4) - 0.055)
-    return np.clip(srgb, 0.0, 1.0), reached, len(wanted)
+    return linear_to_srgb(np.array(mi.render(loaded, spp=spp))), reached, len(wanted)
 
 
 def usd_check(scene: Path, state: dict) -> dict:
