@@ -7,12 +7,14 @@ For each run (default: the README example and two shared photos, run bare with d
   ``psdr-room-edit`` writes as ``render.png``), the reference, downsampled to 320 px wide;
 * loaded with a plain ``mitsuba.load_file`` (default optimisations): the parts and lights of ``appearance.json``
   that ``mi.traverse`` reaches by id, and a 320 px wide render (``--mitsuba-spp``, not denoised);
-* built and rendered 320 px wide by ``psdr-room-blender`` with Cycles (``--cycles-spp``, not denoised) and EEVEE;
+* built and rendered 320 px wide by ``psdr-room-blender`` with Cycles (``--cycles-spp``; as Cycles rendered it,
+  and cleaned by the same denoiser as the reference, which ``psdr-room-blender --render`` does by default) and
+  EEVEE;
 * opened with ``usd-core``: ``pxr.UsdValidation``'s errors on ``scene.usda`` (all registered validators), and the
   meshes, materials and lights read back against ``appearance.json``.
 
 It prints SSIM and the mean-luminance ratio of each render against the reference, and writes a contact sheet
-per run (photo | psdr-room | Mitsuba | Cycles | EEVEE | relit: psdr-room's render with the brightest light moved
+per run (photo | psdr-room | Mitsuba | Cycles (denoised) | EEVEE | relit: psdr-room's render with the brightest light moved
 1.5 m along x, ``relit.py``) to ``OUT/sheets/<run>.png``.
 
     python benchmarks/interchange.py [--runs RUN_DIR ...] [--out DIR] [--cycles-spp 128]
@@ -35,7 +37,7 @@ from relit import render as relit  # sibling benchmark
 
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.plugins import plugin_system
-from psdr_room_core.method.blender import build_blend, find_blender
+from psdr_room_core.method.blender import build_blend, denoise_png, find_blender
 from psdr_room_core.method.edit import render_folder
 from psdr_room_core.method.image_metrics import ssim
 from psdr_room_core.method.material_priors import LUMINANCE
@@ -129,12 +131,18 @@ def evaluate(run_dir: Path, out: Path, blender: str, cycles_spp: int, mitsuba_sp
         png = work / f"{engine}.png"
         build_blend(scene, work / f"scene_{engine}.blend", blender, png, engine, spp, WIDTH)
         renders[engine] = load_rgb(png)
+        if engine == "cycles":
+            clean = work / "cycles_denoised.png"
+            shutil.copyfile(png, clean)
+            denoise_png(clean, "oidn")
+            renders["cycles_denoised"] = load_rgb(clean)
     row = {"run": run_dir.name, "parts": f"{reached}/{parts}", "usd": usd_check(scene, state)}
     for name, image in renders.items():
         row[name] = {"ssim": ssim(image, reference), "luminance": luminance(image) / luminance(reference)}
     photo = fit(load_rgb(run_dir / "artifacts" / "image" / "image.png"), size)
     moved = fit(relit(scene, None, np.array([1.5, 0.0, 0.0]), 128)[1].astype(np.float64) / 255.0, size)
-    sheet = np.hstack([photo, reference, *renders.values(), moved])
+    shown = ("mitsuba", "cycles_denoised", "eevee")
+    sheet = np.hstack([photo, reference, *(renders[k] for k in shown), moved])
     (out / "sheets").mkdir(parents=True, exist_ok=True)
     cv2.imwrite(str(out / "sheets" / f"{run_dir.name}.png"), (sheet[..., ::-1] * 255 + 0.5).astype(np.uint8))
     return row
@@ -161,12 +169,13 @@ def main() -> None:
         rows.append(evaluate(run_dir, args.out, blender, args.cycles_spp, args.mitsuba_spp))
         print(f"{run_dir.name}: done", file=sys.stderr, flush=True)
     print(f"Exported scenes in other programs, {WIDTH} px wide, against psdr-room's own render (SSIM, luminance ratio)\n")
-    header = (f"{'run':<22} {'Mitsuba ids':>11} {'Mitsuba':>14} {'Cycles':>14} {'EEVEE':>14} "
+    header = (f"{'run':<22} {'Mitsuba ids':>11} {'Mitsuba':>14} {'Cycles':>14} {'Cycles denoised':>15} {'EEVEE':>14} "
               f"{'USD errors':>10} {'meshes':>7} {'materials':>9} {'lights':>6}")
     print(header)
     print("-" * len(header))
     for r in rows:
-        cells = " ".join(f"{r[k]['ssim']:.3f} {r[k]['luminance']:.2f}x".rjust(14) for k in ("mitsuba", "cycles", "eevee"))
+        cells = " ".join(f"{r[k]['ssim']:.3f} {r[k]['luminance']:.2f}x".rjust(width) for k, width in
+                         (("mitsuba", 14), ("cycles", 14), ("cycles_denoised", 15), ("eevee", 14)))
         usd = r["usd"]
         print(f"{r['run']:<22} {r['parts']:>11} {cells} {len(usd['errors']):>10} {usd['meshes']:>7} "
               f"{usd['materials']:>9} {usd['lights']:>6}")
@@ -174,8 +183,8 @@ def main() -> None:
             print(f"  USD: {message}")
     print(f"\n(USD stages: up axis {', '.join(sorted({r['usd']['up'] for r in rows}))}, metres per unit "
           f"{', '.join(sorted({str(r['usd']['metres']) for r in rows}))}; Cycles {args.cycles_spp} spp and Mitsuba "
-          f"{args.mitsuba_spp} spp, not denoised; EEVEE 64 samples)")
-    print(f"contact sheets (photo | psdr-room | Mitsuba | Cycles | EEVEE | relit): {args.out / 'sheets'}/<run>.png")
+          f"{args.mitsuba_spp} spp, not denoised, and Cycles denoised by oidn as the reference is; EEVEE 64 samples)")
+    print(f"contact sheets (photo | psdr-room | Mitsuba | Cycles denoised | EEVEE | relit): {args.out / 'sheets'}/<run>.png")
 
 
 if __name__ == "__main__":

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -17,6 +18,11 @@ def pytest_configure(config: pytest.Config) -> None:
     """An empty models directory for the whole session (subprocesses too), so that ``auto`` selections never
     depend on weights the developer has installed."""
     os.environ["PSDR_ROOM_MODELS_DIR"] = tempfile.mkdtemp(prefix="psdr-room-models-")
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    """Remove the session's empty models directory."""
+    shutil.rmtree(os.environ.pop("PSDR_ROOM_MODELS_DIR", ""), ignore_errors=True)
 
 
 @pytest.fixture

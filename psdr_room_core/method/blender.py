@@ -6,7 +6,9 @@
 Blender (3.4 or newer, e.g. Debian's ``blender`` with ``python3-numpy``, which its glTF importer needs) builds
 the scene with :mod:`.blender_scene`: the photo's camera active at the photo's resolution, area lights of the
 fitted radiance, Principled BSDFs with the fitted colour, roughness, specular and maps, ``Standard`` colour
-management; Cycles and EEVEE both render it lit. ``--render`` also renders the camera's view to a PNG.
+management; Cycles and EEVEE both render it lit. ``--render`` also renders the camera's view to a PNG; a
+Cycles render is cleaned by psdr-room's ``--denoiser`` (default ``oidn``, as psdr-room's own renders are:
+Debian's Blender is built without a denoiser of its own).
 """
 
 from __future__ import annotations
@@ -16,9 +18,16 @@ import os
 import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
+import cv2
+import numpy as np
+
 from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.plugins import plugin_system
+
+from .shading import linear_to_srgb, srgb_to_linear
 
 SCRIPT = Path(__file__).with_name("blender_scene.py")
 """The script Blender runs (its own Python: nothing of psdr-room is imported there)."""
@@ -61,6 +70,16 @@ def build_blend(scene: Path, blend: Path, blender: str, render: Path | None = No
         raise PsdrRoomError(f"{scene}: Blender failed (exit {result.returncode}): {error.strip()}")
 
 
+def denoise_png(png: Path, denoiser: str) -> None:
+    """Replace the sRGB render ``png`` by its ``denoiser`` (a denoiser implementation) cleaned version."""
+    clean = plugin_system().registry.implementation("denoiser", denoiser).factory()
+    noisy = srgb_to_linear(cv2.imread(str(png))[..., ::-1].astype(np.float32) / 255.0)
+    srgb = np.clip(linear_to_srgb(clean.denoise(noisy)), 0.0, 1.0)
+    with tempfile.NamedTemporaryFile(suffix=".png", dir=png.parent, delete=False) as staging:
+        cv2.imwrite(staging.name, (srgb[..., ::-1] * 255.0 + 0.5).astype(np.uint8))
+    os.replace(staging.name, png)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``psdr-room-blender``."""
     parser = argparse.ArgumentParser(prog="psdr-room-blender", description=__doc__.split("\n\n")[0],
@@ -73,6 +92,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="the scene's render engine (default cycles)")
     parser.add_argument("--spp", type=int, default=64, help="samples per pixel (Cycles) or TAA samples (EEVEE)")
     parser.add_argument("--width", type=int, help="render width in pixels (default: the photo's; aspect kept)")
+    parser.add_argument("--denoiser", default="oidn", help="a denoiser implementation for a Cycles render "
+                        "(default oidn; none: Cycles' noisy image)")
     parser.add_argument("--blender", help="the Blender executable (default: $PSDR_ROOM_BLENDER or blender)")
     args = parser.parse_args(argv)
     blend = args.out or args.scene / "scene.blend"
@@ -80,7 +101,10 @@ def main(argv: list[str] | None = None) -> int:
         if args.spp < 1 or (args.width is not None and args.width < 8):
             raise PsdrRoomError("--spp must be at least 1 and --width at least 8")
         check_scene(args.scene)
+        plugin_system().registry.implementation("denoiser", args.denoiser)
         build_blend(args.scene, blend, find_blender(args.blender), args.render, args.engine, args.spp, args.width)
+        if args.render and args.engine == "cycles":
+            denoise_png(args.render, args.denoiser)
     except PsdrRoomError as exc:
         print(f"psdr-room-blender: error: {exc}", file=sys.stderr)
         return 2

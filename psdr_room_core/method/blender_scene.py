@@ -8,8 +8,10 @@ makes what the glb cannot say:
 * flat shading, as Mitsuba renders the exported meshes (face normals);
 * the photo's camera as the scene camera, at the photo's resolution and principal point;
 * each light an area light (a point light for a lamp's non-planar mesh) of the emitter's fitted radiance,
-  replacing the glb's spot stand-ins; the emissive panel stays visible to the camera but lights nothing, so
-  Cycles and EEVEE are lit by the same lights and nothing is counted twice;
+  replacing the glb's spot stand-ins, 1 mm in front of a flat panel; the emissive panel stays visible to the
+  camera but lights nothing, so Cycles and EEVEE are lit by the same lights and nothing is counted twice; a
+  flat panel still casts shadows, as Mitsuba's black emitter does (a wall's light behind the panel behind the
+  camera stays hidden, as it was in the fit);
 * Cycles' path length from the scene's Mitsuba ``max_depth``, colour management ``Standard`` (the renders are
   the linear scene in sRGB, as psdr-room's), a black world.
 
@@ -37,6 +39,8 @@ POINT_LIGHT_WATTS = 4.0 * math.pi
 emits pi L A over the sphere, L A / 4 per steradian."""
 PLANAR = 0.99
 """An emitter whose area-weighted mean normal is at least this long (of 1) is flat: an area light."""
+LIGHT_OFFSET = 1e-3
+"""Metres an area light sits in front of its panel, so that the panel, which casts shadows, does not shadow it."""
 
 
 def parse(argv: list[str]) -> argparse.Namespace:
@@ -80,6 +84,7 @@ def add_light(scene: bpy.types.Scene, panel: bpy.types.Object, radiance: list[fl
         light.size, light.size_y = max(width, 1e-4), max(height, 1e-4)
         light.energy = AREA_LIGHT_WATTS * strength * area
         matrix = rotation.to_4x4()
+        centre = centre + LIGHT_OFFSET * normal
     else:
         light = bpy.data.lights.new(f"{panel.name}_light", type="POINT")
         light.shadow_soft_size = math.sqrt(area / (4 * math.pi))
@@ -102,10 +107,11 @@ def _rectangle(vertices: list[Vector], centre: Vector, normal: Vector, edge: Vec
     return rotation, max(p.x for p in local) - min(p.x for p in local), max(p.y for p in local) - min(p.y for p in local)
 
 
-def camera_only(panel: bpy.types.Object) -> None:
-    """The panel is seen by the camera (a lit window, a lamp's shade) and lights nothing: its light does."""
-    for ray in ("visible_diffuse", "visible_glossy", "visible_transmission", "visible_volume_scatter",
-                "visible_shadow"):
+def camera_only(panel: bpy.types.Object, flat: bool) -> None:
+    """The panel is seen by the camera (a lit window, a lamp's shade) and lights nothing: its light does. A flat
+    panel still blocks light behind it, as in Mitsuba; a lamp's shade does not, since its point light is inside."""
+    rays = ("visible_diffuse", "visible_glossy", "visible_transmission", "visible_volume_scatter")
+    for ray in (*rays, *(() if flat else ("visible_shadow",))):
         setattr(panel, ray, False)
     for slot in panel.material_slots:
         if slot.material is not None and hasattr(slot.material.cycles, "sample_as_light"):
@@ -174,8 +180,8 @@ def main() -> None:
                 polygon.use_smooth = False
     for light in state["lights"]:
         panel = bpy.data.objects[light["name"]]
-        add_light(scene, panel, light["radiance"])
-        camera_only(panel)
+        lamp = add_light(scene, panel, light["radiance"])
+        camera_only(panel, flat=lamp.data.type == "AREA")
     setup_camera(scene, state, args.width)
     setup_render(scene, int(depth.group(1)) if depth else 3, args.spp)
     scene.render.engine = "CYCLES" if args.engine == "cycles" else "BLENDER_EEVEE"

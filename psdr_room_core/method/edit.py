@@ -220,7 +220,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--max-depth", type=int, default=3, help="path length in the written scene.xml (default 3)")
     parser.add_argument("--denoiser", default="oidn", help="a denoiser implementation for render.png (default oidn; "
                         "none: the path tracer's noisy image)")
-    args = parser.parse_args(argv)
+    args = parser.parse_intermixed_args(argv)
     out = args.out or args.scene.with_name(args.scene.name + "-edited")
     try:
         edit_scene(args.scene, args.edits, out, args.spp, args.max_depth, args.denoiser)
