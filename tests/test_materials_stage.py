@@ -210,6 +210,20 @@ def test_assign_materials_finds_the_floor_material_and_keeps_plain_walls_homogen
     assert again.parts == out.parts
 
 
+def test_a_room_side_is_retrieved_only_from_its_categories(tmp_path: Path, library: TorchGraphLibrary) -> None:
+    """A leather-looking floor is not given leather (room_categories.floor has no leather), unless the config
+    lets floors be leather."""
+    ctx, image, panoptic = _rendered_room(tmp_path, library, "black_leather", 1.0)
+    floor = assign_materials(ctx, image, panoptic, CAMERA, ROOM, Placements(objects=[])).part("floor")
+    allowed = set(PARAMS["room_categories"]["floor"])
+    assert floor is not None and floor.crops and floor.material != "black_leather", floor
+    assert floor.candidates and all(library.material(name).category in allowed for name, _ in floor.candidates)
+    leather = {**PARAMS, "room_categories": {**PARAMS["room_categories"], "floor": [*allowed, "leather"]}}
+    ctx = StageContext("assign_materials", leather, 0, ctx.photo, ctx.implementations)
+    floor = assign_materials(ctx, image, panoptic, CAMERA, ROOM, Placements(objects=[])).part("floor")
+    assert floor is not None and floor.material == "black_leather", floor
+
+
 def test_user_crops_replace_the_automatic_ones(tmp_path: Path, library: TorchGraphLibrary) -> None:
     ctx, image, panoptic = _rendered_room(tmp_path, library, "herringbone_oak", 2.0)
     (tmp_path / "photo.crops.yaml").write_text("crops:\n  - {image: [60, 120, 140, 148], part: floor}\n"

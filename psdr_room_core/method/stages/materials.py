@@ -75,8 +75,10 @@ def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera
     similarity is under ``min_similarity``, or when a flat colour matches its crops better than the
     retrieved graph at its best transform. Otherwise each crop ranks the ``material_graph`` library by
     ``texture`` descriptor distance (``top_k`` kept), the ranks are voted across crops, and the winner's
-    texture transform is searched over ``scales`` × ``rotations``. Params also: ``render_width``,
-    ``map_size`` (texture side evaluated for the search).
+    texture transform is searched over ``scales`` × ``rotations``. A room side ranks only the graphs of its
+    ``room_categories`` (a floor is never leather, a wall never brass; homogeneous when the library has none);
+    an object's parts rank them all. Params also: ``render_width``, ``map_size`` (texture side evaluated for
+    the search).
     """
     import torch
 
@@ -115,6 +117,8 @@ def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera
     upper = walls_clean & (heights(camera, c2w, depth) > float(params["clear_height"]))
     walls = dominant_colour(rgb8, upper if upper.sum() >= side * side else walls_clean) if walls_clean.any() else None
     roughness = float(params["roughness"])
+    categories = {side: set(names) for side, names in params["room_categories"].items()}
+    room_sides = set(room_quads(room))
     assigned, sheet_rows = [], []
     samples = np.full(labels.shape, -1, np.int16)
     for k, part in enumerate(ctx.progress(parts, total=len(parts))):
@@ -144,14 +148,21 @@ def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera
             continue
         if index is None:
             index = MaterialIndex.build(library, descriptor, map_size)
+        wanted = categories[part.name.split("_")[0]] if part.name in room_sides else None
+        allowed = torch.tensor([wanted is None or library.material(n).category in wanted for n in index.names],
+                               dtype=torch.bool)
+        if not allowed.any():
+            assigned.append(PartMaterial(kind="homogeneous", scores={"texture_energy": energy},
+                                         reason=f"no library material of the categories {sorted(wanted or ())}", **common))
+            continue
         with torch.no_grad():
             described = [(crop, descriptor.describe(crop), coords) for crop, _, coords in crops]
             flats = [float(descriptor.distance(descriptor.describe(flat_image(albedo, c.shape[1:])), d))
                      for c, d, _ in described]
             per_crop = []
             for _, target, _ in described:
-                distances = index.distances(descriptor, target)
-                order = torch.argsort(distances)[: int(params["top_k"])].tolist()
+                distances = torch.where(allowed, index.distances(descriptor, target), torch.inf)
+                order = torch.argsort(distances)[: min(int(params["top_k"]), int(allowed.sum()))].tolist()
                 per_crop.append([(index.names[i], index.similarity(float(distances[i]))) for i in order])
         ranked = vote(per_crop)
         name, best_similarity = ranked[0]

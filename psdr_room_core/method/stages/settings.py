@@ -178,6 +178,13 @@ class RoomColours:
 
 
 @dataclass
+class RoomCategories:
+    floor: list[str] = setting()
+    ceiling: list[str] = setting()
+    wall: list[str] = setting()
+
+
+@dataclass
 class AssignMaterials:
     render_width: int = setting(ge=16)
     erode_px: int = setting(ge=0)
@@ -193,6 +200,7 @@ class AssignMaterials:
     roughness: float = setting(ge=0, le=1)
     clear_height: float = setting(ge=0)
     room_colours: RoomColours = setting()
+    room_categories: RoomCategories = setting()
 
 
 @dataclass
