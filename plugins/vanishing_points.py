@@ -89,9 +89,9 @@ class VanishingPointParams:
     """Gauss-Newton steps per reassignment round."""
     n_bootstrap: int = 200
     """Segment resamplings used to choose among refined frames and measure the ambiguity."""
-    min_segments: int = 12
-    """Fewer usable segments than this gives the fallback."""
-    min_vp_support: int = 4
+    min_segments: int = 6
+    """Fewer usable segments than this gives the fallback (a big-tiled floor seen from above shows 9 long lines)."""
+    min_vp_support: int = 3
     """A VP counts as observed when at least this many segments support it."""
     prior_sigma_deg: float = 20.0
     """Std of the Gaussian prior on the vertical FoV, centred on ``fallback_vfov_deg``."""
@@ -490,7 +490,8 @@ def _refine_frames(
             step = -np.linalg.solve(hess + damping * np.eye(4), grad[..., None])[..., 0]
             log_f = np.clip(log_f + step[:, 0], log_lo, log_hi)
             rots = Rotation.from_rotvec(step[:, 1:]).as_matrix() @ rots
-    var_log_f = np.linalg.inv(hess + 1e-9 * np.eye(4))[:, 0, 0]
+    ridge = 1e-9 * np.maximum(np.trace(hess, axis1=1, axis2=2), 1.0)[:, None, None]  # few segments: singular
+    var_log_f = np.linalg.inv(hess + ridge * np.eye(4))[:, 0, 0]
     std = np.sqrt(np.clip(var_log_f, 0.0, None)) * np.abs(_dvfov_dlogf(log_f, h_units))
     return np.exp(log_f), rots, std
 

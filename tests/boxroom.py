@@ -179,3 +179,21 @@ def _blur(image: np.ndarray) -> np.ndarray:
         image = (np.take(padded, range(0, n), axis=axis) + 2 * np.take(padded, range(1, n + 1), axis=axis)
                  + np.take(padded, range(2, n + 2), axis=axis)) / 4.0
     return image
+
+
+def checker_floor(vfov: float, pitch: float, tile: float, yaw: float = 20.0, width: int = 320, height: int = 240
+                  ) -> np.ndarray:
+    """A floor of big black and white tiles (``tile`` metres) filling the view of a camera 1.5 m above it, looking
+    ``pitch`` degrees down: two families of a few long lines, no vertical one."""
+    focal = height / (2 * np.tan(np.radians(vfov) / 2))
+    ys, xs = np.mgrid[0 : 2 * height, 0 : 2 * width] / 2.0 + 0.25  # 2x2 rays per pixel
+    rays = np.stack([(xs - width / 2) / focal, (ys - height / 2) / focal, np.ones_like(xs)], -1)  # y down, z ahead
+    p, q = np.radians(pitch), np.radians(yaw)
+    down = np.array([[1, 0, 0], [0, np.cos(p), np.sin(p)], [0, -np.sin(p), np.cos(p)]])
+    turn = np.array([[np.cos(q), 0, np.sin(q)], [0, 1, 0], [-np.sin(q), 0, np.cos(q)]])
+    world = rays @ (turn @ down).T
+    hit = 1.5 / np.maximum(world[..., 1], 1e-6)
+    tiles = (np.floor(world[..., 0] * hit / tile) + np.floor(world[..., 2] * hit / tile)) % 2
+    grey = np.where(world[..., 1] > 0, 0.35 + 0.3 * tiles, 0.8).reshape(height, 2, width, 2).mean(axis=(1, 3))
+    grey += np.random.default_rng(0).normal(0.0, 0.04, grey.shape)
+    return np.clip(np.repeat(grey[..., None], 3, axis=-1), 0.0, 1.0).astype(np.float32)

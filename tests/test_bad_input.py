@@ -293,6 +293,8 @@ CASES: dict[str, Case] = {
     "blender_not_installed": Case(blender_elsewhere, "no-such-blender: Blender not found", "psdr-room-blender"),
     "blender_zero_samples": Case(lambda folder: [str(scene_folder(folder)), "--spp", "0"], "--spp must be at least 1",
                                  "psdr-room-blender"),
+    "blender_unknown_denoiser": Case(lambda folder: blender_elsewhere(folder)[:1] + ["--denoiser", "magic"],
+                                     "unknown denoiser implementation 'magic'", "psdr-room-blender"),
 }
 
 

@@ -8,7 +8,7 @@ from functools import lru_cache
 import numpy as np
 import pytest
 
-from boxroom import render_box_room
+from boxroom import checker_floor, render_box_room
 from psdr_room_plugins.vanishing_points import VanishingPointParams, estimate_camera
 
 # (vertical FoV, yaw, pitch, roll) in degrees
@@ -29,6 +29,16 @@ def test_recovers_vertical_fov(vfov: float, yaw: float, pitch: float, roll: floa
     assert (result.cx, result.cy) == (159.5, 119.5)
     assert 0.0 < result.confidence <= 1.0
     assert len(result.vanishing_points) == 3
+
+
+@pytest.mark.parametrize("tile, pitch", [(1.0, 45.0), (0.7, 55.0), (0.8, 50.0)])
+def test_a_floor_of_big_tiles_seen_from_above_gives_the_fov(tile: float, pitch: float) -> None:
+    """Nine or so long tile edges and no vertical line (the synthetic floor-only case, a phone photo of a tiled
+    floor): enough for the two floor vanishing points and the focal, not a fallback."""
+    image = checker_floor(40.0, pitch, tile)
+    result = estimate_camera(image)
+    assert result.n_segments < 12 and result.method == "orthogonal_pair"
+    assert abs(result.vfov_deg - 40.0) < 3.0
 
 
 def test_ignores_uniform_white_border() -> None:

@@ -11,16 +11,18 @@ import cv2
 import numpy as np
 import pytest
 
+from boxroom import checker_floor
 from psdr_room_core.engine.dag import RunRecord
 from psdr_room_core.method.artifacts import Camera, Detection, Detections, Image, Panoptic, Segment
 from psdr_room_core.method.guesses import fov_guesses
 from psdr_room_core.method.stages.room import FLOOR_GUESSES
 from psdr_room_plugins.layout import box
 from psdr_room_plugins.layout.depth import LayoutDepth, object_depth
-from psdr_room_plugins.layout.fit import floor_colour_region
+from psdr_room_plugins.layout.fit import LayoutParams, fit_layout, floor_colour_region
 from psdr_room_plugins.layout.manhattan import ManhattanFrame, frame_from_vanishing_points
 from psdr_room_plugins.layout.objects import GrabCutParams, grabcut_mask
 from psdr_room_plugins.layout.segmentation import LayoutSegmentation
+from psdr_room_plugins.vanishing_points import estimate_camera
 
 PHOTO = Path("room.png")  # named in logs only
 TRUE_BOX = np.array([-2.0, 1.6, 0.7, -3.0, 3.2])  # camera heights (see psdr_room_plugins.layout.box)
@@ -248,6 +250,21 @@ def test_a_bare_photo_looking_down_at_a_tiled_floor_stands_the_room_on_it(tmp_pa
     floor = np.asarray(room.extra["floor_plane_camera"])
     assert np.degrees(np.arccos(np.clip(floor[:3] @ rotation[:, 1], -1, 1))) < 10.0
     assert floor[3] == pytest.approx(1.5, rel=0.15)
+
+
+def test_a_tiled_floor_filling_the_photo_is_a_floor_not_a_wall_seen_from_below() -> None:
+    """Big tiles seen 55° from above show nine long lines and no vertical one: enough for the FoV and both floor
+    vanishing points (under twelve lines the FoV was the fallback and the room stood upright, the floor only
+    its lower 40%), and the floor, not a wall seen 35° from below, fills the photo."""
+    rgb = checker_floor(40.0, 55.0, 0.8)
+    found = estimate_camera(rgb)
+    camera = Camera.from_vfov(320, 240, found.vfov_deg, extra={"vanishing_points": found.vanishing_points})
+    layout = fit_layout(Image(rgb=rgb, original_size=(320, 240)), camera, LayoutParams(n_random=1500))
+    labels, _ = layout.trace(camera, 160, 120)
+    assert (labels == box.FLOOR).mean() > 0.95
+    p = math.radians(55.0)
+    up = np.array([0.0, -math.cos(p), -math.sin(p)])  # camera coordinates: y down, z ahead
+    assert math.degrees(math.acos(abs(layout.frame.rotation[:, 1] @ up))) < 5.0
 
 
 def test_a_bare_photo_of_the_ceiling_alone_still_gives_a_room(tmp_path: Path) -> None:

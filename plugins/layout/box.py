@@ -59,9 +59,10 @@ def trace(rays: np.ndarray, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return labels, np.take_along_axis(t, axis[None], axis=0)[0]
 
 
-def orientation_score(labels: np.ndarray, evidence: np.ndarray) -> np.ndarray:
-    """(M,) evidence-weighted fraction of pixels whose surface orientation agrees with ``evidence`` (3, N)."""
-    total = max(float(evidence.sum()), 1e-9)
+def orientation_score(labels: np.ndarray, evidence: np.ndarray, total: float | None = None) -> np.ndarray:
+    """(M,) evidence-weighted fraction of pixels whose surface orientation agrees with ``evidence`` (3, N), out of
+    ``total`` (default: the evidence's own sum)."""
+    total = max(float(evidence.sum()) if total is None else total, 1e-9)
     agree = np.take_along_axis(evidence[None], NORMAL_AXIS[labels][:, None].astype(np.int64), axis=1)[:, 0]
     return agree.sum(axis=1) / total
 

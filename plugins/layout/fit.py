@@ -149,15 +149,25 @@ def fit_layout(image: Image, camera: Camera, params: LayoutParams, detections: D
 
     When the box fitted upright shows no floor, the photo may look steeply down at one (a tiled floor's
     lines are a wall's seen from level): the frame with the axis nearest the optical axis as up
-    (:func:`.manhattan.looking_down`) is fitted too, and the better-scoring layout wins.
+    (:func:`.manhattan.looking_down`) is fitted too, and the better-scoring layout wins. Both are scored out
+    of the larger of their evidence totals: the lines are the same in either frame, and what differs is the
+    floor prior below each frame's horizon, which a floor filling the photo earns and a wall cannot use.
     """
     frame = manhattan_frame(image, camera)
-    layout = _fit_in_frame(frame, image, camera, params, detections, panoptic)
+    if detections is not None:
+        detections = Detections(items=[d for d in detections.items if d.score >= params.box_score],
+                                source=detections.source)
+    evidence = _evidence(frame, image, camera, params, detections)
+    layout = _fit_in_frame(frame, evidence, image, camera, params, panoptic, float(evidence.sum()))
     shape = _grid_shape(image, params.grid_side)
     labels, _ = layout.trace(camera, shape[1], shape[0])
     down = looking_down(camera, frame, params.look_down_deg) if params.look_down_deg < 90 else None
     if down is not None and (labels == box.FLOOR).mean() < params.min_floor:
-        steep = _fit_in_frame(down, image, camera, params, detections, panoptic)
+        steep_evidence = _evidence(down, image, camera, params, detections)
+        total = max(float(evidence.sum()), float(steep_evidence.sum()))
+        if total > evidence.sum():
+            layout = _fit_in_frame(frame, evidence, image, camera, params, panoptic, total)
+        steep = _fit_in_frame(down, steep_evidence, image, camera, params, panoptic, total)
         log.info("layout: no floor in the upright fit (score %.3f); looking %.0f° down at a floor scores %.3f",
                  layout.score, np.degrees(np.arcsin(-down.rotation[2, 1])), steep.score)
         if steep.score > layout.score:
@@ -165,9 +175,10 @@ def fit_layout(image: Image, camera: Camera, params: LayoutParams, detections: D
     return layout
 
 
-def _fit_in_frame(frame: ManhattanFrame, image: Image, camera: Camera, params: LayoutParams,
-                  detections: Detections | None, panoptic: Panoptic | None) -> Layout:
-    """The best box in ``frame`` (see :func:`fit_layout`)."""
+def _evidence(frame: ManhattanFrame, image: Image, camera: Camera, params: LayoutParams,
+              detections: Detections | None) -> np.ndarray:
+    """(3, N) orientation evidence on the grid in ``frame``: the lines' sweeps (weighted down inside object boxes)
+    and the floor prior below the frame's horizon."""
     shape = _grid_shape(image, params.grid_side)
     zoom = np.diag([shape[1] / image.width, shape[0] / image.height, 1.0])
     segments = line_segments(image.rgb, VanishingPointParams()) * np.tile(np.diag(zoom)[:2], 2)
@@ -176,24 +187,28 @@ def _fit_in_frame(frame: ManhattanFrame, image: Image, camera: Camera, params: L
     reach = params.sweep_fraction * float(np.hypot(*shape))
     evidence = orientation_map(segments, families, vps, shape, reach)
     if detections is not None:
-        detections = Detections(items=[d for d in detections.items if d.score >= params.box_score],
-                                source=detections.source)
         evidence *= _clutter_weights(detections, image, shape, params.clutter_weight)[None]
     rays = frame.rays(camera, shape[1], shape[0])
     evidence[1] = np.maximum(evidence[1], params.floor_prior * _floor_prior(rays, detections, image, params.floor_band,
                                                                          params.floor_colour))
-    evidence = evidence.reshape(3, -1)
-    rays = rays.reshape(-1, 3)
+    return evidence.reshape(3, -1)
+
+
+def _fit_in_frame(frame: ManhattanFrame, evidence: np.ndarray, image: Image, camera: Camera, params: LayoutParams,
+                  panoptic: Panoptic | None, total: float) -> Layout:
+    """The best box in ``frame`` for ``evidence``, its orientation agreement counted out of ``total``."""
+    shape = _grid_shape(image, params.grid_side)
+    rays = frame.rays(camera, shape[1], shape[0]).reshape(-1, 3)
     labelled = panoptic is not None and any(s.category in ("wall", "floor", "ceiling") for s in panoptic.segments)
     if labelled:
         room, wall_index, n_walls = _room_labels(panoptic, shape)
 
     def score(boxes: np.ndarray) -> np.ndarray:
         labels, _ = box.trace(rays, boxes)
-        total = box.orientation_score(labels, evidence)
+        agreement = box.orientation_score(labels, evidence, total)
         if labelled:
-            total = total + params.label_weight * box.label_score(labels, room, wall_index, n_walls)
-        return total
+            agreement = agreement + params.label_weight * box.label_score(labels, room, wall_index, n_walls)
+        return agreement
 
     best, best_score = box.search(score, params.search_range, np.random.default_rng(params.seed),
                                   params.n_random, params.n_starts)
