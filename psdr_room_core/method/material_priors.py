@@ -6,8 +6,12 @@ that matches the photo from its one camera still holds when a light or the camer
 ideal white). In practice the blackest paint has an LRV of about 5 and the whitest reaches the low 90s, and dark
 wall colours in use sit near 10 (e.g. PPG "Bigfoot", LRV 10, shown on a living-room wall):
 https://e-designcompany.com/what-is-light-reflectance-value-of-colour/. A fitted wall or ceiling therefore keeps
-the luminance of its (linear) base colour within ``albedo`` (default 0.1 to 0.9; its hue and saturation are
-free). Flat to eggshell wall paint reflects much light but no images (https://www.mpi.net, "Gloss and Light
+the luminance of its (linear) base colour within ``albedo`` (default 0.1 to 0.9), and no channel above the top of
+that range (the whitest paints are spectrally flat: a wall cannot be whiter than white in red and blue by giving
+up green). Its hue is the photo's: each channel of its chromaticity (the colour over its brightest channel) stays
+within a factor ``hue_range`` of the initial one, so that a fit held in the luminance range cannot escape along
+the hue (a dark wall turned olive green, whose red and blue stay black at a luminance of 0.1; a white ceiling
+turned pink, whose red and blue pass 0.9). Flat to eggshell wall paint reflects much light but no images (https://www.mpi.net, "Gloss and Light
 Reflectance"): its binder (refractive index about 1.5) reflects 4% at normal incidence, a principled
 ``specular`` of 0.5; the sheen is in the roughness. A wall or ceiling keeps ``specular`` at most
 ``max_specular`` (0.5), whatever its material (paint, plaster, wallpaper, brick).
@@ -39,6 +43,8 @@ class PaintPrior:
     """Luminance of the linear base colour of a homogeneous wall or ceiling: [lowest, highest]."""
     max_specular: float = setting(0.5, gt=0, le=1)
     """Highest principled ``specular`` of any wall or ceiling (0.5: 4% reflectance at normal incidence)."""
+    hue_range: float = setting(1.25, ge=1)
+    """Each channel of a homogeneous wall's or ceiling's chromaticity stays within this factor of its initial one."""
 
     def __post_init__(self) -> None:
         low, high = self.albedo
@@ -53,7 +59,8 @@ def painted(part: str) -> bool:
 
 def within_paint(part: PartAppearance, prior: PaintPrior) -> PartAppearance:
     """``part`` brought into ``prior`` if it is a wall or the ceiling: a homogeneous one's base colour scaled (hue
-    kept) to the nearest luminance in range, any one's specular lowered to the highest allowed. The fit starts
+    kept) to the nearest luminance in range with no channel above its top, any one's specular lowered to the
+    highest allowed. The fit starts
     there, and a wall the camera does not see (not optimised) is exported so."""
     if not painted(part.part):
         return part
@@ -63,5 +70,5 @@ def within_paint(part: PartAppearance, prior: PaintPrior) -> PartAppearance:
     colour = np.maximum(np.asarray(part.base_color, np.float64), 1e-6)
     lum = float(colour @ LUMINANCE)
     low, high = prior.albedo
-    scaled = np.minimum(colour * (min(max(lum, low), high) / lum), 1.0)
+    scaled = colour * min(min(max(lum, low), high) / lum, high / colour.max())  # hue kept
     return replace(part, base_color=tuple(float(c) for c in scaled), specular=specular)

@@ -39,14 +39,16 @@ def _logit(x: float) -> torch.Tensor:
     return torch.tensor([np.log(x / (1 - x))], dtype=torch.float32)
 
 
-def paint_colour(hue: torch.Tensor, lightness: torch.Tensor, prior: PaintPrior) -> torch.Tensor:
-    """A base colour whose luminance lies in ``prior.albedo``: the hue of ``sigmoid(hue)`` at the luminance
-    ``sigmoid(lightness)`` places in the range (a channel that would pass 1 stops there)."""
+def paint_colour(shift: torch.Tensor, lightness: torch.Tensor, chroma: torch.Tensor, prior: PaintPrior) -> torch.Tensor:
+    """A base colour whose luminance lies in ``prior.albedo`` and no channel above its top: the chromaticity
+    ``chroma`` (the initial colour over its brightest channel) with each channel moved by at most a factor
+    ``prior.hue_range`` (``tanh(shift)``), at the luminance ``sigmoid(lightness)`` places in the range, or as
+    bright as the hue goes with its brightest channel at the top (a saturated hue stays darker)."""
     low, high = prior.albedo
-    colour = torch.sigmoid(hue)
+    colour = chroma * torch.exp(float(np.log(prior.hue_range)) * torch.tanh(shift))
     colour = colour / colour.max()  # its luminance is then at least the smallest weight, 0.0722
     target = low + (high - low) * torch.sigmoid(lightness)
-    return torch.clamp(colour * (target / (colour @ torch.tensor(LUMINANCE))), max=1.0)
+    return colour * torch.clamp(target / (colour @ torch.tensor(LUMINANCE)), max=high)
 
 
 class AppearanceModel:
@@ -61,7 +63,7 @@ class AppearanceModel:
     and written as homogeneous (see :func:`plain_parts`).
 
     The walls and the ceiling are paint (:mod:`..material_priors`, ``paint``): a homogeneous one's base colour
-    keeps its luminance in ``paint.albedo`` (a hue and a lightness through sigmoids, :func:`paint_colour`), a
+    keeps its luminance in ``paint.albedo`` and the photo's hue within ``paint.hue_range`` (:func:`paint_colour`), a
     procedural one's mean map luminance is pulled into it by a loss term (:meth:`paint_penalty`; made plain, it is
     brought into it), and every wall's and the ceiling's specular stays at most ``paint.max_specular``. Without
     this the fit may match the photo with black walls that mirror the lights, a scene that falls apart once a
@@ -80,6 +82,8 @@ class AppearanceModel:
         self.log_colour_range = float(np.log(max(colour_range, 1.0 + 1e-6)))
         self.paint = paint or PaintPrior()
         self.theta: dict[str, torch.Tensor] = {}
+        self.chroma: dict[str, torch.Tensor] = {}
+        """Initial chromaticity of each optimised homogeneous wall and the ceiling (see :func:`paint_colour`)."""
         self.group: dict[str, str] = {}
         for p in self.optimised():
             if p.kind == "procedural":
@@ -90,7 +94,9 @@ class AppearanceModel:
             elif painted(p.part):
                 low, high = self.paint.albedo
                 start = float(np.clip(np.dot(p.base_color, LUMINANCE), low, high))
-                self._add(f"{p.part}/base_color", torch.cat([_logit(c) for c in p.base_color]), "base_color")
+                colour = np.maximum(np.asarray(p.base_color, np.float64), 1e-6)
+                self.chroma[p.part] = torch.tensor(colour / colour.max(), dtype=torch.float32)
+                self._add(f"{p.part}/base_color", torch.zeros(3), "base_color")
                 self._add(f"{p.part}/lightness", _logit((start - low) / (high - low)), "base_color")
                 self._add(f"{p.part}/roughness", _logit(p.roughness), "roughness")
             else:
@@ -141,7 +147,7 @@ class AppearanceModel:
                                                    for m in (base[p.part], rough[p.part]))
             elif painted(p.part):
                 base[p.part] = paint_colour(self.theta[f"{p.part}/base_color"], self.theta[f"{p.part}/lightness"],
-                                            self.paint)
+                                            self.chroma[p.part], self.paint)
                 rough[p.part] = torch.sigmoid(self.theta[f"{p.part}/roughness"])
             else:
                 base[p.part] = torch.sigmoid(self.theta[f"{p.part}/base_color"])
