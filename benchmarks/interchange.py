@@ -134,7 +134,7 @@ def evaluate(run_dir: Path, out: Path, blender: str, cycles_spp: int, mitsuba_sp
         if engine == "cycles":
             clean = work / "cycles_denoised.png"
             shutil.copyfile(png, clean)
-            denoise_png(clean, "oidn")
+            denoise_png(clean, denoiser)
             renders["cycles_denoised"] = load_rgb(clean)
     row = {"run": run_dir.name, "parts": f"{reached}/{parts}", "usd": usd_check(scene, state)}
     for name, image in renders.items():

@@ -409,8 +409,9 @@ def test_blender_builds_the_scene_lit_in_cycles_and_eevee(exported: Path, tmp_pa
     if blender is None:
         pytest.skip("Blender is not installed (scripts/setup.sh --test installs Debian's blender as root)")
     registry = plugin_system().registry
+    denoiser = registry.implementation("denoiser", "oidn").factory()
     reference = render_folder(exported, 256, registry.implementation("renderer", "mitsuba").factory(),
-                              registry.implementation("denoiser", "oidn").factory()).astype(np.float64) / 255
+                              denoiser).astype(np.float64) / 255
     luminance = np.array([0.2126, 0.7152, 0.0722])
     for engine, spp in (("cycles", 256), ("eevee", 16)):
         png = tmp_path / f"{engine}.png"
@@ -421,7 +422,7 @@ def test_blender_builds_the_scene_lit_in_cycles_and_eevee(exported: Path, tmp_pa
         assert 0.7 < ratio < 1.3, (engine, ratio)
         if engine == "cycles":
             assert ssim(image, reference) > 0.85 and 0.9 < ratio < 1.1
-            denoise_png(png, "oidn")
+            denoise_png(png, denoiser)
             assert ssim(cv2.imread(str(png))[..., ::-1].astype(np.float64) / 255, reference) > 0.95
     broken = tmp_path / "broken"
     shutil.copytree(exported, broken)

@@ -27,7 +27,10 @@ import numpy as np
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.plugins import plugin_system
 
-from .shading import linear_to_srgb, srgb_to_linear
+from .artifacts import write_png
+from .capabilities import Denoiser
+from .rgb_scene import to_srgb8
+from .shading import srgb_to_linear
 
 SCRIPT = Path(__file__).with_name("blender_scene.py")
 """The script Blender runs (its own Python: nothing of psdr-room is imported there)."""
@@ -70,13 +73,11 @@ def build_blend(scene: Path, blend: Path, blender: str, render: Path | None = No
         raise PsdrRoomError(f"{scene}: Blender failed (exit {result.returncode}): {error.strip()}")
 
 
-def denoise_png(png: Path, denoiser: str) -> None:
-    """Replace the sRGB render ``png`` by its ``denoiser`` (a denoiser implementation) cleaned version."""
-    clean = plugin_system().registry.implementation("denoiser", denoiser).factory()
+def denoise_png(png: Path, denoiser: Denoiser) -> None:
+    """Replace the sRGB render ``png`` by its version cleaned by ``denoiser``."""
     noisy = srgb_to_linear(cv2.imread(str(png))[..., ::-1].astype(np.float32) / 255.0)
-    srgb = np.clip(linear_to_srgb(clean.denoise(noisy)), 0.0, 1.0)
     with tempfile.NamedTemporaryFile(suffix=".png", dir=png.parent, delete=False) as staging:
-        cv2.imwrite(staging.name, (srgb[..., ::-1] * 255.0 + 0.5).astype(np.uint8))
+        write_png(Path(staging.name), to_srgb8(denoiser.denoise(noisy)))
     os.replace(staging.name, png)
 
 
@@ -101,10 +102,10 @@ def main(argv: list[str] | None = None) -> int:
         if args.spp < 1 or (args.width is not None and args.width < 8):
             raise PsdrRoomError("--spp must be at least 1 and --width at least 8")
         check_scene(args.scene)
-        plugin_system().registry.implementation("denoiser", args.denoiser)
+        denoiser = plugin_system().registry.implementation("denoiser", args.denoiser).factory()
         build_blend(args.scene, blend, find_blender(args.blender), args.render, args.engine, args.spp, args.width)
         if args.render and args.engine == "cycles":
-            denoise_png(args.render, args.denoiser)
+            denoise_png(args.render, denoiser)
     except PsdrRoomError as exc:
         print(f"psdr-room-blender: error: {exc}", file=sys.stderr)
         return 2
