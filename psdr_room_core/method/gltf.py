@@ -21,7 +21,7 @@ import numpy as np
 
 from .artifacts import Camera
 from .rgb_scene import RgbScene
-from .shading import linear_to_srgb
+from .shading import SPECULAR_F0, linear_to_srgb
 
 CV_TO_GL = np.diag([1.0, -1.0, -1.0, 1.0])
 """OpenCV camera axes (x right, y down, z forward) → glTF's (x right, y up, looking down −z)."""
@@ -30,7 +30,7 @@ LUMENS_PER_WATT = 683.0
 (Blender's among them) undo."""
 GLTF_F0 = 0.04
 """A glTF dielectric's normal-incidence reflectance at its default IOR 1.5; a principled BSDF's ``specular`` s
-has 0.08 s (Mitsuba, Blender), so ``KHR_materials_specular`` scales it by 2 s."""
+has ``SPECULAR_F0`` s (Mitsuba, Blender), so ``KHR_materials_specular`` scales it by 2 s."""
 
 
 class _Buffer:
@@ -100,7 +100,7 @@ def scene_glb(scene: RgbScene, camera: Camera, camera_to_world: np.ndarray) -> b
             pbr["roughnessFactor"] = 1.0
         else:
             pbr["roughnessFactor"] = float(surface.roughness)
-        f0_scale = float(surface.specular) * 0.08 / GLTF_F0
+        f0_scale = float(surface.specular) * SPECULAR_F0 / GLTF_F0
         add(name, np.asarray(mesh.vertices), np.asarray(mesh.faces), {
             "pbrMetallicRoughness": pbr,
             "extensions": {"KHR_materials_specular": {"specularColorFactor": [f0_scale] * 3}}},

@@ -14,6 +14,9 @@ from .geometry import TriangleMesh
 
 Array = TypeVar("Array", np.ndarray, torch.Tensor)
 
+SPECULAR_F0 = 0.08
+"""Normal-incidence reflectance of a principled BSDF per unit ``specular`` (Mitsuba's and Blender's: 0.5 is 4%)."""
+
 
 @dataclass(frozen=True)
 class Surface:

@@ -20,6 +20,7 @@ import numpy as np
 from .artifacts import Camera
 from .gltf import emitter_frame
 from .rgb_scene import RgbScene
+from .shading import SPECULAR_F0
 
 CV_TO_USD = np.diag([1.0, -1.0, -1.0, 1.0])
 """OpenCV camera axes (x right, y down, z forward) → a USD camera's (x right, y up, looking down −z)."""
@@ -30,8 +31,8 @@ FLAT = 0.99
 
 
 def specular_ior(specular: float) -> float:
-    """The dielectric IOR whose normal-incidence reflectance is a principled BSDF's 0.08 ``specular``."""
-    root = math.sqrt(min(max(0.08 * float(specular), 1e-8), 0.99))
+    """The dielectric IOR whose normal-incidence reflectance is a principled BSDF's ``SPECULAR_F0 · specular``."""
+    root = math.sqrt(min(max(SPECULAR_F0 * float(specular), 1e-8), 0.99))
     return (1 + root) / (1 - root)
 
 
