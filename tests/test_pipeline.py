@@ -15,6 +15,7 @@ import cv2
 import numpy as np
 import pytest
 
+from browser import chromium
 from conftest import EXAMPLE
 
 STAGES = ["load_image", "estimate_fov", "detect", "segment", "estimate_depth", "point_cloud", "room_init",
@@ -156,20 +157,33 @@ def test_summary_lists_each_run_and_why_one_failed(first_run: tuple[Path, dict[s
     blank = tmp_path / "blank.png"  # fails in load_image, once the run has begun (settings fail before Hydra writes)
     cv2.imwrite(str(blank), np.full((240, 320, 3), 128, np.uint8))
     assert psdr_room(f"image={blank}", f"hydra.run.dir={failed}", env=env, check=False).returncode == 2
+    psdr_room(f"image={EXAMPLE}", f"hydra.run.dir={tmp_path / 'cached'}", env=env)  # every stage from the cache
     summary = shutil.which("psdr-room-summary") or "psdr-room-summary"
     result = subprocess.run([summary, str(root / "run1"), str(tmp_path), "--out", str(tmp_path)], capture_output=True,
                             text=True, env=env)
     assert result.returncode == 0, result.stderr
-    assert "2 runs (1 ok, 1 failed)" in result.stdout
+    assert "3 runs (2 ok, 1 failed)" in result.stdout
     rows = list(csv.DictReader((tmp_path / "summary.csv").open()))
-    assert [r["status"] for r in rows] == ["ok", "failed"]
-    ok, bad = rows
+    assert [r["status"] for r in rows] == ["ok", "ok", "failed"]
+    ok, cached, bad = rows
     assert "every pixel has the same colour" in bad["error"] and bad["rmse"] == ""
     assert ok["photo"] == str(EXAMPLE) and "renderer=mitsuba" in ok["implementations"]
     assert float(ok["vfov_deg"]) == pytest.approx(metrics(root / "run1")["vfov_deg"], rel=1e-3)
-    assert all(ok[f"{s}_s"] != "" for s in STAGES) and float(ok["ssim"]) > 0 and int(ok["objects"]) > 0
+    assert all(float(ok[f"{s}_s"]) > 0 for s in STAGES) and float(ok["ssim"]) > 0 and int(ok["objects"]) > 0
+    assert float(ok["computed_seconds"]) == pytest.approx(sum(float(ok[f"{s}_s"]) for s in STAGES), rel=2e-3)  # 4 digits
+    # the cached rerun cost nothing but reads, whatever its entries cost the run that made them
+    assert cached["cached_stages"].split() == STAGES and float(cached["computed_seconds"]) == 0
+    assert all(float(cached[f"{s}_s"]) == 0 for s in STAGES) and cached["ssim"] == ok["ssim"]
     page = (tmp_path / "summary.html").read_text()
-    assert page.count("data:image/png;base64,") == 1 and "every pixel has the same colour" in page
+    assert page.count("data:image/png;base64,") == 2 and "every pixel has the same colour" in page
+    assert page.count('/report.html" title="the report of this run">') == 2  # each thumbnail opens its run's report
+    assert page.count("photo.jpg</b>") == 2 and page.count(" cached</span>") == len(STAGES)
+    driver = chromium(1400, 900)
+    try:  # fits a laptop screen: no horizontal scrolling
+        driver.get((tmp_path / "summary.html").as_uri())
+        assert driver.execute_script("return document.documentElement.scrollWidth") <= 1400
+    finally:
+        driver.quit()
     missing = subprocess.run([summary, str(tmp_path / "nowhere")], capture_output=True, text=True, env=env)
     assert missing.returncode == 2 and missing.stderr.count("\n") == 1 and "not a folder" in missing.stderr
 

@@ -106,6 +106,8 @@ def test_a_folder_of_rooms_on_a_launcher(launcher: str, rooms: Path, tmp_path: P
     assert sorted(Path(r["photo"]).name for r in rows) == [f"room{i}.png" for i in range(4)]
     assert {r["status"] for r in rows} == {"ok"} and all(float(r["room_fit_s"]) > 0 for r in rows)
     assert len({json.loads((Path(r["run"]) / "metrics.json").read_text())["digests"]["room_box"] for r in rows}) == 4
+    if launcher == "submitit_local":  # each job's logs in .submitit/<job id>/, no folder named literally %j
+        assert (sweep / ".submitit").is_dir() and not (sweep / ".submitit" / "%j").exists()
 
 
 def test_four_ray_workers_on_one_cache(rooms: Path, tmp_path: Path, cli_env: dict[str, str]) -> None:

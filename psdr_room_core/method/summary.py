@@ -3,8 +3,10 @@
 Each run folder (one holding ``run.json`` or ``psdr-room.log``; a folder holding neither is searched for them,
 so a ``--multirun`` sweep folder names all its jobs) becomes a row: photo, status (``ok``, or ``failed`` with
 the log's last error), the implementations chosen, FoV, fitted objects, RMSE / SSIM / ꟻLIP at init → after the
-fit, total and per-stage compute seconds. Written as ``summary.csv`` and a self-contained ``summary.html`` with
-each photo | render thumbnail. Every ``psdr-room --multirun`` sweep writes them into its sweep folder too
+fit, and what the run cost: per stage the seconds it computed, or ``cached`` (0 s: the stage's result came from the
+cache, whatever it cost the run that made it), their sum, and the run's wall seconds. Written as ``summary.csv`` and
+a self-contained ``summary.html`` (a table that fits a laptop screen: each run's stages on a detail row below it)
+with each photo | render thumbnail, linked to the run's ``report.html``. Every ``psdr-room --multirun`` sweep writes them into its sweep folder too
 (:class:`SweepSummary`, a Hydra callback).
 """
 
@@ -16,6 +18,7 @@ import csv
 import html
 import io
 import json
+import os
 import sys
 from collections.abc import Iterable
 from pathlib import Path
@@ -55,7 +58,8 @@ def _last_error(log: Path) -> str:
 
 
 def summarise(run: Path) -> dict[str, Any]:
-    """One run folder's row (plain values; ``stages``: stage → compute seconds)."""
+    """One run folder's row (plain values; ``stages``: stage → seconds computed by this run, 0 for a stage whose
+    result came from the cache; ``cached``: those stages)."""
     metrics_file = run / "metrics.json"
     row: dict[str, Any] = {"run": str(run)}
     if (run / "run.json").is_file():
@@ -69,20 +73,24 @@ def summarise(run: Path) -> dict[str, Any]:
     except ValueError as error:
         return {**row, "status": "failed", "error": f"{metrics_file}: unreadable ({error})", "stages": {}}
     fit = metrics.get("fit_appearance_log", {})
+    stages = metrics.get("stages", {})
+    computed = {name: 0.0 if s.get("cached") else float(s.get("compute_seconds") or 0.0) for name, s in stages.items()}
     row.update(
         status="ok",
         implementations=" ".join(f"{k}={v['name']}" for k, v in sorted(metrics.get("implementations", {}).items())),
         vfov_deg=metrics.get("vfov_deg"),
         objects=metrics.get("fit_objects_log", {}).get("objects"),
         total_seconds=metrics.get("total_seconds"),
-        stages={name: s.get("compute_seconds") for name, s in metrics.get("stages", {}).items()},
+        computed_seconds=round(sum(computed.values()), 4),
+        cached_stages=" ".join(name for name, s in stages.items() if s.get("cached")),
+        stages=computed,
         **{key: fit.get(key) for key in ("rmse_init", "rmse", "ssim_init", "ssim", "flip_init", "flip")},
     )
     return row
 
 
 COLUMNS = ("run", "photo", "status", "error", "implementations", "vfov_deg", "objects", "rmse_init", "rmse",
-           "ssim_init", "ssim", "flip_init", "flip", "total_seconds")
+           "ssim_init", "ssim", "flip_init", "flip", "total_seconds", "computed_seconds", "cached_stages")
 
 
 def _stage_names(rows: list[dict[str, Any]]) -> list[str]:
@@ -91,7 +99,8 @@ def _stage_names(rows: list[dict[str, Any]]) -> list[str]:
 
 
 def csv_text(rows: list[dict[str, Any]]) -> str:
-    """The rows as CSV: :data:`COLUMNS`, then one ``<stage>_s`` column per stage any run has."""
+    """The rows as CSV: :data:`COLUMNS`, then one ``<stage>_s`` column per stage any run has (seconds computed by
+    the run; 0 for a cached stage, which ``cached_stages`` names)."""
     stages = _stage_names(rows)
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
@@ -117,33 +126,62 @@ def _thumbnail(run: Path) -> str:
     return "data:image/png;base64," + base64.b64encode(png.tobytes()).decode() if ok else ""
 
 
-def html_text(rows: list[dict[str, Any]]) -> str:
-    """The rows as one self-contained HTML page, each with its photo | render thumbnail."""
-    stages = _stage_names(rows)
+def _link(target: Path, base: Path) -> str:
+    """``target`` as a link from a page in ``base``: relative where it can be (a sweep folder moves whole)."""
+    try:
+        return Path(os.path.relpath(target, base)).as_posix()
+    except ValueError:  # another drive (Windows)
+        return target.absolute().as_uri()
+
+
+def _stage_cells(row: dict[str, Any]) -> str:
+    """A run's stages in run order, each ``name seconds`` computed, or ``name cached`` (greyed)."""
+    cached = set(row.get("cached_stages", "").split())
+    return " ".join(f'<span class="cached">{html.escape(name)} cached</span>' if name in cached
+                    else f"<span>{html.escape(name)} {seconds:.2f} s</span>" for name, seconds in row["stages"].items())
+
+
+def html_text(rows: list[dict[str, Any]], base: Path = Path(".")) -> str:
+    """The rows as one self-contained HTML page that fits 1400 px: a run's summary, then its stages on a detail
+    row; each photo | render thumbnail opens the run's ``report.html`` (linked from ``base``, the page's folder)."""
 
     def pair(row: dict[str, Any], key: str) -> str:
         a, b = row.get(f"{key}_init"), row.get(key)
         return "" if a is None or b is None else f"{a:.3f} → {b:.3f}"
 
-    head = ["photo | render", "run", "status", "implementations", "FoV °", "objects", "RMSE", "SSIM", "ꟻLIP",
-            "total s", *stages]
+    head = ["photo | render", "photo and run", "status", "implementations", "FoV °", "objects", "RMSE", "SSIM",
+            "ꟻLIP", "computed s", "wall s"]
     body = []
     for row in rows:
-        uri = _thumbnail(Path(row["run"]))
+        run = Path(row["run"])
+        uri = _thumbnail(run)
+        thumb = f'<img src="{uri}">' if uri else ""
+        if thumb and (run / "report.html").is_file():
+            thumb = f'<a href="{html.escape(_link(run / "report.html", base))}" title="the report of this run">{thumb}</a>'
         status = row["status"] if row["status"] == "ok" else f"{row['status']}: {row.get('error', '')}"
-        cells = [f'<img src="{uri}">' if uri else "", html.escape(row["run"]), f"<div>{html.escape(status)}</div>",
+        photo = Path(str(row.get("photo", ""))).name or "(unknown photo)"
+        cells = [thumb, f"<b>{html.escape(photo)}</b><br><small>{html.escape(str(run))}</small>", html.escape(status),
                  "<br>".join(html.escape(i) for i in row.get("implementations", "").split()),
                  _plain(row.get("vfov_deg")), _plain(row.get("objects")),
-                 pair(row, "rmse"), pair(row, "ssim"), pair(row, "flip"), _plain(row.get("total_seconds")),
-                 *(_plain(row["stages"].get(s)) for s in stages)]
+                 pair(row, "rmse"), pair(row, "ssim"), pair(row, "flip"), _plain(row.get("computed_seconds")),
+                 _plain(row.get("total_seconds"))]
         body.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+        if row["stages"]:
+            body.append(f'<tr class="stages"><td></td><td colspan="{len(head) - 1}">{_stage_cells(row)}</td></tr>')
     ok = sum(row["status"] == "ok" for row in rows)
+    computed = sum(float(row.get("computed_seconds") or 0.0) for row in rows)
+    results = sum(len(row["stages"]) for row in rows)
+    cached = sum(len(row.get("cached_stages", "").split()) for row in rows)
     return (
         "<!doctype html><meta charset='utf-8'><title>psdr-room summary</title>"
-        "<style>body{font:13px sans-serif}td,th{border:1px solid #ccc;padding:2px 6px;vertical-align:top;"
-        "white-space:nowrap}td div{white-space:normal;max-width:24em}"
-        "table{border-collapse:collapse}</style>"
-        f"<h1>psdr-room summary</h1><p>{len(rows)} runs, {ok} ok, {len(rows) - ok} failed</p><table>"
+        "<style>body{font:13px sans-serif;max-width:1380px}table{border-collapse:collapse;width:100%}"
+        "td,th{border:1px solid #ccc;padding:2px 6px;vertical-align:top;overflow-wrap:anywhere}"
+        "small{color:#555}tr.stages td{border-top:none;color:#333}tr.stages span{margin-right:1.2em;"
+        "white-space:nowrap}span.cached{color:#999}</style>"
+        f"<h1>psdr-room summary</h1><p>{len(rows)} runs, {ok} ok, {len(rows) - ok} failed; {computed:.1f} s computed "
+        f"in all; {cached} of {results} stage results from the cache (0 s each: their cost was paid by the run that "
+        "made them). Per run: computed s = the seconds its stages computed; wall s = its stages' wall time, cache "
+        "reads included.</p><table>"
         "<tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in head) + "</tr>" + "".join(body) + "</table>\n")
 
 
@@ -152,7 +190,7 @@ def write_summary(rows: list[dict[str, Any]], out: Path) -> str:
     the line that reports them, with one more line per failed run."""
     if not out.is_dir():
         raise PsdrRoomError(f"--out {out}: not a folder; create it or pick another")
-    texts = {"summary.csv": csv_text(rows), "summary.html": html_text(rows)}
+    texts = {"summary.csv": csv_text(rows), "summary.html": html_text(rows, out)}
     for name, text in texts.items():
         (out / name).write_text(text, encoding="utf-8")
     failed = [row for row in rows if row["status"] != "ok"]
@@ -165,11 +203,16 @@ class SweepSummary(Callback):
     """Hydra callback: at the end of a ``--multirun`` sweep, the summary of its jobs in the sweep folder.
 
     Jobs catch their own errors (a failed photo does not stop the others, see ``psdr_room_core.engine.cli``), so
-    this is where a sweep with a failed job ends with exit status 1.
+    this is where a sweep with a failed job ends with exit status 1. It also removes the empty folder named
+    literally ``.submitit/%j`` that submitit's executors make from their folder setting before any job puts its id
+    in place of ``%j`` (each job's logs are in ``.submitit/<job id>/``).
     """
 
     def on_multirun_end(self, config: DictConfig, **kwargs: Any) -> None:
         sweep_dir = Path(str(config.hydra.sweep.dir))
+        placeholder = sweep_dir / ".submitit" / "%j"
+        if placeholder.is_dir() and not any(placeholder.iterdir()):
+            placeholder.rmdir()
         try:
             rows = [summarise(run) for run in find_runs([sweep_dir])]
             report = write_summary(rows, sweep_dir)
