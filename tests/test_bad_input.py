@@ -234,6 +234,8 @@ CASES: dict[str, Case] = {
     "added_report_key": Case(overrides("+report.colour=red"), "report.colour is not a setting of report"),
     "report_not_a_bool": Case(overrides("report.enabled=maybe"), "report.enabled=maybe is invalid"),
     "report_alpha_over_one": Case(overrides("report.overlay_alpha=2"), "report.overlay_alpha=2.0 is out of range"),
+    "stage_input_misnamed": Case(overrides("+room_init._inputs_.clouds=point_cloud"),
+                                 "stage 'room_init': input 'clouds' is not a parameter of its function; expected cloud"),
     "injected_folder_missing": Case(lambda f: [f"image={example(f)}", f"+inject.depth={f / 'nowhere'}"], "nowhere"),
     # run and cache paths
     "run_dir_not_ours": Case(users_files_in_run_dir, "psdr-room did not write"),

@@ -12,7 +12,7 @@ import pytest
 
 import toy_plugin
 from psdr_room_core.engine.cache import Store
-from psdr_room_core.engine.dag import Pipeline, Runner, RunRecord, StageContext
+from psdr_room_core.engine.dag import Pipeline, Runner, RunRecord, StageContext, check_stage_inputs
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Origin, Registry, load_plugins
@@ -279,6 +279,21 @@ def test_pipeline_validation() -> None:
     cfg["a"]["_inputs_"] = {"x": "c"}
     with pytest.raises(PsdrRoomError, match="form a cycle"):
         Pipeline.from_config(cfg)
+
+
+def test_a_stage_input_its_function_does_not_take_fails_when_the_pipeline_is_built() -> None:
+    """kedro's check, before any stage runs: the input's name, what the function expects and what was found."""
+    registry = load_plugins(extra=[(toy_plugin, TOY)]).registry
+    check_stage_inputs(Pipeline.from_config(BASE).nodes, registry)
+    cfg = copy.deepcopy(BASE)
+    cfg["c"]["_inputs_"] = {"x": "a", "why": "b"}
+    with pytest.raises(PsdrRoomError) as wrong:
+        check_stage_inputs(Pipeline.from_config(cfg).nodes, registry)
+    assert str(wrong.value) == ("stage 'c': input 'why' is not a parameter of its function; expected x, y (stage "
+                                "function toy_add), found x, why; fix c._inputs_")
+    cfg["c"]["_inputs_"] = {"x": "a"}
+    with pytest.raises(PsdrRoomError, match="stage 'c': no input for parameter 'y'; expected x, y .* found x; add it"):
+        check_stage_inputs(Pipeline.from_config(cfg).nodes, registry)
 
 
 def test_injected_artifact_replaces_its_producer(tmp_path: Path, photo: Path) -> None:

@@ -18,6 +18,7 @@ progress display: the :class:`Runner` does those, and announces each step throug
 from __future__ import annotations
 
 import gc
+import inspect
 import logging
 import time
 from collections.abc import Iterable, Mapping
@@ -33,7 +34,7 @@ from .capabilities import Availability
 from .errors import PsdrRoomError
 from .fingerprint import code_fingerprint
 from .memory import PeakMemory
-from .plugins import PluginSystem, StageDef
+from .plugins import PluginSystem, Registry, StageDef
 
 AUTO = "auto"
 """The implementation name that selects the first usable one of ``<capability>.auto.order``."""
@@ -54,6 +55,29 @@ class StageNode:
     params: dict[str, Any]
     uses: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Capability → settings that replace the configured implementation's for this stage only (``_uses_``)."""
+
+
+def check_stage_inputs(nodes: Iterable[StageNode], registry: Registry) -> None:
+    """Check each stage node's ``_inputs_`` against its function's parameters (``fn(ctx, **inputs)``) when the
+    pipeline is built, as kedro checks a node's inputs when the node is made: an input the function does not take,
+    or a parameter without a default that no input gives, is a one-line :class:`PsdrRoomError` (stage, input,
+    expected, found) before any stage runs."""
+    for node in nodes:
+        stage = registry.stage(node.function)
+        parameters = list(inspect.signature(stage.fn).parameters.values())[1:]  # after ctx
+        if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters):
+            continue
+        takes = [p.name for p in parameters if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
+        needed = [p.name for p in parameters if p.default is inspect.Parameter.empty and p.name in takes]
+        expected = f"expected {', '.join(takes) or 'none'} (stage function {node.function})"
+        for name in node.inputs:
+            if name not in takes:
+                raise PsdrRoomError(f"stage '{node.name}': input '{name}' is not a parameter of its function; "
+                                    f"{expected}, found {', '.join(node.inputs)}; fix {node.name}._inputs_")
+        for name in needed:
+            if name not in node.inputs:
+                raise PsdrRoomError(f"stage '{node.name}': no input for parameter '{name}'; {expected}, found "
+                                    f"{', '.join(node.inputs) or 'none'}; add it to {node.name}._inputs_")
 
 
 @dataclass(frozen=True)

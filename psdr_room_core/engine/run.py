@@ -16,7 +16,7 @@ from omegaconf.errors import InterpolationResolutionError, MissingMandatoryValue
 
 from .artifacts import Artifact
 from .cache import CACHE_MODES, Store
-from .dag import Pipeline, Runner, RunRecord
+from .dag import Pipeline, Runner, RunRecord, check_stage_inputs
 from .errors import PsdrRoomError
 from .ownership import check_writable_into, claim
 from .plugins import PluginSystem, plugin_system
@@ -57,6 +57,7 @@ def plan(data: Mapping[str, Any], plugins: PluginSystem) -> tuple[Pipeline, dict
         raise PsdrRoomError(f"cache={mode} is not a cache mode; use one of {', '.join(CACHE_MODES)}")
     injected = {name: Path(str(path)).expanduser().absolute() for name, path in (data.get("inject") or {}).items()}
     pipeline = Pipeline.from_config(data, provided=injected)
+    check_stage_inputs(pipeline.nodes, plugins.registry)
     check_config(data, pipeline.nodes, plugins.registry)
     return pipeline, injected
 
