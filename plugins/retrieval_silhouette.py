@@ -111,8 +111,9 @@ class SilhouetteRetrieval:
         keep = len(starts)
         if self.shortlist > 0:
             keep = max(self.shortlist, k, math.ceil(self.shortlist_share * len(starts)))
-        scored = [Candidate(record.id, self.score(search.finish().error), record.category)
-                  for _, record, search in starts[:keep]]
+        fits = [(record, search.finish()) for _, record, search in starts[:keep]]
+        scored = [Candidate(record.id, self.score(fit.error), record.category, {"iou": fit.iou, **fit.terms})
+                  for record, fit in fits]
         scored.sort(key=lambda c: (-c.score, c.model_id))
         return scored[:k]
 

@@ -2,12 +2,15 @@
 
 Formats: LabelMe polygons (``<photo stem>.labelme.json``: draw or fix masks in the LabelMe tool) or
 COCO panoptic (``<photo stem>.panoptic.png`` + ``.panoptic.json``, what the ``segment`` stage saves).
-Class names are mapped to the room categories (wall, floor, ceiling, window, door, lamp, object).
+psdr-room-studio's own copy (``<photo stem>.studio.panoptic.png`` + ``.json``: the user's file, or the automatic
+segmentation, with the boxes and marks drawn in the studio) comes before both; deleting it (the studio's *Reset
+segmentation*) returns to them. Class names are mapped to the room categories (wall, floor, ceiling, window, door,
+lamp, object).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Optional
 
@@ -54,20 +57,28 @@ class FileSegmentation:
         return None if found is not None else f"no {photo.stem}.labelme.json or {photo.stem}.panoptic.png beside the photo"
 
     def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic:
-        kind, path = self._locate(photo)
-        try:
-            if kind == "labelme":
-                ids, segments = read_labelme(path, (image.height, image.width))
-            else:
-                ids, segments = read_coco_panoptic(path, panoptic_json_for(path))
-        except SidecarError as exc:
-            raise PsdrRoomError(str(exc)) from None
-        if ids.shape != (image.height, image.width):
-            if abs(ids.shape[1] / ids.shape[0] - image.width / image.height) > 0.01:
-                raise PsdrRoomError(f"{path}: segmentation is {ids.shape[1]}x{ids.shape[0]}, not aligned with the photo")
-            ids = cv2.resize(ids, (image.width, image.height), interpolation=cv2.INTER_NEAREST)
-        present = set(np.unique(ids).tolist())
-        return Panoptic(ids=ids.astype(np.int32), segments=[s for s in segments if s.id in present])
+        return read_segmentation(*self._locate(photo), image)
+
+
+def read_segmentation(kind: str, path: Path, image: Image) -> Panoptic:
+    """The segmentation in ``path`` (``kind``: ``labelme`` or ``coco_panoptic``) on ``image``'s pixels: a map of
+    the photo's aspect is resized (prompt boxes with it); a wrong file is a one-line :class:`PsdrRoomError`."""
+    try:
+        if kind == "labelme":
+            ids, segments = read_labelme(path, (image.height, image.width))
+        else:
+            ids, segments = read_coco_panoptic(path, panoptic_json_for(path))
+    except SidecarError as exc:
+        raise PsdrRoomError(str(exc)) from None
+    if ids.shape != (image.height, image.width):
+        if abs(ids.shape[1] / ids.shape[0] - image.width / image.height) > 0.01:
+            raise PsdrRoomError(f"{path}: segmentation is {ids.shape[1]}x{ids.shape[0]}, not aligned with the photo")
+        sx, sy = image.width / ids.shape[1], image.height / ids.shape[0]
+        ids = cv2.resize(ids, (image.width, image.height), interpolation=cv2.INTER_NEAREST)
+        segments = [s if s.box is None else replace(s, box=(s.box[0] * sx, s.box[1] * sy, s.box[2] * sx,
+                                                            s.box[3] * sy)) for s in segments]
+    present = set(np.unique(ids).tolist())
+    return Panoptic(ids=ids.astype(np.int32), segments=[s for s in segments if s.id in present])
 
 
 @dataclass

@@ -40,6 +40,7 @@ __all__ = [
     "panoptic_json_for",
     "read_coco_panoptic",
     "read_labelme",
+    "studio_segmentation_path",
 ]
 
 BACKGROUND_LABELS = frozenset({"_background_", "background", "unlabeled", "unlabelled", "void", "ignore", "none"})
@@ -151,10 +152,20 @@ def category_of(label: str) -> str:
 
 
 # ------------------------------------------------------------------------------------ sidecar lookup
+def studio_segmentation_path(photo: Path) -> Path:
+    """Where psdr-room-studio keeps its own copy of a photo's segmentation: ``<stem>.studio.panoptic.png`` (and
+    its ``.json``), the user's segmentation (or the automatic one) with the studio's boxes and marks applied."""
+    return Path(photo).with_name(Path(photo).stem + ".studio.panoptic.png")
+
+
 def find_segmentation_sidecar(photo: Path) -> tuple[str, Path] | None:
-    """Return ``("labelme", <stem>.labelme.json)`` or ``("coco_panoptic", <stem>.panoptic.png)`` beside
-    ``photo`` (LabelMe first), else None. The panoptic JSON is expected as ``<stem>.panoptic.json``."""
+    """Return the segmentation file beside ``photo``: the studio's copy (:func:`studio_segmentation_path`), else
+    ``("labelme", <stem>.labelme.json)``, else ``("coco_panoptic", <stem>.panoptic.png)``; None when there is none.
+    A panoptic PNG's JSON is expected beside it (:func:`panoptic_json_for`)."""
     photo = Path(photo)
+    studio = studio_segmentation_path(photo)
+    if studio.is_file():
+        return ("coco_panoptic", studio)
     labelme = photo.with_name(photo.stem + ".labelme.json")
     if labelme.is_file():
         return ("labelme", labelme)
@@ -236,7 +247,8 @@ def read_coco_panoptic(png: Path, json_path: Path) -> tuple[np.ndarray, list[Seg
 
     The JSON is a single annotation (``segments_info`` + ``categories``) or a full COCO panoptic file
     (``annotations`` + ``categories``; the annotation whose ``file_name`` matches the PNG is used). A
-    segment's label is its ``label`` field if present, else its category name.
+    segment's label is its ``label`` field if present, else its category name; the ``score`` and ``prompt_box``
+    :func:`~psdr_room_core.method.artifacts.write_coco_panoptic` writes for an automatic object are read back.
     """
     png, json_path = Path(png), Path(json_path)
     if not json_path.is_file():
@@ -284,7 +296,14 @@ def read_coco_panoptic(png: Path, json_path: Path) -> tuple[np.ndarray, list[Seg
             raise SidecarError(f"{json_path}: segment {sid} has no category_id; add one (and its name under 'categories')")
         if not isinstance(label, str) or not label:
             label = cat_name
-        segments.append(Segment(sid, category_of(cat_name), label))
+        score, box = info.get("score"), info.get("prompt_box")
+        if score is not None and not isinstance(score, (int, float)):
+            raise SidecarError(f"{json_path}: segment {sid} has score {score!r}; give a number or leave it out")
+        if box is not None and not (isinstance(box, list) and len(box) == 4
+                                    and all(isinstance(v, (int, float)) for v in box)):
+            raise SidecarError(f"{json_path}: segment {sid} has prompt_box {box!r}; give [x0, y0, x1, y1] or leave it out")
+        segments.append(Segment(sid, category_of(cat_name), label, None if score is None else float(score),
+                                None if box is None else tuple(float(v) for v in box)))
 
     present = np.unique(ids)
     present = present[present != 0]

@@ -335,6 +335,24 @@ def test_glb_carries_the_fitted_specular_the_lights_and_the_photo_aspect(exporte
     assert len(names) == len(set(names)) and {p["part"] for p in state["parts"]} <= set(names)
 
 
+def test_the_studios_glb_keeps_everything_but_the_punctual_lights(exported: Path) -> None:
+    """The studio's viewer lights the scene itself: its copy of the glb drops the photometric stand-ins (which it
+    would read as its own units, a white room) and keeps every mesh, material, emissive panel and the camera."""
+    import trimesh
+
+    from psdr_room_core.method.gltf import without_lights
+
+    whole = (exported / "scene.glb").read_bytes()
+    unlit = without_lights(whole)
+    gltf, original = json.loads(unlit[20:20 + int.from_bytes(unlit[12:16], "little")]), _glb_json(exported / "scene.glb")
+    assert "KHR_lights_punctual" not in json.dumps(gltf) and "KHR_lights_punctual" in json.dumps(original)
+    assert gltf["meshes"] == original["meshes"] and gltf["materials"] == original["materials"]
+    assert [n["name"] for n in gltf["nodes"]] == [n["name"] for n in original["nodes"]]
+    assert len(unlit) % 4 == 0 and int.from_bytes(unlit[8:12], "little") == len(unlit)
+    scene = trimesh.load(trimesh.util.wrap_as_stream(unlit), file_type="glb")
+    assert set(scene.geometry) == set(trimesh.load(exported / "scene.glb").geometry)
+
+
 def test_usd_stage_opens_validates_and_reads_back(exported: Path) -> None:
     """scene.usda: no error from any of USD's registered validators; metres, Y up; every part a mesh bound to its
     UsdPreviewSurface (maps where the part is procedural); every light a UsdLux light of its radiance; the camera's

@@ -162,6 +162,11 @@ def test_the_shortlist_refines_only_the_best_starts() -> None:
     assert SilhouetteRetrieval(shortlist=1, shortlist_share=1.0).rank(query, CAMERA, C2W, 5) == everything
     short = SilhouetteRetrieval(shortlist=6, shortlist_share=0.0).rank(query, CAMERA, C2W, 5)
     assert short[0].model_id == model_id and len(short) == 5
+    for candidate in short:  # the score's terms, as the studio lists them, make the score
+        terms = dict(candidate.terms)
+        assert set(terms) == {"iou", "silhouette", "depth", "size"} and 0 <= terms.pop("iou") <= 1  # no box, no room
+        assert candidate.score == pytest.approx(1 / (1 + sum(terms.values())), rel=1e-9)
+    assert short[0].terms["iou"] > 0.8 > short[-1].terms["iou"]
     assert {c.model_id for c in short} <= {c.model_id for c in full.rank(query, CAMERA, C2W, 26)}
 
 

@@ -18,9 +18,19 @@ import torch
 import viser
 
 from psdr_room_core.engine.errors import PsdrRoomError
-from psdr_room_core.method.artifacts import CATEGORIES, Camera, Image, ObjectCandidates, Panoptic, Placements, RoomBox
+from psdr_room_core.method.artifacts import (
+    CATEGORIES,
+    Camera,
+    Candidate,
+    Image,
+    ObjectCandidates,
+    Panoptic,
+    Placements,
+    RoomBox,
+)
 from psdr_room_core.method.edit import load_state
 from psdr_room_core.method.shading import linear_to_srgb, srgb_to_linear
+from psdr_room_core.method.view_search import ERROR_TERMS
 from psdr_room_core.method.visualize import segment_overlay
 from psdr_room_plugins.detectors.boxes_file import photo_scale, scaled
 from psdr_room_plugins.layout.objects import GrabCutParams, grabcut_mask
@@ -34,6 +44,10 @@ THUMB = 112
 """Side of a candidate thumbnail in the page (pixels)."""
 LOOK = 128
 """Side of the edited part's material look in the page (pixels)."""
+PHOTO_WIDTH = 1200
+"""Width of the photo panel's picture (pixels): shown at the panel's width, and this sharp when expanded."""
+PHOTO_TEXT = 1.2
+"""OpenCV text scale of its captions: legible at the panel's width (about 360 pixels)."""
 Box = tuple[float, float, float, float]
 
 
@@ -42,15 +56,16 @@ def plain(text: str) -> str:
     return "".join(f"\\{c}" if c in "\\`*_[]<>#|" else c for c in text)
 
 
-def draw_boxes(photo: np.ndarray, boxes: list[tuple[str, Box]], colour: tuple[int, int, int] = (255, 200, 0)) -> np.ndarray:
-    """``photo`` with each (caption, box in its pixels) drawn in ``colour`` and captioned."""
+def draw_boxes(photo: np.ndarray, boxes: list[tuple[str, Box]], colour: tuple[int, int, int] = (255, 200, 0),
+               text_scale: float = 0.45) -> np.ndarray:
+    """``photo`` with each (caption, box in its pixels) drawn in ``colour`` and captioned (OpenCV's ``text_scale``)."""
     out = photo.copy()
+    grow = text_scale / 0.45
     for caption, (x0, y0, x1, y1) in boxes:
-        cv2.rectangle(out, (int(x0), int(y0)), (int(x1), int(y1)), colour, 2)
-        cv2.putText(out, caption, (int(x0) + 3, int(y0) + 14), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (255, 255, 255), 2,
-                    cv2.LINE_AA)
-        cv2.putText(out, caption, (int(x0) + 3, int(y0) + 14), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1,
-                    cv2.LINE_AA)
+        cv2.rectangle(out, (int(x0), int(y0)), (int(x1), int(y1)), colour, max(2, round(2 * grow)))
+        at = (int(x0) + round(3 * grow), int(y0) + round(14 * grow))
+        for ink, width in (((255, 255, 255), max(2, round(2 * grow))), ((0, 0, 0), max(1, round(grow)))):
+            cv2.putText(out, caption, at, cv2.FONT_HERSHEY_SIMPLEX, text_scale, ink, width, cv2.LINE_AA)
     return out
 
 
@@ -62,6 +77,22 @@ def thumbnail_strip(images: list[np.ndarray], captions: list[str]) -> np.ndarray
         cv2.putText(tile, caption, (4, THUMB - 6), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
         tiles.append(cv2.copyMakeBorder(tile, 2, 2, 2, 2, cv2.BORDER_CONSTANT, value=(255, 255, 255)))
     return np.concatenate(tiles, axis=1) if tiles else np.full((THUMB, THUMB, 3), 255, np.uint8)
+
+
+def score_table(ranked: list[Candidate]) -> str:
+    """The candidates' scores term by term, as a markdown table (a column per candidate, to fit the panel): why each
+    model ranks where it does."""
+    given = {name for c in ranked for name in c.terms}
+    names = [n for n in ("iou", *ERROR_TERMS) if n in given] + sorted(given - {"iou", *ERROR_TERMS})
+    if not names:
+        return ""
+    rows = [f"| {name} | " + " | ".join(f"{c.terms[name]:.2f}" if name in c.terms else "" for c in ranked) + " |"
+            for name in names]
+    return "\n".join([
+        "Score = 1 / (1 + the terms below `iou`, lower is better); `iou`: how much of the mask the posed model "
+        "covers; " + "; ".join(f"`{n}`: {ERROR_TERMS[n]}" for n in names if n in ERROR_TERMS) + ".", "",
+        "| rank | " + " | ".join(str(rank) for rank in range(len(ranked))) + " |", "|---" * (1 + len(ranked)) + "|",
+        "| score | " + " | ".join(f"{c.score:.3f}" for c in ranked) + " |", *rows])
 
 
 def slider_step(lo: float, hi: float) -> float:
@@ -84,10 +115,13 @@ class StudioApp:
         self.view = SceneView(server)
         self.progress: dict[str, StageEvent] = {}
         self.mask: np.ndarray | None = None
+        self.drawing: Callable[[Any], None] | None = None
+        """The rectangle callback of the drawing mode, while it is on."""
         self.initial_fov = 60.0
         self.placed: set[int] = set()
         self.runs = 0
         gui = server.gui
+        gui.configure_theme(control_width="large")
         self.status = gui.add_markdown("Starting…")
         with gui.add_folder("Run"):
             self.preview_button = gui.add_button("Preview (through place_objects)")
@@ -95,19 +129,24 @@ class StudioApp:
             self.stages = gui.add_markdown("")
             self.command = gui.add_markdown("")
         with gui.add_folder("In the 3D view"):
-            self.exported = gui.add_checkbox("Exported scene", initial_value=True,
+            self.exported = gui.add_checkbox("Exported scene", initial_value=False, disabled=True,
                                              hint="after a full fit: the glTF scene, or the objects and points")
+            self.plane = gui.add_checkbox("Photo on its camera", initial_value=False,
+                                          hint="the photo on the camera's image plane (in front of what it became)")
             self.objects = gui.add_markdown("")
         with gui.add_folder("Photo"):
-            self.photo = gui.add_image(np.zeros((8, 8, 3), np.uint8), label="segmentation and object boxes")
+            self.photo = gui.add_image(np.zeros((8, 8, 3), np.uint8),
+                                       label="segmentation and object boxes (hover: expand)")
             self.overlay = gui.add_checkbox("Show segmentation", initial_value=True)
             self.show_crops = gui.add_checkbox("Show crop windows", initial_value=False,
                                                hint="after a full fit: the windows material retrieval compares")
         with gui.add_folder("Segments"):
             self.region = gui.add_dropdown("Segment", ["(none)"])
             self.category = gui.add_dropdown("Is a", list(CATEGORIES), initial_value="wall")
-            self.mark_button = gui.add_button("Mark segment", hint="writes the segmentation, so marked, beside the photo")
-            self.reset_marks_button = gui.add_button("Reset marks")
+            self.mark_button = gui.add_button("Mark segment", hint="writes the studio's copy of the segmentation, so "
+                                              "marked, beside the photo")
+            self.reset_button = gui.add_button("Reset segmentation", hint="deletes the studio's copy: back to your "
+                                               "segmentation file, or the automatic one")
         with gui.add_folder("Object boxes"):
             self.box = gui.add_dropdown("Box", ["(none)"])
             self.label = gui.add_dropdown("Label", ["object", *DB_CATEGORIES], initial_value="object",
@@ -124,6 +163,7 @@ class StudioApp:
         with gui.add_folder("Candidates"):
             self.segment = gui.add_dropdown("Object", ["(none)"])
             self.thumbs = gui.add_image(thumbnail_strip([], []), label="top candidates (rank: score)")
+            self.scores = gui.add_markdown("")
             self.candidate = gui.add_dropdown("Candidate", ["(none)"])
             self.model_id = gui.add_text("or model id", initial_value="", hint="any id of `psdr-room-db list`")
             self.pick_button = gui.add_button("Pick")
@@ -151,6 +191,7 @@ class StudioApp:
         self.full_button.on_click(lambda _: self.start_run(None))
         self.overlay.on_update(lambda _: self.refresh_photo())
         self.exported.on_update(lambda _: self.view.exported(self.exported.value))
+        self.plane.on_update(lambda _: self.view.photo_plane(self.plane.value))
         self.relabel_button.on_click(lambda _: self.act(lambda: self.session.relabel_box(self._box_index(),
                                                                                           self.label.value)))
         self.delete_button.on_click(lambda _: self.act(lambda: self.session.delete_box(self._box_index())))
@@ -166,7 +207,7 @@ class StudioApp:
             lambda *screen: self.session.add_crop(self._crop_part(), self.photo_box(*screen))))
         self.mark_button.on_click(lambda _: self.act(lambda: self.session.mark_segment(self._region_id(),
                                                                                        self.category.value)))
-        self.reset_marks_button.on_click(lambda _: self.act(self.session.reset_marks))
+        self.reset_button.on_click(lambda _: self.act(self.session.reset_segmentation))
         self.segment.on_update(lambda _: self.refresh_candidates())
         self.pick_button.on_click(lambda _: self.act(self._pick))
         self.add_material_button.on_click(lambda _: self._add_material())
@@ -176,7 +217,13 @@ class StudioApp:
         self.light_colour.on_update(lambda _: self._show_edits())
         self.fov.on_update(lambda _: self._show_edits())
         self.render_button.on_click(lambda _: self._start_edit())
-        server.on_client_connect(self._greet)
+        server.on_client_connect(self._connect)
+
+    def _connect(self, client: viser.ClientHandle) -> None:
+        """A page opens out of any drawing mode a page before it left on (a reload must not take an orbit drag for a
+        box), on the overview."""
+        self._end_drawing()
+        self._greet(client)
 
     def _greet(self, client: viser.ClientHandle) -> None:
         """A page opens on an overview of the photo's camera and the scene (once there is a run to show)."""
@@ -197,7 +244,8 @@ class StudioApp:
             self.say(f"**Not changed:** {plain(str(exc))}")
             return
         self.say("Changed; run the preview or the full fit to see it. Files: "
-                 f"`{self.session.boxes_file}` (boxes), `{self.session.segmentation_file}` (marked segments), "
+                 f"`{self.session.boxes_file}` (boxes), `{self.session.segmentation_file}` (the studio's copy of the "
+                 "segmentation: marks, and boxes where the segments come from a file), "
                  f"`{self.session.crops_file}` (crop windows), "
                  f"`{self.session.run_dir / 'studio.yaml'}` (picks, marks).")
         self.refresh_lists()
@@ -243,7 +291,13 @@ class StudioApp:
             return
         scene_dir = self.session.run_dir / "scene" if "scene" in record.artifacts else None
         self.view.show(record.artifacts, scene_dir)
+        if self.exported.disabled == (scene_dir is not None):  # a first exported scene is shown; none, nothing to tick
+            self.exported.disabled = scene_dir is None
+            self.exported.value = scene_dir is not None
         self.view.exported(self.exported.value)
+        camera: Camera | None = latest(record.artifacts, "camera_fit", "camera")
+        if camera is not None:
+            self.fov.value = self.initial_fov = round(camera.vfov_deg * 2) / 2
         for client in self.server.get_clients().values():
             self._greet(client)
         placements: Placements | None = latest(record.artifacts, "placements_fit", "placements")
@@ -266,10 +320,6 @@ class StudioApp:
         self.part.options = list(self.scene_parts)
         self.material_edits = {}
         self.param_edits = {}
-        camera: Camera | None = latest(record.artifacts, "camera_fit", "camera")
-        if camera is not None:
-            self.fov.value = round(camera.vfov_deg * 2) / 2
-        self.initial_fov = float(self.fov.value)
         self.light_scale.value = 1.0
         self.light_colour.value = (255, 255, 255)
         self._show_edits()
@@ -391,7 +441,7 @@ class StudioApp:
             return
         self.render.image = cv2.cvtColor(cv2.imread(str(out / "render.png")), cv2.COLOR_BGR2RGB)
         self.view.show_scene(out / "scene.glb")
-        self.say(f"Edited ({len(edits)} edits): `{out}` (render.png, scene.glb, scene.xml).")
+        self.say(f"Edited ({len(edits)} edit{'' if len(edits) == 1 else 's'}): `{out}` (render.png, scene.glb, scene.xml).")
 
     def refresh_lists(self) -> None:
         try:
@@ -416,24 +466,33 @@ class StudioApp:
             return []
 
     def refresh_photo(self) -> None:
+        """The photo panel: the photo at :data:`PHOTO_WIDTH` with the segmentation, the object boxes, the GrabCut mask
+        of a box just drawn and (asked for) the crop windows, captioned legibly at the panel's width."""
         image: Image | None = self.session.artifact("image")
         if image is None:
             return
         photo = image.to_uint8()
+        zoom = PHOTO_WIDTH / photo.shape[1]
+        size = (PHOTO_WIDTH, round(photo.shape[0] * zoom))
+        photo = cv2.resize(photo, size, interpolation=cv2.INTER_LINEAR)
         panoptic: Panoptic | None = self.session.artifact("panoptic")
         if self.overlay.value and panoptic is not None:
-            photo = segment_overlay(photo, panoptic)
-        if self.mask is not None and self.mask.shape == photo.shape[:2]:
-            photo[self.mask] = (0.5 * photo[self.mask] + (0, 110, 0)).astype(np.uint8)
+            ids = cv2.resize(panoptic.ids, size, interpolation=cv2.INTER_NEAREST)
+            photo = segment_overlay(photo, Panoptic(ids=ids, segments=panoptic.segments), text_scale=PHOTO_TEXT * 0.9)
+        if self.mask is not None and self.mask.shape == image.to_uint8().shape[:2]:
+            mask = cv2.resize(self.mask.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST) > 0
+            photo[mask] = (0.5 * photo[mask] + (0, 110, 0)).astype(np.uint8)
         sx, sy = photo_scale(image)
+        sx, sy = sx * zoom, sy * zoom
         try:
             boxes = self.session.boxes()
         except PsdrRoomError:
             boxes = []
-        photo = draw_boxes(photo, [(f"{i}: {b.label}", scaled(b.box, sx, sy)) for i, b in enumerate(boxes)])
+        photo = draw_boxes(photo, [(f"{i}: {b.label}", scaled(b.box, sx, sy)) for i, b in enumerate(boxes)],
+                           text_scale=PHOTO_TEXT)
         if self.show_crops.value:
             photo = draw_boxes(photo, [(f"crop {i}: {c.get('part', 'render window')}", scaled(c["image"], sx, sy))
-                                       for i, c in enumerate(self._crops())], colour=(0, 220, 255))
+                                       for i, c in enumerate(self._crops())], colour=(0, 220, 255), text_scale=PHOTO_TEXT)
         self.photo.image = photo
 
     def refresh_candidates(self) -> None:
@@ -448,6 +507,7 @@ class StudioApp:
                                   for rank, c in enumerate(ranked)]
         images = [self.database.thumbnails(c.model_id, views=[0])[0] for c in ranked]
         self.thumbs.image = thumbnail_strip(images, [f"{rank}: {c.score:.2f}" for rank, c in enumerate(ranked)])
+        self.scores.content = score_table(ranked)
 
     # -- corrections --------------------------------------------------------------------------------------------
 
@@ -500,15 +560,26 @@ class StudioApp:
         except PsdrRoomError as exc:
             self.say(f"**Not changed:** {plain(str(exc))}")
             return
+        self._end_drawing()
         self.view.photo_view(event.client, self.session.record.artifacts)
+        self.view.photo_plane(True)  # the rectangle is drawn over the photo
 
         @self.server.scene.on_rect_select()
         def _(selection: Any) -> None:
-            self.server.scene.remove_rect_select_callback(_)
+            self._end_drawing()
             self.act(lambda: take(selection.client.camera, selection.screen_min, selection.screen_max))
+
+        self.drawing = _
 
         # Said last: the browser takes messages in order, so once this shows, the view and the selection are ready.
         self.say(f"Drag {target} on the photo (the view is at the photo's camera).")
+
+    def _end_drawing(self) -> None:
+        """Leave the drawing mode, if on: the canvas orbits again and the photo plane is as ticked."""
+        if self.drawing is not None:
+            self.server.scene.remove_rect_select_callback(self.drawing)
+            self.drawing = None
+        self.view.photo_plane(self.plane.value)
 
     def photo_box(self, client_camera: Any, screen_min: tuple[float, float], screen_max: tuple[float, float]) -> Box:
         """The box (photo pixels) a rectangle on the canvas covers on the photo, clipped to it."""
@@ -541,4 +612,4 @@ class StudioApp:
         image: Image = self.session.record.artifacts["image"]  # type: ignore[union-attr]
         self.mask = grabcut_mask(image.to_uint8(), working, GrabCutParams())
         sx, sy = photo_scale(image)
-        self.session.add_box(scaled(working, 1 / sx, 1 / sy), label=self.label.value)
+        self.session.add_box(scaled(working, 1 / sx, 1 / sy), label=self.label.value, mask=self.mask)

@@ -1,9 +1,11 @@
 """The studio's 3D view: a run's artifacts as viser scene nodes.
 
 Nodes (world frame of the room box: metres, floor at ``y = 0``, +y up):
-``/photo`` the photo's camera with the photo on its image plane, ``/room`` the room box's edges,
+``/photo`` the photo's camera, ``/photo_plane`` the photo on its image plane (hidden unless asked for or drawn on:
+it stands in front of what the photo became), ``/room`` the room box's edges,
 ``/objects/<segment id>`` each placed model (the fitted pose when ``fit_objects`` ran), ``/cloud`` the
-segmented point cloud, ``/scene`` the exported glTF scene with its fitted materials and lights (full runs).
+segmented point cloud, ``/scene`` the exported glTF scene with its fitted materials and emissive light panels (full
+runs; the viewer's own lights stand in for the glb's photometric ones, which it would wash out).
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import viser
 import viser.transforms as vtf
 
 from psdr_room_core.method.artifacts import Camera, Image, Placements, PointCloud, RoomBox, rotation_y
+from psdr_room_core.method.gltf import without_lights
 
 MAX_POINTS = 60_000
 """Point-cloud points sent to the browser (a random subset beyond this)."""
@@ -45,6 +48,7 @@ class SceneView:
     def __init__(self, server: viser.ViserServer) -> None:
         self.server = server
         self.nodes: dict[str, Any] = {}
+        self.plane_visible = False
         server.scene.set_up_direction("+y")
 
     def clear(self) -> None:
@@ -63,10 +67,11 @@ class SceneView:
             return
         c2w = np.asarray(room.camera_to_world, dtype=np.float64)
         scene = self.server.scene
-        self.nodes["/photo"] = scene.add_camera_frustum(
-            "/photo", fov=math.radians(camera.vfov_deg), aspect=camera.width / camera.height, scale=0.3,
-            image=image.to_uint8(), wxyz=wxyz(c2w[:3, :3]), position=c2w[:3, 3],
-            color=(240, 120, 20), thickness=0.006)
+        frustum = dict(fov=math.radians(camera.vfov_deg), aspect=camera.width / camera.height, scale=0.3,
+                       wxyz=wxyz(c2w[:3, :3]), position=c2w[:3, 3], color=(240, 120, 20), thickness=0.006)
+        self.nodes["/photo"] = scene.add_camera_frustum("/photo", **frustum)
+        self.nodes["/photo_plane"] = scene.add_camera_frustum("/photo_plane", image=image.to_uint8(),
+                                                              visible=self.plane_visible, **frustum)
         self.nodes["/room"] = scene.add_line_segments("/room", box_edges(room), colors=(40, 40, 40), thickness=0.015)
         cloud: PointCloud | None = artifacts.get("point_cloud")
         if cloud is not None and len(cloud.points):
@@ -86,6 +91,12 @@ class SceneView:
                 name, placement.world_vertices().astype(np.float32), np.asarray(placement.mesh.faces, np.int32),
                 color=colour, flat_shading=True)
 
+    def photo_plane(self, visible: bool) -> None:
+        """Show or hide the photo on its camera's image plane."""
+        self.plane_visible = visible
+        if "/photo_plane" in self.nodes:
+            self.nodes["/photo_plane"].visible = visible
+
     def exported(self, visible: bool) -> None:
         """Show the exported scene (``visible``) or, in its place, the placed objects and the point cloud."""
         if "/scene" not in self.nodes:
@@ -99,7 +110,7 @@ class SceneView:
         """Show the exported (or edited) scene ``glb`` as ``/scene``, in place of the one shown."""
         if "/scene" in self.nodes:
             self.nodes.pop("/scene").remove()
-        self.nodes["/scene"] = self.server.scene.add_glb("/scene", glb.read_bytes())
+        self.nodes["/scene"] = self.server.scene.add_glb("/scene", without_lights(glb.read_bytes()))
 
     def photo_view(self, client: viser.ClientHandle, artifacts: dict[str, Any]) -> None:
         """Put ``client``'s view at the photo's camera (where a box dragged on the canvas is a box on the photo)."""
@@ -117,21 +128,24 @@ class SceneView:
 
 
 def overview(client: viser.ClientHandle, artifacts: dict[str, Any]) -> None:
-    """Put ``client``'s view inside the room, above and behind the photo's camera, looking where it looks: the
-    camera's frustum with the photo and the scene it became, together."""
+    """Put ``client``'s view inside the room, above and behind the photo's camera, looking down at the placed objects
+    (at the room's middle when there are none): the camera's frustum and the scene it became, together."""
     room: RoomBox | None = latest(artifacts, "room_box_objects", "room_box_fit", "room_box")
     if room is None:
         return
     c2w = np.asarray(room.camera_to_world, dtype=np.float64)
     forward = c2w[:3, 2] * np.array([1.0, 0.0, 1.0])
     forward /= max(float(np.linalg.norm(forward)), 1e-9)
-    eye = c2w[:3, 3] - 0.8 * forward + np.array([0.0, 0.35, 0.0])
+    placements: Placements | None = latest(artifacts, "placements_fit", "placements")
+    placed = [p.world_vertices() for p in (placements.objects if placements is not None else [])]
+    target = np.concatenate(placed).mean(axis=0) if placed else np.asarray(room.center, dtype=np.float64)
+    eye = c2w[:3, 3] - 0.8 * forward + np.array([0.0, 0.6, 0.0])
     turn = rotation_y(room.yaw)  # keep the eye inside the box: its walls would hide the scene from outside
     margin = np.minimum(0.1, 0.5 * np.asarray(room.half_size))
     local = np.clip(turn.T @ (eye - room.center), -(room.half_size - margin), room.half_size - margin)
     with client.atomic():
         client.camera.position = room.center + turn @ local
-        client.camera.look_at = c2w[:3, 3] + 2.5 * forward - np.array([0.0, 0.3, 0.0])
+        client.camera.look_at = target
         client.camera.up_direction = (0.0, 1.0, 0.0)
         client.camera.fov = math.radians(75.0)
 

@@ -3,12 +3,15 @@
 Corrections are written where ``psdr-room`` reads them, so the plain command reproduces the studio's scene:
 
 - object boxes (added, deleted, relabelled) → ``<photo stem>.boxes.yaml`` beside the photo (``detector=auto``
-  takes it over the detector);
+  takes it over the detector), or, where the segments come from a file (the user's LabelMe or panoptic sidecar),
+  the studio's copy of that segmentation with the box's GrabCut mask added, the object's segment removed or
+  relabelled (``<photo stem>.studio.panoptic.png`` + ``.json``, which ``segmentation=file`` prefers; the user's
+  file is never written);
 - candidate picks → ``+place_objects.pick.<segment>=<rank or model id>`` overrides, kept in the run folder's
   ``studio.yaml`` and shown as the command line that reproduces the run;
-- segments marked as a room category (wall, floor, ceiling, window, door, lamp, object) → the run's segmentation
-  so marked, as ``<photo stem>.panoptic.png`` + ``.panoptic.json`` beside the photo (``segmentation=auto`` takes
-  it over the offline layout method); the marks are listed in ``studio.yaml``;
+- segments marked as a room category (wall, floor, ceiling, window, door, lamp, object) → the studio's copy of
+  the segmentation so marked (``segmentation=auto`` takes it over the offline layout method); the marks are
+  listed in ``studio.yaml``;
 - crop windows (moved, added, deleted) → ``<photo stem>.crops.yaml`` beside the photo (``assign_materials`` takes
   it in place of its own crops).
 
@@ -27,6 +30,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 from psdr_room_core.engine.cli import compose_config, hydra_quote
@@ -44,18 +48,32 @@ from psdr_room_core.method.artifacts import (
     MaterialAssignment,
     ObjectCandidates,
     Panoptic,
+    Segment,
     write_coco_panoptic,
 )
 from psdr_room_core.method.crops import check_crops, crops_file, load_crops, write_crops
 from psdr_room_core.method.edit import edit_scene
 from psdr_room_plugins.detectors.boxes_file import photo_scale, read_boxes, scaled, sidecar_path, write_boxes
-from psdr_room_plugins.sidecar_segmentation import find_segmentation_sidecar, panoptic_json_for
+from psdr_room_plugins.layout.objects import GrabCutParams, grabcut_mask
+from psdr_room_plugins.segmentation_file import read_segmentation
+from psdr_room_plugins.sidecar_segmentation import panoptic_json_for, studio_segmentation_path
 
 PREVIEW = "place_objects"
 """The last stage of a preview run (the first posed scene)."""
 STATE_FILE = "studio.yaml"
 EDITED = "scene-edited"
 """The run folder's edited copy of its exported ``scene/`` (``psdr-room-edit``'s ``--out``)."""
+
+
+def _objects(panoptic: Panoptic) -> list[Segment]:
+    """The object segments, in id order (the order of :meth:`Session.boxes` where segments come from a file)."""
+    return sorted((s for s in panoptic.segments if s.category == "object"), key=lambda s: s.id)
+
+
+def _segment_box(ids: np.ndarray, segment_id: int) -> tuple[float, float, float, float]:
+    """The box (pixel edges, ``x1``/``y1`` exclusive) of a segment's pixels."""
+    ys, xs = np.nonzero(ids == segment_id)
+    return float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1)
 
 
 @dataclass(frozen=True)
@@ -174,12 +192,17 @@ class Session:
         return image
 
     def boxes(self) -> list[Detection]:
-        """The object boxes in photo pixels: the boxes file's, else the latest run's detections."""
+        """The object boxes in photo pixels: where the segments come from a file (:meth:`from_file`), the boxes of
+        its object segments (in id order); else the boxes file's, else the latest run's detections."""
         image = self._image()
+        sx, sy = photo_scale(image)
+        if self.from_file():
+            panoptic = self._editable()
+            return [Detection(label=s.label, category=s.category, box=scaled(_segment_box(panoptic.ids, s.id), 1 / sx,
+                                                                              1 / sy)) for s in _objects(panoptic)]
         if self.boxes_file.is_file():
             return read_boxes(self.boxes_file, image.photo_size)
         detections: Detections | None = self.artifact("detections")
-        sx, sy = photo_scale(image)
         return [Detection(label=d.label, category=d.category, box=scaled(d.box, 1 / sx, 1 / sy))
                 for d in (detections.items if detections is not None else [])]
 
@@ -189,29 +212,53 @@ class Session:
         if self.detector not in ("auto", "boxes_file"):
             raise PsdrRoomError(f"detector={self.detector} ignores the boxes file {self.boxes_file}; restart the "
                                 "studio without detector= (auto takes the boxes file)")
-        found = find_segmentation_sidecar(self.photo)
-        if found is not None and (self.marks or self._segmentation() == "file"):
-            raise PsdrRoomError(f"the segmentation comes from {found[1]}, which boxes do not change; press Reset "
-                                "marks (when the studio wrote it) or edit that file")
         write_boxes(self.boxes_file, boxes, self._image().photo_size)
         self._drop_object_crops("object_")
         self._save_state({}, self.marks)
 
-    def add_box(self, box: tuple[float, float, float, float], label: str = "object",
-                category: str = "object") -> None:
-        """Add an object box (photo pixels ``x0, y0, x1, y1``) to the boxes file."""
+    def add_box(self, box: tuple[float, float, float, float], label: str = "object", category: str = "object",
+                mask: np.ndarray | None = None) -> None:
+        """Add an object box (photo pixels ``x0, y0, x1, y1``): to the boxes file, or, where the segments come
+        from a file, as a new object segment of the studio's copy, ``mask`` (working pixels; default: the box's
+        GrabCut cut) over what was there."""
         x0, y0, x1, y1 = (float(v) for v in box)
         _check_category(category)
         if not (x1 > x0 and y1 > y0):
             raise PsdrRoomError(f"box {[x0, y0, x1, y1]} is inverted or empty; give [x0, y0, x1, y1] with x1 > x0 and "
                                 "y1 > y0 (drag from one corner to the opposite one)")
-        self._write_boxes([*self.boxes(), Detection(label=label, category=category, box=(x0, y0, x1, y1))])
+        if not self.from_file():
+            self._write_boxes([*self.boxes(), Detection(label=label, category=category, box=(x0, y0, x1, y1))])
+            return
+        image = self._image()
+        width, height = image.photo_size
+        if x0 < 0 or y0 < 0 or x1 > width or y1 > height:
+            raise PsdrRoomError(f"box {[x0, y0, x1, y1]} is outside the {width}x{height} photo; drag it over the photo")
+        sx, sy = photo_scale(image)
+        working = scaled((x0, y0, x1, y1), sx, sy)
+        if mask is None:
+            mask = grabcut_mask(image.to_uint8(), working, GrabCutParams())
+        if mask is None or not mask.any():
+            raise PsdrRoomError(f"the box {[round(v) for v in (x0, y0, x1, y1)]} holds no object GrabCut can cut "
+                                "out; drag a box that fits the object more closely")
+        panoptic = self._editable()
+        ids = panoptic.ids.copy()
+        new = int(ids.max(initial=0)) + 1
+        ids[mask] = new
+        segment = Segment(new, category, label, box=working)  # a person drew it: kept whatever the fit (score None)
+        self._write_segmentation(ids, [*panoptic.segments, segment], self.marks)
 
     def delete_box(self, index: int) -> None:
-        """Remove box ``index`` (0-based, in :meth:`boxes` order)."""
+        """Remove box ``index`` (0-based, in :meth:`boxes` order); where the segments come from a file, its object
+        segment becomes unlabelled in the studio's copy."""
         boxes = self.boxes()
         self._check_index(index, boxes)
-        self._write_boxes(boxes[:index] + boxes[index + 1:])
+        if not self.from_file():
+            self._write_boxes(boxes[:index] + boxes[index + 1:])
+            return
+        panoptic = self._editable()
+        gone = _objects(panoptic)[index].id
+        self._write_segmentation(np.where(panoptic.ids == gone, 0, panoptic.ids),
+                                 [s for s in panoptic.segments if s.id != gone], self.marks)
 
     def relabel_box(self, index: int, label: str) -> None:
         """Name box ``index``'s object (a database category such as ``sofa`` steers retrieval to it)."""
@@ -219,9 +266,15 @@ class Session:
         self._check_index(index, boxes)
         if not label.strip():
             raise PsdrRoomError("the label is empty; give the object's name (e.g. sofa)")
-        old = boxes[index]
-        boxes[index] = Detection(label=label.strip(), category=old.category, box=old.box)
-        self._write_boxes(boxes)
+        if not self.from_file():
+            old = boxes[index]
+            boxes[index] = Detection(label=label.strip(), category=old.category, box=old.box)
+            self._write_boxes(boxes)
+            return
+        panoptic = self._editable()
+        named = _objects(panoptic)[index].id
+        self._write_segmentation(panoptic.ids, [replace(s, label=label.strip()) if s.id == named else s
+                                                for s in panoptic.segments], self.marks)
 
     @staticmethod
     def _check_index(index: int, boxes: list[Detection]) -> None:
@@ -250,47 +303,66 @@ class Session:
         self._drop_object_crops(f"object_{segment_id}_")
         self._save_state({**self.picks, segment_id: choice}, self.marks)
 
-    # -- segment marks ------------------------------------------------------------------------------------------
+    # -- the segmentation --------------------------------------------------------------------------------------
 
     @property
     def segmentation_file(self) -> Path:
-        """Where marked segments are written: ``<photo stem>.panoptic.png`` (and its ``.panoptic.json``)."""
-        return self.photo.with_name(f"{self.photo.stem}.panoptic.png")
+        """The studio's own copy of the segmentation, where boxes (segments from a file) and marks go:
+        ``<photo stem>.studio.panoptic.png`` (and its ``.json``); the user's files beside the photo stay as they are."""
+        return studio_segmentation_path(self.photo)
 
     def _segmentation(self) -> str:
         """The segmentation implementation the latest run used (``auto`` resolved)."""
         used = self.record.implementations.get("segmentation", {}) if self.record is not None else {}
         return str(used.get("name", ""))
 
-    def mark_segment(self, segment_id: int, category: str) -> None:
-        """Say what segment ``segment_id`` of the latest run's segmentation is (a room category); the segmentation
-        so marked is written beside the photo, where the next run reads it."""
+    def from_file(self) -> bool:
+        """Whether the segments come from a file (the user's or the studio's copy): boxes then change the studio's
+        copy of it, since the detector's boxes no longer reach the segments."""
+        return self._segmentation() == "file" or self.segmentation_file.is_file()
+
+    def _editable(self) -> Panoptic:
+        """The segmentation a box or mark changes: the studio's copy when there is one, else the latest run's."""
         panoptic: Panoptic | None = self.artifact("panoptic")
         if panoptic is None:
-            raise PsdrRoomError("no run yet: run the preview first, then mark its segments")
+            raise PsdrRoomError("no run yet: run the preview first, then correct its segments")
+        if not self.segmentation_file.is_file():
+            return panoptic
+        return read_segmentation("coco_panoptic", self.segmentation_file, self._image())
+
+    def _write_segmentation(self, ids: np.ndarray, segments: list[Segment], marks: dict[int, str]) -> None:
+        """Write the studio's copy of the segmentation (whole files only; segments left with no pixels dropped)
+        and keep ``marks``; picks are keyed by object, which a changed segmentation may renumber: dropped."""
+        present = set(np.unique(ids).tolist())
+        png, meta = self.segmentation_file, panoptic_json_for(self.segmentation_file)
+        with tempfile.TemporaryDirectory(dir=self.photo.parent, prefix=".studio-") as scratch:  # whole files only
+            write_coco_panoptic(Path(scratch) / png.name, Path(scratch) / meta.name, ids,
+                                [s for s in segments if s.id in present])
+            os.replace(Path(scratch) / meta.name, meta)
+            os.replace(Path(scratch) / png.name, png)
+        self._drop_object_crops("object_")
+        self._save_state({}, marks)
+
+    def mark_segment(self, segment_id: int, category: str) -> None:
+        """Say what segment ``segment_id`` is (a room category), in the studio's copy of the segmentation, where the
+        next run reads it."""
+        panoptic = self._editable()
         _check_category(category)
         known = sorted(s.id for s in panoptic.segments)
         if segment_id not in known:
             raise PsdrRoomError(f"no segment {segment_id}; the segments are {known}")
-        found = find_segmentation_sidecar(self.photo)
-        if found is not None and found[0] == "labelme":
-            raise PsdrRoomError(f"{found[1]} holds the segmentation and takes precedence; mark the segment there in LabelMe")
         if self._segmentation() not in ("layout", "file"):
             raise PsdrRoomError(f"segmentation={self._segmentation()} ignores a segmentation file beside the photo; "
                                 "restart the studio with segmentation=file to use the marks")
         segments = [replace(s, category=category, label=category if category != "object" else s.label)
                     if s.id == segment_id else s for s in panoptic.segments]
-        png, meta = self.segmentation_file, panoptic_json_for(self.segmentation_file)
-        with tempfile.TemporaryDirectory(dir=self.photo.parent, prefix=".studio-") as scratch:  # whole files only
-            write_coco_panoptic(Path(scratch) / png.name, Path(scratch) / meta.name, panoptic.ids, segments)
-            os.replace(Path(scratch) / meta.name, meta)
-            os.replace(Path(scratch) / png.name, png)
-        self._save_state({}, {**self.marks, segment_id: category})
+        self._write_segmentation(panoptic.ids, segments, {**self.marks, segment_id: category})
 
-    def reset_marks(self) -> None:
-        """Delete the segmentation file the studio's marks wrote (never one it did not write)."""
-        if not self.marks:
-            raise PsdrRoomError("no segment is marked; nothing to reset")
+    def reset_segmentation(self) -> None:
+        """Delete the studio's copy of the segmentation (its boxes and marks): the next run reads the user's file,
+        or segments the photo itself, again."""
+        if not self.segmentation_file.is_file():
+            raise PsdrRoomError("the studio has not changed the segmentation; nothing to reset")
         for path in (self.segmentation_file, panoptic_json_for(self.segmentation_file)):
             path.unlink(missing_ok=True)
         self._save_state({}, {})

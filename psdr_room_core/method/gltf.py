@@ -144,10 +144,34 @@ def scene_glb(scene: RgbScene, camera: Camera, camera_to_world: np.ndarray) -> b
     while len(buf.data) % 4:
         buf.data.append(0)
     gltf["buffers"][0]["byteLength"] = len(buf.data)
+    return _pack(gltf, bytes(buf.data))
+
+
+def _pack(gltf: dict[str, Any], binary: bytes) -> bytes:
+    """A glb: the JSON chunk (space-padded) and the binary chunk (its length a multiple of 4)."""
     text = json.dumps(gltf, separators=(",", ":")).encode()
     text += b" " * (-len(text) % 4)
-    body = struct.pack("<I4s", len(text), b"JSON") + text + struct.pack("<I4s", len(buf.data), b"BIN\x00") + bytes(buf.data)
+    body = struct.pack("<I4s", len(text), b"JSON") + text + struct.pack("<I4s", len(binary), b"BIN\x00") + binary
     return struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body
+
+
+def without_lights(glb: bytes) -> bytes:
+    """``glb`` (as :func:`scene_glb` writes it) without its ``KHR_lights_punctual`` stand-ins, for a viewer that lights
+    the scene itself and has no exposure for photometric intensities (viser: candela read as its own units washes
+    the room out white); the emissive panels stay."""
+    (length,) = struct.unpack_from("<I", glb, 12)
+    gltf = json.loads(glb[20:20 + length])
+    (binary_length,) = struct.unpack_from("<I", glb, 20 + length)
+    binary = glb[28 + length:28 + length + binary_length]
+    gltf.get("extensions", {}).pop("KHR_lights_punctual", None)
+    if not gltf.get("extensions"):
+        gltf.pop("extensions", None)
+    gltf["extensionsUsed"] = [e for e in gltf.get("extensionsUsed", []) if e != "KHR_lights_punctual"]
+    for node in gltf.get("nodes", []):
+        node.get("extensions", {}).pop("KHR_lights_punctual", None)
+        if "extensions" in node and not node["extensions"]:
+            del node["extensions"]
+    return _pack(gltf, binary)
 
 
 def _facing(position: np.ndarray, direction: np.ndarray) -> list[float]:

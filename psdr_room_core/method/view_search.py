@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import cv2
@@ -136,6 +136,18 @@ class ViewFit:
     visible model's box with the prompt box), for a prompted segment) + the size prior's penalty on the scale
     (:class:`~psdr_room_core.method.sizes.SizePrior`, where one is given) + ``room_weight`` × how far (metres)
     its bounding box reaches beyond the target's room box."""
+    terms: dict[str, float] = field(default_factory=dict)
+    """:attr:`error` term by term (:data:`ERROR_TERMS` that apply; they sum to it)."""
+
+
+ERROR_TERMS = {
+    "silhouette": "mask disagreement: wrong pixels / mask pixels",
+    "depth": "depth_weight × mean relative depth error where the model meets the object's points",
+    "box": "box_weight × (1 − IoU of the visible model's box with the prompt box)",
+    "size": "the size prior's penalty on the scale",
+    "room": "room_weight × metres the model reaches beyond the room box",
+}
+"""The terms of :attr:`ViewFit.error`, by name: what a user reads to see why a model was ranked where it was."""
 
 
 @dataclass(frozen=True)
@@ -229,6 +241,13 @@ class _Scorer:
 
     def score_many(self, poses: list[np.ndarray]) -> list[tuple[float, float]]:
         """:meth:`score` of each pose, rendered in one cast."""
+        terms, iou = self.terms_many(poses)
+        error = sum(terms.values())  # in the order the terms were added (as before they were named)
+        return [(float(e), float(i)) for e, i in zip(error, iou)]
+
+    def terms_many(self, poses: list[np.ndarray]) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        """The terms of each pose's error (:data:`ERROR_TERMS` that apply, each (K,), weighted; they sum to the
+        error) and its visible IoU (K,), rendered in one cast."""
         window, depth, visible = self.render_many(poses)
         x0, y0, x1, y1 = window
         mask = self.target.mask[y0:y1, x0:x1]
@@ -240,15 +259,15 @@ class _Scorer:
         count = both.sum(axis=(1, 2))
         depth_sum = np.where(both, np.abs(depth - own).astype(np.float64), 0.0).sum(axis=(1, 2))
         depth_error = np.where(count > 0, depth_sum / np.maximum(count, 1) / self.median_depth, 1.0)
-        error = wrong / self.mask_area + self.params.depth_weight * depth_error
+        terms = {"silhouette": wrong / self.mask_area, "depth": self.params.depth_weight * depth_error}
         if self.target.box is not None:
-            error += self.params.box_weight * (1.0 - np.array([self.box_iou(window, v) for v in visible]))
+            terms["box"] = self.params.box_weight * (1.0 - np.array([self.box_iou(window, v) for v in visible]))
         if self.prior is not None:
-            error += np.array([self.prior.penalty(float(np.linalg.norm(pose[:3, 0]))) for pose in poses])
+            terms["size"] = np.array([self.prior.penalty(float(np.linalg.norm(pose[:3, 0]))) for pose in poses])
         if self.target.room is not None and self.params.room_weight > 0:
-            error += self.params.room_weight * self.beyond_room(poses)
+            terms["room"] = self.params.room_weight * self.beyond_room(poses)
         iou = overlap / np.maximum(self.mask_area + visible_area - overlap, 1)
-        return [(float(e), float(i)) for e, i in zip(error, iou)]
+        return terms, iou
 
     def beyond_room(self, poses: list[np.ndarray]) -> np.ndarray:
         """(K,) how far (metres) each posed bounding box reaches beyond the target's room box."""
@@ -355,7 +374,9 @@ class ViewSearch:
             turned = [search.run((error, yaw, best[2], best[3]), fine_levels) for (error, _), yaw in zip(scores, turns)]
             best = min([best, *turned], key=lambda h: h[0])
         error, yaw, position, scale = best
-        return ViewFit(position, yaw % (2.0 * math.pi), scale, scorer.score(pose_matrix(position, yaw, scale))[1], error)
+        terms, iou = scorer.terms_many([pose_matrix(position, yaw, scale)])
+        return ViewFit(position, yaw % (2.0 * math.pi), scale, float(iou[0]), error,
+                       {name: float(value[0]) for name, value in terms.items()})
 
 
 def fit_view(target: ViewTarget, vertices: np.ndarray, faces: np.ndarray, params: SearchParams = SearchParams(),

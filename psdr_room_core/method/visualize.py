@@ -22,8 +22,9 @@ BOX_EDGES = [(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).cou
 """The 12 edges of a box as pairs of corner indices (corners differ in one bit)."""
 
 
-def segment_overlay(rgb8: np.ndarray, panoptic: Panoptic, alpha: float = 0.45) -> np.ndarray:
-    """Blend each segment's category colour over the image, outline every segment and name the large ones."""
+def segment_overlay(rgb8: np.ndarray, panoptic: Panoptic, alpha: float = 0.45, text_scale: float = 0.4) -> np.ndarray:
+    """Blend each segment's category colour over the image, outline every segment and name the large ones (in
+    OpenCV's ``text_scale``; a segment is large from 200 pixels at 0.4, in proportion to the text's area)."""
     ids = panoptic.ids
     lookup = np.zeros((int(ids.max()) + 1, 3), np.float32)
     for segment in panoptic.segments:
@@ -38,10 +39,11 @@ def segment_overlay(rgb8: np.ndarray, panoptic: Panoptic, alpha: float = 0.45) -
     count = np.bincount(ids.ravel(), minlength=len(lookup))
     cx = np.bincount(ids.ravel(), weights=xs.ravel(), minlength=len(lookup)) / np.maximum(count, 1)
     cy = np.bincount(ids.ravel(), weights=ys.ravel(), minlength=len(lookup)) / np.maximum(count, 1)
+    grow = text_scale / 0.4
     for segment in panoptic.segments:
-        if count[segment.id] > 200:
-            cv2.putText(out, segment.label[:14], (int(cx[segment.id]) - 20, int(cy[segment.id])),
-                        cv2.FONT_HERSHEY_SIMPLEX, 0.4, (255, 255, 255), 1, cv2.LINE_AA)
+        if count[segment.id] > 200 * grow * grow:
+            cv2.putText(out, segment.label[:14], (int(cx[segment.id]) - round(20 * grow), int(cy[segment.id])),
+                        cv2.FONT_HERSHEY_SIMPLEX, text_scale, (255, 255, 255), max(1, round(grow)), cv2.LINE_AA)
     return out
 
 

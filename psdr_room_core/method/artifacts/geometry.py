@@ -116,6 +116,9 @@ class Candidate:
     """Retrieval similarity (higher is better; its scale depends on the retrieval implementation)."""
     category: str = ""
     """The model's database category."""
+    terms: dict[str, float] = field(default_factory=dict)
+    """What the score is made of, by name, where the retrieval can say (silhouette retrieval: ``iou`` of the posed
+    model's silhouette with the mask, then its error's terms, :data:`~psdr_room_core.method.view_search.ERROR_TERMS`)."""
 
 
 @dataclass
@@ -138,14 +141,16 @@ class ObjectCandidates:
             write_png(directory / "candidates.png", self.sheet)
         write_json(directory / "candidates.json", {"source": self.source, "objects": [
             {"segment_id": sid, "label": self.labels.get(sid, ""),
-             "candidates": [{"model_id": c.model_id, "score": float(c.score), "category": c.category} for c in ranked]}
+             "candidates": [{"model_id": c.model_id, "score": float(c.score), "category": c.category,
+                             "terms": {k: float(v) for k, v in c.terms.items()}} for c in ranked]}
             for sid, ranked in sorted(self.ranked.items())]})
 
     @classmethod
     def load(cls, directory: Path) -> "ObjectCandidates":
         data = read_json(directory / "candidates.json")
         try:
-            ranked = {int(o["segment_id"]): [Candidate(str(c["model_id"]), float(c["score"]), str(c.get("category", "")))
+            ranked = {int(o["segment_id"]): [Candidate(str(c["model_id"]), float(c["score"]), str(c.get("category", "")),
+                                                       {str(k): float(v) for k, v in c.get("terms", {}).items()})
                                              for c in o["candidates"]]
                       for o in data["objects"]}
             labels = {int(o["segment_id"]): str(o.get("label", "")) for o in data["objects"]}
