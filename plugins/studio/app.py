@@ -222,7 +222,9 @@ class StudioApp:
     def _connect(self, client: viser.ClientHandle) -> None:
         """A page opens out of any drawing mode a page before it left on (a reload must not take an orbit drag for a
         box), on the overview."""
-        self._end_drawing()
+        if self.drawing is not None:
+            self._end_drawing()
+            self.say("Drawing stopped: the page was opened again. Press the drawing button again to draw.")
         self._greet(client)
 
     def _greet(self, client: viser.ClientHandle) -> None:
@@ -479,7 +481,7 @@ class StudioApp:
         if self.overlay.value and panoptic is not None:
             ids = cv2.resize(panoptic.ids, size, interpolation=cv2.INTER_NEAREST)
             photo = segment_overlay(photo, Panoptic(ids=ids, segments=panoptic.segments), text_scale=PHOTO_TEXT * 0.9)
-        if self.mask is not None and self.mask.shape == image.to_uint8().shape[:2]:
+        if self.mask is not None and self.mask.shape == (image.height, image.width):
             mask = cv2.resize(self.mask.astype(np.uint8), size, interpolation=cv2.INTER_NEAREST) > 0
             photo[mask] = (0.5 * photo[mask] + (0, 110, 0)).astype(np.uint8)
         sx, sy = photo_scale(image)
