@@ -43,7 +43,7 @@ class PaintPrior:
     """Luminance of the linear base colour of a homogeneous wall or ceiling: [lowest, highest]."""
     max_specular: float = setting(0.5, gt=0, le=1)
     """Highest principled ``specular`` of any wall or ceiling (0.5: 4% reflectance at normal incidence)."""
-    hue_range: float = setting(1.25, ge=1)
+    hue_range: float = setting(1.1, ge=1)
     """Each channel of a homogeneous wall's or ceiling's chromaticity stays within this factor of its initial one."""
 
     def __post_init__(self) -> None:
