@@ -142,15 +142,15 @@ def _stage_cells(row: dict[str, Any]) -> str:
 
 
 def html_text(rows: list[dict[str, Any]], base: Path = Path(".")) -> str:
-    """The rows as one self-contained HTML page that fits 1400 px: a run's summary, then its stages on a detail
-    row; each photo | render thumbnail opens the run's ``report.html`` (linked from ``base``, the page's folder)."""
+    """The rows as one self-contained HTML page that fits 1400 px: a run's summary, then its implementations and
+    stages on a detail row; each photo | render thumbnail opens the run's ``report.html`` (linked from ``base``, the page's folder)."""
 
     def pair(row: dict[str, Any], key: str) -> str:
         a, b = row.get(f"{key}_init"), row.get(key)
         return "" if a is None or b is None else f"{a:.3f} → {b:.3f}"
 
-    head = ["photo | render", "photo and run", "status", "implementations", "FoV °", "objects", "RMSE", "SSIM",
-            "ꟻLIP", "computed s", "wall s"]
+    head = ["photo | render", "photo and run", "status", "FoV °", "objects", "RMSE", "SSIM", "ꟻLIP", "computed s",
+            "wall s"]
     body = []
     for row in rows:
         run = Path(row["run"])
@@ -161,13 +161,14 @@ def html_text(rows: list[dict[str, Any]], base: Path = Path(".")) -> str:
         status = row["status"] if row["status"] == "ok" else f"{row['status']}: {row.get('error', '')}"
         photo = Path(str(row.get("photo", ""))).name or "(unknown photo)"
         cells = [thumb, f"<b>{html.escape(photo)}</b><br><small>{html.escape(str(run))}</small>", html.escape(status),
-                 "<br>".join(html.escape(i) for i in row.get("implementations", "").split()),
-                 _plain(row.get("vfov_deg")), _plain(row.get("objects")),
-                 pair(row, "rmse"), pair(row, "ssim"), pair(row, "flip"), _plain(row.get("computed_seconds")),
-                 _plain(row.get("total_seconds"))]
+                 *(f'<span class="n">{value}</span>' for value in (
+                     _plain(row.get("vfov_deg")), _plain(row.get("objects")), pair(row, "rmse"), pair(row, "ssim"),
+                     pair(row, "flip"), _plain(row.get("computed_seconds")), _plain(row.get("total_seconds"))))]
         body.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
-        if row["stages"]:
-            body.append(f'<tr class="stages"><td></td><td colspan="{len(head) - 1}">{_stage_cells(row)}</td></tr>')
+        details = [f"<small>{html.escape(row['implementations'])}</small>"] if row.get("implementations") else []
+        details += [_stage_cells(row)] if row["stages"] else []
+        if details:
+            body.append(f'<tr class="stages"><td></td><td colspan="{len(head) - 1}">{"<br>".join(details)}</td></tr>')
     ok = sum(row["status"] == "ok" for row in rows)
     computed = sum(float(row.get("computed_seconds") or 0.0) for row in rows)
     results = sum(len(row["stages"]) for row in rows)
@@ -175,9 +176,10 @@ def html_text(rows: list[dict[str, Any]], base: Path = Path(".")) -> str:
     return (
         "<!doctype html><meta charset='utf-8'><title>psdr-room summary</title>"
         "<style>body{font:13px sans-serif;max-width:1380px}table{border-collapse:collapse;width:100%}"
-        "td,th{border:1px solid #ccc;padding:2px 6px;vertical-align:top;overflow-wrap:anywhere}"
-        "small{color:#555}tr.stages td{border-top:none;color:#333}tr.stages span{margin-right:1.2em;"
-        "white-space:nowrap}span.cached{color:#999}</style>"
+        "td,th{border:1px solid #ccc;padding:2px 6px;vertical-align:top}td small{overflow-wrap:anywhere}"
+        "small{color:#555}span.n{white-space:nowrap}tr:not(.stages) td:nth-child(2){min-width:12em}"
+        "tr:not(.stages) td:nth-child(3){width:16em}tr.stages td{border-top:none;color:#333}"
+        "tr.stages span{margin-right:1.2em;white-space:nowrap}span.cached{color:#999}</style>"
         f"<h1>psdr-room summary</h1><p>{len(rows)} runs, {ok} ok, {len(rows) - ok} failed; {computed:.1f} s computed "
         f"in all; {cached} of {results} stage results from the cache (0 s each: their cost was paid by the run that "
         "made them). Per run: computed s = the seconds its stages computed; wall s = its stages' wall time, cache "
