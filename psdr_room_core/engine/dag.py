@@ -72,12 +72,16 @@ def check_stage_inputs(nodes: Iterable[StageNode], registry: Registry) -> None:
         expected = f"expected {', '.join(takes) or 'none'} (stage function {node.function})"
         for name in node.inputs:
             if name not in takes:
-                raise PsdrRoomError(f"stage '{node.name}': input '{name}' is not a parameter of its function; "
-                                    f"{expected}, found {', '.join(node.inputs)}; fix {node.name}._inputs_")
+                raise PsdrRoomError(
+                    f"stage '{node.name}': input '{name}' is not a parameter of its function; "
+                    f"{expected}, found {', '.join(node.inputs)}; fix {node.name}._inputs_"
+                )
         for name in needed:
             if name not in node.inputs:
-                raise PsdrRoomError(f"stage '{node.name}': no input for parameter '{name}'; {expected}, found "
-                                    f"{', '.join(node.inputs) or 'none'}; add it to {node.name}._inputs_")
+                raise PsdrRoomError(
+                    f"stage '{node.name}': no input for parameter '{name}'; {expected}, found "
+                    f"{', '.join(node.inputs) or 'none'}; add it to {node.name}._inputs_"
+                )
 
 
 @dataclass(frozen=True)
