@@ -35,6 +35,9 @@ from psdr_room_core.engine.errors import PsdrRoomError
 MARKERS = ("run.json", "psdr-room.log")
 """Files that make a folder a run folder (``run.json``: published; the log alone: the run failed)."""
 THUMB_HEIGHT = 96
+COLUMN_WIDTHS = ("270px", "13%", "17%", "4%", "5%", "9.5%", "9.5%", "9.5%", "6%", "5.5%")
+"""The page's columns (a fixed layout: the table never grows past the window, cells wrap): thumbnails, photo and
+run, status, FoV, objects, RMSE, SSIM, ꟻLIP, computed s, wall s."""
 
 
 def find_runs(paths: Iterable[Path]) -> list[Path]:
@@ -161,9 +164,8 @@ def html_text(rows: list[dict[str, Any]], base: Path = Path(".")) -> str:
         status = row["status"] if row["status"] == "ok" else f"{row['status']}: {row.get('error', '')}"
         photo = Path(str(row.get("photo", ""))).name or "(unknown photo)"
         cells = [thumb, f"<b>{html.escape(photo)}</b><br><small>{html.escape(str(run))}</small>", html.escape(status),
-                 *(f'<span class="n">{value}</span>' for value in (
-                     _plain(row.get("vfov_deg")), _plain(row.get("objects")), pair(row, "rmse"), pair(row, "ssim"),
-                     pair(row, "flip"), _plain(row.get("computed_seconds")), _plain(row.get("total_seconds"))))]
+                 _plain(row.get("vfov_deg")), _plain(row.get("objects")), pair(row, "rmse"), pair(row, "ssim"),
+                 pair(row, "flip"), _plain(row.get("computed_seconds")), _plain(row.get("total_seconds"))]
         body.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
         details = [f"<small>{html.escape(row['implementations'])}</small>"] if row.get("implementations") else []
         details += [_stage_cells(row)] if row["stages"] else []
@@ -175,15 +177,14 @@ def html_text(rows: list[dict[str, Any]], base: Path = Path(".")) -> str:
     cached = sum(len(row.get("cached_stages", "").split()) for row in rows)
     return (
         "<!doctype html><meta charset='utf-8'><title>psdr-room summary</title>"
-        "<style>body{font:13px sans-serif;max-width:1380px}table{border-collapse:collapse;width:100%}"
+        "<style>body{font:13px sans-serif}table{border-collapse:collapse;width:100%;table-layout:fixed}"
         "td,th{border:1px solid #ccc;padding:2px 6px;vertical-align:top}td small{overflow-wrap:anywhere}"
-        "small{color:#555}span.n{white-space:nowrap}tr:not(.stages) td:nth-child(2){min-width:12em}"
-        "tr:not(.stages) td:nth-child(3){width:16em}tr.stages td{border-top:none;color:#333}"
+        "small{color:#555}td{overflow-wrap:anywhere}img{max-width:100%}tr.stages td{border-top:none;color:#333}"
         "tr.stages span{margin-right:1.2em;white-space:nowrap}span.cached{color:#999}</style>"
         f"<h1>psdr-room summary</h1><p>{len(rows)} runs, {ok} ok, {len(rows) - ok} failed; {computed:.1f} s computed "
         f"in all; {cached} of {results} stage results from the cache (0 s each: their cost was paid by the run that "
         "made them). Per run: computed s = the seconds its stages computed; wall s = its stages' wall time, cache "
-        "reads included.</p><table>"
+        "reads included.</p><table><colgroup>" + "".join(f'<col style="width:{w}">' for w in COLUMN_WIDTHS) + "</colgroup>"
         "<tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in head) + "</tr>" + "".join(body) + "</table>\n")
 
 
