@@ -522,7 +522,7 @@ def test_edit_refuses_names_that_leave_the_scene_folder(exported: Path, tmp_path
 @pytest.mark.parametrize("extreme", [-20.0, 20.0])
 def test_walls_and_ceiling_stay_paint_whatever_the_fit_does(library: TorchGraphLibrary, extreme: float) -> None:
     """A wall's or the ceiling's base colour keeps a paint's luminance (0.1-0.9), no channel above 0.9, the hue it
-    started with (each channel of its chromaticity within 1.25x) and its specular at most 0.5 for any parameter
+    started with (each channel of its chromaticity within ``hue_range``, 1.1x) and its specular at most 0.5 for any parameter
     value; the floor and objects keep their full ranges; a dark, glossy wall is brought into range with its hue
     before the fit starts."""
     from psdr_room_core.method.material_priors import LUMINANCE, PaintPrior, within_paint
@@ -544,7 +544,7 @@ def test_walls_and_ceiling_stay_paint_whatever_the_fit_does(library: TorchGraphL
         assert 0.1 - 1e-4 <= float(colour @ LUMINANCE) <= 0.9 + 1e-4 and float(inputs["specular"][name].detach()) <= 0.5
         assert colour.max() <= 0.9 + 1e-6
         ratio = (colour / colour.max()) / (np.asarray(part.base_color) / max(part.base_color))
-        assert np.all((ratio > 1 / 1.25**2 - 1e-4) & (ratio < 1.25**2 + 1e-4)), ratio
+        assert np.all((ratio > 1 / prior.hue_range**2 - 1e-4) & (ratio < prior.hue_range**2 + 1e-4)), ratio
     floor = float(inputs["base_color"]["floor"].detach() @ torch.tensor(LUMINANCE))
     assert (floor < 0.01) if extreme < 0 else (floor > 0.99)
     assert float(inputs["specular"]["floor"].detach()) == pytest.approx(0.0 if extreme < 0 else 1.0, abs=1e-6)
