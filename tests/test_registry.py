@@ -128,17 +128,3 @@ def test_third_party_settings_are_checked(third_party: Path, cli_env: dict[str, 
     assert result.stderr.strip().splitlines() == [
         "psdr-room: error: fov.exif.fallback_vfov_deg=200.0 is out of range; allowed: a number > 0 and < 180"]
     assert not (tmp_path / "cache").exists() and not (tmp_path / "run" / "metrics.json").exists()
-
-
-def test_plugins_written_before_the_engine_method_split_still_import() -> None:
-    """The four paths third-party plugins imported before the split are kept as re-exports (documented shims)."""
-    import psdr_room_core.artifacts as old_artifacts
-    import psdr_room_core.errors as old_errors
-    import psdr_room_core.hookspecs as old_hookspecs
-    import psdr_room_core.settings as old_settings
-    from psdr_room_core.engine import errors, hookspecs, settings
-    from psdr_room_core.method import artifacts
-
-    assert old_artifacts.Camera is artifacts.Camera and old_artifacts.Image is artifacts.Image
-    assert old_hookspecs.hookimpl is hookspecs.hookimpl and old_settings.setting is settings.setting
-    assert old_errors.PsdrRoomError is errors.PsdrRoomError
