@@ -16,10 +16,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import pluggy
+
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Registry
 from psdr_room_core.engine.settings import setting
 
+from . import hookspecs
 from .graph import GraphError, ProceduralMaterial, load_graph, parse_graph
 from .library import TorchGraphLibrary
 from .nodes import Input, NodeType
@@ -34,6 +37,12 @@ class TorchGraphSettings:
     extra_dirs: list[str] = setting()
     use_plugins: bool = setting()
     device: str = setting()
+
+
+@hookimpl
+def add_hookspecs(plugin_manager: pluggy.PluginManager) -> None:
+    """The library's hooks (:mod:`.hookspecs`): graph files and node types from other plugins."""
+    plugin_manager.add_hookspecs(hookspecs)
 
 
 @hookimpl

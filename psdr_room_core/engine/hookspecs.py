@@ -7,7 +7,8 @@ the ``psdr_room`` group of its distribution's metadata::
     my_depth = "my_package.my_depth"
 
 The built-in plugins are found the same way. When plugins are loaded: ``add_hookspecs`` (hooks a plugin
-declares for others to implement; the method's are in :mod:`psdr_room_core.method.hookspecs`), then
+declares for others to implement; the method's are in :mod:`psdr_room_core.method.hookspecs`, the material
+library's in :mod:`psdr_room_plugins.material_graph.hookspecs`), then
 ``register_capabilities`` and ``register_artifacts`` of every plugin, then ``register_implementations``,
 ``register_stages`` and ``register_settings``. ``conf_searchpath`` when Hydra composes the configuration. Then for each run
 ``before_run``, for every stage ``before_stage`` followed by ``after_stage`` or ``on_stage_error``,
