@@ -35,9 +35,10 @@ from psdr_room_core.engine.errors import PsdrRoomError
 MARKERS = ("run.json", "psdr-room.log")
 """Files that make a folder a run folder (``run.json``: published; the log alone: the run failed)."""
 THUMB_HEIGHT = 96
-COLUMN_WIDTHS = ("270px", "13%", "17%", "4%", "5%", "9.5%", "9.5%", "9.5%", "6%", "5.5%")
-"""The page's columns (a fixed layout: the table never grows past the window, cells wrap): thumbnails, photo and
-run, status, FoV, objects, RMSE, SSIM, ꟻLIP, computed s, wall s."""
+PAGE_COLUMNS = (("photo | render", "270px"), ("photo and run", "13%"), ("status", "17%"), ("FoV °", "4%"),
+                ("objects", "5%"), ("RMSE", "9.5%"), ("SSIM", "9.5%"), ("ꟻLIP", "9.5%"), ("computed s", "6%"),
+                ("wall s", "5.5%"))
+"""The page's columns and their widths (a fixed layout: the table never grows past the window, cells wrap)."""
 
 
 def find_runs(paths: Iterable[Path]) -> list[Path]:
@@ -152,8 +153,6 @@ def html_text(rows: list[dict[str, Any]], base: Path = Path(".")) -> str:
         a, b = row.get(f"{key}_init"), row.get(key)
         return "" if a is None or b is None else f"{a:.3f} → {b:.3f}"
 
-    head = ["photo | render", "photo and run", "status", "FoV °", "objects", "RMSE", "SSIM", "ꟻLIP", "computed s",
-            "wall s"]
     body = []
     for row in rows:
         run = Path(row["run"])
@@ -170,7 +169,7 @@ def html_text(rows: list[dict[str, Any]], base: Path = Path(".")) -> str:
         details = [f"<small>{html.escape(row['implementations'])}</small>"] if row.get("implementations") else []
         details += [_stage_cells(row)] if row["stages"] else []
         if details:
-            body.append(f'<tr class="stages"><td></td><td colspan="{len(head) - 1}">{"<br>".join(details)}</td></tr>')
+            body.append(f'<tr class="stages"><td></td><td colspan="{len(PAGE_COLUMNS) - 1}">{"<br>".join(details)}</td></tr>')
     ok = sum(row["status"] == "ok" for row in rows)
     computed = sum(float(row.get("computed_seconds") or 0.0) for row in rows)
     results = sum(len(row["stages"]) for row in rows)
@@ -184,8 +183,8 @@ def html_text(rows: list[dict[str, Any]], base: Path = Path(".")) -> str:
         f"<h1>psdr-room summary</h1><p>{len(rows)} runs, {ok} ok, {len(rows) - ok} failed; {computed:.1f} s computed "
         f"in all; {cached} of {results} stage results from the cache (0 s each: their cost was paid by the run that "
         "made them). Per run: computed s = the seconds its stages computed; wall s = its stages' wall time, cache "
-        "reads included.</p><table><colgroup>" + "".join(f'<col style="width:{w}">' for w in COLUMN_WIDTHS) + "</colgroup>"
-        "<tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in head) + "</tr>" + "".join(body) + "</table>\n")
+        "reads included.</p><table><colgroup>" + "".join(f'<col style="width:{w}">' for _, w in PAGE_COLUMNS) + "</colgroup>"
+        "<tr>" + "".join(f"<th>{html.escape(h)}</th>" for h, _ in PAGE_COLUMNS) + "</tr>" + "".join(body) + "</table>\n")
 
 
 def write_summary(rows: list[dict[str, Any]], out: Path) -> str:
