@@ -21,6 +21,7 @@ from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Registry
 from psdr_room_core.engine.settings import setting
 from psdr_room_core.method.artifacts import Camera, Candidate, ObjectMesh
+from psdr_room_core.method.backs import BACKED
 from psdr_room_core.method.objects import ObjectQuery
 from psdr_room_core.method.silhouette import MeshCaster
 from psdr_room_core.method.sizes import SizePrior
@@ -56,7 +57,8 @@ class SilhouetteRetrieval:
     size: score ``1 / (1 + error)`` (:class:`~psdr_room_core.method.view_search.ViewFit`), the error holding the
     size prior (:class:`~psdr_room_core.method.sizes.SizePrior`: ``size_weight · |ln scale|``, database models are
     in metres, plus ``range_weight`` × how far the posed model is outside its category's real sizes) and what the
-    pose reaching beyond the query's room box costs (``room_weight`` per metre).
+    pose reaching beyond the query's room box costs (``room_weight`` per metre), and ``back_weight`` for a model
+    that stands with its back to a wall posed with its back to the camera (:mod:`~psdr_room_core.method.backs`).
     Every model is scored so at its best moment-matched start; the ``shortlist`` best, or the best
     ``shortlist_share`` of them where that is more (at least ``k``; ``shortlist`` 0: all), are refined and ranked
     by their refined score."""
@@ -64,12 +66,12 @@ class SilhouetteRetrieval:
     def __init__(self, database: str = "builtin", fraction: float = 1.0, seed: int = 0, n_yaw: int = 12,
                  refine: int = 2, coarse: int = 1, explore: int = 3, polish: int = 2, halvings: int = 2,
                  render_width: int = 160, max_pixels: int = 3000, size_weight: float = 0.3,
-                 range_weight: float = 5.0, box_weight: float = 0.5, room_weight: float = 2.0, shortlist: int = 12,
-                 shortlist_share: float = 0.2) -> None:
+                 range_weight: float = 5.0, box_weight: float = 0.5, room_weight: float = 2.0,
+                 back_weight: float = 0.5, shortlist: int = 12, shortlist_share: float = 0.2) -> None:
         self.spec = (str(database), float(fraction), int(seed))
         self.search = SearchParams(n_yaw=int(n_yaw), refine=int(refine), coarse=int(coarse), explore=int(explore),
                                    polish=int(polish), halvings=int(halvings), turns=(), box_weight=float(box_weight),
-                                   room_weight=float(room_weight))
+                                   room_weight=float(room_weight), back_weight=float(back_weight))
         self.render_width = int(render_width)
         self.max_pixels = int(max_pixels)
         self.size_weight, self.range_weight = float(size_weight), float(range_weight)
@@ -105,7 +107,7 @@ class SilhouetteRetrieval:
             mesh = self.database.mesh(record.id)
             prior = SizePrior.of(record.category, record.extent, self.size_weight, self.range_weight)
             search = ViewSearch(target, mesh.vertices, mesh.faces, self.search, caster=self._caster(record.id, mesh),
-                                prior=prior)
+                                prior=prior, backed=record.category in BACKED)
             starts.append((self.score(search.start[0]), record, search))
         starts.sort(key=lambda s: (-s[0], s[1].id))
         keep = len(starts)
@@ -147,10 +149,11 @@ class SilhouetteSettings:
     range_weight: float = setting(ge=0)
     box_weight: float = setting(ge=0)
     room_weight: float = setting(ge=0)
+    back_weight: float = setting(ge=0)
     shortlist: int = setting(ge=0)
     shortlist_share: float = setting(ge=0, le=1)
 
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("retrieval", "silhouette", SilhouetteRetrieval, version="4", params=SilhouetteSettings)
+    registry.add_implementation("retrieval", "silhouette", SilhouetteRetrieval, version="5", params=SilhouetteSettings)

@@ -9,7 +9,8 @@ For each of ``n_yaw`` rotations about the vertical axis the model is first moved
 part has the mask's area, its back-projected pixels the median of the object's points across the view, and
 its depth the object's where they overlap. Each hypothesis is then improved by a coarse pattern search over
 shift, depth, scale and yaw (the best ``explore`` of them, or all), the best ``polish`` of those at finer
-steps; the best is also turned by each of ``turns`` in place and refined, and the best of all wins.
+steps; the best is also turned by each of ``turns`` in place and refined, and the best of all wins. A model that
+stands with its back to a wall (:mod:`~psdr_room_core.method.backs`) pays for a pose that shows the camera its back.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import cv2
 import numpy as np
 
 from .artifacts import Camera, RoomBox
+from .backs import back_shown
 from .objects import pose_matrix
 from .silhouette import MeshCaster, Window, world_to_camera
 from .sizes import SizePrior
@@ -135,7 +137,8 @@ class ViewFit:
     mean relative depth error where the model meets the object's points (+ ``box_weight`` × (1 − IoU of the
     visible model's box with the prompt box), for a prompted segment) + the size prior's penalty on the scale
     (:class:`~psdr_room_core.method.sizes.SizePrior`, where one is given) + ``room_weight`` × how far (metres)
-    its bounding box reaches beyond the target's room box."""
+    its bounding box reaches beyond the target's room box (+ ``back_weight`` × how far it shows the camera its
+    back, :func:`~psdr_room_core.method.backs.back_shown`, for a model that stands with its back to a wall)."""
     terms: dict[str, float] = field(default_factory=dict)
     """:attr:`error` term by term (:data:`ERROR_TERMS` that apply; they sum to it)."""
 
@@ -146,6 +149,7 @@ ERROR_TERMS = {
     "box": "box_weight × (1 − IoU of the visible model's box with the prompt box)",
     "size": "the size prior's penalty on the scale",
     "room": "room_weight × metres the model reaches beyond the room box",
+    "back": "back_weight × how far a model that stands with its back to a wall shows the camera its back",
 }
 """The terms of :attr:`ViewFit.error`, by name: what a user reads to see why a model was ranked where it was."""
 
@@ -179,14 +183,18 @@ class SearchParams:
     """Most pattern-search moves at one step size."""
     room_weight: float = 2.0
     """Error per metre the posed model's bounding box reaches beyond the room box (a model is inside its room)."""
+    back_weight: float = 0.0
+    """Error of a model that stands with its back to a wall (``backed``) posed with its back square on to the
+    camera (:func:`~psdr_room_core.method.backs.back_shown` scales it)."""
 
 
 class _Scorer:
     """Scores poses of one mesh against one :class:`ViewTarget`."""
 
     def __init__(self, target: ViewTarget, vertices: np.ndarray, faces: np.ndarray, params: SearchParams,
-                 caster: MeshCaster | None = None, prior: SizePrior | None = None) -> None:
+                 caster: MeshCaster | None = None, prior: SizePrior | None = None, backed: bool = False) -> None:
         self.target, self.params, self.prior = target, params, prior
+        self.backed = backed and params.back_weight > 0
         self.caster = caster or MeshCaster(vertices, faces)
         lo, hi = vertices.min(axis=0), vertices.max(axis=0)
         self.corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
@@ -266,6 +274,11 @@ class _Scorer:
             terms["size"] = np.array([self.prior.penalty(float(np.linalg.norm(pose[:3, 0]))) for pose in poses])
         if self.target.room is not None and self.params.room_weight > 0:
             terms["room"] = self.params.room_weight * self.beyond_room(poses)
+        if self.backed:
+            front = np.array([pose[:3, 2] for pose in poses])  # R_y(yaw) S +Z = s (sin yaw, 0, cos yaw)
+            front /= np.linalg.norm(front, axis=1, keepdims=True)
+            towards = np.array([pose[:3, 3] for pose in poses]) - self.target.camera_to_world[:3, 3]
+            terms["back"] = self.params.back_weight * back_shown(front[:, 0], front[:, 2], towards[:, 0], towards[:, 2])
         iou = overlap / np.maximum(self.mask_area + visible_area - overlap, 1)
         return terms, iou
 
@@ -298,13 +311,15 @@ class ViewSearch:
     building it sweeps the ``n_yaw`` moment-matched starts (all rotations in one cast per step; :attr:`start`
     is the best, a cheap score to shortlist models by), :meth:`finish` refines them by the pattern search. With
     ``support_height`` the mesh's bottom stays at that height; ``caster``: the mesh's, when one is at hand (its
-    hierarchy serves every target); ``prior``: the size prior every pose's error includes."""
+    hierarchy serves every target); ``prior``: the size prior every pose's error includes; ``backed``: the model
+    stands with its back to a wall (its category is in :data:`~psdr_room_core.method.backs.BACKED`), so a pose
+    showing the camera its back costs ``back_weight``."""
 
     def __init__(self, target: ViewTarget, vertices: np.ndarray, faces: np.ndarray,
                  params: SearchParams = SearchParams(), support_height: float | None = None,
-                 caster: MeshCaster | None = None, prior: SizePrior | None = None) -> None:
+                 caster: MeshCaster | None = None, prior: SizePrior | None = None, backed: bool = False) -> None:
         self.params, self.support_height = params, support_height
-        self.scorer = _Scorer(target, vertices, faces, params, caster, prior)
+        self.scorer = _Scorer(target, vertices, faces, params, caster, prior, backed)
         box_centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2.0
         self.size = float(np.linalg.norm(np.ptp(vertices, axis=0)))
         # start: the mesh's box centre on the points' median, its size the points' spread; a supported object
@@ -380,11 +395,11 @@ class ViewSearch:
 
 
 def fit_view(target: ViewTarget, vertices: np.ndarray, faces: np.ndarray, params: SearchParams = SearchParams(),
-             support_height: float | None = None, prior: SizePrior | None = None) -> ViewFit:
+             support_height: float | None = None, prior: SizePrior | None = None, backed: bool = False) -> ViewFit:
     """The pose of a mesh (canonical: bottom at 0, centred on the vertical axis) that best explains the
     object in ``target``; with ``support_height`` its bottom stays at that height, with ``prior`` its size is
-    a likelihood (:class:`ViewSearch`)."""
-    return ViewSearch(target, vertices, faces, params, support_height, prior=prior).finish()
+    a likelihood, ``backed``: it stands with its back to a wall (:class:`ViewSearch`)."""
+    return ViewSearch(target, vertices, faces, params, support_height, prior=prior, backed=backed).finish()
 
 
 class _PatternSearch:

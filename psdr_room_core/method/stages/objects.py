@@ -29,6 +29,7 @@ from ..artifacts import (
     RoomBox,
     rotation_y,
 )
+from ..backs import BACKED, back_shown
 from ..convergence import BestIterate, Plateau, untimed
 from ..geometry import TriangleMesh, weld
 from ..grouping import GroupParams, Part, group_segments
@@ -185,7 +186,9 @@ def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image,
     paper start cannot, and an object half hidden behind another keeps its whole size. Database models are real
     size, so the search's error holds the size prior of the model's category
     (:class:`~psdr_room_core.method.sizes.SizePrior`, ``size_prior`` weights): a bed is not posed at twice its
-    size to match a depth that may be off.
+    size to match a depth that may be off. Beds, cabinets, shelves and refrigerators stand with their backs to a
+    wall, so a pose showing the camera their back costs ``search.back_weight`` (:mod:`~psdr_room_core.method.backs`):
+    a bed is not posed with its headboard towards the camera.
 
     Objects the segmentation guessed (segments with a ``score``: ``segmentation=layout``'s discoveries) are
     dropped, and logged, when the posed model's visible silhouette overlaps the mask by less than
@@ -232,8 +235,8 @@ def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image,
         if init == "silhouette":  # each support the rules allow (a dropped parent holds nothing); the view search picks
             target = ViewTarget.build(camera, c2w, q.mask, q.points, q.scene_points, int(params["render_width"]),
                                       box=q.box, room=room)
-            fits = [(fit_view(target, mesh.vertices, mesh.faces, search, _support_height(k, a, placed, q, room), prior),
-                     k, a) for k, a in supports]
+            fits = [(fit_view(target, mesh.vertices, mesh.faces, search, _support_height(k, a, placed, q, room), prior,
+                              backed=category in BACKED), k, a) for k, a in supports]
             view, kind, anchor = min(fits, key=lambda f: f[0].error)
             position, yaw, scale, explained = view.position, view.yaw, view.scale, view.iou
             if q.segment_id in guessed and view.iou < min_iou:
@@ -348,7 +351,8 @@ class PoseModel:
     """Differentiable object poses with their support constraints (§4.3): scale, horizontal translation and
     yaw per object; floor objects keep their bottom on the floor, children on the spot of their parent's
     surface they were placed on (its height scales with the parent), wall objects slide and scale along their
-    wall facing into the room. :meth:`size_penalty` is the size prior of each object's category."""
+    wall facing into the room. :meth:`size_penalty` is the size prior of each object's category, :meth:`back_penalty`
+    what showing the camera its back costs a piece that stands with its back to a wall."""
 
     def __init__(self, placements: Placements, room: RoomBox, unit: float) -> None:
         import torch
@@ -374,6 +378,8 @@ class PoseModel:
                       "log_scale": torch.zeros(n, requires_grad=True),
                       "yaw": torch.zeros(n, requires_grad=True)}
         self.welded = [weld(TriangleMesh(p.mesh.vertices, p.mesh.faces)) for p in self.placements]
+        self.backed = [p.category in BACKED and p.support != "wall" for p in self.placements]
+        """Per object: it stands with its back to a wall and may turn (wall objects face into the room)."""
 
     def poses(self) -> list[tuple[torch.Tensor, torch.Tensor, torch.Tensor]]:
         """(position [3], yaw (radians), scale) per object, constraints applied."""
@@ -424,6 +430,16 @@ class PoseModel:
         outside = torch.relu(low - log_scale) + torch.relu(log_scale - high)
         return scale_weight * log_scale.abs() + range_weight * outside
 
+    def back_penalty(self) -> torch.Tensor:
+        """[P] how far each object that stands with its back to a wall shows the camera its back
+        (:func:`~psdr_room_core.method.backs.back_shown`; 0 for the others)."""
+        import torch
+
+        eye = np.asarray(self.room.camera_to_world)[:3, 3]
+        shown = [back_shown(torch.sin(yaw), torch.cos(yaw), position[0] - float(eye[0]), position[2] - float(eye[2]))
+                 if backed else torch.zeros(()) for (position, yaw, _), backed in zip(self.poses(), self.backed)]
+        return torch.stack(shown)
+
     def collision_penalty(self) -> torch.Tensor:
         """[P] how deep each object passes through the others: for each pair, the mean depth (metres) of each
         one's sampled volume inside the other, both ways, half to each."""
@@ -471,11 +487,12 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
     """Refine all object poses jointly (§4.3, eq. 3) by differentiable rendering of their masks and depth.
 
     Minimises ``Σ_i L1(M_i^r · D^r, M_i^t · D_i) / d + w_blur · Σ_i L1(G(M_i^r), G(M_i^t)) + Σ_i P_i(s_i) +
-    w_room · Σ_i R_i + w_collision · Σ_i C_i`` with ``d`` the targets' 98th-percentile depth, ``G`` Gaussian blurs
-    of ``blur_sigmas`` pixels (a prompted segment's free pixels, its prompt box outside its mask, left out:
+    w_room · Σ_i R_i + w_collision · Σ_i C_i + w_back · Σ_i B_i`` with ``d`` the targets' 98th-percentile depth,
+    ``G`` Gaussian blurs of ``blur_sigmas`` pixels (a prompted segment's free pixels, its prompt box outside its mask, left out:
     :class:`ObjectTargets`), ``P_i`` the size prior of object i's category on its scale (``size_prior`` weights:
-    :meth:`PoseModel.size_penalty`), ``R_i`` how far it reaches beyond the room box (:meth:`PoseModel.room_penalty`)
-    and ``C_i`` how deep it passes through the others (:meth:`PoseModel.collision_penalty`),
+    :meth:`PoseModel.size_penalty`), ``R_i`` how far it reaches beyond the room box (:meth:`PoseModel.room_penalty`),
+    ``C_i`` how deep it passes through the others (:meth:`PoseModel.collision_penalty`) and ``B_i`` how far it shows
+    the camera its back where it stands with its back to a wall (:meth:`PoseModel.back_penalty`),
     over each object's scale, horizontal translation and yaw under its support constraint (:class:`PoseModel`),
     with the ``renderer`` and the ``optimizer``. The fit runs until the yaw test (or a plateau of the loss
     before it), then, where an object turned or the loss had not flattened, on to ``iterations`` (or a
@@ -486,7 +503,7 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
     passing through something is reported.
 
     Params: ``iterations``, ``render_width``, ``blur_sigmas``, ``blur_weight``, ``size_prior``
-    {``scale_weight``, ``range_weight``}, ``room_weight``, ``collision_weight``, ``learning_rates`` {translation (room half-size units), log_scale, yaw
+    {``scale_weight``, ``range_weight``}, ``room_weight``, ``collision_weight``, ``back_weight``, ``learning_rates`` {translation (room half-size units), log_scale, yaw
     (degrees)}, ``yaw_test`` {``at``: fraction of the iterations after which :func:`try_yaw_turns` runs,
     ``angles``, ``min_gain``}, ``convergence`` (:class:`~psdr_room_core.method.convergence.Plateau` fields),
     ``physical``.
@@ -523,11 +540,13 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
         size_term = model.size_penalty(*size_weights)
         room_term = float(params["room_weight"]) * model.room_penalty(vertices)
         collision_term = float(params["collision_weight"]) * model.collision_penalty()
+        back_term = float(params["back_weight"]) * model.back_penalty()
         ious = (masks * t_masks).sum((1, 2)) / (masks + t_masks - masks * t_masks).sum((1, 2)).clamp_min(1e-6)
         terms = {"mask_depth_l1": depth_term.sum().item(), "blurred_mask_l1": blur_term.sum().item(),
                  "size_prior": size_term.sum().item(), "beyond_room": room_term.sum().item(),
-                 "interpenetration": collision_term.sum().item(), "mean_iou": ious.mean().item()}
-        total = depth_term + float(params["blur_weight"]) * blur_term + size_term + room_term + collision_term
+                 "interpenetration": collision_term.sum().item(), "back_shown": back_term.sum().item(),
+                 "mean_iou": ious.mean().item()}
+        total = depth_term + float(params["blur_weight"]) * blur_term + size_term + room_term + collision_term + back_term
         return total, ious.detach(), terms
 
     best = BestIterate(model.theta)

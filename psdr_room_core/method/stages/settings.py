@@ -76,6 +76,7 @@ class ViewSearch:
     box_weight: float = setting(ge=0)
     hidden_margin: float = setting(ge=0)
     room_weight: float = setting(ge=0)
+    back_weight: float = setting(ge=0)
 
 
 @dataclass
@@ -157,6 +158,7 @@ class FitObjects:
     size_prior: SizePriorWeights = setting()
     room_weight: float = setting(ge=0)
     collision_weight: float = setting(ge=0)
+    back_weight: float = setting(ge=0)
     yaw_test: YawTest = setting()
     learning_rates: FitObjectsRates = setting()
     physical: Physical = setting()
