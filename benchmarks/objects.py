@@ -16,7 +16,7 @@ masks and depth"), the true camera and room box. Per scene it prints:
 * seconds per ``fit_objects`` iteration (steady state) and per stage.
 
     python benchmarks/objects.py [--scenes 10 | --seeds 3 7] [--iterations 300] [--render-width 160]
-                                 [--set place_objects.n_yaw=24 ...]
+                                 [--set place_objects.search.n_yaw=24 ...]
 """
 
 from __future__ import annotations
@@ -304,7 +304,7 @@ def main() -> None:
     parser.add_argument("--min-pixels", type=int, default=200,
                         help="objects with fewer visible pixels (at 320x240) are left out of the scene")
     parser.add_argument("--set", action="append", default=[], metavar="STAGE.KEY=VALUE",
-                        help="override a stage parameter (YAML value), e.g. --set place_objects.n_yaw=24")
+                        help="override a stage parameter (YAML value), e.g. --set place_objects.search.n_yaw=24")
     args = parser.parse_args()
     import yaml
 

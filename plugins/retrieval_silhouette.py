@@ -70,7 +70,7 @@ class SilhouetteRetrieval:
                  back_weight: float = 0.5, shortlist: int = 12, shortlist_share: float = 0.2) -> None:
         self.spec = (str(database), float(fraction), int(seed))
         self.search = SearchParams(n_yaw=int(n_yaw), refine=int(refine), coarse=int(coarse), explore=int(explore),
-                                   polish=int(polish), halvings=int(halvings), turns=(), box_weight=float(box_weight),
+                                   polish=int(polish), halvings=int(halvings), turns=[], box_weight=float(box_weight),
                                    room_weight=float(room_weight), back_weight=float(back_weight))
         self.render_width = int(render_width)
         self.max_pixels = int(max_pixels)
@@ -140,7 +140,7 @@ class SilhouetteSettings:
     n_yaw: int = setting(ge=1)
     refine: int = setting(ge=0)
     coarse: int = setting(ge=0)
-    explore: int = setting(ge=1)
+    explore: int = setting(ge=0)
     polish: int = setting(ge=0)
     halvings: int = setting(ge=0)
     render_width: int = setting(ge=16)

@@ -494,8 +494,8 @@ def test_guessed_objects_no_model_explains_are_dropped_drawn_ones_kept(tmp_path:
                        segment=ids[keep], segments=segments)
     candidates = ObjectCandidates(ranked={k: [Candidate(chair_id, 1.0)] for k in (5, 6, 7)},
                                   labels={k: "chair" for k in (5, 6, 7)})
-    params = {"pick": {}, "init": "silhouette", "radius_factor": 0.5, "n_yaw": 8, "render_width": 160,
-              "search": {"refine": 2, "coarse": 1, "polish": 1, "halvings": 1, "turns": [], "depth_weight": 2.0,
+    params = {"pick": {}, "init": "silhouette", "radius_factor": 0.5, "render_width": 160,
+              "search": {"n_yaw": 8, "refine": 2, "coarse": 1, "polish": 1, "halvings": 1, "turns": [], "depth_weight": 2.0,
                          "hidden_margin": 0.03, "room_weight": 2.0, "back_weight": 0.5},
               "min_points": 30, "min_pixels": 100, "prune": {"min_iou": 0.3},
               "size_prior": {"scale_weight": 0.3, "range_weight": 5.0}, "physical": PHYSICAL,

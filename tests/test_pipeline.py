@@ -197,11 +197,11 @@ def test_paper_ablations_are_one_sweep(first_run: tuple[Path, dict[str, str]]) -
     names = ("full", "naive_fov", "naive_poses", "no_transform_search", "direct_light")
     config = {n: json.loads((root / "ablations" / n / "run.json").read_text())["config"] for n in names}
     assert computed(root / "ablations" / "full") == set() and metrics(root / "ablations" / "naive_fov")["vfov_deg"] == 40.0
-    assert config["naive_poses"]["place_objects"]["init"] == "radius" and config["naive_poses"]["place_objects"]["n_yaw"] == 1
+    assert config["naive_poses"]["place_objects"]["init"] == "radius" and config["naive_poses"]["place_objects"]["search"]["n_yaw"] == 1
     assert config["no_transform_search"]["assign_materials"]["scales"] == [1.0]
     assert config["no_transform_search"]["assign_materials"]["rotations"] == [0.0]
     assert config["direct_light"]["renderer"]["mitsuba"]["max_depth"] == 2
-    assert config["full"]["renderer"]["mitsuba"]["max_depth"] == 3 and config["full"]["place_objects"]["n_yaw"] == 12
+    assert config["full"]["renderer"]["mitsuba"]["max_depth"] == 3 and config["full"]["place_objects"]["search"]["n_yaw"] == 12
 
 
 def test_joblib_launcher_runs_jobs_in_parallel_workers(first_run: tuple[Path, dict[str, str]]) -> None:

@@ -80,3 +80,23 @@ def test_schema_rules() -> None:
                             ({}, "x.ratio has no value")]:
         with pytest.raises(PsdrRoomError, match="^" + message.replace(".", r"\.").replace("+", r"\+")):
             check_settings(Outer, {"inner": None, **values}, "x")
+
+
+def test_a_stage_reads_its_settings_as_the_schema_it_declared() -> None:
+    """StageContext.settings: the checked values as the schema's object, nested schemas included; the runtime
+    knobs of the library (view search, support rules, settling) are the schemas themselves, not twins of them."""
+    from psdr_room_core.engine.dag import StageContext
+    from psdr_room_core.method.physical import PhysicalParams
+    from psdr_room_core.method.stages.settings import PlaceObjects
+    from psdr_room_core.method.view_search import SearchParams
+
+    system = plugin_system()
+    data = resolve_config(compose_config(["image=photo.jpg", "place_objects.search.n_yaw=8"], system))
+    node = next(n for n in Pipeline.from_config(data).nodes if n.name == "place_objects")
+    assert system.registry.stages[node.function].params is PlaceObjects
+    ctx = StageContext(stage="place_objects", params=dict(node.params), seed=0, photo=Path("photo.jpg"),
+                       implementations={})
+    settings = ctx.settings(PlaceObjects)
+    assert isinstance(settings.search, SearchParams) and isinstance(settings.physical, PhysicalParams)
+    assert settings.search.n_yaw == 8 and settings.search.turns == [90.0, 180.0, 270.0]
+    assert settings.support.floor_only[0] == "bed" and settings.prune.min_iou == 0.3

@@ -24,7 +24,7 @@ import time
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar, cast
 
 from tqdm import tqdm
 
@@ -208,6 +208,9 @@ class Pipeline:
         return Selection(stages=[n for n in self.nodes if n.name in keep], forced=frozenset(forced))
 
 
+SettingsT = TypeVar("SettingsT")
+
+
 @dataclass
 class StageContext:
     """What a stage function gets besides its input artifacts."""
@@ -220,6 +223,13 @@ class StageContext:
     timings: dict[str, float] = field(default_factory=dict)
     """Seconds the stage measured of its own work (say, per iteration): kept in the cache entry's manifest and
     ``metrics.json``, never in an artifact, so that no result's digest depends on the clock."""
+
+    def settings(self, schema: type[SettingsT]) -> SettingsT:
+        """:attr:`params` as an instance of ``schema``, the dataclass the stage registered them with (checked
+        before the run: :mod:`.settings`): typed fields instead of dict lookups and casts."""
+        from omegaconf import OmegaConf
+
+        return cast(SettingsT, OmegaConf.to_object(OmegaConf.merge(OmegaConf.structured(schema), self.params)))
 
     def impl(self, capability: str) -> Any:
         """The selected implementation of ``capability`` (declared in the stage's ``uses``)."""

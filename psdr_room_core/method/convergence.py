@@ -13,6 +13,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from psdr_room_core.engine.settings import setting
+
 if TYPE_CHECKING:
     import torch
 
@@ -28,14 +30,15 @@ def untimed(history: Sequence[dict[str, float]], timings: dict[str, float]) -> l
     return [{k: v for k, v in h.items() if k != "seconds"} for h in history]
 
 
-@dataclass(frozen=True)
+@dataclass
 class Plateau:
     """The loss has flattened: the mean of its last ``window`` values is less than ``tolerance`` × |that of the
-    ``window`` before them| below it, after at least ``min_iterations`` (``window`` 0: never)."""
+    ``window`` before them| below it, after at least ``min_iterations`` (``window`` 0: never). The ``convergence``
+    settings of the fitting stages."""
 
-    window: int = 20
-    tolerance: float = 0.01
-    min_iterations: int = 40
+    window: int = setting(20, ge=0)
+    tolerance: float = setting(0.01, ge=0, lt=1)
+    min_iterations: int = setting(40, ge=0)
 
     def __call__(self, history: Sequence[dict[str, float]]) -> bool:
         n = len(history)

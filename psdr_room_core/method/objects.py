@@ -12,6 +12,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from psdr_room_core.engine.settings import setting
+
 from .artifacts import Camera, Image, Panoptic, PointCloud, RoomBox, rotation_y
 from .labels import meaning
 from .silhouette import mask_l1, silhouette
@@ -124,24 +126,25 @@ def best_yaw(camera: Camera, camera_to_world: np.ndarray, vertices: np.ndarray, 
 
 
 # ----------------------------------------------------------------------------------- support relations
-@dataclass(frozen=True)
+@dataclass
 class SupportParams:
-    """Thresholds of §4.3's support rules (lengths in the room's units, distances in working-image pixels)."""
+    """Thresholds of §4.3's support rules (lengths in the room's units, distances in working-image pixels); the
+    ``support`` settings of place_objects."""
 
-    floor_distance: float = 0.1
+    floor_distance: float = setting(0.1, ge=0)
     """An object whose points' bottom is this close to the floor ..."""
-    edge_px: float = 20.0
+    edge_px: float = setting(20.0, ge=0)
     """... and whose mask is this close to the floor mask stands on the floor; a floating object whose mask
     is this close to a floor object's mask (and above it), whose bottom is no lower than that object's top
     less ``floor_distance`` and whose points' centre is over that object's points, stands on that object."""
-    wall_distance: float = 0.15
+    wall_distance: float = setting(0.15, ge=0)
     """A floating object without a parent whose points lie this close to a wall is mounted on it."""
-    bottom_percentile: float = 2.0
+    bottom_percentile: float = setting(2.0, ge=0, le=100)
     """The points' bottom is this percentile of their heights (robust to stray points)."""
-    grounded: tuple[str, ...] = ("chair", "table", "sofa", "bed", "desk", "rug", "plant", "cabinet", "shelf")
+    grounded: list[str] = setting(["chair", "table", "sofa", "bed", "desk", "rug", "plant", "cabinet", "shelf"])
     """Database categories that stand on the floor when no parent holds them and their points' bottom is
     below the room's mid-height (it is hidden behind something); higher up they may hang on a wall."""
-    floor_only: tuple[str, ...] = ("bed", "sofa", "chair", "table", "desk", "ottoman", "refrigerator", "rug")
+    floor_only: list[str] = setting(["bed", "sofa", "chair", "table", "desk", "ottoman", "refrigerator", "rug"])
     """Database categories that never hang on a wall or float: on a parent, else on the floor."""
 
 

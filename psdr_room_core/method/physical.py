@@ -38,6 +38,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from psdr_room_core.engine.settings import setting
+
 from .artifacts import Camera, Placement, RoomBox, rotation_y
 from .labels import ANY, meaning
 from .silhouette import silhouette
@@ -47,23 +49,23 @@ from .solids import overlap, solid_of, to_model
 log = logging.getLogger("psdr_room")
 
 
-@dataclass(frozen=True)
+@dataclass
 class PhysicalParams:
-    """Knobs of :func:`settle` (lengths in metres)."""
+    """Knobs of :func:`settle` (lengths in metres); the ``physical`` settings of place_objects and fit_objects."""
 
-    size_tolerance: float = 0.15
+    size_tolerance: float = setting(0.15, ge=0)
     """How far (log units: 0.15 ≈ 16%) outside its category's sizes a model may be before it is implausible."""
-    duplicate_share: float = 0.5
+    duplicate_share: float = setting(0.5, gt=0, le=1)
     """Two objects sharing this share of the smaller one's volume are one thing found twice."""
-    penetration: float = 0.03
+    penetration: float = setting(0.03, ge=0)
     """Interpenetration allowed (a resting contact measures about one voxel)."""
-    max_shift: float = 0.5
+    max_shift: float = setting(0.5, ge=0)
     """Longest horizontal move that resolves a collision."""
-    directions: int = 16
+    directions: int = setting(16, ge=1)
     """Horizontal directions tried for a move."""
-    keep_iou: float = 0.5
+    keep_iou: float = setting(0.5, ge=0, le=1)
     """A change must keep this IoU of the object's silhouette with its silhouette before."""
-    max_growth: float = 1.0
+    max_growth: float = setting(1.0, ge=0)
     """The room box grows by at most this beyond each side to hold an object."""
 
 

@@ -23,6 +23,8 @@ from functools import cached_property
 import cv2
 import numpy as np
 
+from psdr_room_core.engine.settings import setting
+
 from .artifacts import Camera, RoomBox
 from .backs import back_shown
 from .objects import pose_matrix
@@ -154,36 +156,36 @@ ERROR_TERMS = {
 """The terms of :attr:`ViewFit.error`, by name: what a user reads to see why a model was ranked where it was."""
 
 
-@dataclass(frozen=True)
+@dataclass
 class SearchParams:
-    """How hard :func:`fit_view` looks."""
+    """How hard :func:`fit_view` looks and what its error holds; the ``search`` settings of place_objects."""
 
-    n_yaw: int = 12
+    n_yaw: int = setting(12, ge=1)
     """Rotations about the vertical axis swept."""
-    refine: int = 3
+    refine: int = setting(3, ge=0)
     """Moment-matching steps per rotation (area, 3D median across the view, depth where they overlap)."""
-    coarse: int = 2
+    coarse: int = setting(2, ge=0)
     """Pattern-search step levels the explored rotations get (0: none)."""
-    explore: int = 0
+    explore: int = setting(0, ge=0)
     """Rotations (the best after moment matching) that get the coarse search (0: all)."""
-    polish: int = 3
+    polish: int = setting(3, ge=0)
     """Best rotations then refined at finer steps."""
-    depth_weight: float = 2.0
+    depth_weight: float = setting(2.0, ge=0)
     """Weight of the mean relative depth error against the mask disagreement."""
-    box_weight: float = 0.5
+    box_weight: float = setting(0.5, ge=0)
     """Weight of 1 − IoU of the visible model's box with the segment's prompt box (where it has one: a
     detector's box spans the object's thin parts a box-prompted cut loses)."""
-    hidden_margin: float = 0.03
+    hidden_margin: float = setting(0.03, ge=0)
     """A model pixel is hidden where the photo sees a surface this much (relative) nearer."""
-    halvings: int = 3
+    halvings: int = setting(3, ge=0)
     """Finer step levels (each half the last) of the polish."""
-    turns: tuple[float, ...] = (90.0, 180.0, 270.0)
+    turns: list[float] = setting([90.0, 180.0, 270.0])
     """Turns (degrees) of the polished best, each refined at the fine levels (with ``polish`` > 0)."""
-    rounds: int = 12
+    rounds: int = setting(12, ge=1)
     """Most pattern-search moves at one step size."""
-    room_weight: float = 2.0
+    room_weight: float = setting(2.0, ge=0)
     """Error per metre the posed model's bounding box reaches beyond the room box (a model is inside its room)."""
-    back_weight: float = 0.0
+    back_weight: float = setting(0.0, ge=0)
     """Error of a model that stands with its back to a wall (``backed``) posed with its back square on to the
     camera (:func:`~psdr_room_core.method.backs.back_shown` scales it)."""
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import cv2
@@ -30,14 +30,13 @@ from ..artifacts import (
     rotation_y,
 )
 from ..backs import BACKED, back_shown
-from ..convergence import BestIterate, Plateau, untimed
+from ..convergence import BestIterate, untimed
 from ..geometry import TriangleMesh, weld
-from ..grouping import GroupParams, Part, group_segments
+from ..grouping import Part, group_segments
 from ..labels import meaning
 from ..objects import (
     OBJECT_CATEGORIES,
     ObjectQuery,
-    SupportParams,
     best_yaw,
     initial_pose,
     object_queries,
@@ -49,17 +48,14 @@ from ..physical import PhysicalParams, Settled, interpenetrations, settle, suppo
 from ..silhouette import silhouette
 from ..sizes import SizePrior, scale_range
 from ..solids import field_lookup, solid_of
-from ..view_search import SearchParams, ViewTarget, fit_view
+from ..view_search import ViewTarget, fit_view
 from ..visualize import plot_curves, segment_overlay
+from .settings import FitObjects, GroupObjects, PlaceObjects, RetrieveObjects
 
 if TYPE_CHECKING:
     import torch
 
 log = logging.getLogger("psdr_room")
-
-
-def _queries(ctx: StageContext, image: Image, panoptic: Panoptic, cloud: PointCloud, room: RoomBox) -> list[ObjectQuery]:
-    return object_queries(image, panoptic, cloud, room, int(ctx.params["min_points"]), int(ctx.params["min_pixels"]))
 
 
 def group_objects(ctx: StageContext, image: Image, panoptic: Panoptic, cloud: PointCloud, camera: Camera,
@@ -69,11 +65,11 @@ def group_objects(ctx: StageContext, image: Image, panoptic: Panoptic, cloud: Po
     segments occupying the same space) where the ``retrieval`` capability's best model of the whole's category
     explains the two together as well as apart, before the model search. Each pair judged is logged.
 
-    Params: :class:`~psdr_room_core.method.grouping.GroupParams` fields (``enabled``: false passes the
-    segmentation through).
+    Params: :class:`~.settings.GroupObjects`, the :class:`~psdr_room_core.method.grouping.GroupParams` fields and
+    ``enabled`` (false passes the segmentation through).
     """
-    params = dict(ctx.params)
-    if not params.pop("enabled"):
+    group = ctx.settings(GroupObjects)
+    if not group.enabled:
         return {"panoptic": panoptic, "cloud": cloud}
     retriever = ctx.impl("retrieval")
     c2w = np.asarray(room.camera_to_world)
@@ -89,7 +85,6 @@ def group_objects(ctx: StageContext, image: Image, panoptic: Panoptic, cloud: Po
 
         return best(union), [best(p) for p in parts]
 
-    group = GroupParams(**{k: tuple(v) if k == "splittable" else v for k, v in params.items()})
     grouped, regrouped, notes = group_segments(panoptic, cloud, camera, room, depth.metric, group, judge)
     for note in notes:
         log.info("group_objects: %s", note)
@@ -106,15 +101,15 @@ def retrieve_objects(ctx: StageContext, image: Image, panoptic: Panoptic, cloud:
 
     Params: ``top_k``, ``alternate_margin``, ``min_points`` and ``min_pixels`` (smaller segments are left out).
     """
+    settings = ctx.settings(RetrieveObjects)
     retriever = ctx.impl("retrieval")
     c2w = np.asarray(room.camera_to_world)
-    queries = _queries(ctx, image, panoptic, cloud, room)
+    queries = object_queries(image, panoptic, cloud, room, settings.min_points, settings.min_pixels)
     unmodelled = [f"{s.id}:{s.label}" for s in panoptic.segments
                   if s.category in OBJECT_CATEGORIES and meaning(s.label, s.category) is None]
     if unmodelled:
         log.info("retrieve_objects: not in the object database, left out: %s", ", ".join(unmodelled))
-    top_k, margin = int(ctx.params["top_k"]), float(ctx.params["alternate_margin"])
-    ranked = {q.segment_id: _rank_by_label(retriever, q, camera, c2w, top_k, margin)
+    ranked = {q.segment_id: _rank_by_label(retriever, q, camera, c2w, settings.top_k, settings.alternate_margin)
               for q in ctx.progress(queries, total=len(queries))}
     return ObjectCandidates(ranked=ranked, labels={q.segment_id: q.label for q in queries},
                             source=retriever.describe(), sheet=candidate_sheet(queries, ranked, retriever))
@@ -180,7 +175,7 @@ def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image,
     """Initial poses (§4.3) with the support rules (floor, parent, wall), at real sizes, made physically possible.
 
     ``init=radius`` is the paper's: centre on the points' median, radius ``radius_factor`` × the points'
-    radius, the best of ``n_yaw`` rotations by silhouette L1. ``init=silhouette`` (default) sweeps the same
+    radius, the best of ``search.n_yaw`` rotations by silhouette L1. ``init=silhouette`` (default) sweeps the same
     rotations at the object's apparent size and depth and refines the best by the occlusion-aware view search
     (:func:`~psdr_room_core.method.view_search.fit_view`): the yaw is chosen where it can be seen, which the small
     paper start cannot, and an object half hidden behind another keeps its whole size. Database models are real
@@ -196,58 +191,55 @@ def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image,
     need an implausible size and those that occupy another's space (duplicates), and moves the rest inside
     the room and out of each other. Segments a person drew are kept whatever the fit (scaled into range).
 
-    Params: ``init``, ``pick`` (segment id → rank or model id), ``radius_factor``, ``n_yaw``, ``render_width``,
-    ``search`` (:class:`~psdr_room_core.method.view_search.SearchParams` fields but ``n_yaw``), ``size_prior``
-    {``scale_weight``, ``range_weight``}, ``support`` (:class:`SupportParams` fields), ``prune`` {``min_iou``},
-    ``physical`` (:class:`~psdr_room_core.method.physical.PhysicalParams` fields), ``min_points``, ``min_pixels``.
+    Params: :class:`~.settings.PlaceObjects`: ``init``, ``pick`` (segment id → rank or model id),
+    ``radius_factor``, ``render_width``, ``search`` (:class:`~psdr_room_core.method.view_search.SearchParams`),
+    ``size_prior`` {``scale_weight``, ``range_weight``}, ``support`` (:class:`~psdr_room_core.method.objects.SupportParams`), ``prune``
+    {``min_iou``}, ``physical`` (:class:`~psdr_room_core.method.physical.PhysicalParams`), ``min_points``,
+    ``min_pixels``.
     """
+    settings = ctx.settings(PlaceObjects)
     retriever = ctx.impl("retrieval")
-    params = ctx.params
     c2w = np.asarray(room.camera_to_world)
-    cam = camera.resized(min(int(params["render_width"]), camera.width))
-    picks = {int(k): v for k, v in (params.get("pick") or {}).items()}
-    queries = [q for q in _queries(ctx, image, panoptic, cloud, room) if candidates.ranked.get(q.segment_id)]
+    cam = camera.resized(min(settings.render_width, camera.width))
+    picks = {int(k): v for k, v in (settings.pick or {}).items()}
+    queries = [q for q in object_queries(image, panoptic, cloud, room, settings.min_points, settings.min_pixels)
+               if candidates.ranked.get(q.segment_id)]
     unknown = set(picks) - {q.segment_id for q in queries}
     if unknown:
         raise PsdrRoomError(f"place_objects.pick: no object segment {sorted(unknown)}; segments: "
                             f"{sorted(q.segment_id for q in queries)} (see the candidates artifact)")
-    init = str(params["init"])
-    if init not in ("silhouette", "radius"):
-        raise PsdrRoomError(f"place_objects.init={init}: use 'silhouette' or 'radius' (the paper's)")
-    support = SupportParams(**{k: tuple(v) if k in ("grounded", "floor_only") else v
-                               for k, v in params["support"].items()})
-    search = SearchParams(n_yaw=int(params["n_yaw"]), **params["search"])
+    search = settings.search
     chosen = {q.segment_id: _pick(candidates.ranked[q.segment_id], picks.get(q.segment_id), q.segment_id)
               for q in queries}
     categories = {sid: retriever.category(model_id) for sid, model_id in chosen.items()}
-    relations = support_relations(queries, panoptic.mask("floor"), room, support, categories)
+    relations = support_relations(queries, panoptic.mask("floor"), room, settings.support, categories)
     guessed = {s.id for s in panoptic.segments if s.score is not None}
-    min_iou = float(params["prune"]["min_iou"])
     placed: dict[int, Placement] = {}
     pruned: list[str] = []
     order = sorted(queries, key=lambda q: relations[q.segment_id][0][0] == "parent")  # parents before children
     for q in order:
         model_id, category = chosen[q.segment_id], categories[q.segment_id]
         mesh = retriever.mesh(model_id)
-        prior = SizePrior.of(category, np.ptp(mesh.vertices, axis=0), **params["size_prior"])
+        prior = SizePrior.of(category, np.ptp(mesh.vertices, axis=0), settings.size_prior.scale_weight,
+                             settings.size_prior.range_weight)
         supports = [(k, a) for k, a in relations[q.segment_id] if k != "parent" or a in placed] or [("free", None)]
         explained = None
-        if init == "silhouette":  # each support the rules allow (a dropped parent holds nothing); the view search picks
-            target = ViewTarget.build(camera, c2w, q.mask, q.points, q.scene_points, int(params["render_width"]),
+        if settings.init == "silhouette":  # each support the rules allow (a dropped parent holds nothing); the search picks
+            target = ViewTarget.build(camera, c2w, q.mask, q.points, q.scene_points, settings.render_width,
                                       box=q.box, room=room)
             fits = [(fit_view(target, mesh.vertices, mesh.faces, search, _support_height(k, a, placed, q, room), prior,
                               backed=category in BACKED), k, a) for k, a in supports]
             view, kind, anchor = min(fits, key=lambda f: f[0].error)
             position, yaw, scale, explained = view.position, view.yaw, view.scale, view.iou
-            if q.segment_id in guessed and view.iou < min_iou:
+            if q.segment_id in guessed and view.iou < settings.prune.min_iou:
                 pruned.append(f"{q.segment_id}:{q.label} ({model_id.split('/')[-1]}): explains {view.iou:.2f} of "
                               "its segment")
                 continue
         else:
             kind, anchor = supports[0]
             target = cv2.resize(q.mask.astype(np.uint8), (cam.width, cam.height), interpolation=cv2.INTER_AREA) > 0
-            position, scale = initial_pose(q.points, mesh.vertices, float(params["radius_factor"]))
-            yaw, _ = best_yaw(cam, c2w, mesh.vertices, mesh.faces, position, scale, target, int(params["n_yaw"]))
+            position, scale = initial_pose(q.points, mesh.vertices, settings.radius_factor)
+            yaw, _ = best_yaw(cam, c2w, mesh.vertices, mesh.faces, position, scale, target, search.n_yaw)
             height = _support_height(kind, anchor, placed, q, room)
             if height is not None:
                 position[1] = height
@@ -262,17 +254,17 @@ def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image,
     if pruned:
         log.info("place_objects: dropped %d guessed object(s) no model explains: %s", len(pruned), ", ".join(pruned))
     objects = [placed[q.segment_id] for q in queries if q.segment_id in placed]
-    settled = _settle(objects, room, cam, panoptic, params["physical"], "place_objects", final=False)
+    settled = _settle(objects, room, cam, panoptic, settings.physical, "place_objects", final=False)
     return Placements(objects=settled.placements, extra={"pruned": pruned + settled.dropped, "settled": settled.changed})
 
 
-def _settle(objects: list[Placement], room: RoomBox, camera: Camera, panoptic: Panoptic, physical: Any, stage: str,
-            final: bool) -> Settled:
+def _settle(objects: list[Placement], room: RoomBox, camera: Camera, panoptic: Panoptic, physical: PhysicalParams,
+            stage: str, final: bool) -> Settled:
     """:func:`~psdr_room_core.method.physical.settle` with its changes logged (segments with no score were drawn)."""
     drawn = {s.id for s in panoptic.segments if s.score is None}
     counts = np.bincount(panoptic.ids.ravel())
     pixels = {s.id: int(counts[s.id]) for s in panoptic.segments if s.id < len(counts)}
-    settled = settle(objects, room, camera, drawn, pixels, PhysicalParams(**physical), final)
+    settled = settle(objects, room, camera, drawn, pixels, physical, final)
     for note in settled.changed:
         log.info("%s: %s", stage, note)
     if settled.dropped:
@@ -513,8 +505,8 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
     if not placements.objects:
         return {"placements": placements, "log": OptimizationLog(history=[], images={}, summary={"objects": 0}),
                 "room": room}
-    params = ctx.params
-    cam = camera.resized(min(int(params["render_width"]), camera.width))
+    settings = ctx.settings(FitObjects)
+    cam = camera.resized(min(settings.render_width, camera.width))
     targets = object_targets(placements, panoptic, depth, (cam.width, cam.height))
     model = PoseModel(placements, room, unit=float(np.mean(room.half_size)))
     initial_vertices = {k: v.detach().numpy() for k, v in model.vertices().items()}
@@ -526,9 +518,8 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
     t_weights = torch.from_numpy(targets.weights)
     valid = targets.masked_depth[targets.masks > 0.5] / np.maximum(targets.masks[targets.masks > 0.5], 1e-6)
     depth_scale = float(np.percentile(valid, 98)) if valid.size else 1.0
-    sigmas = tuple(float(s) for s in params["blur_sigmas"])
+    sigmas = tuple(settings.blur_sigmas)
     t_blur = gaussian_pyramid_blur(t_masks, sigmas)
-    size_weights = (float(params["size_prior"]["scale_weight"]), float(params["size_prior"]["range_weight"]))
 
     def per_object(iteration: int) -> tuple[torch.Tensor, torch.Tensor, dict[str, float]]:
         """Eq. 3's term of each object [P], each object's mask IoU [P], and the logged terms."""
@@ -537,16 +528,16 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
         rendered_depth = weighted_depth / alpha.clamp_min(1e-3)
         depth_term = (t_weights * (masks * rendered_depth - t_masked).abs()).mean(dim=(1, 2)) / depth_scale
         blur_term = (t_weights * (gaussian_pyramid_blur(masks, sigmas) - t_blur).abs()).mean(dim=(2, 3)).sum(dim=0)
-        size_term = model.size_penalty(*size_weights)
-        room_term = float(params["room_weight"]) * model.room_penalty(vertices)
-        collision_term = float(params["collision_weight"]) * model.collision_penalty()
-        back_term = float(params["back_weight"]) * model.back_penalty()
+        size_term = model.size_penalty(settings.size_prior.scale_weight, settings.size_prior.range_weight)
+        room_term = settings.room_weight * model.room_penalty(vertices)
+        collision_term = settings.collision_weight * model.collision_penalty()
+        back_term = settings.back_weight * model.back_penalty()
         ious = (masks * t_masks).sum((1, 2)) / (masks + t_masks - masks * t_masks).sum((1, 2)).clamp_min(1e-6)
         terms = {"mask_depth_l1": depth_term.sum().item(), "blurred_mask_l1": blur_term.sum().item(),
                  "size_prior": size_term.sum().item(), "beyond_room": room_term.sum().item(),
                  "interpenetration": collision_term.sum().item(), "back_shown": back_term.sum().item(),
                  "mean_iou": ious.mean().item()}
-        total = depth_term + float(params["blur_weight"]) * blur_term + size_term + room_term + collision_term + back_term
+        total = depth_term + settings.blur_weight * blur_term + size_term + room_term + collision_term + back_term
         return total, ious.detach(), terms
 
     best = BestIterate(model.theta)
@@ -557,15 +548,13 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
         best.observe(float(total.detach()), iteration)
         return total, logged
 
-    iterations = int(params["iterations"])
-    optimizer, rates = ctx.impl("optimizer"), dict(params["learning_rates"])
-    plateau = Plateau(**params["convergence"])
-    phase = round(iterations * float(params["yaw_test"]["at"]))
+    iterations, plateau = settings.iterations, settings.convergence
+    optimizer, rates = ctx.impl("optimizer"), asdict(settings.learning_rates)
+    phase = round(iterations * settings.yaw_test.at)
     history = optimizer.minimize(model.theta, rates, loss, phase, lambda it: ctx.progress(it, total=phase), plateau)
     first = len(history)
     best.restore()
-    turned = try_yaw_turns(model, lambda: per_object(first)[0], [float(a) for a in params["yaw_test"]["angles"]],
-                           float(params["yaw_test"]["min_gain"]))
+    turned = try_yaw_turns(model, lambda: per_object(first)[0], settings.yaw_test.angles, settings.yaw_test.min_gain)
     if turned or first == phase:  # turned poses are a new start (the best is theirs); or not converged yet
         if turned:
             best = BestIterate(model.theta)
@@ -575,8 +564,8 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
     with torch.no_grad():
         ious = per_object(len(history))[1].numpy()
         posed = [replace(p, explained=float(iou)) for p, iou in zip(model.placements_now(), ious)]
-    settled = _settle(posed, room, cam, panoptic, params["physical"], "fit_objects", final=True)
-    through = interpenetrations(settled.placements, float(params["physical"]["penetration"]))
+    settled = _settle(posed, room, cam, panoptic, settings.physical, "fit_objects", final=True)
+    through = interpenetrations(settled.placements, settings.physical.penetration)
     history = untimed(history, ctx.timings)
     final = history[best.iteration]
     fitted = Placements(objects=settled.placements, extra={

@@ -9,7 +9,12 @@ from typing import Any
 
 from psdr_room_core.engine.settings import setting
 
+from ..convergence import Plateau
+from ..grouping import GroupParams
 from ..material_priors import PaintPrior
+from ..objects import SupportParams
+from ..physical import PhysicalParams
+from ..view_search import SearchParams
 
 
 @dataclass
@@ -45,16 +50,8 @@ class RoomFit:
 
 
 @dataclass
-class GroupObjects:
-    enabled: bool = setting()
-    splittable: list[str] = setting()
-    parts: dict[str, list[str]] = setting()
-    edge_px: float = setting(ge=0)
-    rests_share: float = setting(ge=0, le=1)
-    slack: float = setting(ge=1)
-    same_space: float = setting(gt=0, le=1)
-    margin: float = setting(ge=0)
-    keep_score: float = setting(ge=0)
+class GroupObjects(GroupParams):
+    enabled: bool = setting(True)
 
 
 @dataclass
@@ -63,20 +60,6 @@ class RetrieveObjects:
     alternate_margin: float = setting(ge=0)
     min_points: int = setting(ge=0)
     min_pixels: int = setting(ge=0)
-
-
-@dataclass
-class ViewSearch:
-    refine: int = setting(ge=0)
-    coarse: int = setting(ge=0)
-    polish: int = setting(ge=0)
-    halvings: int = setting(ge=0)
-    turns: list[float] = setting()
-    depth_weight: float = setting(ge=0)
-    box_weight: float = setting(ge=0)
-    hidden_margin: float = setting(ge=0)
-    room_weight: float = setting(ge=0)
-    back_weight: float = setting(ge=0)
 
 
 @dataclass
@@ -91,40 +74,18 @@ class SizePriorWeights:
 
 
 @dataclass
-class Physical:
-    size_tolerance: float = setting(ge=0)
-    duplicate_share: float = setting(gt=0, le=1)
-    penetration: float = setting(ge=0)
-    max_shift: float = setting(ge=0)
-    directions: int = setting(ge=1)
-    keep_iou: float = setting(ge=0, le=1)
-    max_growth: float = setting(ge=0)
-
-
-@dataclass
-class Support:
-    floor_distance: float = setting(ge=0)
-    edge_px: float = setting(ge=0)
-    wall_distance: float = setting(ge=0)
-    bottom_percentile: float = setting(ge=0, le=100)
-    grounded: list[str] = setting()
-    floor_only: list[str] = setting()
-
-
-@dataclass
 class PlaceObjects:
     pick: Any = setting()
     init: str = setting(choices=("silhouette", "radius"))
     radius_factor: float = setting(gt=0)
-    n_yaw: int = setting(ge=1)
     render_width: int = setting(ge=16)
-    search: ViewSearch = setting()
+    search: SearchParams = setting()
     size_prior: SizePriorWeights = setting()
     prune: Prune = setting()
-    physical: Physical = setting()
+    physical: PhysicalParams = setting()
     min_points: int = setting(ge=0)
     min_pixels: int = setting(ge=0)
-    support: Support = setting()
+    support: SupportParams = setting()
 
 
 @dataclass
@@ -142,16 +103,9 @@ class FitObjectsRates:
 
 
 @dataclass
-class Convergence:
-    window: int = setting(ge=0)
-    tolerance: float = setting(ge=0, lt=1)
-    min_iterations: int = setting(ge=0)
-
-
-@dataclass
 class FitObjects:
     iterations: int = setting(ge=1)
-    convergence: Convergence = setting()
+    convergence: Plateau = setting()
     render_width: int = setting(ge=16)
     blur_sigmas: list[float] = setting(gt=0)
     blur_weight: float = setting(ge=0)
@@ -161,7 +115,7 @@ class FitObjects:
     back_weight: float = setting(ge=0)
     yaw_test: YawTest = setting()
     learning_rates: FitObjectsRates = setting()
-    physical: Physical = setting()
+    physical: PhysicalParams = setting()
 
 
 @dataclass
@@ -249,7 +203,7 @@ class AppearanceRates:
 @dataclass
 class FitAppearance:
     iterations: int = setting(ge=1)
-    convergence: Convergence = setting()
+    convergence: Plateau = setting()
     render_width: int = setting(ge=16)
     spp: int = setting(ge=1)
     grad_spp: int = setting(ge=1)
