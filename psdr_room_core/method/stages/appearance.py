@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import logging
-from dataclasses import replace
+from dataclasses import asdict, replace
 from typing import Any
 
 import cv2
@@ -24,12 +24,13 @@ from ..artifacts import (
     RoomBox,
     SceneAppearance,
 )
-from ..convergence import Plateau, untimed
+from ..convergence import untimed
 from ..image_metrics import downsampled, flip, rmse, ssim, ssim_map
 from ..material_priors import LUMINANCE, PaintPrior, painted, within_paint
 from ..rgb_scene import build_scene, finished_render, graph_maps, initial_parts, part_meshes, render_part_ids
 from ..shading import linear_to_srgb, srgb_to_linear
 from ..visualize import plot_curves
+from .settings import FitAppearance
 
 log = logging.getLogger("psdr_room")
 
@@ -214,29 +215,29 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     (``*_noisy``: the same before denoising; ``denoiser``: what ran), and LPIPS when its weights are installed
     (:mod:`psdr_room_core.method.lpips`).
     """
-    params = ctx.params
+    settings = ctx.settings(FitAppearance)
     library, descriptor, renderer = ctx.impl("material_graph"), ctx.impl("texture"), ctx.impl("renderer")
     c2w = np.asarray(room.camera_to_world)
-    width = min(int(params["render_width"]), camera.width)
+    width = min(settings.render_width, camera.width)
     scale = width / camera.width
     emitting = {light.part for light in lights.lights if light.part}  # lamp parts are lights now
-    paint = PaintPrior(**params["paint"])
+    paint = settings.paint
     parts = [within_paint(p, paint) for p in initial_parts(materials, library) if p.part not in emitting]
     meshes = part_meshes(room, placements)
-    scene = build_scene(meshes, parts, lights.lights, lights.fixtures, library, int(params["map_size"]))
+    scene = build_scene(meshes, parts, lights.lights, lights.fixtures, library, settings.map_size)
     geometry = scene.renderer(renderer, camera, c2w, width)
     height = geometry.height
 
     photo = cv2.resize(np.asarray(image.rgb, np.float32), (width, height), interpolation=cv2.INTER_AREA)
     target = torch.from_numpy(photo)
-    factor = int(params["downsample"])
+    factor = settings.downsample
     target_small = linear_to_srgb(downsampled(srgb_to_linear(target), factor))
     ids, _ = render_part_ids(renderer, camera.resized(width), c2w, meshes, width)
     names = list(meshes)
     samples = (cv2.resize(materials.samples, (width, height), interpolation=cv2.INTER_NEAREST)
                if materials.samples is not None else np.full(ids.shape, -1, np.int16))
     regions, seen = [], set()
-    min_px = int(params["min_region_px"])
+    min_px = settings.min_region_px
     for k, p in enumerate(materials.parts):
         if p.part in names and p.part in scene.meshes:
             rendered = ids == names.index(p.part)
@@ -247,18 +248,18 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
                 seen.add(p.part)
     # Parts the camera does not see keep their initial material: only indirect light shows them, and it
     # trades off freely against the lights' radiance.
-    model = AppearanceModel(parts, lights, library, int(params["map_size"]), free=seen,
-                            radiance_range=float(params["radiance_range"]), colour_range=float(params["colour_range"]),
+    model = AppearanceModel(parts, lights, library, settings.map_size, free=seen,
+                            radiance_range=settings.radiance_range, colour_range=settings.colour_range,
                             paint=paint)
     crops = []
     for p in materials.parts:
-        for rect in p.crops[: int(params["crops_per_part"])]:
-            r = squarish([int(round(v * scale)) for v in rect], float(params["max_crop_aspect"]))
+        for rect in p.crops[: settings.crops_per_part]:
+            r = squarish([int(round(v * scale)) for v in rect], settings.max_crop_aspect)
             if r[2] - r[0] >= 8 and r[3] - r[1] >= 8:
                 with torch.no_grad():
                     crops.append((r, descriptor.describe(target[r[1]:r[3], r[0]:r[2]].permute(2, 0, 1))))
-    weights = {k: float(v) for k, v in params["weights"].items()}
-    spp, grad_spp = int(params["spp"]), int(params["grad_spp"])
+    weights = asdict(settings.weights)
+    spp, grad_spp = settings.spp, settings.grad_spp
 
     def terms(linear: torch.Tensor) -> dict[str, torch.Tensor]:
         # Averages (the 1/8 image, a part's mean) are taken on linear radiance, then encoded: the sRGB curve is
@@ -282,16 +283,16 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
         total = sum(weights[k] * v for k, v in parts.items())
         return total, {k: float(v.detach()) for k, v in parts.items()}
 
-    rates = {name: float(params["learning_rates"][group]) for name, group in model.group.items()}
-    history = untimed(ctx.impl("optimizer").minimize(model.theta, rates, loss, int(params["iterations"]),
-                                                     lambda it: ctx.progress(it, total=int(params["iterations"])),
-                                                     stop=Plateau(**params["convergence"])), ctx.timings)
-    final_spp, denoiser = int(params["final_spp"]), ctx.impl("denoiser")
+    rates = {name: getattr(settings.learning_rates, group) for name, group in model.group.items()}
+    history = untimed(ctx.impl("optimizer").minimize(model.theta, rates, loss, settings.iterations,
+                                                     lambda it: ctx.progress(it, total=settings.iterations),
+                                                     stop=settings.convergence), ctx.timings)
+    final_spp, denoiser = settings.final_spp, ctx.impl("denoiser")
     with torch.no_grad():
         initial = AppearanceModel(parts, lights, library, model.map_size, seen, paint=paint).inputs()
         start_noisy, start = picture(geometry, denoiser, initial, final_spp, 10**6)
         final_noisy, final = picture(geometry, denoiser, model.inputs(), final_spp, 10**6 + 1)
-        if params["plain_check"]:
+        if settings.plain_check:
             final_noisy, final = plain_parts(model, geometry, denoiser, final_spp, photo, (final_noisy, final),
                                              {name: ids == k for k, name in enumerate(names)})
     parts, radiance = model.result()

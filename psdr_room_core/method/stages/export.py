@@ -38,6 +38,7 @@ from ..gltf import scene_glb
 from ..rgb_scene import RgbScene, build_scene, part_meshes
 from ..shading import linear_to_srgb
 from ..usd import scene_usda
+from .settings import ExportScene
 
 CV_TO_MITSUBA = np.diag([-1.0, -1.0, 1.0, 1.0])
 """OpenCV camera axes (x right, y down, z forward) → Mitsuba's (x left, y up, z forward)."""
@@ -106,17 +107,18 @@ def _png8(image: np.ndarray) -> bytes:
     return encoded.tobytes()
 
 
-def scene_xml(camera: Camera, camera_to_world: np.ndarray, scene: RgbScene, params: dict, files: dict[str, bytes]) -> str:
+def scene_xml(camera: Camera, camera_to_world: np.ndarray, scene: RgbScene, spp: int, max_depth: int,
+              files: dict[str, bytes]) -> str:
     """Mitsuba 3 scene description of ``scene`` (meshes and textures are added to ``files``): the camera
-    (``$width``, ``$height``, ``$spp`` overridable), two-sided principled surfaces, area-light meshes, and a
-    path tracer of ``max_depth`` (``$max_depth``)."""
+    (``$width``, ``$height``, ``$spp`` overridable, ``spp`` by default), two-sided principled surfaces, area-light
+    meshes, and a path tracer of ``max_depth`` (``$max_depth``)."""
     to_world = np.asarray(camera_to_world) @ CV_TO_MITSUBA
     offset_x = (camera.width / 2.0 - camera.cx) / camera.width
     offset_y = (camera.height / 2.0 - camera.cy) / camera.height
     lines = [
         '<scene version="3.0.0">',
-        f'    <default name="spp" value="{int(params["spp"])}"/>',
-        f'    <default name="max_depth" value="{int(params["max_depth"])}"/>',
+        f'    <default name="spp" value="{int(spp)}"/>',
+        f'    <default name="max_depth" value="{int(max_depth)}"/>',
         f'    <default name="width" value="{camera.width}"/>',
         f'    <default name="height" value="{camera.height}"/>',
         '    <integrator type="path"><integer name="max_depth" value="$max_depth"/></integrator>',
@@ -209,7 +211,7 @@ def scene_folder(scene: RgbScene, state: dict[str, Any], spp: int, max_depth: in
     camera = Camera(**state["camera"])
     c2w = np.asarray(state["camera_to_world"], dtype=np.float64)
     files: dict[str, bytes] = {}
-    files["scene.xml"] = scene_xml(camera, c2w, scene, {"spp": spp, "max_depth": max_depth}, files).encode()
+    files["scene.xml"] = scene_xml(camera, c2w, scene, spp, max_depth, files).encode()
     if glb:
         files["scene.glb"] = scene_glb(scene, camera, c2w)
     if usd:
@@ -231,14 +233,13 @@ def export_scene(ctx: StageContext, camera: Camera, room: RoomBox, cloud: PointC
 
     Params: ``spp``, ``max_depth`` (the XML's path tracer defaults), ``texture_size``, ``glb``, ``usd``.
     """
-    params = ctx.params
+    settings = ctx.settings(ExportScene)
     lit = [Light(l.name, l.kind, l.mesh, appearance.radiance.get(l.name, l.radiance), l.part) for l in lights.lights]
     scene = build_scene(part_meshes(room, placements), appearance.parts, lit, lights.fixtures,
-                        ctx.impl("material_graph"), int(params["texture_size"]))
+                        ctx.impl("material_graph"), settings.texture_size)
     c2w = np.asarray(room.camera_to_world)
-    state = scene_state(camera, c2w, appearance.parts, lit, list(lights.fixtures), int(params["texture_size"]))
-    files = scene_folder(scene, state, int(params["spp"]), int(params["max_depth"]), bool(params["glb"]),
-                         bool(params["usd"]))
+    state = scene_state(camera, c2w, appearance.parts, lit, list(lights.fixtures), settings.texture_size)
+    files = scene_folder(scene, state, settings.spp, settings.max_depth, settings.glb, settings.usd)
     world = cloud.points @ c2w[:3, :3].T + c2w[:3, 3]
     files["point_cloud.ply"] = ply_bytes(world, cloud.colors, cloud.segment)
     return SceneFiles(files=files)

@@ -18,6 +18,7 @@ from ..lighting import behind_camera_light, ceiling_lights, wall_window_light, w
 from ..rgb_scene import GUIDE_SPP, build_scene, initial_parts, part_meshes, render_part_ids, room_quads, to_srgb8
 from ..shading import linear_to_srgb, srgb_to_linear
 from ..visualize import plot_curves
+from .settings import InitLights
 
 log = logging.getLogger("psdr_room")
 
@@ -37,20 +38,20 @@ def init_lights(ctx: StageContext, image: Image, panoptic: Panoptic, camera: Cam
     :func:`white_balance` of the unit render against the photo (each channel within ``max_balance`` of grey).
     Params also: ``drop`` (metres lights sit off their surface).
     """
-    params = ctx.params
+    settings = ctx.settings(InitLights)
     c2w = np.asarray(room.camera_to_world)
     quads = room_quads(room)
     meshes = part_meshes(room, placements)
     names = list(meshes)
-    ids, _ = render_part_ids(ctx.impl("renderer"), camera, c2w, meshes, int(params["render_width"]))
+    ids, _ = render_part_ids(ctx.impl("renderer"), camera, c2w, meshes, settings.render_width)
     seen = np.bincount(ids[ids >= 0].ravel(), minlength=len(names))
-    drop = float(params["drop"])
-    rows, cols = (int(v) for v in params["ceiling_grid"])
-    lights = ceiling_lights(quads["ceiling"], camera, c2w, rows, cols, float(params["cell_ratio"]), drop)
-    lights.append(behind_camera_light(room, quads, float(params["behind_ratio"])))
+    drop = settings.drop
+    rows, cols = settings.ceiling_grid
+    lights = ceiling_lights(quads["ceiling"], camera, c2w, rows, cols, settings.cell_ratio, drop)
+    lights.append(behind_camera_light(room, quads, settings.behind_ratio))
     for name, quad in quads.items():
-        if name.startswith("wall") and seen[names.index(name)] < int(params["hidden_wall_px"]):
-            lights.append(wall_window_light(name, quad, float(params["window_ratio"]), drop))
+        if name.startswith("wall") and seen[names.index(name)] < settings.hidden_wall_px:
+            lights.append(wall_window_light(name, quad, settings.window_ratio, drop))
     fixtures: dict[str, TriangleMesh] = {}
     walls = [n for n in names if n.startswith("wall")]
     for segment in (s for s in panoptic.segments if s.category == "window"):
@@ -58,7 +59,7 @@ def init_lights(ctx: StageContext, image: Image, panoptic: Panoptic, camera: Cam
         on = [int(np.sum(ids[mask] == names.index(w))) for w in walls]
         if not max(on, default=0):
             continue
-        panel = window_panel(mask, quads[walls[int(np.argmax(on))]], camera, c2w, drop, float(params["frame_width"]))
+        panel = window_panel(mask, quads[walls[int(np.argmax(on))]], camera, c2w, drop, settings.frame_width)
         if panel is not None:
             quad, bars = panel
             lights.append(Light(f"light_window_{segment.id}", "window", quad_mesh(quad)))
@@ -74,21 +75,21 @@ def init_lights(ctx: StageContext, image: Image, panoptic: Panoptic, camera: Cam
 
     scene = build_scene(meshes, initial_parts(materials, ctx.impl("material_graph")), lights, fixtures,
                         ctx.impl("material_graph"), 64)
-    width = min(int(params["render_width"]), camera.width)
+    width = min(settings.render_width, camera.width)
     geometry = scene.renderer(ctx.impl("renderer"), camera, c2w, width)
     with torch.no_grad():
-        unit = geometry.render_rgb(spp=int(params["spp"]))
+        unit = geometry.render_rgb(spp=settings.spp)
     photo = torch.from_numpy(np.asarray(image.rgb, np.float32))
     photo = F.interpolate(photo.permute(2, 0, 1)[None], size=unit.shape[:2], mode="area")[0].permute(1, 2, 0)
-    factor = int(params["downsample"])
+    factor = settings.downsample
     target = luminance(downsampled(photo, factor))
     sweep = []
-    low, high, count = float(params["sweep"]["min"]), float(params["sweep"]["max"]), int(params["sweep"]["count"])
+    low, high, count = settings.sweep.min, settings.sweep.max, settings.sweep.count
     for value in np.geomspace(low, high, count):
         render = luminance(downsampled(linear_to_srgb(unit * float(value)), factor))
         sweep.append((float(value), float((render - target).abs().mean())))
     best = min(sweep, key=lambda s: s[1])[0]
-    balance = white_balance(unit, photo, float(params["max_balance"]))
+    balance = white_balance(unit, photo, settings.max_balance)
     radiance = tuple(best * float(b) for b in balance)
     lights = [Light(l.name, l.kind, l.mesh, radiance, l.part) for l in lights]  # type: ignore[arg-type]
     picture = ctx.impl("denoiser").denoise(unit.numpy() * np.asarray(radiance, np.float32),

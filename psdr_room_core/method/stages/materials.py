@@ -3,7 +3,7 @@ material retrieval with voting across crops, and the texture-transform search.""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any
 
 import cv2
@@ -17,6 +17,7 @@ from ..crops import crop_windows, crops_file, read_crops
 from ..geometry import TriangleMesh
 from ..rgb_scene import object_parts, render_part_ids, room_quads
 from ..surface_colours import clean_pixels, dominant_colour, texture_energy
+from .settings import AssignMaterials
 
 if TYPE_CHECKING:
     import torch
@@ -84,40 +85,39 @@ def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera
 
     from ..material_search import MaterialIndex, flat_image, search_transform, surface_coordinates, vote
 
-    params = ctx.params
-    parts = scene_parts(room, placements, panoptic, dict(params["room_colours"]))
+    settings = ctx.settings(AssignMaterials)
+    parts = scene_parts(room, placements, panoptic, asdict(settings.room_colours))
     ids, depth = render_part_ids(ctx.impl("renderer"), camera, room.camera_to_world, {p.name: p.mesh for p in parts},
-                                 int(params["render_width"]))
+                                 settings.render_width)
     rgb8 = image.to_uint8()
     labels = np.full(ids.shape, -1, np.int64)
     for k, part in enumerate(parts):
         part.region = (ids == k) & part.target
         labels[part.region] = k
-    knobs = params["clean"]
-    clean = clean_pixels(rgb8, labels, float(knobs["coverage"]), float(knobs["edge_ratio"]), float(knobs["edge_floor"]),
-                         int(knobs["open_px"]))
-    kernel = np.ones((2 * int(params["erode_px"]) + 1,) * 2, np.uint8)
-    side = int(params["min_crop_px"])
+    knobs = settings.clean
+    clean = clean_pixels(rgb8, labels, knobs.coverage, knobs.edge_ratio, knobs.edge_floor, knobs.open_px)
+    kernel = np.ones((2 * settings.erode_px + 1,) * 2, np.uint8)
+    side = settings.min_crop_px
     for part in parts:
         part.clean = part.region & clean  # type: ignore[operator]
         eroded = cv2.erode(part.clean.astype(np.uint8), kernel) > 0
-        part.crops = tuple(crop_windows(eroded, int(params["max_crops"]), side, side * side))
+        part.crops = tuple(crop_windows(eroded, settings.max_crops, side, side * side))
     _apply_user_crops(ctx, image, parts, ids)
 
     rgb = rgb8.astype(np.float32) / 255.0
     photo = torch.from_numpy(rgb).permute(2, 0, 1).contiguous()
     library, descriptor = ctx.impl("material_graph"), ctx.impl("texture")
-    map_size = int(params["map_size"])
+    map_size = settings.map_size
     index = None
     c2w = np.asarray(room.camera_to_world)
     walls_clean = np.zeros(labels.shape, bool)
     for part in parts:
         if part.name.startswith("wall"):
             walls_clean |= part.clean
-    upper = walls_clean & (heights(camera, c2w, depth) > float(params["clear_height"]))
+    upper = walls_clean & (heights(camera, c2w, depth) > settings.clear_height)
     walls = dominant_colour(rgb8, upper if upper.sum() >= side * side else walls_clean) if walls_clean.any() else None
-    roughness = float(params["roughness"])
-    categories = {side: set(names) for side, names in params["room_categories"].items()}
+    roughness = settings.roughness
+    categories = {side: set(names) for side, names in asdict(settings.room_categories).items()}
     room_sides = set(room_quads(room))
     assigned, sheet_rows = [], []
     samples = np.full(labels.shape, -1, np.int16)
@@ -142,7 +142,7 @@ def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera
             continue
         energy = float(np.median([texture_energy(c) for _, c, _ in crops]))
         common = dict(part=part.name, albedo=albedo, roughness=roughness, crops=tuple(part.crops))
-        if energy < float(params["flat_energy"]):
+        if energy < settings.flat_energy:
             assigned.append(PartMaterial(kind="homogeneous", scores={"texture_energy": energy},
                                          reason=f"plain: texture energy {energy:.3f} < flat_energy", **common))
             continue
@@ -162,20 +162,20 @@ def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera
             per_crop = []
             for _, target, _ in described:
                 distances = torch.where(allowed, index.distances(descriptor, target), torch.inf)
-                order = torch.argsort(distances)[: min(int(params["top_k"]), int(allowed.sum()))].tolist()
+                order = torch.argsort(distances)[: min(settings.top_k, int(allowed.sum()))].tolist()
                 per_crop.append([(index.names[i], index.similarity(float(distances[i]))) for i in order])
         ranked = vote(per_crop)
         name, best_similarity = ranked[0]
         homogeneous_loss = float(np.mean(flats))
         common["candidates"] = tuple((n, round(s, 4)) for n, s in ranked[:5])
         scores = {"texture_energy": energy, "similarity": best_similarity, "homogeneous_loss": homogeneous_loss}
-        if best_similarity < float(params["min_similarity"]):
+        if best_similarity < settings.min_similarity:
             assigned.append(PartMaterial(kind="homogeneous", scores=scores,
                                          reason=f"best similarity {best_similarity:.3f} < min_similarity", **common))
             continue
         material = library.material(name)
         fit = search_transform(library, descriptor, library.appearance(name, map_size), float(material.tile_size),
-                               described, [float(s) for s in params["scales"]], [float(r) for r in params["rotations"]])
+                               described, settings.scales, settings.rotations)
         scores["texture_loss"] = fit.loss
         if fit.loss >= homogeneous_loss:
             assigned.append(PartMaterial(kind="homogeneous", scores=scores, reason=f"a flat colour matches better than {name}",

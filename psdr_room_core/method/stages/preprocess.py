@@ -14,6 +14,8 @@ from psdr_room_core.engine.errors import PsdrRoomError
 
 from ..artifacts import ROOM_CATEGORIES, Camera, DepthMap, Detections, Image, Panoptic, PointCloud
 from ..photo import read_photo, resize_to_working
+from .settings import LoadImage as LoadImageSettings
+from .settings import PointCloud as PointCloudSettings
 
 
 def load_image(ctx: StageContext) -> Image:
@@ -22,9 +24,10 @@ def load_image(ctx: StageContext) -> Image:
     Params: ``max_side`` (long side in pixels of the working image), ``max_pixels`` (larger photos are
     refused).
     """
-    rgb = read_photo(ctx.photo, int(ctx.params["max_pixels"]))
+    settings = ctx.settings(LoadImageSettings)
+    rgb = read_photo(ctx.photo, settings.max_pixels)
     height, width = rgb.shape[:2]
-    return Image(rgb=resize_to_working(rgb, int(ctx.params["max_side"])), source=str(ctx.photo),
+    return Image(rgb=resize_to_working(rgb, settings.max_side), source=str(ctx.photo),
                  original_size=(width, height))
 
 
@@ -81,7 +84,8 @@ def point_cloud(ctx: StageContext, image: Image, camera: Camera, depth: DepthMap
     objects at the boundaries); each segment keeps at most ``max_points_per_segment`` points (a fixed
     stride) and loses its statistical outliers (``outlier_neighbours``, ``outlier_std_ratio``).
     """
-    erode = int(ctx.params["erode_px"])
+    settings = ctx.settings(PointCloudSettings)
+    erode = settings.erode_px
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * erode + 1, 2 * erode + 1)) if erode > 0 else None
     xyz = backproject(depth.depth, camera)
     colors = image.to_uint8()
@@ -91,10 +95,10 @@ def point_cloud(ctx: StageContext, image: Image, camera: Camera, depth: DepthMap
         if kernel is not None and segment.category in ROOM_CATEGORIES:
             mask = cv2.erode(mask.astype(np.uint8), kernel).astype(bool)
         index = np.flatnonzero(mask)
-        stride = max(1, int(np.ceil(len(index) / int(ctx.params["max_points_per_segment"]))))
+        stride = max(1, int(np.ceil(len(index) / settings.max_points_per_segment)))
         index = index[::stride]
         seg_points = xyz.reshape(-1, 3)[index]
-        keep = _inlier_mask(seg_points, int(ctx.params["outlier_neighbours"]), float(ctx.params["outlier_std_ratio"]))
+        keep = _inlier_mask(seg_points, settings.outlier_neighbours, settings.outlier_std_ratio)
         points.append(seg_points[keep])
         rgb.append(colors.reshape(-1, 3)[index][keep])
         seg.append(np.full(int(keep.sum()), segment.id, dtype=np.int32))

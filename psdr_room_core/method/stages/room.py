@@ -35,6 +35,7 @@ from ..geometry import quad_mesh
 from ..rgb_scene import room_quad_indices, room_quads
 from ..room_box import RoomInitParams, box_iou_3d, init_room_box
 from ..visualize import plot_curves, room_edges_overlay, segment_overlay
+from .settings import RoomFit
 
 if TYPE_CHECKING:
     import torch
@@ -195,8 +196,8 @@ def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, 
     """
     import torch  # imported here: a cached run never pays for it
 
-    params = ctx.params
-    cam = camera.resized(int(params["render_width"]))
+    settings = ctx.settings(RoomFit)
+    cam = camera.resized(settings.render_width)
     targets = room_targets(panoptic, depth, (cam.width, cam.height))
     if targets.visible.sum() < 1.0:
         raise PsdrRoomError("room_fit: the segmentation shows no wall, floor or ceiling; label them to fit the room")
@@ -213,7 +214,7 @@ def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, 
     valid = targets.depth[targets.depth_weight > 0]
     depth_scale = float(np.percentile(valid, 98)) if valid.size else 1.0
     weight_sum = d_weight.sum().clamp_min(1e-6)
-    keep_floor = bool(params["keep_floor"])
+    keep_floor = settings.keep_floor
 
     def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
         quads = box_vertices(room, theta, scale, keep_floor)
@@ -223,11 +224,10 @@ def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, 
         ious = [soft_iou(masks[k], t_masks[k], visible) for k in range(len(ROOM_PARTS))]
         l1 = (d_weight * (rendered_depth - t_depth).abs()).sum() / weight_sum / depth_scale
         terms = {f"iou_{name}": ious[k].item() for name, k in ROOM_PARTS.items()} | {"depth_l1": l1.item()}
-        return -torch.stack(ious).sum() + float(params["depth_weight"]) * l1, terms
+        return -torch.stack(ious).sum() + settings.depth_weight * l1, terms
 
-    history = untimed(ctx.impl("optimizer").minimize(theta, dict(params["learning_rates"]), loss,
-                                                     int(params["iterations"]),
-                                                     lambda it: ctx.progress(it, total=int(params["iterations"]))),
+    history = untimed(ctx.impl("optimizer").minimize(theta, dataclasses.asdict(settings.learning_rates), loss, settings.iterations,
+                                                     lambda it: ctx.progress(it, total=settings.iterations)),
                       ctx.timings)
     with torch.no_grad():
         half_size = np.asarray(room.half_size) * np.exp(theta["log_scale"].numpy().astype(np.float64))
