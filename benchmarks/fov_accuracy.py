@@ -33,7 +33,7 @@ def load_rgb(path: Path) -> np.ndarray:
         return np.asarray(im.convert("RGB"), dtype=np.float32) / 255.0
 
 
-def evaluate(photos_dir: Path, params: VanishingPointParams = VanishingPointParams()) -> list[dict]:
+def evaluate(photos_dir: Path, params: VanishingPointParams | None = None) -> list[dict]:
     """Run the estimator on every photo of ``photos_dir/index.csv`` with a known ``fy``.
 
     Returns one dict per photo: ``image``, ``gt_vfov_deg``, ``est_vfov_deg``, ``error_deg``
@@ -49,7 +49,7 @@ def evaluate(photos_dir: Path, params: VanishingPointParams = VanishingPointPara
             fy = float(entry["fy"])
             gt = math.degrees(2.0 * math.atan(rgb.shape[0] / (2.0 * fy)))
             start = time.perf_counter()
-            result = estimate_camera(rgb, params)
+            result = estimate_camera(rgb, params or VanishingPointParams())
             elapsed = time.perf_counter() - start
             rows.append(
                 {

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional
 
 import cv2
 import numpy as np
@@ -82,9 +81,9 @@ class FileDepth:
 
 @dataclass
 class FileDepthSettings:
-    path: Optional[str] = setting()
+    path: str | None = setting()
     encoding: str = setting(choices=("auto", *DEPTH_ENCODINGS))
-    scale: Optional[float] = setting(gt=0)
+    scale: float | None = setting(gt=0)
 
 
 @hookimpl

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Optional
 
 import cv2
 import numpy as np
@@ -83,7 +82,7 @@ def read_segmentation(kind: str, path: Path, image: Image) -> Panoptic:
 
 @dataclass
 class FileSegmentationSettings:
-    path: Optional[str] = setting()
+    path: str | None = setting()
 
 
 @hookimpl

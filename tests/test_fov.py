@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 import pytest
@@ -15,7 +15,7 @@ from psdr_room_plugins.vanishing_points import VanishingPointParams, estimate_ca
 VIEWS = [(45.0, 20.0, -5.0, 2.0), (60.0, -25.0, 5.0, -3.0), (75.0, 40.0, -10.0, 1.0)]
 
 
-@lru_cache(maxsize=None)
+@cache
 def _render(vfov: float, yaw: float, pitch: float, roll: float) -> np.ndarray:
     return render_box_room(vfov, width=320, height=240, yaw_deg=yaw, pitch_deg=pitch, roll_deg=roll)
 

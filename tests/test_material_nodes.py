@@ -212,7 +212,7 @@ def test_hash_is_deterministic_and_uniform() -> None:
     ids = torch.arange(20000)
     a, b = hash01(ids, seed=3), hash01(ids, seed=3)
     assert torch.equal(a, b) and not torch.equal(a, hash01(ids, seed=4))
-    assert 0.0 <= float(a.min()) and float(a.max()) < 1.0 and abs(float(a.mean()) - 0.5) < 0.01
+    assert float(a.min()) >= 0.0 and float(a.max()) < 1.0 and abs(float(a.mean()) - 0.5) < 0.01
 
 
 def test_periodic_sampling_and_blur_wrap_around() -> None:

@@ -71,7 +71,7 @@ def test_every_model_is_in_the_canonical_frame(db: ObjectDatabase) -> None:
         assert lo[1] == pytest.approx(0.0, abs=1e-9), record.id  # bottom at y = 0
         assert (lo[0] + hi[0]) / 2 == pytest.approx(0.0, abs=1e-9) and (lo[2] + hi[2]) / 2 == pytest.approx(0.0, abs=1e-9)
         assert np.allclose(hi - lo, record.extent, atol=1e-4), record.id
-        assert 0.0 < min(record.extent[0], record.extent[2]) and max(record.extent) < 4.0, (record.id, record.extent)
+        assert min(record.extent[0], record.extent[2]) > 0.0 and max(record.extent) < 4.0, (record.id, record.extent)
         assert mesh.groups == record.groups and len(mesh.colors) == len(mesh.groups)
         assert set(np.unique(mesh.face_group)) == set(range(len(mesh.groups))), record.id  # every group used
         area = np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)

@@ -90,7 +90,7 @@ def test_factory_is_cheap_and_validates() -> None:
     with pytest.raises(PsdrRoomError, match="renderer.mitsuba.spp"):
         MitsubaRenderer(spp=0)
     with pytest.raises(PsdrRoomError, match="variant"):
-        MitsubaRenderer(variant="vulkan").variant
+        _ = MitsubaRenderer(variant="vulkan").variant
 
 
 # ----------------------------------------------------------------------------------------- rendering
@@ -168,7 +168,7 @@ def _camera() -> tuple[Camera, np.ndarray]:
     return Camera.from_vfov(W, H, 60.0), c2w
 
 
-def _vertices(theta: "torch.Tensor") -> dict[str, "torch.Tensor"]:
+def _vertices(theta: torch.Tensor) -> dict[str, torch.Tensor]:
     """The scene's vertex tensors as a function of the 10 parameters (float64 in, float32 out)."""
     from psdr_room_core.method.rgb_scene import room_quad_indices
 
@@ -205,7 +205,7 @@ def _check(name: str, ad: np.ndarray, fd: np.ndarray, labels: list[str]) -> None
     assert np.all(np.sign(ad[significant]) == np.sign(fd[significant])), f"{name}: sign mismatch\n{table}"
 
 
-def _soft_iou_loss(masks: "torch.Tensor", target: "torch.Tensor") -> "torch.Tensor":
+def _soft_iou_loss(masks: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
     inter = (masks * target).sum((1, 2))
     union = (masks + target - masks * target).sum((1, 2))
     return (1.0 - inter / union).sum()
@@ -223,7 +223,7 @@ def test_mask_and_depth_gradients_match_finite_differences(renderer_cls) -> None
     # away from 0, where the L1 kink would make the comparison test the loss's noise, not the renderer.
     target_depth = 1.1 * target[1] + 0.05
 
-    def losses(theta: "torch.Tensor", iteration: int, geometry=renderer) -> tuple["torch.Tensor", "torch.Tensor"]:
+    def losses(theta: torch.Tensor, iteration: int, geometry=renderer) -> tuple[torch.Tensor, torch.Tensor]:
         masks, depth, _ = geometry.render(_vertices(theta), iteration)
         return _soft_iou_loss(masks, target[0]), (depth - target_depth).abs().mean()
 
@@ -263,7 +263,7 @@ def test_rgb_gradients_match_finite_differences(renderer_cls) -> None:
     """Path-traced RGB (global illumination, max_depth 3), differentiable in albedo and emitter radiance."""
     import torch.nn.functional as F
 
-    def pooled(image: "torch.Tensor") -> "torch.Tensor":  # a 1/8-resolution image loss, as the paper's
+    def pooled(image: torch.Tensor) -> torch.Tensor:  # a 1/8-resolution image loss, as the paper's
         return F.avg_pool2d(image.permute(2, 0, 1)[None], 8)
 
     names = ["object", "floor", "wall_z_neg"]
@@ -275,7 +275,7 @@ def test_rgb_gradients_match_finite_differences(renderer_cls) -> None:
             base_color=dict(zip(names, goal[:3])), radiance={"light": goal[3]}, iteration=999))
     renderer = _rgb_geometry(renderer_cls, rgb_spp=64)
 
-    def loss(x: "torch.Tensor", iteration: int, geometry=renderer) -> "torch.Tensor":
+    def loss(x: torch.Tensor, iteration: int, geometry=renderer) -> torch.Tensor:
         image = geometry.render_rgb(base_color=dict(zip(names, x[:3].float())), radiance={"light": x[3].float()},
                                     iteration=iteration)
         return ((pooled(image) - target) ** 2).mean()
@@ -312,7 +312,7 @@ def test_rgb_map_and_roughness_gradients_match_finite_differences(renderer_cls) 
     renderer = _rgb_geometry(renderer_cls, {"floor": surface}, rgb_spp=64)
     fine = _rgb_geometry(renderer_cls, {"floor": surface}, rgb_spp=256)
 
-    def loss(t: "torch.Tensor", rough: "torch.Tensor", spec: "torch.Tensor", iteration: int, geometry) -> "torch.Tensor":
+    def loss(t: torch.Tensor, rough: torch.Tensor, spec: torch.Tensor, iteration: int, geometry) -> torch.Tensor:
         image = geometry.render_rgb(base_color={"floor": t}, roughness={"object": rough}, specular={"object": spec},
                                     iteration=iteration)
         return ((image - target) ** 2).mean()

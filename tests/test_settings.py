@@ -5,7 +5,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional
 
 import pytest
 
@@ -61,14 +60,14 @@ def test_bad_setting_is_refused_in_one_line(override: str, message: str) -> None
 
 @dataclass
 class Inner:
-    size: Optional[int] = setting(ge=8)
+    size: int | None = setting(ge=8)
 
 
 @dataclass
 class Outer:
     ratio: float = setting(gt=0, lt=1)
     word: str = setting("a", choices=("a", "b"))
-    inner: Optional[Inner] = setting()
+    inner: Inner | None = setting()
 
 
 def test_schema_rules() -> None:

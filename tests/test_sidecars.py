@@ -55,7 +55,7 @@ def test_example_depth_png16_nyu():
     assert np.all(depth[~valid] == 0)
     assert 0.70 < valid.mean() < 0.76  # the NYU frame's valid region (Kinect projection)
     d = depth[valid]
-    assert 0.5 < d.min() and d.max() < 10.0 and 2.0 < np.median(d) < 5.0
+    assert d.min() > 0.5 and d.max() < 10.0 and 2.0 < np.median(d) < 5.0
 
 
 def test_example_depth_options():
@@ -72,7 +72,7 @@ def test_sun_rgbd_encoding():
     np.testing.assert_allclose(depth[valid], rotated[valid] / 1000.0, rtol=1e-6)
     assert 0.78 < valid.mean() < 0.86
     d = depth[valid]
-    assert 0.5 < d.min() and d.max() < 10.0 and 1.5 < np.median(d) < 4.0
+    assert d.min() > 0.5 and d.max() < 10.0 and 1.5 < np.median(d) < 4.0
     # read as plain png16 the same file gives implausible depths (up to ~64 m): SUN needs explicit encoding
     plain, _ = read_depth(path)
     assert plain.max() > 30.0
@@ -84,7 +84,7 @@ def test_tum_scale_5000():
     depth, valid = read_depth(path, encoding="png16", scale=5000.0)
     assert 0.77 < valid.mean() < 0.85
     d = depth[valid]
-    assert 0.5 < d.min() and d.max() < 10.0 and 1.5 < np.median(d) < 4.0
+    assert d.min() > 0.5 and d.max() < 10.0 and 1.5 < np.median(d) < 4.0
 
 
 @needs_photos

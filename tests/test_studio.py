@@ -384,10 +384,8 @@ def _screenshot(driver: Any, path: Path) -> None:
     WebGL on a loaded machine) is not a failure of the studio."""
     from selenium.common.exceptions import TimeoutException
 
-    try:
+    with contextlib.suppress(TimeoutException):
         driver.save_screenshot(str(path))
-    except TimeoutException:
-        pass
 
 
 def _ready_to_drag(driver: Any, what: str) -> None:

@@ -27,7 +27,7 @@ class Number:
         (directory / "number.json").write_text(json.dumps({"value": self.value}))
 
     @classmethod
-    def load(cls, directory: Path) -> "Number":
+    def load(cls, directory: Path) -> Number:
         return cls(json.loads((directory / "number.json").read_text())["value"])
 
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional
 
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Registry
@@ -24,11 +23,11 @@ from .nanodet import NanodetOnnx
 
 @dataclass
 class NanodetSettings:
-    path: Optional[str] = setting()
+    path: str | None = setting()
     score_threshold: float = setting(ge=0, le=1)
     nms_iou: float = setting(ge=0, le=1)
     max_detections: int = setting(ge=1)
-    classes: Optional[list[str]] = setting()
+    classes: list[str] | None = setting()
     flip: bool = setting()
     intra_op_threads: int = setting(ge=0)
     providers: list[str] = setting()
@@ -36,7 +35,7 @@ class NanodetSettings:
 
 @dataclass
 class BoxesFileSettings:
-    path: Optional[str] = setting()
+    path: str | None = setting()
 
 
 class NoDetector:

@@ -182,7 +182,7 @@ class NanodetOnnx:
 
     def unavailable(self, photo: Path) -> str | None:
         try:
-            self.layout
+            _ = self.layout  # reading the file's layout finds what is wrong with it
         except PsdrRoomError as exc:
             return str(exc)
         return None

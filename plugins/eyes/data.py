@@ -55,7 +55,7 @@ class Pack:
         return path
 
     @classmethod
-    def load(cls, path: Path) -> "Pack":
+    def load(cls, path: Path) -> Pack:
         with np.load(path) as data:
             return cls(**{k: data[k] for k in cls.__dataclass_fields__})
 

@@ -106,7 +106,7 @@ def export_onnx(net: EyesNet, path: Path, half: bool = False) -> Path:
     return path
 
 
-def _half_weights(model: "onnx.ModelProto") -> "onnx.ModelProto":  # noqa: F821
+def _half_weights(model: onnx.ModelProto) -> onnx.ModelProto:  # noqa: F821
     """Float32 initializers stored as float16, each read through a Cast back to float32."""
     import numpy as np
     import onnx

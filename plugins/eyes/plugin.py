@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional
 
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Registry
@@ -14,7 +13,7 @@ from psdr_room_core.engine.settings import setting
 class EyesSettings:
     """Which network file, onnxruntime's threads, and how instances are read from its outputs."""
 
-    path: Optional[str] = setting()
+    path: str | None = setting()
     intra_op_threads: int = setting(ge=0)
     center_threshold: float = setting(gt=0, lt=1)
     min_instance_fraction: float = setting(ge=0, lt=1)

@@ -4,7 +4,7 @@ the values and what they mean are in ``conf/segmentation/layout.yaml`` and ``con
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Optional
+from typing import Any
 
 from psdr_room_core.engine.settings import setting
 
@@ -85,4 +85,4 @@ class LayoutSegmentationSettings(LayoutFit):
     min_surface_fraction: float = setting(ge=0, le=1)
     grabcut: GrabCut = setting()
     discovery: Discovery = setting()
-    proposals: Optional[Proposals] = setting()
+    proposals: Proposals | None = setting()

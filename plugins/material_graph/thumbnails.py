@@ -151,7 +151,7 @@ class ThumbnailRenderer:
             self._shapes = {k: v.shape for k, v in bitmaps.items()}
             params = mi.traverse(self._scene)
             self._params = params
-            self._keys = {name: [k for k in params.keys() if k.endswith(f"{name}.data")]
+            self._keys = {name: [k for k in params if k.endswith(f"{name}.data")]
                           for name in ("base_color", "roughness", "metallic", "normalmap")}
         else:
             params = self._params

@@ -7,6 +7,7 @@ that any later ``import drjit`` in the process, by this plugin or another, gets 
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass
 
 from psdr_room_core.engine.errors import PsdrRoomError
@@ -19,10 +20,8 @@ from .session import GUIDING, MitsubaGeometryRenderer, MitsubaRenderer
 
 __all__ = ["MitsubaRenderer", "MitsubaGeometryRenderer"]
 
-try:
+with contextlib.suppress(PsdrRoomError):  # reported when the renderer is used, not when plugins load
     ensure_llvm()
-except PsdrRoomError:  # reported when the renderer is used, not when plugins load
-    pass
 
 
 @dataclass

@@ -208,7 +208,7 @@ class MitsubaRenderer:
         resolution_scale: float = 1.0,
         surfaces: Mapping[str, Surface] | None = None,
         emitters: Mapping[str, tuple[TriangleMesh, Any]] | None = None,
-    ) -> "MitsubaGeometryRenderer":
+    ) -> MitsubaGeometryRenderer:
         """A renderer of ``meshes`` (name → world-space mesh) seen by ``camera`` at ``camera_to_world``
         (4×4, OpenCV camera axes), at ``resolution_scale`` × the camera's resolution.
 
@@ -313,7 +313,7 @@ class MitsubaGeometryRenderer:
         """A 31-bit seed for (base seed, iteration); the gradient pass uses a decorrelated one."""
         return int((self.renderer.seed * 0x9E3779B1 + int(iteration) * 2 + 1) & 0x7FFFFFFF)
 
-    def _inputs(self, vertices: Mapping[str, "torch.Tensor"] | None) -> list[tuple[str, "torch.Tensor"]]:
+    def _inputs(self, vertices: Mapping[str, torch.Tensor] | None) -> list[tuple[str, torch.Tensor]]:
         import torch
 
         out = []
@@ -331,7 +331,7 @@ class MitsubaGeometryRenderer:
             out.append((f"{name}.vertex_positions", welded))
         return out
 
-    def _geometry_scene(self) -> "_MitsubaScene":
+    def _geometry_scene(self) -> _MitsubaScene:
         if self._geometry is None:
             if self.renderer.variant == "scalar_rgb":
                 raise PsdrRoomError(
@@ -341,14 +341,14 @@ class MitsubaGeometryRenderer:
             self._geometry = _MitsubaScene.build(self, rgb=False)
         return self._geometry
 
-    def _rgb_scene(self) -> "_MitsubaScene":
+    def _rgb_scene(self) -> _MitsubaScene:
         if self._rgb is None:
             self._rgb = _MitsubaScene.build(self, rgb=True)
         return self._rgb
 
     # ---------------------------------------------------------------------------------------- renders
-    def render(self, vertices: Mapping[str, "torch.Tensor"] | None = None,
-               iteration: int = 0) -> tuple["torch.Tensor", "torch.Tensor", "torch.Tensor"]:
+    def render(self, vertices: Mapping[str, torch.Tensor] | None = None,
+               iteration: int = 0) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """(masks [P,H,W], depth [H,W], alpha [H,W]) as float32 torch tensors.
 
         ``vertices`` maps shape names to N×3 world positions (the mesh's vertex order) replacing the
@@ -372,15 +372,15 @@ class MitsubaGeometryRenderer:
 
     def render_rgb(
         self,
-        vertices: Mapping[str, "torch.Tensor"] | None = None,
-        base_color: Mapping[str, "torch.Tensor"] | None = None,
-        roughness: Mapping[str, "torch.Tensor"] | None = None,
-        specular: Mapping[str, "torch.Tensor"] | None = None,
-        radiance: Mapping[str, "torch.Tensor"] | None = None,
+        vertices: Mapping[str, torch.Tensor] | None = None,
+        base_color: Mapping[str, torch.Tensor] | None = None,
+        roughness: Mapping[str, torch.Tensor] | None = None,
+        specular: Mapping[str, torch.Tensor] | None = None,
+        radiance: Mapping[str, torch.Tensor] | None = None,
         iteration: int = 0,
         spp: int = 0,
         grad_spp: int = 0,
-    ) -> "torch.Tensor":
+    ) -> torch.Tensor:
         """Path-traced linear RGB [H,W,3] (``max_depth``; ``spp`` samples per pixel, default ``rgb_spp``; its
         gradient pass ``grad_spp``, default the same) with the shapes' surfaces and the emitters given to
         :meth:`MitsubaRenderer.geometry`.
@@ -418,10 +418,10 @@ class MitsubaGeometryRenderer:
 
     def render_guides(
         self,
-        base_color: Mapping[str, "torch.Tensor"] | None = None,
-        roughness: Mapping[str, "torch.Tensor"] | None = None,
-        specular: Mapping[str, "torch.Tensor"] | None = None,
-        radiance: Mapping[str, "torch.Tensor"] | None = None,
+        base_color: Mapping[str, torch.Tensor] | None = None,
+        roughness: Mapping[str, torch.Tensor] | None = None,
+        specular: Mapping[str, torch.Tensor] | None = None,
+        radiance: Mapping[str, torch.Tensor] | None = None,
         spp: int = 16,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Albedo (the principled BSDF's base colour; black on emitters) and shading normal (world space) of
@@ -436,9 +436,9 @@ class MitsubaGeometryRenderer:
         image = np.array(scene.guides.render(scene.scene, sensor=0, seed=_opaque_seed(0), spp=int(spp)), dtype=np.float32)
         return image[..., :3], image[..., 3:6]
 
-    def _surface_inputs(self, scene: "_MitsubaScene", base_color: Mapping[str, Any] | None,
+    def _surface_inputs(self, scene: _MitsubaScene, base_color: Mapping[str, Any] | None,
                         roughness: Mapping[str, Any] | None, specular: Mapping[str, Any] | None,
-                        radiance: Mapping[str, Any] | None) -> list[tuple[str, "torch.Tensor"]]:
+                        radiance: Mapping[str, Any] | None) -> list[tuple[str, torch.Tensor]]:
         """(parameter key, tensor) of every surface and emitter value given, checked against the scene."""
         inputs = []
         for channel, values in (("base_color", base_color), ("roughness", roughness), ("specular", specular)):
@@ -455,7 +455,7 @@ class MitsubaGeometryRenderer:
         return inputs
 
 
-def _as_input(value: Any, current: Any, what: str) -> "torch.Tensor":
+def _as_input(value: Any, current: Any, what: str) -> torch.Tensor:
     """``value`` as a float tensor shaped like the scene parameter it replaces (a colour [3], a number [1],
     or a map [H, W, C] of the size given at construction)."""
     import torch
@@ -491,12 +491,12 @@ class _MitsubaScene:
         self.guides: Any = None  # the aov integrator of render_guides, made on first use
         self._frozen: dict[tuple[str, int], Any] = {}
 
-    def with_mode(self, mode: str) -> "_MitsubaScene":
+    def with_mode(self, mode: str) -> _MitsubaScene:
         self.passes = self._projective if mode == "projective" else self._plain
         return self
 
     @classmethod
-    def build(cls, owner: MitsubaGeometryRenderer, rgb: bool) -> "_MitsubaScene":
+    def build(cls, owner: MitsubaGeometryRenderer, rgb: bool) -> _MitsubaScene:
         r = owner.renderer
         mi = r.activate()
         cam = owner.camera
@@ -753,7 +753,7 @@ _RenderFunction = _LazyFunction()
 
 
 def _find_key(params: Any, prefix: str, suffixes: tuple[str, ...]) -> str:
-    for key in params.keys():
+    for key in params:
         if key.startswith(prefix) and key.endswith(suffixes):
             return key
     raise PsdrRoomError(f"renderer=mitsuba: no scene parameter {prefix}*{suffixes[0]} (Mitsuba version mismatch?)")

@@ -11,6 +11,7 @@ extent) are computed once per library version and kept in the cache directory
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import json
@@ -168,8 +169,6 @@ def builtin_database() -> ObjectDatabase:
             records = None  # a damaged cache entry is recomputed
     if records is None:
         records = builtin_records()
-        try:
+        with contextlib.suppress(OSError):  # a read-only cache only costs time
             write_whole(cached, json.dumps({"digest": digest, "models": [r.to_json() for r in records]}) + "\n")
-        except OSError:
-            pass  # a read-only cache only costs time
     return ObjectDatabase(records, BuiltinLoader(), digest=digest, label="built-in object library")

@@ -57,7 +57,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def open_database(root: Path | None = None, future: Path | None = None, subset: float | None = None,
-                  seed: int = 0) -> "ObjectDatabase":  # noqa: F821
+                  seed: int = 0) -> ObjectDatabase:  # noqa: F821
     from .builtin import builtin_database
     from .database import ObjectDatabase
 

@@ -85,7 +85,7 @@ class ModelRecord:
                 "licence": self.licence, "groups": list(self.groups), "extent": [round(float(e), 6) for e in self.extent]}
 
     @classmethod
-    def from_json(cls, data: Any, where: str) -> "ModelRecord":
+    def from_json(cls, data: Any, where: str) -> ModelRecord:
         """Validate a record read from ``where`` (a file name, for the error message)."""
         if not isinstance(data, Mapping):
             raise PsdrRoomError(f"{where}: a model record must be a JSON object, got {type(data).__name__}")
@@ -252,7 +252,7 @@ class ObjectDatabase:
 
     # -- construction
     @classmethod
-    def load(cls, root: Path) -> "ObjectDatabase":
+    def load(cls, root: Path) -> ObjectDatabase:
         """A database in our format: ``root/index.json`` and one folder per model."""
         root = Path(root)
         index = root / "index.json"
@@ -312,7 +312,7 @@ class ObjectDatabase:
         self.record(model_id)
         return self._cache.get(model_id)
 
-    def subset(self, fraction: float, seed: int) -> "ObjectDatabase":
+    def subset(self, fraction: float, seed: int) -> ObjectDatabase:
         """A random ``fraction`` of each category's models (at least one per category), in the original
         order; for the database-size ablation (paper Fig. 10)."""
         if not 0.0 < float(fraction) <= 1.0:
@@ -327,7 +327,7 @@ class ObjectDatabase:
         return self.only([r.id for r in self.records if r.id in keep],
                          label=f"{self.label} (subset {fraction:g}, seed {seed})")
 
-    def only(self, model_ids: Iterable[str], label: str | None = None) -> "ObjectDatabase":
+    def only(self, model_ids: Iterable[str], label: str | None = None) -> ObjectDatabase:
         """The database restricted to ``model_ids`` (same digest, so same thumbnails; shared mesh cache)."""
         records = [self.record(i) for i in model_ids]
         return ObjectDatabase(records, self._cache.loader, self.digest, label=self.label if label is None else label,

@@ -17,6 +17,7 @@ and modification time, and later reads only parse what changed.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
@@ -183,11 +184,9 @@ def read_3dfuture(root: Path, front_axis: str = "+z", workers: int | None = None
             else:
                 model_id, groups, extent = result  # type: ignore[misc]
                 known[model_id] = {"stamp": stamps[model_id], "groups": groups, "extent": extent}
-        try:
+        with contextlib.suppress(OSError):
             write_whole(cache_path, json.dumps({"version": READER_VERSION, "front_axis": front_axis,
                                                 "root": str(root.resolve()), "models": known}) + "\n")
-        except OSError:
-            pass
     if missing:
         message = f"{root}: {len(missing)} of {len(info)} models in model_info.json cannot be read, e.g. {missing[0]}"
         if strict:

@@ -224,12 +224,12 @@ class MeshBuilder:
         self._parts: list[tuple[str, np.ndarray, np.ndarray]] = []
         self._colors: dict[str, tuple[float, float, float]] = {}
 
-    def group(self, name: str, color: Sequence[float]) -> "MeshBuilder":
+    def group(self, name: str, color: Sequence[float]) -> MeshBuilder:
         """Declare a group and its sRGB base colour (groups are ordered by declaration)."""
         self._colors[name] = (float(color[0]), float(color[1]), float(color[2]))
         return self
 
-    def add(self, group: str, part: tuple[np.ndarray, np.ndarray], mirror_x: bool = False) -> "MeshBuilder":
+    def add(self, group: str, part: tuple[np.ndarray, np.ndarray], mirror_x: bool = False) -> MeshBuilder:
         """Add a primitive to ``group``; ``mirror_x`` also adds its mirror image across x = 0."""
         if group not in self._colors:
             raise KeyError(f"group {group!r} is not declared")
@@ -239,7 +239,7 @@ class MeshBuilder:
             self._parts.append((group, vertices * np.array([-1.0, 1.0, 1.0]), np.asarray(faces)[:, ::-1].copy()))
         return self
 
-    def add_all(self, group: str, parts: Sequence[tuple[np.ndarray, np.ndarray]]) -> "MeshBuilder":
+    def add_all(self, group: str, parts: Sequence[tuple[np.ndarray, np.ndarray]]) -> MeshBuilder:
         for part in parts:
             self.add(group, part)
         return self

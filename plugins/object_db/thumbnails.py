@@ -74,7 +74,7 @@ class ThumbnailRenderer:
             mi.set_variant(variant)
         return mi
 
-    def render(self, mesh: "ObjectMesh", views: Sequence[int] | None = None) -> list[np.ndarray]:
+    def render(self, mesh: ObjectMesh, views: Sequence[int] | None = None) -> list[np.ndarray]:
         """The mesh seen from each of ``views`` (indices into :attr:`views`; default all)."""
         views = range(len(self.views)) if views is None else views
         mi = self._mi()
@@ -129,7 +129,7 @@ def default_renderer() -> ThumbnailRenderer:
     return _RENDERERS[key]
 
 
-def cache_dir(db: "ObjectDatabase", renderer: ThumbnailRenderer | None = None) -> Path:
+def cache_dir(db: ObjectDatabase, renderer: ThumbnailRenderer | None = None) -> Path:
     """Where ``db``'s thumbnails live: ``<cache>/object_db/<digest of db and renderer settings>``."""
     from psdr_room_core.engine.cache import default_cache_dir
 
@@ -158,7 +158,7 @@ def _read_png(path: Path) -> np.ndarray | None:
     return None if image is None else np.ascontiguousarray(image[:, :, ::-1])
 
 
-def cached_thumbnails(db: "ObjectDatabase", model_id: str, renderer: ThumbnailRenderer | None = None
+def cached_thumbnails(db: ObjectDatabase, model_id: str, renderer: ThumbnailRenderer | None = None
                       ) -> list[np.ndarray] | None:
     """The cached views of a model, or None if any is missing."""
     renderer = renderer or default_renderer()
@@ -167,7 +167,7 @@ def cached_thumbnails(db: "ObjectDatabase", model_id: str, renderer: ThumbnailRe
     return None if any(image is None for image in images) else images  # type: ignore[return-value]
 
 
-def thumbnails_for(db: "ObjectDatabase", model_id: str, renderer: ThumbnailRenderer | None = None,
+def thumbnails_for(db: ObjectDatabase, model_id: str, renderer: ThumbnailRenderer | None = None,
                    views: Sequence[int] | None = None) -> list[np.ndarray]:
     """The model's ``views`` (indices into the renderer's; default all) from the cache; the missing ones are
     rendered, in one scene, and stored there first (a contact sheet needs one view: it renders only that)."""
@@ -183,7 +183,7 @@ def thumbnails_for(db: "ObjectDatabase", model_id: str, renderer: ThumbnailRende
     return [images[k] for k in views]  # type: ignore[misc]
 
 
-def build_thumbnails(db: "ObjectDatabase", renderer: ThumbnailRenderer | None = None,
+def build_thumbnails(db: ObjectDatabase, renderer: ThumbnailRenderer | None = None,
                      progress: Callable[[Iterable[Any]], Iterable[Any]] | None = None) -> tuple[int, int]:
     """Render every missing thumbnail of ``db``; returns (models rendered, models already cached)."""
     renderer = renderer or default_renderer()

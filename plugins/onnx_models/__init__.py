@@ -16,7 +16,6 @@ graph with a fixed signature to support; ``fov=vanishing_points`` stays the esti
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional
 
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Registry
@@ -32,8 +31,8 @@ class OnnxModelSettings:
     """Which network file and how onnxruntime runs it (shared by the three implementations)."""
 
     model: str = setting()
-    path: Optional[str] = setting()
-    family: Optional[str] = setting()
+    path: str | None = setting()
+    family: str | None = setting()
     models_dir: str = setting()
     intra_op_threads: int = setting(ge=0)
     providers: list[str] = setting()
@@ -41,13 +40,13 @@ class OnnxModelSettings:
 
 @dataclass
 class OnnxDepthSettings(OnnxModelSettings):
-    input_size: Optional[int] = setting(ge=32)
+    input_size: int | None = setting(ge=32)
     disparity_eps: float = setting(ge=0, lt=1)
 
 
 @dataclass
 class OnnxSegmentationSettings(OnnxModelSettings):
-    input_size: Optional[int] = setting(ge=32)
+    input_size: int | None = setting(ge=32)
     min_segment_fraction: float = setting(ge=0, lt=1)
 
 

@@ -118,7 +118,7 @@ def photo_textures(folder: Path | None) -> list[Path]:
     for path in files:
         sets.setdefault(path.parent, []).append(path)
     chosen = []
-    for parent, members in sets.items():
+    for _parent, members in sets.items():
         colour = [p for p in members if any(n in p.stem.lower() for n in PHOTO_TEXTURE_NAMES)]
         chosen += colour[:1] if colour else [p for p in members if "_" not in p.stem or len(members) > 3]
     return chosen

@@ -32,7 +32,7 @@ class Footprint:
     hx: float
     hz: float
 
-    def overlaps(self, other: "Footprint", gap: float = CLEARANCE) -> bool:
+    def overlaps(self, other: Footprint, gap: float = CLEARANCE) -> bool:
         return abs(self.x - other.x) < self.hx + other.hx + gap and abs(self.z - other.z) < self.hz + other.hz + gap
 
 

@@ -33,7 +33,7 @@ def scene_dict(room: SyntheticRoom, spp: int, max_depth: int) -> dict:
     """The Mitsuba scene description of ``room`` (built-in shapes only)."""
     import mitsuba as mi
 
-    def transform(m: np.ndarray) -> "mi.ScalarTransform4f":
+    def transform(m: np.ndarray) -> mi.ScalarTransform4f:
         return mi.ScalarTransform4f(np.asarray(m, dtype=np.float64).tolist())
 
     def diffuse(rgb: tuple[float, ...]) -> dict:

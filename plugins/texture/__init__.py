@@ -9,7 +9,6 @@ and reads torchvision's VGG19 weights (``psdr-room-models download vgg19_imagene
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional
 
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Registry
@@ -28,7 +27,7 @@ class RandomCnnSettings:
     channels: int = setting(ge=1)
     kernel: int = setting(ge=1)
     levels: int = setting(ge=1)
-    size: Optional[int] = setting(ge=16)
+    size: int | None = setting(ge=16)
     power: float = setting(gt=0)
     colour_weight: float = setting(ge=0)
     device: str = setting()
@@ -37,10 +36,10 @@ class RandomCnnSettings:
 @dataclass
 class Vgg19Settings:
     model: str = setting()
-    path: Optional[str] = setting()
+    path: str | None = setting()
     models_dir: str = setting()
     layers: list[str] = setting()
-    size: Optional[int] = setting(ge=16)
+    size: int | None = setting(ge=16)
     colour_weight: float = setting(ge=0)
     device: str = setting()
 

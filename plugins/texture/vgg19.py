@@ -146,7 +146,7 @@ class Vgg19Descriptor(GramDescriptor):
         out: dict[str, torch.Tensor] = {}
         names = layer_names()
         convs = iter(self.weights)
-        for position, name in enumerate(names[: self._last + 1]):
+        for _position, name in enumerate(names[: self._last + 1]):
             if name.startswith("conv"):
                 w, b = next(convs)
                 x = F.conv2d(x, w, b, padding=1)

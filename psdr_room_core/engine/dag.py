@@ -122,7 +122,7 @@ class Pipeline:
         self.nodes = self._sorted(list(nodes))
 
     @classmethod
-    def from_config(cls, cfg: Mapping[str, Any], provided: Iterable[str] = ()) -> "Pipeline":
+    def from_config(cls, cfg: Mapping[str, Any], provided: Iterable[str] = ()) -> Pipeline:
         """Build the pipeline from the composed config's stage nodes (see module docstring)."""
         nodes = []
         for name, node in cfg.items():

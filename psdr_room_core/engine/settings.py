@@ -17,6 +17,7 @@ import copy
 import dataclasses
 import difflib
 import operator
+import types
 import typing
 from collections.abc import Iterable, Mapping
 from typing import TYPE_CHECKING, Any
@@ -202,7 +203,7 @@ def _type_name(hint: Any) -> str:
     origin = typing.get_origin(hint)
     if origin in (list, tuple):
         return f"a list of {_type_name(args[0]).removeprefix('a ').removeprefix('an ')}s" if args else "a list"
-    if origin is typing.Union and len(args) == 1:
+    if origin in (typing.Union, types.UnionType) and len(args) == 1:  # Optional[X] or X | None
         return f"null or {_type_name(args[0])}"
     return {int: "an integer", float: "a number", bool: "true or false", str: "a string"}.get(hint, "a value")
 

@@ -43,7 +43,7 @@ class MaterialIndex:
     library materials typically are. :meth:`similarity` is measured against it."""
 
     @classmethod
-    def build(cls, library: Any, descriptor: Any, map_size: int, names: Sequence[str] | None = None) -> "MaterialIndex":
+    def build(cls, library: Any, descriptor: Any, map_size: int, names: Sequence[str] | None = None) -> MaterialIndex:
         """Describe each of ``names`` (default: the whole library) with the ``texture`` implementation."""
         names = list(names if names is not None else library.names())
         blocks = []

@@ -22,12 +22,12 @@ not import onnxruntime.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import logging
 import os
 import re
-import socket
 import sys
 import tempfile
 import urllib.error
@@ -241,10 +241,8 @@ def _remember_sha256(path: Path, digest: str) -> None:
     stat = path.stat()
     cache = _read_hash_cache(path.parent)
     cache[path.name] = [stat.st_size, stat.st_mtime_ns, digest]
-    try:
+    with contextlib.suppress(OSError):  # a read-only models dir: hash again next time
         write_whole(path.parent / HASH_CACHE, json.dumps(cache, indent=1, sort_keys=True))
-    except OSError:
-        pass  # a read-only models dir: hash again next time
 
 
 def _cached_sha256(path: Path) -> str:
@@ -381,10 +379,8 @@ def download(name: str, models_dir: Path, registry: Mapping[str, ModelEntry] | N
         if not done:
             tmp.unlink(missing_ok=True)
             if created:
-                try:
+                with contextlib.suppress(OSError):
                     models_dir.rmdir()  # only if still empty: leave no trace of a failed first download
-                except OSError:
-                    pass
     return target
 
 
@@ -415,7 +411,7 @@ def _fetch(entry: ModelEntry, host: str, models_dir: Path, out: Any, *, progress
     except urllib.error.URLError as exc:
         reason = exc.reason.strerror if isinstance(exc.reason, OSError) and exc.reason.strerror else exc.reason
         raise PsdrRoomError(f"cannot reach {host} to download {entry.file}: {reason}; {by_hand}") from None
-    except (socket.timeout, TimeoutError, ConnectionError) as exc:
+    except (TimeoutError, ConnectionError) as exc:
         raise PsdrRoomError(f"cannot reach {host} to download {entry.file}: {exc or type(exc).__name__}; "
                             f"{by_hand}") from None
     if length and length.isdigit() and size != int(length):

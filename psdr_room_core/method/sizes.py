@@ -108,7 +108,7 @@ class SizePrior:
     range_weight: float = 0.0
 
     @classmethod
-    def of(cls, category: str, extent: Sequence[float], scale_weight: float, range_weight: float) -> "SizePrior":
+    def of(cls, category: str, extent: Sequence[float], scale_weight: float, range_weight: float) -> SizePrior:
         low, high = scale_range(category, extent)
         return cls(low, high, float(scale_weight), float(range_weight))
 

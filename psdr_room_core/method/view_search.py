@@ -98,7 +98,7 @@ class ViewTarget:
     @classmethod
     def build(cls, camera: Camera, camera_to_world: np.ndarray, mask: np.ndarray, points: np.ndarray,
               scene_points: np.ndarray, width: int, max_pixels: int = 0,
-              box: tuple[float, float, float, float] | None = None, room: RoomBox | None = None) -> "ViewTarget":
+              box: tuple[float, float, float, float] | None = None, room: RoomBox | None = None) -> ViewTarget:
         """The target of an object with ``mask`` (working-image resolution) and world ``points`` in a scene of
         world ``scene_points`` (every segment's), seen by ``camera`` resized to ``width``, or narrower where
         the mask would have more than ``max_pixels`` pixels (0: no limit; scores are relative, so a cap buys
@@ -318,8 +318,9 @@ class ViewSearch:
     showing the camera its back costs ``back_weight``."""
 
     def __init__(self, target: ViewTarget, vertices: np.ndarray, faces: np.ndarray,
-                 params: SearchParams = SearchParams(), support_height: float | None = None,
+                 params: SearchParams | None = None, support_height: float | None = None,
                  caster: MeshCaster | None = None, prior: SizePrior | None = None, backed: bool = False) -> None:
+        params = params or SearchParams()
         self.params, self.support_height = params, support_height
         self.scorer = _Scorer(target, vertices, faces, params, caster, prior, backed)
         box_centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2.0
@@ -396,7 +397,7 @@ class ViewSearch:
                        {name: float(value[0]) for name, value in terms.items()})
 
 
-def fit_view(target: ViewTarget, vertices: np.ndarray, faces: np.ndarray, params: SearchParams = SearchParams(),
+def fit_view(target: ViewTarget, vertices: np.ndarray, faces: np.ndarray, params: SearchParams | None = None,
              support_height: float | None = None, prior: SizePrior | None = None, backed: bool = False) -> ViewFit:
     """The pose of a mesh (canonical: bottom at 0, centred on the vertical axis) that best explains the
     object in ``target``; with ``support_height`` its bottom stays at that height, with ``prior`` its size is

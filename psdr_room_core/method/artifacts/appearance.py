@@ -69,7 +69,7 @@ class MaterialAssignment:
             for p in self.parts]})
 
     @classmethod
-    def load(cls, directory: Path) -> "MaterialAssignment":
+    def load(cls, directory: Path) -> MaterialAssignment:
         data = read_json(directory / "materials.json")
         try:
             parts = [PartMaterial(**{**p, "albedo": tuple(float(v) for v in p["albedo"]),
@@ -119,7 +119,7 @@ class Lights:
             "fixtures": list(self.fixtures), "sweep": [list(s) for s in self.sweep], "images": sorted(self.images)})
 
     @classmethod
-    def load(cls, directory: Path) -> "Lights":
+    def load(cls, directory: Path) -> Lights:
         data = read_json(directory / "lights.json")
         try:
             names = [l["name"] for l in data["lights"]] + list(data["fixtures"])
@@ -173,7 +173,7 @@ class SceneAppearance:
                                                     "images": sorted(self.images)})
 
     @classmethod
-    def load(cls, directory: Path) -> "SceneAppearance":
+    def load(cls, directory: Path) -> SceneAppearance:
         data = read_json(directory / "appearance.json")
         return cls(**appearance_fields(data, directory / "appearance.json"),
                    images={n: read_png(directory / f"{n}.png") for n in data.get("images", [])})
@@ -208,6 +208,6 @@ class SceneFiles:
             target.write_bytes(content)
 
     @classmethod
-    def load(cls, directory: Path) -> "SceneFiles":
+    def load(cls, directory: Path) -> SceneFiles:
         return cls(files={p.relative_to(directory).as_posix(): p.read_bytes()
                           for p in sorted(directory.rglob("*")) if p.is_file()})

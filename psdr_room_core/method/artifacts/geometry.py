@@ -36,7 +36,7 @@ class PointCloud:
         write_json(directory / "segments.json", [asdict(s) for s in self.segments])
 
     @classmethod
-    def load(cls, directory: Path) -> "PointCloud":
+    def load(cls, directory: Path) -> PointCloud:
         data = read_ply(directory / "points.ply")
         segments = [Segment(**s) for s in read_json(directory / "segments.json")]
         points = np.stack([data["x"], data["y"], data["z"]], axis=1).astype(np.float32)
@@ -95,7 +95,7 @@ class RoomBox:
         )
 
     @classmethod
-    def load(cls, directory: Path) -> "RoomBox":
+    def load(cls, directory: Path) -> RoomBox:
         d = read_json(directory / "room_box.json")
         return cls(
             camera_to_world=np.array(d["camera_to_world"], dtype=np.float64),
@@ -146,7 +146,7 @@ class ObjectCandidates:
             for sid, ranked in sorted(self.ranked.items())]})
 
     @classmethod
-    def load(cls, directory: Path) -> "ObjectCandidates":
+    def load(cls, directory: Path) -> ObjectCandidates:
         data = read_json(directory / "candidates.json")
         try:
             ranked = {int(o["segment_id"]): [Candidate(str(c["model_id"]), float(c["score"]), str(c.get("category", "")),
@@ -214,7 +214,7 @@ class ObjectMesh:
                                for name, (r, g, b) in zip(self.groups, self.colors)))
 
     @classmethod
-    def read_obj(cls, obj: Path) -> "ObjectMesh":
+    def read_obj(cls, obj: Path) -> ObjectMesh:
         """Read what :meth:`write_obj` wrote (triangles, ``usemtl`` groups, ``Kd`` colours)."""
         vertices, faces, face_group, groups = [], [], [], []
         try:
@@ -303,7 +303,7 @@ class Placements:
         write_json(directory / "placements.json", {"objects": items, "extra": self.extra})
 
     @classmethod
-    def load(cls, directory: Path) -> "Placements":
+    def load(cls, directory: Path) -> Placements:
         data = read_json(directory / "placements.json")
         try:
             objects = [Placement(segment_id=int(o["segment_id"]), label=str(o["label"]), model_id=str(o["model_id"]),

@@ -45,7 +45,7 @@ class Image:
         write_json(directory / "image.json", {"source": self.source, "original_size": list(self.original_size)})
 
     @classmethod
-    def load(cls, directory: Path) -> "Image":
+    def load(cls, directory: Path) -> Image:
         data = read_png(directory / "image.png")
         scale = 65535.0 if data.dtype == np.uint16 else 255.0
         meta = read_json(directory / "image.json")
@@ -72,7 +72,7 @@ class Camera:
     """Estimator details kept for inspection (vanishing points, segment counts, ...)."""
 
     @classmethod
-    def from_vfov(cls, width: int, height: int, vfov_deg: float, **kwargs: Any) -> "Camera":
+    def from_vfov(cls, width: int, height: int, vfov_deg: float, **kwargs: Any) -> Camera:
         fy = 0.5 * height / math.tan(math.radians(vfov_deg) / 2.0)
         return cls(width=width, height=height, fx=fy, fy=fy, cx=width / 2.0, cy=height / 2.0, **kwargs)
 
@@ -80,7 +80,7 @@ class Camera:
     def vfov_deg(self) -> float:
         return math.degrees(2.0 * math.atan(0.5 * self.height / self.fy))
 
-    def resized(self, width: int) -> "Camera":
+    def resized(self, width: int) -> Camera:
         """The camera for an image ``width`` pixels wide: the intrinsics scaled uniformly (square pixels stay
         square; the rounded height changes the vertical field of view by under half a pixel)."""
         s = width / self.width
@@ -103,7 +103,7 @@ class Camera:
         write_json(directory / "camera.json", data)
 
     @classmethod
-    def load(cls, directory: Path) -> "Camera":
+    def load(cls, directory: Path) -> Camera:
         data = read_json(directory / "camera.json")
         data.pop("vfov_deg", None)
         return cls(**data)

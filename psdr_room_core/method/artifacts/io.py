@@ -85,7 +85,7 @@ def read_ply(path: Path) -> np.ndarray:
 
 def save_meshes(path: Path, meshes: dict[str, TriangleMesh]) -> None:
     arrays = {}
-    for k, (name, mesh) in enumerate(meshes.items()):
+    for k, (_name, mesh) in enumerate(meshes.items()):
         arrays[f"v{k}"], arrays[f"f{k}"] = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
     np.savez(path, **arrays)
 

@@ -29,7 +29,7 @@ class OptimizationLog:
             write_png(directory / f"{name}.png", picture)
 
     @classmethod
-    def load(cls, directory: Path) -> "OptimizationLog":
+    def load(cls, directory: Path) -> OptimizationLog:
         data = read_json(directory / "log.json")
         images = {name: read_png(directory / f"{name}.png") for name in data["images"]}
         return cls(history=data["history"], images=images, summary=data["summary"])

@@ -39,7 +39,7 @@ class DepthMap:
         write_json(directory / "depth.json", {"metric": self.metric, "source": self.source})
 
     @classmethod
-    def load(cls, directory: Path) -> "DepthMap":
+    def load(cls, directory: Path) -> DepthMap:
         meta = read_json(directory / "depth.json")
         depth = read_npy(directory / "depth.npy").astype(np.float32)
         valid = read_png(directory / "valid.png") > 0
@@ -83,7 +83,7 @@ class Detections:
             for d in self.items]})
 
     @classmethod
-    def load(cls, directory: Path) -> "Detections":
+    def load(cls, directory: Path) -> Detections:
         data = read_json(directory / "detections.json")
         try:
             items = [Detection(label=str(d["label"]), category=str(d["category"]), box=tuple(map(float, d["box"])),
@@ -195,7 +195,7 @@ class Panoptic:
         write_coco_panoptic(directory / "panoptic.png", directory / "panoptic.json", self.ids, self.segments)
 
     @classmethod
-    def load(cls, directory: Path) -> "Panoptic":
+    def load(cls, directory: Path) -> Panoptic:
         """Read what :meth:`save` wrote; (edited) files from elsewhere go through ``segmentation=file``."""
         rgb = read_png(directory / "panoptic.png")
         if rgb.ndim != 3:

@@ -264,7 +264,7 @@ def crop_sheet(rows: list[tuple[str, Any, Any, tuple[float, float, float], PartM
     return np.vstack(lines)
 
 
-def _to_uint8(image: "torch.Tensor") -> np.ndarray:
+def _to_uint8(image: torch.Tensor) -> np.ndarray:
     return (image.clamp(0, 1).permute(1, 2, 0).numpy() * 255 + 0.5).astype(np.uint8)
 
 
