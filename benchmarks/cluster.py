@@ -38,11 +38,18 @@ from psdr_room_plugins.synth.scene import generate
 def sweep(name: str, launcher: list[str], rooms: Path, cache: Path, out: Path, extra: list[str]) -> dict:
     """One ``--multirun`` over the rooms; its wall time and what its jobs computed."""
     folder = out / name
-    command = [shutil.which("psdr-room") or "psdr-room", "--multirun", *launcher, f"photos={rooms}/*/photo.png",
-               f"hydra.sweep.dir={folder}", *extra]
+    command = [
+        shutil.which("psdr-room") or "psdr-room",
+        "--multirun",
+        *launcher,
+        f"photos={rooms}/*/photo.png",
+        f"hydra.sweep.dir={folder}",
+        *extra,
+    ]
     start = time.perf_counter()
-    result = subprocess.run(command, capture_output=True, text=True,
-                            env={**os.environ, "PSDR_ROOM_CACHE_DIR": str(cache)})
+    result = subprocess.run(
+        command, capture_output=True, text=True, env={**os.environ, "PSDR_ROOM_CACHE_DIR": str(cache)}
+    )
     seconds = time.perf_counter() - start
     if result.returncode != 0:
         sys.exit(f"{name}: psdr-room failed ({result.returncode}):\n{result.stderr[-2000:]}")
@@ -51,8 +58,15 @@ def sweep(name: str, launcher: list[str], rooms: Path, cache: Path, out: Path, e
     cached = sum(s["cached"] for job in stages for s in job.values())
     total = sum(len(job) for job in stages)
     ssim = [float(r["ssim"]) for r in rows if r["ssim"]]
-    return {"sweep": name, "jobs": len(rows), "seconds": seconds, "per_hour": 3600 * len(rows) / seconds,
-            "computed": total - cached, "cached": cached, "ssim": statistics.median(ssim) if ssim else float("nan")}
+    return {
+        "sweep": name,
+        "jobs": len(rows),
+        "seconds": seconds,
+        "per_hour": 3600 * len(rows) / seconds,
+        "computed": total - cached,
+        "cached": cached,
+        "ssim": statistics.median(ssim) if ssim else float("nan"),
+    }
 
 
 def lock_cost(directory: Path, repeats: int = 2000) -> float:
@@ -86,13 +100,17 @@ def main() -> None:
     print(f"\n{args.rooms} synthetic rooms, {' '.join(args.set) or 'whole pipeline, default settings'}\n")
     print(f"{'sweep':<12} {'workers':>7} {'wall s':>8} {'photos/h':>9} {'computed':>9} {'cached':>7} {'SSIM':>6}")
     for r in results:
-        print(f"{r['sweep']:<12} {workers[r['sweep'].split('-')[0]]:>7} {r['seconds']:>8.1f} {r['per_hour']:>9.1f} "
-              f"{r['computed']:>9} {r['cached']:>7} {r['ssim']:>6.3f}")
+        print(
+            f"{r['sweep']:<12} {workers[r['sweep'].split('-')[0]]:>7} {r['seconds']:>8.1f} {r['per_hour']:>9.1f} "
+            f"{r['computed']:>9} {r['cached']:>7} {r['ssim']:>6.3f}"
+        )
     lock = lock_cost(out / "lock-cache")
     stages = (results[0]["computed"] + results[0]["cached"]) / results[0]["jobs"]
     per_photo = results[0]["seconds"] / results[0]["jobs"]
-    print(f"\ncache lock (uncontended, {out}): {lock * 1e6:.0f} µs each, {stages:.0f} per photo = "
-          f"{100 * lock * stages / per_photo:.5f}% of a photo's {per_photo:.0f} s")
+    print(
+        f"\ncache lock (uncontended, {out}): {lock * 1e6:.0f} µs each, {stages:.0f} per photo = "
+        f"{100 * lock * stages / per_photo:.5f}% of a photo's {per_photo:.0f} s"
+    )
 
 
 if __name__ == "__main__":

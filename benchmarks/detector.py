@@ -34,9 +34,17 @@ THRESHOLDS = (0.5, 0.3)
 MAX_SIDE = 800  # conf/stage/load_image.yaml
 
 TO_COCO = {
-    "chair": "chair", "sofa_chair": "chair", "sofa": "couch", "bed": "bed", "table": "dining table",
-    "desk": "dining table", "refridgerator": "refrigerator", "refrigerator": "refrigerator", "tv": "tv",
-    "toilet": "toilet", "sink": "sink",
+    "chair": "chair",
+    "sofa_chair": "chair",
+    "sofa": "couch",
+    "bed": "bed",
+    "table": "dining table",
+    "desk": "dining table",
+    "refridgerator": "refrigerator",
+    "refrigerator": "refrigerator",
+    "tv": "tv",
+    "toilet": "toilet",
+    "sink": "sink",
 }
 """SUN RGB-D reference classes with a COCO counterpart (SUN RGB-D spells ``refridgerator``); cabinets,
 dressers, night stands and shelves have none."""
@@ -45,11 +53,14 @@ dressers, night stands and shelves have none."""
 def load(folder: Path) -> tuple[Image, list[dict]]:
     """The working image of ``folder/img.jpg`` and its reference boxes scaled to it."""
     rgb = read_photo(folder / "img.jpg", 10**8)
-    image = Image(rgb=resize_to_working(rgb, MAX_SIDE), source=str(folder / "img.jpg"),
-                  original_size=(rgb.shape[1], rgb.shape[0]))
+    image = Image(
+        rgb=resize_to_working(rgb, MAX_SIDE), source=str(folder / "img.jpg"), original_size=(rgb.shape[1], rgb.shape[0])
+    )
     scale = np.array([image.width / rgb.shape[1], image.height / rgb.shape[0]] * 2)
-    references = [{"class": r["class"], "box": np.asarray(r["bbox"], np.float64) * scale}
-                  for r in json.loads((folder / "detections.json").read_text())]
+    references = [
+        {"class": r["class"], "box": np.asarray(r["bbox"], np.float64) * scale}
+        for r in json.loads((folder / "detections.json").read_text())
+    ]
     return image, references
 
 
@@ -70,12 +81,22 @@ def recall_row(folder: Path, references: list[dict], detections: Detections, ms:
     """One photo's row: reference and detection counts, recalled counts per threshold, time."""
     mappable = [r for r in references if r["class"] in TO_COCO]
     boxes = [np.asarray(d.box) for d in detections.items]
-    row = {"photo": folder.name, "references": len(mappable), "references_all": len(references),
-           "detections": len(detections.items), "ms": ms}
+    row = {
+        "photo": folder.name,
+        "references": len(mappable),
+        "references_all": len(references),
+        "detections": len(detections.items),
+        "ms": ms,
+    }
     for t in THRESHOLDS:
-        row[f"class@{t}"] = sum(matched([r["box"] for r in mappable if TO_COCO[r["class"]] == label],
-                                        [np.asarray(d.box) for d in detections.items if d.label == label], t)
-                                for label in {TO_COCO[r["class"]] for r in mappable})
+        row[f"class@{t}"] = sum(
+            matched(
+                [r["box"] for r in mappable if TO_COCO[r["class"]] == label],
+                [np.asarray(d.box) for d in detections.items if d.label == label],
+                t,
+            )
+            for label in {TO_COCO[r["class"]] for r in mappable}
+        )
         row[f"any@{t}"] = matched([r["box"] for r in mappable], boxes, t)
         row[f"any_all@{t}"] = matched([r["box"] for r in references], boxes, t)
     return row
@@ -90,13 +111,22 @@ def draw(image: Image, references: list[dict], detections: Detections, path: Pat
     for d in detections.items:
         x0, y0, x1, y1 = np.rint(d.box).astype(int)
         cv2.rectangle(canvas, (x0, y0), (x1, y1), (0, 200, 0), 2)
-        cv2.putText(canvas, f"{d.label} {d.score:.2f}", (x0 + 2, max(y0 - 4, 10)), cv2.FONT_HERSHEY_SIMPLEX,
-                    0.4, (0, 255, 0), 1, cv2.LINE_AA)
+        cv2.putText(
+            canvas,
+            f"{d.label} {d.score:.2f}",
+            (x0 + 2, max(y0 - 4, 10)),
+            cv2.FONT_HERSHEY_SIMPLEX,
+            0.4,
+            (0, 255, 0),
+            1,
+            cv2.LINE_AA,
+        )
     cv2.imwrite(str(path), canvas)
 
 
-def detector_recall(photos: Sequence[Path] = DEFAULT_PHOTOS, detector: Detector | None = None,
-                    overlays: Path | None = None) -> list[dict]:
+def detector_recall(
+    photos: Sequence[Path] = DEFAULT_PHOTOS, detector: Detector | None = None, overlays: Path | None = None
+) -> list[dict]:
     """Per-photo rows (see the module docstring) for ``detector`` (default: ``nanodet_onnx`` with one
     thread); ``overlays``: a directory for ``<photo>.png`` drawings of the boxes."""
     detector = detector or NanodetOnnx(intra_op_threads=1)
@@ -121,15 +151,17 @@ def format_table(rows: list[dict]) -> str:
     total = {k: sum(r[k] for r in rows) for k in ("detections", "references", "references_all", *columns)}
     for r in [*rows, {"photo": "total", **total, "ms": float(np.mean([r["ms"] for r in rows]))}]:
         cells = [f"{r[c]:>3}/{r['references_all' if c.startswith('any_all') else 'references']:<3}" for c in columns]
-        lines.append(f"{r['photo']:<20} {r['detections']:>5} " + " ".join(f"{c:>12}" for c in cells)
-                     + f" {r['ms']:6.1f}")
+        lines.append(
+            f"{r['photo']:<20} {r['detections']:>5} " + " ".join(f"{c:>12}" for c in cells) + f" {r['ms']:6.1f}"
+        )
     return "\n".join(lines)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--photos", type=Path, nargs="+", default=DEFAULT_PHOTOS,
-                        help="folders holding img.jpg and detections.json")
+    parser.add_argument(
+        "--photos", type=Path, nargs="+", default=DEFAULT_PHOTOS, help="folders holding img.jpg and detections.json"
+    )
     parser.add_argument("--overlays", type=Path, help="also draw the boxes into DIR/<photo>.png")
     args = parser.parse_args()
     print(format_table(detector_recall(args.photos, overlays=args.overlays)))

@@ -76,10 +76,12 @@ def summary(rows: list[dict]) -> str:
     depth = [r for r in rows if "absrel" in r]
     room = [r["room_accuracy"] for r in rows if "room_accuracy" in r]
     recall = f"{sum(r['seg_recall'] for r in boxed)}/{sum(r['references'] for r in boxed)}" if boxed else "-"
-    return (f"{sum(r['segments'] for r in rows):>5} {recall:>8} "
-            f"{np.median([r['absrel'] for r in depth]) if depth else float('nan'):>7.3f} "
-            f"{np.median([r['delta1'] for r in depth]) if depth else float('nan'):>6.2f} "
-            f"{np.mean(room) if room else float('nan'):>6.2f}")
+    return (
+        f"{sum(r['segments'] for r in rows):>5} {recall:>8} "
+        f"{np.median([r['absrel'] for r in depth]) if depth else float('nan'):>7.3f} "
+        f"{np.median([r['delta1'] for r in depth]) if depth else float('nan'):>6.2f} "
+        f"{np.mean(room) if room else float('nan'):>6.2f}"
+    )
 
 
 def main() -> None:
@@ -104,14 +106,21 @@ def main() -> None:
         per_photo[network] = rows
         lines.append(f"{str(network)[-34:]:<34} {summary(rows)}")
     print("\n".join(lines))
-    print("(segs: furniture segments; seg rec: reference pieces matched at box IoU >= 0.5; AbsRel, δ1: medians over "
-          "the photos with sensor depth; w/f/c: mean wall/floor/ceiling pixel accuracy on the hand-drawn labels)")
+    print(
+        "(segs: furniture segments; seg rec: reference pieces matched at box IoU >= 0.5; AbsRel, δ1: medians over "
+        "the photos with sensor depth; w/f/c: mean wall/floor/ceiling pixel accuracy on the hand-drawn labels)"
+    )
     for network, rows in per_photo.items():
         print(f"\n{network}:")
         for r in rows:
-            print(f"  {r['photo']:<26} segs {r['segments']:>3}  "
-                  + "  ".join(f"{k} {v:.3f}" if isinstance(v, float) else f"{k} {v}" for k, v in r.items()
-                              if k not in ("photo", "segments")))
+            print(
+                f"  {r['photo']:<26} segs {r['segments']:>3}  "
+                + "  ".join(
+                    f"{k} {v:.3f}" if isinstance(v, float) else f"{k} {v}"
+                    for k, v in r.items()
+                    if k not in ("photo", "segments")
+                )
+            )
 
 
 if __name__ == "__main__":

@@ -79,9 +79,7 @@ def summarize(rows: list[dict]) -> dict:
 
 def format_table(rows: list[dict]) -> str:
     """Plain-text table of the per-photo results and the summary."""
-    lines = [
-        f"{'photo':<36} {'gt':>6} {'est':>6} {'err':>6} {'method':<19} {'conf':>5} {'segs':>5} {'time':>6}"
-    ]
+    lines = [f"{'photo':<36} {'gt':>6} {'est':>6} {'err':>6} {'method':<19} {'conf':>5} {'segs':>5} {'time':>6}"]
     for r in rows:
         lines.append(
             f"{r['image']:<36} {r['gt_vfov_deg']:6.2f} {r['est_vfov_deg']:6.2f} {r['error_deg']:+6.2f} "

@@ -45,8 +45,11 @@ from psdr_room_core.method.shading import linear_to_srgb
 
 REPO = Path(__file__).resolve().parents[1]
 PHOTOS = REPO.parent / "shared" / "data" / "photos"
-DEFAULT_PHOTOS = (REPO / "examples" / "nyu_basement" / "photo.jpg", PHOTOS / "sunrgbd_total3d_05" / "img.jpg",
-                  PHOTOS / "nyu_metric3d_00000" / "rgb_00000.jpg")
+DEFAULT_PHOTOS = (
+    REPO / "examples" / "nyu_basement" / "photo.jpg",
+    PHOTOS / "sunrgbd_total3d_05" / "img.jpg",
+    PHOTOS / "nyu_metric3d_00000" / "rgb_00000.jpg",
+)
 """The example and two shared photos (a bedroom, a living room)."""
 OUT = REPO / "outputs" / "benchmarks" / "interchange"
 WIDTH = 320
@@ -62,8 +65,12 @@ def run_photo(photo: Path, run_dir: Path, cache: Path) -> Path:
     with tempfile.TemporaryDirectory() as bare:
         alone = Path(bare) / photo.name
         shutil.copyfile(photo, alone)
-        command = [shutil.which("psdr-room") or "psdr-room", f"image={alone}", f"hydra.run.dir={run_dir}",
-                   f"cache_dir={cache}"]
+        command = [
+            shutil.which("psdr-room") or "psdr-room",
+            f"image={alone}",
+            f"hydra.run.dir={run_dir}",
+            f"cache_dir={cache}",
+        ]
         result = subprocess.run(command, capture_output=True, text=True)
     if result.returncode != 0:
         sys.exit(f"interchange: {photo} failed: {result.stderr.strip().splitlines()[-1:]}")
@@ -109,10 +116,14 @@ def usd_check(scene: Path, state: dict) -> dict:
     materials = {p.GetName() for p in prims if p.IsA(UsdShade.Material)}
     lamp_parts = {light["part"] for light in state["lights"] if light["part"]}
     parts = ({p["part"] for p in state["parts"]} - lamp_parts) | set(state["fixtures"])
-    return {"errors": [e.GetMessage() for e in errors], "meshes": f"{len(meshes & parts)}/{len(parts)}",
-            "materials": f"{len(materials & parts)}/{len(parts)}",
-            "lights": f"{len(lights & {light['name'] for light in state['lights']})}/{len(state['lights'])}",
-            "up": UsdGeom.GetStageUpAxis(stage), "metres": UsdGeom.GetStageMetersPerUnit(stage)}
+    return {
+        "errors": [e.GetMessage() for e in errors],
+        "meshes": f"{len(meshes & parts)}/{len(parts)}",
+        "materials": f"{len(materials & parts)}/{len(parts)}",
+        "lights": f"{len(lights & {light['name'] for light in state['lights']})}/{len(state['lights'])}",
+        "up": UsdGeom.GetStageUpAxis(stage),
+        "metres": UsdGeom.GetStageMetersPerUnit(stage),
+    }
 
 
 def evaluate(run_dir: Path, out: Path, blender: str, cycles_spp: int, mitsuba_spp: int) -> dict:
@@ -150,8 +161,12 @@ def evaluate(run_dir: Path, out: Path, blender: str, cycles_spp: int, mitsuba_sp
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--runs", nargs="+", type=Path, help="finished run folders (default: run the example and "
-                        "two shared photos into OUT/runs)")
+    parser.add_argument(
+        "--runs",
+        nargs="+",
+        type=Path,
+        help="finished run folders (default: run the example and two shared photos into OUT/runs)",
+    )
     parser.add_argument("--out", type=Path, default=OUT, help="runs, Blender files, sheets (default: %(default)s)")
     parser.add_argument("--cycles-spp", type=int, default=128)
     parser.add_argument("--mitsuba-spp", type=int, default=256)
@@ -168,23 +183,35 @@ def main() -> None:
     for run_dir in runs:
         rows.append(evaluate(run_dir, args.out, blender, args.cycles_spp, args.mitsuba_spp))
         print(f"{run_dir.name}: done", file=sys.stderr, flush=True)
-    print(f"Exported scenes in other programs, {WIDTH} px wide, against psdr-room's own render (SSIM, luminance ratio)\n")
-    header = (f"{'run':<22} {'Mitsuba ids':>11} {'Mitsuba':>14} {'Cycles':>14} {'Cycles denoised':>15} {'EEVEE':>14} "
-              f"{'USD errors':>10} {'meshes':>7} {'materials':>9} {'lights':>6}")
+    print(
+        f"Exported scenes in other programs, {WIDTH} px wide, against psdr-room's own render (SSIM, luminance ratio)\n"
+    )
+    header = (
+        f"{'run':<22} {'Mitsuba ids':>11} {'Mitsuba':>14} {'Cycles':>14} {'Cycles denoised':>15} {'EEVEE':>14} "
+        f"{'USD errors':>10} {'meshes':>7} {'materials':>9} {'lights':>6}"
+    )
     print(header)
     print("-" * len(header))
     for r in rows:
-        cells = " ".join(f"{r[k]['ssim']:.3f} {r[k]['luminance']:.2f}x".rjust(width) for k, width in
-                         (("mitsuba", 14), ("cycles", 14), ("cycles_denoised", 15), ("eevee", 14)))
+        cells = " ".join(
+            f"{r[k]['ssim']:.3f} {r[k]['luminance']:.2f}x".rjust(width)
+            for k, width in (("mitsuba", 14), ("cycles", 14), ("cycles_denoised", 15), ("eevee", 14))
+        )
         usd = r["usd"]
-        print(f"{r['run']:<22} {r['parts']:>11} {cells} {len(usd['errors']):>10} {usd['meshes']:>7} "
-              f"{usd['materials']:>9} {usd['lights']:>6}")
+        print(
+            f"{r['run']:<22} {r['parts']:>11} {cells} {len(usd['errors']):>10} {usd['meshes']:>7} "
+            f"{usd['materials']:>9} {usd['lights']:>6}"
+        )
         for message in usd["errors"][:5]:
             print(f"  USD: {message}")
-    print(f"\n(USD stages: up axis {', '.join(sorted({r['usd']['up'] for r in rows}))}, metres per unit "
-          f"{', '.join(sorted({str(r['usd']['metres']) for r in rows}))}; Cycles {args.cycles_spp} spp and Mitsuba "
-          f"{args.mitsuba_spp} spp, not denoised, and Cycles denoised by oidn as the reference is; EEVEE 64 samples)")
-    print(f"contact sheets (photo | psdr-room | Mitsuba | Cycles denoised | EEVEE | relit): {args.out / 'sheets'}/<run>.png")
+    print(
+        f"\n(USD stages: up axis {', '.join(sorted({r['usd']['up'] for r in rows}))}, metres per unit "
+        f"{', '.join(sorted({str(r['usd']['metres']) for r in rows}))}; Cycles {args.cycles_spp} spp and Mitsuba "
+        f"{args.mitsuba_spp} spp, not denoised, and Cycles denoised by oidn as the reference is; EEVEE 64 samples)"
+    )
+    print(
+        f"contact sheets (photo | psdr-room | Mitsuba | Cycles denoised | EEVEE | relit): {args.out / 'sheets'}/<run>.png"
+    )
 
 
 if __name__ == "__main__":

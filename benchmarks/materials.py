@@ -66,12 +66,18 @@ def random_light(generator: torch.Generator) -> dict[str, object]:
     azimuth = uniform(0.0, 2 * math.pi)
     direction = (math.cos(elevation) * math.cos(azimuth), math.cos(elevation) * math.sin(azimuth), math.sin(elevation))
     tint = uniform(-0.12, 0.12)
-    return {"light": direction, "intensity": uniform(1.6, 3.6), "ambient": uniform(0.15, 0.5),
-            "light_colour": (1.0 + tint, 1.0, 1.0 - tint), "exposure": uniform(0.75, 1.3)}
+    return {
+        "light": direction,
+        "intensity": uniform(1.6, 3.6),
+        "ambient": uniform(0.15, 0.5),
+        "light_colour": (1.0 + tint, 1.0, 1.0 - tint),
+        "exposure": uniform(0.75, 1.3),
+    }
 
 
-def retrieval(library: TorchGraphLibrary, descriptor: RandomCnnDescriptor, queries: int, sigma: float,
-              map_size: int, seed: int) -> dict[str, object]:
+def retrieval(
+    library: TorchGraphLibrary, descriptor: RandomCnnDescriptor, queries: int, sigma: float, map_size: int, seed: int
+) -> dict[str, object]:
     generator = torch.Generator().manual_seed(seed)
     start = time.perf_counter()
     index = MaterialIndex.build(library, descriptor, map_size)
@@ -86,11 +92,15 @@ def retrieval(library: TorchGraphLibrary, descriptor: RandomCnnDescriptor, queri
         for number, name in enumerate(names):
             material = library.material(name)
             for _ in range(queries):
-                params = {k: v + sigma * torch.randn(v.shape, generator=generator)
-                          for k, v in material.parameters(requires_grad=False).items()}
+                params = {
+                    k: v + sigma * torch.randn(v.shape, generator=generator)
+                    for k, v in material.parameters(requires_grad=False).items()
+                }
                 light = random_light(generator)
                 image = shade(material.evaluate(map_size, params), **light)  # type: ignore[arg-type]
-                scale = math.exp(math.log(0.6) + (math.log(2.5) - math.log(0.6)) * float(torch.rand((), generator=generator)))
+                scale = math.exp(
+                    math.log(0.6) + (math.log(2.5) - math.log(0.6)) * float(torch.rand((), generator=generator))
+                )
                 rotation = -45.0 + 135.0 * float(torch.rand((), generator=generator))
                 aspect = 0.7 + 0.6 * float(torch.rand((), generator=generator))
                 size = (CROP, max(64, round(CROP * aspect)))
@@ -105,14 +115,19 @@ def retrieval(library: TorchGraphLibrary, descriptor: RandomCnnDescriptor, queri
                 if rank:
                     confusions.setdefault(name, []).append(names[order[0]])
     query_seconds = time.perf_counter() - start
-    per_material = {name: ranks[i * queries:(i + 1) * queries] for i, name in enumerate(names)}
+    per_material = {name: ranks[i * queries : (i + 1) * queries] for i, name in enumerate(names)}
     quantiles = {f"p{q}": float(np.percentile(similarities, q)) for q in (5, 10, 25, 50)}
     return {
-        "materials": len(names), "queries": len(ranks),
-        "top1": sum(r == 0 for r in ranks) / len(ranks), "top5": sum(r < 5 for r in ranks) / len(ranks),
+        "materials": len(names),
+        "queries": len(ranks),
+        "top1": sum(r == 0 for r in ranks) / len(ranks),
+        "top5": sum(r < 5 for r in ranks) / len(ranks),
         "worst": sorted(((sum(r == 0 for r in v) / len(v), n) for n, v in per_material.items()))[:8],
-        "confusions": confusions, "database_s": db_seconds, "query_s": query_seconds,
-        "similarity": quantiles, "spacing": index.spacing,
+        "confusions": confusions,
+        "database_s": db_seconds,
+        "query_s": query_seconds,
+        "similarity": quantiles,
+        "spacing": index.spacing,
         "energy": {name: float(np.median(values)) for name, values in energies.items()},
     }
 
@@ -132,13 +147,17 @@ def real_energies(runs: Path) -> dict[str, list[float]]:
 def flatness_table(library_energy: dict[str, float], real: dict[str, list[float]], threshold: float) -> None:
     """Print the flatness calibration (see the module docstring)."""
     print(f"\n## Flatness (texture energy; assign_materials.flat_energy = {threshold:g})\n")
-    print("| population | crops | p10 | median | p90 | max | under flat_energy |\n| --- | --- | --- | --- | --- | --- | --- |")
+    print(
+        "| population | crops | p10 | median | p90 | max | under flat_energy |\n| --- | --- | --- | --- | --- | --- | --- |"
+    )
     rows = [("library materials (median of their queries)", list(library_energy.values()))]
     rows += [(f"real photos: {side} crops", values) for side, values in sorted(real.items())]
     for label, values in rows:
         q = np.percentile(values, [10, 50, 90])
-        print(f"| {label} | {len(values)} | {q[0]:.3f} | {q[1]:.3f} | {q[2]:.3f} | {max(values):.3f} | "
-              f"{sum(v < threshold for v in values)}/{len(values)} |")
+        print(
+            f"| {label} | {len(values)} | {q[0]:.3f} | {q[1]:.3f} | {q[2]:.3f} | {max(values):.3f} | "
+            f"{sum(v < threshold for v in values)}/{len(values)} |"
+        )
     plain = sorted((v, n) for n, v in library_energy.items() if v < threshold)
     print("Library materials a flat colour stands in for: " + ", ".join(f"{n} {v:.3f}" for v, n in plain))
     textured = sorted((v, n) for n, v in library_energy.items() if v >= threshold)[:6]
@@ -172,8 +191,9 @@ def timings(library: TorchGraphLibrary, descriptor: RandomCnnDescriptor) -> dict
     return {"graphs": rows, "descriptor": desc}
 
 
-def fit(library: TorchGraphLibrary, descriptor: RandomCnnDescriptor, size: int, iterations: int, seed: int
-        ) -> dict[str, float]:
+def fit(
+    library: TorchGraphLibrary, descriptor: RandomCnnDescriptor, size: int, iterations: int, seed: int
+) -> dict[str, float]:
     """Loss reduction (1 − final/initial) of Adam on each graph's parameters towards the same graph shaded at
     random other parameters (as tests/test_material_graphs.py does for three graphs)."""
     out = {}
@@ -226,8 +246,11 @@ def main() -> None:
     print(f"| {r['top1']:.1%} | {r['top5']:.1%} | {r['database_s']:.1f} | {r['query_s'] / r['queries']:.3f} |")
     print("\nWorst top-1 per material: " + ", ".join(f"{n} {a:.0%}" for a, n in r["worst"]))  # type: ignore[union-attr]
     q = r["similarity"]  # type: ignore[index]
-    print(f"Similarity of each query's best match (1 − d / library spacing {r['spacing']:.4f}): "
-          + ", ".join(f"{k} {v:.3f}" for k, v in q.items()) + " (assign_materials.min_similarity is calibrated on p10)")
+    print(
+        f"Similarity of each query's best match (1 − d / library spacing {r['spacing']:.4f}): "
+        + ", ".join(f"{k} {v:.3f}" for k, v in q.items())
+        + " (assign_materials.min_similarity is calibrated on p10)"
+    )
     print("Confused with: " + "; ".join(f"{k} -> {', '.join(v)}" for k, v in r["confusions"].items()))  # type: ignore[union-attr]
     real = real_energies(args.real_runs) if args.real_runs else {}
     results["real_energy"] = real
@@ -240,12 +263,18 @@ def main() -> None:
         graphs = t["graphs"]  # type: ignore[index]
         print(f"\n## Graph evaluation, seconds ({len(graphs)} graphs, {args.threads} thread(s))\n")
         print("| | median | mean | max (graph) |\n| --- | --- | --- | --- |")
-        for key, label in (("eval_256", "evaluate 256²"), ("eval_512", "evaluate 512²"),
-                           ("grad_256", "evaluate + backward 256²"), ("grad_512", "evaluate + backward 512²")):
+        for key, label in (
+            ("eval_256", "evaluate 256²"),
+            ("eval_512", "evaluate 512²"),
+            ("grad_256", "evaluate + backward 256²"),
+            ("grad_512", "evaluate + backward 512²"),
+        ):
             values = {n: row[key] for n, row in graphs.items()}
             worst = max(values, key=values.get)
-            print(f"| {label} | {statistics.median(values.values()):.3f} | {statistics.mean(values.values()):.3f} | "
-                  f"{values[worst]:.3f} ({worst}) |")
+            print(
+                f"| {label} | {statistics.median(values.values()):.3f} | {statistics.mean(values.values()):.3f} | "
+                f"{values[worst]:.3f} ({worst}) |"
+            )
         d = t["descriptor"]  # type: ignore[index]
         print("\n## Descriptor call (texture=random_cnn, crops resized to 256 on their shorter side), seconds\n")
         print("| crop | describe | describe + backward |\n| --- | --- | --- |")
@@ -257,9 +286,11 @@ def main() -> None:
         results["fit"] = f
         below = sorted((v, n) for n, v in f.items() if v < 0.8)
         print(f"\n## Fit to a target made by the same graph ({args.fit_size}², {args.fit_iterations} Adam steps)\n")
-        print(f"median loss reduction {statistics.median(f.values()):.1%}, min {min(f.values()):.1%}; "
-              f"{len(f) - len(below)}/{len(f)} graphs ≥ 80%" + (": below: " + ", ".join(f"{n} {v:.0%}" for v, n in below)
-                                                               if below else ""))
+        print(
+            f"median loss reduction {statistics.median(f.values()):.1%}, min {min(f.values()):.1%}; "
+            f"{len(f) - len(below)}/{len(f)} graphs ≥ 80%"
+            + (": below: " + ", ".join(f"{n} {v:.0%}" for v, n in below) if below else "")
+        )
     if args.json:
         with open(args.json, "w") as handle:
             json.dump(results, handle, indent=1, default=str)

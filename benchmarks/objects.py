@@ -87,13 +87,18 @@ class Scene:
     cloud: PointCloud
 
 
-def furnish(seed: int, retriever: SilhouetteRetrieval, count: int, width: int, height: int,
-            min_pixels: int = 200) -> Scene:
+def furnish(
+    seed: int, retriever: SilhouetteRetrieval, count: int, width: int, height: int, min_pixels: int = 200
+) -> Scene:
     """A synthetic room with up to ``count`` database models on its floor, not overlapping; those with at
     least ``min_pixels`` visible pixels are kept."""
     synthetic = generate(seed, width=width, height=height)
-    room = RoomBox(camera_to_world=np.asarray(synthetic.camera_to_world), center=np.array(synthetic.room.center),
-                   half_size=np.array(synthetic.room.half), yaw=synthetic.room.yaw)
+    room = RoomBox(
+        camera_to_world=np.asarray(synthetic.camera_to_world),
+        center=np.array(synthetic.room.center),
+        half_size=np.array(synthetic.room.half),
+        yaw=synthetic.room.yaw,
+    )
     camera = Camera.from_vfov(width, height, synthetic.vfov_deg)
     db = retriever.database
     rng = np.random.default_rng(seed)
@@ -109,8 +114,16 @@ def furnish(seed: int, retriever: SilhouetteRetrieval, count: int, width: int, h
         forward /= np.linalg.norm(forward)
         side = np.cross([0.0, 1.0, 0.0], forward)
         position = c2w[:3, 3] * [1, 0, 1] + forward * rng.uniform(1.8, 5.0) + side * rng.uniform(-1.5, 1.5)
-        candidate = Placement(len(placed) + 10, record.category, record.id, mesh, tuple(position),
-                              float(rng.uniform(0, 2 * math.pi)), 1.0, "floor")
+        candidate = Placement(
+            len(placed) + 10,
+            record.category,
+            record.id,
+            mesh,
+            tuple(position),
+            float(rng.uniform(0, 2 * math.pi)),
+            1.0,
+            "floor",
+        )
         if not _inside(room, candidate) or any(_overlap(candidate, p) for p in placed):
             continue
         placed.append(candidate)
@@ -122,8 +135,9 @@ def furnish(seed: int, retriever: SilhouetteRetrieval, count: int, width: int, h
 
 def _inside(room: RoomBox, p: Placement, margin: float = 0.1) -> bool:
     xz, _, top = footprint(p)
-    local = (xz - np.asarray(room.center)[[0, 2]]) @ np.array([[math.cos(room.yaw), -math.sin(room.yaw)],
-                                                                [math.sin(room.yaw), math.cos(room.yaw)]]).T
+    local = (xz - np.asarray(room.center)[[0, 2]]) @ np.array(
+        [[math.cos(room.yaw), -math.sin(room.yaw)], [math.sin(room.yaw), math.cos(room.yaw)]]
+    ).T
     return bool(np.all(np.abs(local) < np.asarray(room.half_size)[[0, 2]] - margin) and top < 2 * room.half_size[1])
 
 
@@ -149,16 +163,22 @@ def _render(camera: Camera, room: RoomBox, objects: list[Placement]) -> tuple[Pa
     segments += [Segment(p.segment_id, "object", p.label) for p in objects]
     present = set(np.unique(ids).tolist())
     depth = weighted / np.maximum(alpha, 1e-6)
-    return (Panoptic(ids=ids, segments=[s for s in segments if s.id in present]),
-            DepthMap(depth=depth.astype(np.float32), valid=alpha > 0.5))
+    return (
+        Panoptic(ids=ids, segments=[s for s in segments if s.id in present]),
+        DepthMap(depth=depth.astype(np.float32), valid=alpha > 0.5),
+    )
 
 
 def _cloud(camera: Camera, depth: DepthMap, panoptic: Panoptic) -> PointCloud:
     xyz = backproject(depth.depth, camera).reshape(-1, 3)
     ids = panoptic.ids.reshape(-1)
     keep = depth.valid.reshape(-1) & (ids > 0)
-    return PointCloud(points=xyz[keep], colors=np.full((int(keep.sum()), 3), 128, np.uint8), segment=ids[keep],
-                      segments=list(panoptic.segments))
+    return PointCloud(
+        points=xyz[keep],
+        colors=np.full((int(keep.sum()), 3), 128, np.uint8),
+        segment=ids[keep],
+        segments=list(panoptic.segments),
+    )
 
 
 # ------------------------------------------------------------------------------------------ metrics
@@ -180,7 +200,9 @@ def symmetry_period(mesh: ObjectMesh, tolerance: float) -> float:
     import open3d as o3d
 
     scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(mesh.vertices.astype(np.float32)), o3d.core.Tensor(mesh.faces.astype(np.uint32)))
+    scene.add_triangles(
+        o3d.core.Tensor(mesh.vertices.astype(np.float32)), o3d.core.Tensor(mesh.faces.astype(np.uint32))
+    )
     points = surface_samples(mesh)
     size = float(np.linalg.norm(np.ptp(mesh.vertices, axis=0)))
     for period in (2 * math.pi / n for n in (8, 6, 5, 4, 3, 2)):
@@ -197,6 +219,7 @@ fronts, handles or a back panel, 2% of the model's size on average: masks and de
 
 def pose_errors(fitted: Placement, truth: Placement, tolerance: float = EXACT) -> tuple[float, float]:
     """(distance between the bounding-box centres, yaw error in degrees modulo the model's symmetry)."""
+
     def centre(p: Placement) -> np.ndarray:
         world = p.world_vertices()
         return (world.min(axis=0) + world.max(axis=0)) / 2
@@ -206,8 +229,14 @@ def pose_errors(fitted: Placement, truth: Placement, tolerance: float = EXACT) -
     return float(np.linalg.norm(centre(fitted) - centre(truth))), math.degrees(min(delta, period - delta))
 
 
-def evaluate(scene: Scene, retriever: SilhouetteRetrieval, small: SilhouetteRetrieval, iterations: int,
-             render_width: int, min_pixels: int = 200) -> dict:
+def evaluate(
+    scene: Scene,
+    retriever: SilhouetteRetrieval,
+    small: SilhouetteRetrieval,
+    iterations: int,
+    render_width: int,
+    min_pixels: int = 200,
+) -> dict:
     c2w = np.asarray(scene.room.camera_to_world)
     queries = object_queries(scene.image, scene.panoptic, scene.cloud, scene.room, 30, min_pixels)
     truth = {p.segment_id: p for p in scene.truth}
@@ -223,15 +252,20 @@ def evaluate(scene: Scene, retriever: SilhouetteRetrieval, small: SilhouetteRetr
         row[f"exact1_{name}"] = sum(r[0].model_id == truth[s].model_id for s, r in ranked.items())
         row[f"exact5_{name}"] = sum(any(c.model_id == truth[s].model_id for c in r) for s, r in ranked.items())
     row["retrieval_s"] = time.perf_counter() - start
-    candidates = ObjectCandidates(ranked={q.segment_id: [Candidate(truth[q.segment_id].model_id, 1.0)] for q in queries},
-                                  labels={q.segment_id: q.label for q in queries})
-    ctx = StageContext("place_objects", stage_params("place_objects"), 0, Path("synthetic.png"), {"retrieval": retriever})
+    candidates = ObjectCandidates(
+        ranked={q.segment_id: [Candidate(truth[q.segment_id].model_id, 1.0)] for q in queries},
+        labels={q.segment_id: q.label for q in queries},
+    )
+    ctx = StageContext(
+        "place_objects", stage_params("place_objects"), 0, Path("synthetic.png"), {"retrieval": retriever}
+    )
     start = time.perf_counter()
     initial = place_objects(ctx, candidates, scene.image, scene.panoptic, scene.cloud, scene.camera, scene.room)
     row["place_s"] = time.perf_counter() - start
     params = stage_params("fit_objects", iterations=iterations, render_width=render_width)
-    ctx = StageContext("fit_objects", params, 0, Path("synthetic.png"),
-                       {"renderer": MitsubaRenderer(), "optimizer": Adam()})
+    ctx = StageContext(
+        "fit_objects", params, 0, Path("synthetic.png"), {"renderer": MitsubaRenderer(), "optimizer": Adam()}
+    )
     start = time.perf_counter()
     out = fit_objects(ctx, initial, scene.camera, scene.room, scene.depth, scene.panoptic, scene.image)
     row["fit_s"] = time.perf_counter() - start
@@ -253,22 +287,28 @@ def evaluate(scene: Scene, retriever: SilhouetteRetrieval, small: SilhouetteRetr
             t, y = pose_errors(p, truth[p.segment_id])
             ti, yi = pose_errors(next(q for q in initial.objects if q.segment_id == p.segment_id), truth[p.segment_id])
             turned = out["log"].summary["turned"].get(p.segment_id)
-            print(f"  {p.segment_id} {p.model_id:28s} {p.support:6s} init t={ti / diagonal:.3f} yaw={yi:5.1f}  "
-                  f"fit t={t / diagonal:.3f} yaw={y:5.1f}" + (f"  (turned {turned:+.0f}°)" if turned else ""))
+            print(
+                f"  {p.segment_id} {p.model_id:28s} {p.support:6s} init t={ti / diagonal:.3f} yaw={yi:5.1f}  "
+                f"fit t={t / diagonal:.3f} yaw={y:5.1f}" + (f"  (turned {turned:+.0f}°)" if turned else "")
+            )
     row["through"] = len(out["placements"].extra.get("interpenetrations", []))
     return row
 
 
-HEADER = (f"{'scene':>5} {'objs':>4} | {'id@1':>4} {'id@5':>4} | {'any: cat@1':>10} {'cat@5':>5} {'id@1':>4} | "
-          f"{'5%: cat@1':>9} {'cat@5':>5} | {'ok init':>7} {'ok fit':>6} {'t init':>6} {'t fit':>6} {'yaw init':>8} "
-          f"{'yaw fit':>7} | {'it s':>5} {'retr s':>6} {'place s':>7} {'fit s':>6}")
+HEADER = (
+    f"{'scene':>5} {'objs':>4} | {'id@1':>4} {'id@5':>4} | {'any: cat@1':>10} {'cat@5':>5} {'id@1':>4} | "
+    f"{'5%: cat@1':>9} {'cat@5':>5} | {'ok init':>7} {'ok fit':>6} {'t init':>6} {'t fit':>6} {'yaw init':>8} "
+    f"{'yaw fit':>7} | {'it s':>5} {'retr s':>6} {'place s':>7} {'fit s':>6}"
+)
 
 
 def table_row(r: dict) -> str:
-    return (f"{r['scene']:>5} {r['objects']:>4} | {r['exact1_full']:>4} {r['exact5_full']:>4} | {r['cat1_any']:>10} "
-            f"{r['cat5_any']:>5} {r['exact1_any']:>4} | {r['cat1_5%']:>9} {r['cat5_5%']:>5} | "
-            f"{r['ok_init']:>7} {r['ok_fit']:>6} {r['t_init']:6.3f} {r['t_fit']:6.3f} {r['yaw_init']:8.1f} "
-            f"{r['yaw_fit']:7.1f} | {r['it_s']:5.2f} {r['retrieval_s']:6.1f} {r['place_s']:7.1f} {r['fit_s']:6.1f}")
+    return (
+        f"{r['scene']:>5} {r['objects']:>4} | {r['exact1_full']:>4} {r['exact5_full']:>4} | {r['cat1_any']:>10} "
+        f"{r['cat5_any']:>5} {r['exact1_any']:>4} | {r['cat1_5%']:>9} {r['cat5_5%']:>5} | "
+        f"{r['ok_init']:>7} {r['ok_fit']:>6} {r['t_init']:6.3f} {r['t_fit']:6.3f} {r['yaw_init']:8.1f} "
+        f"{r['yaw_fit']:7.1f} | {r['it_s']:5.2f} {r['retrieval_s']:6.1f} {r['place_s']:7.1f} {r['fit_s']:6.1f}"
+    )
 
 
 def print_table(rows: list[dict]) -> None:
@@ -281,17 +321,27 @@ def print_table(rows: list[dict]) -> None:
     def share(key: str, total: int) -> str:
         return f"{sum(r[key] for r in rows)}/{total} ({100 * sum(r[key] for r in rows) / max(total, 1):.0f}%)"
 
-    print(f"\nretrieval with the segment's category (full database): exact model top-1 {share('exact1_full', n)}, "
-          f"top-5 {share('exact5_full', n)}")
-    print(f"retrieval without it, full database: category top-1 {share('cat1_any', n)}, top-5 {share('cat5_any', n)}; "
-          f"exact model top-1 {share('exact1_any', n)}, top-5 {share('exact5_any', n)}")
+    print(
+        f"\nretrieval with the segment's category (full database): exact model top-1 {share('exact1_full', n)}, "
+        f"top-5 {share('exact5_full', n)}"
+    )
+    print(
+        f"retrieval without it, full database: category top-1 {share('cat1_any', n)}, top-5 {share('cat5_any', n)}; "
+        f"exact model top-1 {share('exact1_any', n)}, top-5 {share('exact5_any', n)}"
+    )
     print(f"retrieval without it, 5% database:   category top-1 {share('cat1_5%', n)}, top-5 {share('cat5_5%', n)}")
-    print(f"poses (true model; translation < 5% of the room diagonal and yaw < 15°, of all {n} objects, {placed} "
-          f"kept): after place_objects {share('ok_init', n)}, after fit_objects {share('ok_fit', n)}")
-    print(f"  the same, a model's near-symmetric turns not counted as errors (surface within {NEAR:.0%} of its size): "
-          f"after place_objects {share('ok_init_near', n)}, after fit_objects {share('ok_fit_near', n)}")
-    print(f"fit_objects: {statistics.median(r['it_s'] for r in rows):.2f} s per iteration (median over scenes); "
-          f"pairs passing through each other after the fit: {sum(r['through'] for r in rows)}")
+    print(
+        f"poses (true model; translation < 5% of the room diagonal and yaw < 15°, of all {n} objects, {placed} "
+        f"kept): after place_objects {share('ok_init', n)}, after fit_objects {share('ok_fit', n)}"
+    )
+    print(
+        f"  the same, a model's near-symmetric turns not counted as errors (surface within {NEAR:.0%} of its size): "
+        f"after place_objects {share('ok_init_near', n)}, after fit_objects {share('ok_fit_near', n)}"
+    )
+    print(
+        f"fit_objects: {statistics.median(r['it_s'] for r in rows):.2f} s per iteration (median over scenes); "
+        f"pairs passing through each other after the fit: {sum(r['through'] for r in rows)}"
+    )
 
 
 def main() -> None:
@@ -301,10 +351,19 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=300)
     parser.add_argument("--render-width", type=int, default=160)
     parser.add_argument("--objects", type=int, nargs=2, default=(4, 8), help="min and max objects per scene")
-    parser.add_argument("--min-pixels", type=int, default=200,
-                        help="objects with fewer visible pixels (at 320x240) are left out of the scene")
-    parser.add_argument("--set", action="append", default=[], metavar="STAGE.KEY=VALUE",
-                        help="override a stage parameter (YAML value), e.g. --set place_objects.search.n_yaw=24")
+    parser.add_argument(
+        "--min-pixels",
+        type=int,
+        default=200,
+        help="objects with fewer visible pixels (at 320x240) are left out of the scene",
+    )
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="STAGE.KEY=VALUE",
+        help="override a stage parameter (YAML value), e.g. --set place_objects.search.n_yaw=24",
+    )
     args = parser.parse_args()
     import yaml
 

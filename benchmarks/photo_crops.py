@@ -19,13 +19,21 @@ import cv2
 
 PHOTOS = Path(__file__).resolve().parents[2] / "shared" / "data" / "photos"
 
-LOWER_HALVES = ("sunrgbd_total3d_01/img.jpg", "sunrgbd_total3d_03/img.jpg", "sunrgbd_total3d_05/img.jpg",
-                "nyu_metric3d_00000/rgb_00000.jpg", "nyu_vainf_office/image.png", "nyu_densedepth/267_image.png")
+LOWER_HALVES = (
+    "sunrgbd_total3d_01/img.jpg",
+    "sunrgbd_total3d_03/img.jpg",
+    "sunrgbd_total3d_05/img.jpg",
+    "nyu_metric3d_00000/rgb_00000.jpg",
+    "nyu_vainf_office/image.png",
+    "nyu_densedepth/267_image.png",
+)
 """Photos whose lower half is a crop."""
-CLOSE_UPS = {"sunrgbd_total3d_05/img.jpg": ("bed", (143, 186, 631, 529)),
-             "sunrgbd_total3d_03/img.jpg": ("chair", (345, 218, 626, 529)),
-             "sunrgbd_total3d_02/img.jpg": ("chair", (526, 218, 726, 502)),
-             "sunrgbd_total3d_04/img.jpg": ("desk", (367, 214, 519, 441))}
+CLOSE_UPS = {
+    "sunrgbd_total3d_05/img.jpg": ("bed", (143, 186, 631, 529)),
+    "sunrgbd_total3d_03/img.jpg": ("chair", (345, 218, 626, 529)),
+    "sunrgbd_total3d_02/img.jpg": ("chair", (526, 218, 726, 502)),
+    "sunrgbd_total3d_04/img.jpg": ("desk", (367, 214, 519, 441)),
+}
 """Photo → (what, reference box x0 y0 x1 y1 in its pixels) of the close-ups."""
 MARGIN = 0.15
 """A close-up's box is widened by this fraction of its size on every side (within the photo)."""

@@ -57,7 +57,9 @@ def synth_photo(out: Path, seed: int, env: dict[str, str], objects: int | None =
     truth = folder / "ground_truth.json"
     if not truth.is_file() or "exposure" not in json.loads(truth.read_text()):
         extra = ["--objects", str(objects)] if objects is not None else []
-        run([shutil.which("psdr-room-synth") or "psdr-room-synth", "--out", str(out), "--seeds", str(seed), *extra], env)
+        run(
+            [shutil.which("psdr-room-synth") or "psdr-room-synth", "--out", str(out), "--seeds", str(seed), *extra], env
+        )
     return folder / "photo.png"
 
 
@@ -83,12 +85,15 @@ def ground_truth_errors(run_dir: Path, truth: dict, seen: list[str]) -> dict[str
 
     power = 0.0
     for light in state["lights"]:
-        mesh, _ = export.read_mesh_ply((run_dir / "scene" / "meshes" / f"{light['name']}.ply").read_bytes(), light["name"])
+        mesh, _ = export.read_mesh_ply(
+            (run_dir / "scene" / "meshes" / f"{light['name']}.ply").read_bytes(), light["name"]
+        )
         v, f = mesh.vertices, mesh.faces
         area = 0.5 * np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1).sum()
         power += float(np.mean(light["radiance"])) * float(area)
-    true_power = sum(float(np.mean(np.atleast_1d(l["radiance"]))) * 4 * l["half"][0] * l["half"][1]
-                     for l in truth["lights"]) * float(truth.get("exposure", 1.0))
+    true_power = sum(
+        float(np.mean(np.atleast_1d(l["radiance"]))) * 4 * l["half"][0] * l["half"][1] for l in truth["lights"]
+    ) * float(truth.get("exposure", 1.0))
     out["light_ratio"] = power / max(true_power, 1e-9)
     return out
 
@@ -96,13 +101,19 @@ def ground_truth_errors(run_dir: Path, truth: dict, seen: list[str]) -> dict[str
 def row(name: str, m: dict, extra: dict[str, float]) -> str:
     fit = m.get("fit_appearance_log", {})
     stages = m["stages"]
-    cols = [name, f"{fit.get('rmse_init', float('nan')):.4f}", f"{fit.get('rmse', float('nan')):.4f}",
-            f"{fit.get('ssim_init', float('nan')):.3f}", f"{fit.get('ssim', float('nan')):.3f}",
-            f"{fit.get('flip_init', float('nan')):.3f}", f"{fit.get('flip', float('nan')):.3f}",
-            f"{extra['albedo_err']:.3f}" if "albedo_err" in extra else "–",
-            f"{extra['light_ratio']:.2f}" if "light_ratio" in extra else "–",
-            f"{stages.get('fit_appearance', {}).get('timings', {}).get('steady_iteration_seconds', float('nan')):.2f}",
-            f"{sum(s['compute_seconds'] for s in stages.values()):.0f}"]
+    cols = [
+        name,
+        f"{fit.get('rmse_init', float('nan')):.4f}",
+        f"{fit.get('rmse', float('nan')):.4f}",
+        f"{fit.get('ssim_init', float('nan')):.3f}",
+        f"{fit.get('ssim', float('nan')):.3f}",
+        f"{fit.get('flip_init', float('nan')):.3f}",
+        f"{fit.get('flip', float('nan')):.3f}",
+        f"{extra['albedo_err']:.3f}" if "albedo_err" in extra else "–",
+        f"{extra['light_ratio']:.2f}" if "light_ratio" in extra else "–",
+        f"{stages.get('fit_appearance', {}).get('timings', {}).get('steady_iteration_seconds', float('nan')):.2f}",
+        f"{sum(s['compute_seconds'] for s in stages.values()):.0f}",
+    ]
     return "| " + " | ".join(cols) + " |"
 
 
@@ -118,15 +129,27 @@ def ablations(env: dict[str, str]) -> None:
     sweep = OUT / "ablations"
     if sweep.exists():
         shutil.rmtree(sweep)
-    run([shutil.which("psdr-room") or "psdr-room", "--multirun", "+experiment=paper_ablations", f"image={EXAMPLE}",
-         f"hydra.sweep.dir={sweep}"], env)
-    print("| ablation (Fig. 9) | RMSE init | RMSE fit | SSIM init | SSIM fit | FLIP init | FLIP fit | wall s (this run) |")
+    run(
+        [
+            shutil.which("psdr-room") or "psdr-room",
+            "--multirun",
+            "+experiment=paper_ablations",
+            f"image={EXAMPLE}",
+            f"hydra.sweep.dir={sweep}",
+        ],
+        env,
+    )
+    print(
+        "| ablation (Fig. 9) | RMSE init | RMSE fit | SSIM init | SSIM fit | FLIP init | FLIP fit | wall s (this run) |"
+    )
     print("|---|---|---|---|---|---|---|---|")
     for job in ("full", "naive_fov", "naive_poses", "no_transform_search", "direct_light"):
         m = json.loads((sweep / job / "metrics.json").read_text())
         fit = m["fit_appearance_log"]
-        print(f"| {job} | {fit['rmse_init']:.4f} | {fit['rmse']:.4f} | {fit['ssim_init']:.3f} | {fit['ssim']:.3f} | "
-              f"{fit['flip_init']:.3f} | {fit['flip']:.3f} | {m['total_seconds']:.0f} |")
+        print(
+            f"| {job} | {fit['rmse_init']:.4f} | {fit['rmse']:.4f} | {fit['ssim_init']:.3f} | {fit['ssim']:.3f} | "
+            f"{fit['flip_init']:.3f} | {fit['flip']:.3f} | {m['total_seconds']:.0f} |"
+        )
     print(f"\nrenders and reports: {sweep}/<ablation>/")
 
 
@@ -135,7 +158,9 @@ def main() -> None:
     parser.add_argument("--seeds", default="0-9", help="synthetic rooms (psdr-room-synth seeds), e.g. 0-9 or 1,4")
     parser.add_argument("--no-example", action="store_true", help="skip the real example photo")
     parser.add_argument("--ablations", action="store_true", help="run the Fig. 9 sweep on the example instead")
-    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a config override for every run")
+    parser.add_argument(
+        "--set", action="append", default=[], metavar="KEY=VALUE", help="a config override for every run"
+    )
     args = parser.parse_args()
     OUT.mkdir(parents=True, exist_ok=True)
     env = {**os.environ, "PSDR_ROOM_CACHE_DIR": str(OUT / "cache")}
@@ -149,8 +174,10 @@ def main() -> None:
         scenes.append((f"synth {seed}", synth_photo(OUT / "scenes", seed, env)))
     if not args.no_example:
         scenes.append(("example (NYU)", EXAMPLE))
-    print("| scene | RMSE init | RMSE fit | SSIM init | SSIM fit | FLIP init | FLIP fit | albedo err | light power fit/true "
-          "| s/it | total s |")
+    print(
+        "| scene | RMSE init | RMSE fit | SSIM init | SSIM fit | FLIP init | FLIP fit | albedo err | light power fit/true "
+        "| s/it | total s |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     runs = {}
     for name, photo in scenes:
@@ -163,8 +190,10 @@ def main() -> None:
         extra = ground_truth_errors(run_dir, truth, seen) if "albedo" in truth else {}  # synthetic rooms only
         runs[name] = m
         print(row(name, m, extra), flush=True)
-        shutil.copyfile(run_dir / "artifacts" / "fit_appearance_log" / "photo_init_final.png",
-                        OUT / f"{photo.parent.name}_photo_init_final.png")
+        shutil.copyfile(
+            run_dir / "artifacts" / "fit_appearance_log" / "photo_init_final.png",
+            OUT / f"{photo.parent.name}_photo_init_final.png",
+        )
         if photo == EXAMPLE:  # the cache: the same run again is served from it
             first = time.perf_counter() - start
             again = time.perf_counter()

@@ -66,14 +66,31 @@ class Photo:
 def photos() -> list[Photo]:
     nyu = 519.46961
     return [
-        Photo("example_nyu_basement", REPO / "examples/nyu_basement/photo.jpg", nyu,
-              (REPO / "examples/nyu_basement/photo.depth.png", "png16", 1000.0), "labelme"),
-        Photo("nyu_metric3d_00050", PHOTOS / "nyu_metric3d_00050/rgb_00050.jpg", nyu,
-              (PHOTOS / "nyu_metric3d_00050/sync_depth_00050.png", "png16", 1000.0)),
-        Photo("sunrgbd_corridor", PHOTOS / "sunrgbd_open3d_corridor/SUN_color.jpg", 525.0,
-              (PHOTOS / "sunrgbd_open3d_corridor/SUN_depth.png", "sun", 1000.0)),
-        Photo("tum_office", PHOTOS / "tum_open3d_office/TUM_color.png", None,
-              (PHOTOS / "tum_open3d_office/TUM_depth.png", "png16", 5000.0)),
+        Photo(
+            "example_nyu_basement",
+            REPO / "examples/nyu_basement/photo.jpg",
+            nyu,
+            (REPO / "examples/nyu_basement/photo.depth.png", "png16", 1000.0),
+            "labelme",
+        ),
+        Photo(
+            "nyu_metric3d_00050",
+            PHOTOS / "nyu_metric3d_00050/rgb_00050.jpg",
+            nyu,
+            (PHOTOS / "nyu_metric3d_00050/sync_depth_00050.png", "png16", 1000.0),
+        ),
+        Photo(
+            "sunrgbd_corridor",
+            PHOTOS / "sunrgbd_open3d_corridor/SUN_color.jpg",
+            525.0,
+            (PHOTOS / "sunrgbd_open3d_corridor/SUN_depth.png", "sun", 1000.0),
+        ),
+        Photo(
+            "tum_office",
+            PHOTOS / "tum_open3d_office/TUM_color.png",
+            None,
+            (PHOTOS / "tum_open3d_office/TUM_depth.png", "png16", 5000.0),
+        ),
         Photo("nyu_office_labelled", PHOTOS / "nyu_vainf_office/image.png", None, None, "nyu13"),
         *[Photo(f"sunrgbd_total3d_0{i}", PHOTOS / f"sunrgbd_total3d_0{i}/img.jpg", 529.5) for i in range(1, 6)],
         *[Photo(f"nyu_{n}", PHOTOS / f"nyu_densedepth/{n}_image.png", nyu) for n in (119, 267, 308, 312)],
@@ -101,15 +118,22 @@ def depth_errors(pred: np.ndarray, truth: np.ndarray, mask: np.ndarray) -> tuple
     """(si-log RMSE, AbsRel after median scaling) on ``mask``."""
     p, t = pred[mask].astype(np.float64), truth[mask].astype(np.float64)
     d = np.log(p) - np.log(t)
-    silog = float(np.sqrt(max(np.mean(d ** 2) - np.mean(d) ** 2, 0.0)))
+    silog = float(np.sqrt(max(np.mean(d**2) - np.mean(d) ** 2, 0.0)))
     scaled = p * np.median(t / p)
     return silog, float(np.mean(np.abs(scaled - t) / t))
 
 
 def evaluate(photo: Photo, cache: Path, overlays: Path) -> dict:
     plugins = plugin_system()
-    overrides = [f"image={photo.path}", f"cache_dir={cache}", "run.until=estimate_depth", "report.enabled=false",
-                 "segmentation=layout", "depth=layout", "detector=nanodet_onnx"]
+    overrides = [
+        f"image={photo.path}",
+        f"cache_dir={cache}",
+        "run.until=estimate_depth",
+        "report.enabled=false",
+        "segmentation=layout",
+        "depth=layout",
+        "detector=nanodet_onnx",
+    ]
     start = time.perf_counter()
     with tempfile.TemporaryDirectory() as run_dir:
         record = execute(compose_config(overrides, plugins), Path(run_dir), plugins)
@@ -117,10 +141,14 @@ def evaluate(photo: Photo, cache: Path, overlays: Path) -> dict:
     image, camera = record.artifacts["image"], record.artifacts["camera"]
     panoptic: Panoptic = record.artifacts["panoptic"]
     depth = record.artifacts["depth"]
-    row: dict = {"photo": photo.name, "seconds": time.perf_counter() - start,
-                 "segment_s": seconds["segment"], "depth_s": seconds["estimate_depth"],
-                 "boxes": len(record.artifacts["detections"].items),
-                 "objects": sum(s.category not in ROOM_CATEGORIES for s in panoptic.segments)}
+    row: dict = {
+        "photo": photo.name,
+        "seconds": time.perf_counter() - start,
+        "segment_s": seconds["segment"],
+        "depth_s": seconds["estimate_depth"],
+        "boxes": len(record.artifacts["detections"].items),
+        "objects": sum(s.category not in ROOM_CATEGORIES for s in panoptic.segments),
+    }
     if photo.fy is not None:
         true_vfov = math.degrees(2 * math.atan(image.original_size[1] / (2 * photo.fy)))
         row["fov_error"] = camera.vfov_deg - true_vfov
@@ -152,14 +180,18 @@ def _cell(row: dict, key: str, fmt: str) -> str:
 
 
 def format_table(rows: list[dict]) -> str:
-    header = (f"{'photo':<22} {'FoV err°':>8} {'wall':>5} {'floor':>5} {'ceil':>5} {'mIoU':>5} {'si-log':>6} "
-              f"{'AbsRel':>6} {'boxes':>5} {'objs':>4} {'seg s':>6} {'depth s':>7}")
+    header = (
+        f"{'photo':<22} {'FoV err°':>8} {'wall':>5} {'floor':>5} {'ceil':>5} {'mIoU':>5} {'si-log':>6} "
+        f"{'AbsRel':>6} {'boxes':>5} {'objs':>4} {'seg s':>6} {'depth s':>7}"
+    )
     lines = [header]
     for r in rows:
-        lines.append(f"{r['photo']:<22} {_cell(r, 'fov_error', '+8.2f')} {_cell(r, 'iou_wall', '5.2f')} "
-                     f"{_cell(r, 'iou_floor', '5.2f')} {_cell(r, 'iou_ceiling', '5.2f')} {_cell(r, 'miou', '5.2f')} "
-                     f"{_cell(r, 'silog', '6.3f')} {_cell(r, 'absrel', '6.3f')} {r['boxes']:>5} {r['objects']:>4} "
-                     f"{r['segment_s']:6.2f} {r['depth_s']:7.2f}")
+        lines.append(
+            f"{r['photo']:<22} {_cell(r, 'fov_error', '+8.2f')} {_cell(r, 'iou_wall', '5.2f')} "
+            f"{_cell(r, 'iou_floor', '5.2f')} {_cell(r, 'iou_ceiling', '5.2f')} {_cell(r, 'miou', '5.2f')} "
+            f"{_cell(r, 'silog', '6.3f')} {_cell(r, 'absrel', '6.3f')} {r['boxes']:>5} {r['objects']:>4} "
+            f"{r['segment_s']:6.2f} {r['depth_s']:7.2f}"
+        )
     return "\n".join(lines)
 
 
@@ -176,11 +208,12 @@ def main() -> None:
     print(format_table(rows))
     print(f"\noverlays (segments | layout depth): {args.overlays}")
     fov = fov_accuracy.summarize(fov_accuracy.evaluate(PHOTOS))
-    print(f"\nFoV (vanishing points, all photos with intrinsics): median |error| {fov['median_abs_error_deg']:.2f}°, "
-          f"worst {fov['worst_abs_error_deg']:.2f}°, {fov['n_estimated']}/{fov['n_photos']} estimated")
+    print(
+        f"\nFoV (vanishing points, all photos with intrinsics): median |error| {fov['median_abs_error_deg']:.2f}°, "
+        f"worst {fov['worst_abs_error_deg']:.2f}°, {fov['n_estimated']}/{fov['n_photos']} estimated"
+    )
     print("\nDetector recall on SUN RGB-D reference boxes (recalled/references; any = class-agnostic)\n")
-    print(detector_benchmark.format_table(detector_benchmark.detector_recall(
-        overlays=args.overlays / "detector")))
+    print(detector_benchmark.format_table(detector_benchmark.detector_recall(overlays=args.overlays / "detector")))
 
 
 if __name__ == "__main__":

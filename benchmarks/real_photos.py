@@ -85,26 +85,64 @@ PENETRATION = 0.05
 
 REFERENCE_CLASSES: dict[str, tuple[str, ...] | None] = {
     # furniture: the database categories a fitted model may have to count
-    "chair": ("chair",), "sofa_chair": ("chair", "sofa"), "stool": ("chair", "ottoman"),
-    "sofa": ("sofa",), "ottoman": ("ottoman", "sofa"),
-    "table": ("table", "desk"), "desk": ("desk", "table"), "coffee_table": ("table",),
+    "chair": ("chair",),
+    "sofa_chair": ("chair", "sofa"),
+    "stool": ("chair", "ottoman"),
+    "sofa": ("sofa",),
+    "ottoman": ("ottoman", "sofa"),
+    "table": ("table", "desk"),
+    "desk": ("desk", "table"),
+    "coffee_table": ("table",),
     "end_table": ("table", "cabinet"),
     "bed": ("bed",),
-    "dresser": ("cabinet",), "night_stand": ("cabinet", "table"), "cabinet": ("cabinet", "shelf"),
-    "counter": ("cabinet",), "kitchen_cabinet": ("cabinet",),
-    "bookshelf": ("shelf", "cabinet"), "shelf": ("shelf", "cabinet"),
-    "refridgerator": ("refrigerator",), "refrigerator": ("refrigerator",),
-    "microwave": ("appliance",), "oven": ("appliance",), "stove": ("appliance",),
-    "tv": ("tv",), "monitor": ("tv",), "computer": ("tv",),
-    "lamp": ("lamp",), "floor_lamp": ("lamp",),
-    "picture": ("frame",), "mirror": ("frame",), "whiteboard": ("frame",),
-    "box": ("box",), "basket": ("box",), "bin": ("box",),
-    "rug": ("rug",), "plant": ("plant",),
+    "dresser": ("cabinet",),
+    "night_stand": ("cabinet", "table"),
+    "cabinet": ("cabinet", "shelf"),
+    "counter": ("cabinet",),
+    "kitchen_cabinet": ("cabinet",),
+    "bookshelf": ("shelf", "cabinet"),
+    "shelf": ("shelf", "cabinet"),
+    "refridgerator": ("refrigerator",),
+    "refrigerator": ("refrigerator",),
+    "microwave": ("appliance",),
+    "oven": ("appliance",),
+    "stove": ("appliance",),
+    "tv": ("tv",),
+    "monitor": ("tv",),
+    "computer": ("tv",),
+    "lamp": ("lamp",),
+    "floor_lamp": ("lamp",),
+    "picture": ("frame",),
+    "mirror": ("frame",),
+    "whiteboard": ("frame",),
+    "box": ("box",),
+    "basket": ("box",),
+    "bin": ("box",),
+    "rug": ("rug",),
+    "plant": ("plant",),
     # not furniture, or not something the database models: ignored
-    "pillow": None, "books": None, "book": None, "paper": None, "void": None, "bag": None, "clothes": None,
-    "towel": None, "person": None, "curtain": None, "blinds": None, "window": None, "door": None, "wall": None,
-    "floor": None, "ceiling": None, "floor_mat": None, "shower_curtain": None, "toilet": None, "sink": None,
-    "bathtub": None, "counter_top": None,
+    "pillow": None,
+    "books": None,
+    "book": None,
+    "paper": None,
+    "void": None,
+    "bag": None,
+    "clothes": None,
+    "towel": None,
+    "person": None,
+    "curtain": None,
+    "blinds": None,
+    "window": None,
+    "door": None,
+    "wall": None,
+    "floor": None,
+    "ceiling": None,
+    "floor_mat": None,
+    "shower_curtain": None,
+    "toilet": None,
+    "sink": None,
+    "bathtub": None,
+    "counter_top": None,
 }
 """Reference class (SUN RGB-D / NYU-37 spelling, lower case, spaces as ``_``) → the object database categories
 that count as agreeing with it; ``None``: not furniture the scene should hold, ignored. A class missing here is
@@ -147,8 +185,10 @@ def read_index(folder: Path) -> list[Entry]:
     """The photos of ``folder/index.csv`` with the ground truth each one has."""
     index = folder / "index.csv"
     if not index.is_file():
-        sys.exit(f"real_photos: {index} is missing; --photos must name a folder with an index.csv "
-                 f"laid out as {PHOTOS / 'index.csv'}")
+        sys.exit(
+            f"real_photos: {index} is missing; --photos must name a folder with an index.csv "
+            f"laid out as {PHOTOS / 'index.csv'}"
+        )
     entries = []
     with index.open(newline="") as fh:
         rows = list(csv.DictReader(fh))
@@ -165,13 +205,23 @@ def read_index(folder: Path) -> list[Entry]:
         boxes = None
         note = row.get("gt_boxes", "")
         if note.strip().lower() not in ("", "no"):
-            boxes = next((image.parent / w for w in re.findall(r"[\w.\-]+\.(?:json|pkl)", note)
-                          if (image.parent / w).is_file()), None) or _beside(image, "*infos.pkl")
+            boxes = next(
+                (image.parent / w for w in re.findall(r"[\w.\-]+\.(?:json|pkl)", note) if (image.parent / w).is_file()),
+                None,
+            ) or _beside(image, "*infos.pkl")
         fy = row.get("fy", "").strip()
         shared = folders.count(Path(row["image"]).parent) > 1 or image.parent == folder
         name = f"{image.parent.name}_{image.stem}" if shared else image.parent.name
-        entries.append(Entry(name=name, image=image, size=(int(row["width"]), int(row["height"])),
-                             fy=float(fy) if fy else None, depth=depth, boxes=boxes))
+        entries.append(
+            Entry(
+                name=name,
+                image=image,
+                size=(int(row["width"]), int(row["height"])),
+                fy=float(fy) if fy else None,
+                depth=depth,
+                boxes=boxes,
+            )
+        )
     return entries
 
 
@@ -191,13 +241,20 @@ def read_references(file: Path) -> list[tuple[str, np.ndarray]]:
         return [(str(i["class"]).lower().replace(" ", "_"), np.asarray(i["bbox"], np.float64)) for i in items]
     with file.open("rb") as fh:
         data = _NumpyOnly(fh).load()
-    return [(MMDET3D_SUNRGBD[int(i["bbox_label"])], np.asarray(i["bbox"], np.float64))
-            for item in data["data_list"] for i in item["instances"]]
+    return [
+        (MMDET3D_SUNRGBD[int(i["bbox_label"])], np.asarray(i["bbox"], np.float64))
+        for item in data["data_list"]
+        for i in item["instances"]
+    ]
 
 
 # ---------------------------------------------------------------------------------------------- matching
-def match(references: Sequence[np.ndarray], boxes: Sequence[np.ndarray], eligible: np.ndarray | None = None,
-          threshold: float = IOU) -> list[tuple[int, int]]:
+def match(
+    references: Sequence[np.ndarray],
+    boxes: Sequence[np.ndarray],
+    eligible: np.ndarray | None = None,
+    threshold: float = IOU,
+) -> list[tuple[int, int]]:
     """One-to-one pairs (reference, box), greedy by IoU, of IoU >= ``threshold`` where ``eligible[r, b]``."""
     if not len(references) or not len(boxes):
         return []
@@ -218,8 +275,9 @@ def mask_box(mask: np.ndarray) -> np.ndarray | None:
 
 
 # ---------------------------------------------------------------------------------------------- one photo
-def run_pipeline(entry: Entry, run_dir: Path, cache: Path, overrides: list[str],
-                 until: str | None) -> tuple[float, str | None]:
+def run_pipeline(
+    entry: Entry, run_dir: Path, cache: Path, overrides: list[str], until: str | None
+) -> tuple[float, str | None]:
     """The photo alone in a temporary folder through the ``psdr-room`` command: wall seconds, and the error's
     last line when the run failed (the other photos still run: a photo that ends in an error is a result)."""
     if run_dir.exists():
@@ -227,8 +285,14 @@ def run_pipeline(entry: Entry, run_dir: Path, cache: Path, overrides: list[str],
     with tempfile.TemporaryDirectory() as bare:
         photo = Path(bare) / entry.image.name
         shutil.copyfile(entry.image, photo)
-        command = [shutil.which("psdr-room") or "psdr-room", f"image={photo}", f"hydra.run.dir={run_dir}",
-                   f"cache_dir={cache}", *([f"run.until={until}"] if until else []), *overrides]
+        command = [
+            shutil.which("psdr-room") or "psdr-room",
+            f"image={photo}",
+            f"hydra.run.dir={run_dir}",
+            f"cache_dir={cache}",
+            *([f"run.until={until}"] if until else []),
+            *overrides,
+        ]
         start = time.perf_counter()
         result = subprocess.run(command, capture_output=True, text=True)
         seconds = time.perf_counter() - start
@@ -245,11 +309,16 @@ def evaluate(entry: Entry, run_dir: Path, db: ObjectDatabase, seconds: float, sh
     image = Image.load(art / "image")
     panoptic = Panoptic.load(art / "panoptic")
     objects = [s for s in panoptic.segments if s.category in OBJECT_CATEGORIES]
-    row: dict = {"photo": entry.name, "seconds": seconds, "segments": len(objects),
-                 "stages": {k: v["compute_seconds"] for k, v in metrics["stages"].items()},
-                 "guessed": guesses(Camera.load(art / "camera"), RoomBox.load(art / "room_box")
-                                    if (art / "room_box").is_dir() else None),
-                 "implementations": {k: v["name"] for k, v in metrics.get("implementations", {}).items()}}
+    row: dict = {
+        "photo": entry.name,
+        "seconds": seconds,
+        "segments": len(objects),
+        "stages": {k: v["compute_seconds"] for k, v in metrics["stages"].items()},
+        "guessed": guesses(
+            Camera.load(art / "camera"), RoomBox.load(art / "room_box") if (art / "room_box").is_dir() else None
+        ),
+        "implementations": {k: v["name"] for k, v in metrics.get("implementations", {}).items()},
+    }
     if entry.fy is not None:
         camera = Camera.load(art / "camera")
         true_vfov = math.degrees(2 * math.atan(entry.size[1] / (2 * entry.fy)))
@@ -258,8 +327,14 @@ def evaluate(entry: Entry, run_dir: Path, db: ObjectDatabase, seconds: float, sh
     placements = Placements.load(fitted) if fitted.is_dir() else Placements(objects=[])
     row["fitted"] = len(placements.objects)
     room_dir = next((art / n for n in ("room_box_objects", "room_box_fit") if (art / n).is_dir()), None)
-    row.update(physical_rows(placements, RoomBox.load(room_dir) if room_dir else None, db,
-                             Camera.load(art / ("camera_fit" if (art / "camera_fit").is_dir() else "camera"))))
+    row.update(
+        physical_rows(
+            placements,
+            RoomBox.load(room_dir) if room_dir else None,
+            db,
+            Camera.load(art / ("camera_fit" if (art / "camera_fit").is_dir() else "camera")),
+        )
+    )
     fitted_boxes, fitted_masks, categories = [], [], []
     if placements.objects:
         camera = Camera.load(art / "camera_fit")
@@ -285,8 +360,13 @@ def evaluate(entry: Entry, run_dir: Path, db: ObjectDatabase, seconds: float, sh
         found = match(ref_boxes, fitted_boxes, eligible.reshape(len(references), len(fitted_boxes)))
         by_segment = {r for r, _ in match(ref_boxes, segment_boxes)}
         matched_refs = {r for r, _ in found}
-        row.update(references=len(references), seg_recall=len(by_segment), obj_recall=len(found),
-                   lost=sorted(references[r][0] for r in by_segment - matched_refs), ignored=sorted(set(ignored)))
+        row.update(
+            references=len(references),
+            seg_recall=len(by_segment),
+            obj_recall=len(found),
+            lost=sorted(references[r][0] for r in by_segment - matched_refs),
+            ignored=sorted(set(ignored)),
+        )
         row["unmapped"] = sorted({n for n in ignored if n not in REFERENCE_CLASSES})
     else:
         matched_refs = set()
@@ -301,8 +381,15 @@ def evaluate(entry: Entry, run_dir: Path, db: ObjectDatabase, seconds: float, sh
         if key in fit:
             row[key] = fit[key]
     render = art / "appearance" / "render.png"
-    write_sheet(sheets / f"{entry.name}.png", image, panoptic, fitted_masks, references, matched_refs,
-                cv2.imread(str(render))[..., ::-1] if render.is_file() else None)
+    write_sheet(
+        sheets / f"{entry.name}.png",
+        image,
+        panoptic,
+        fitted_masks,
+        references,
+        matched_refs,
+        cv2.imread(str(render))[..., ::-1] if render.is_file() else None,
+    )
     return row
 
 
@@ -317,8 +404,11 @@ def depth_scores(entry: Entry, depth: np.ndarray, valid: np.ndarray) -> dict[str
     both = known & valid & (depth > 0)
     silog, absrel = depth_errors(depth, truth, both)
     scaled = depth[both] * np.median(truth[both] / depth[both])
-    return {"silog": silog, "absrel": absrel,
-            "delta1": float(np.mean(np.maximum(scaled / truth[both], truth[both] / scaled) < 1.25))}
+    return {
+        "silog": silog,
+        "absrel": absrel,
+        "delta1": float(np.mean(np.maximum(scaled / truth[both], truth[both] / scaled) < 1.25)),
+    }
 
 
 def room_accuracy(entry: Entry, panoptic: Panoptic) -> float | None:
@@ -374,13 +464,28 @@ def physical_rows(placements: Placements, room: RoomBox | None, db: ObjectDataba
         low, high = scale_range(category, np.ptp(p.mesh.vertices, axis=0))
         if not low * 0.99 <= p.scale <= high * 1.01:
             sizes.append(f"{p.segment_id}:{p.model_id.split('/')[-1]} x{p.scale:.2f}")
-    out = [p.segment_id for p in objects if room is not None and np.any(np.nan_to_num(room_excess(p, room, PENETRATION), nan=1.0))]
-    return {"duplicates": duplicates, "implausible": sizes, "through": interpenetrations(objects, PENETRATION),
-            "outside": out}
+    out = [
+        p.segment_id
+        for p in objects
+        if room is not None and np.any(np.nan_to_num(room_excess(p, room, PENETRATION), nan=1.0))
+    ]
+    return {
+        "duplicates": duplicates,
+        "implausible": sizes,
+        "through": interpenetrations(objects, PENETRATION),
+        "outside": out,
+    }
 
 
-def write_sheet(path: Path, image: Image, panoptic: Panoptic, fitted: list, references: list,
-                matched: set[int], render: np.ndarray | None) -> None:
+def write_sheet(
+    path: Path,
+    image: Image,
+    panoptic: Panoptic,
+    fitted: list,
+    references: list,
+    matched: set[int],
+    render: np.ndarray | None,
+) -> None:
     """photo with reference boxes (green: recalled by a fitted object, red: missed) | segmentation |
     fitted objects' outlines with their model names | final render."""
     rgb8 = image.to_uint8()
@@ -396,8 +501,16 @@ def write_sheet(path: Path, image: Image, panoptic: Panoptic, fitted: list, refe
         colour = tuple(int(c) for c in cv2.applyColorMap(np.uint8([[37 * k % 255]]), cv2.COLORMAP_HSV)[0, 0][::-1])
         cv2.drawContours(outlines, contours, -1, colour, 2)
         ys, xs = np.nonzero(mask)
-        cv2.putText(outlines, placement.model_id.split("/")[-1], (int(xs.min()), max(12, int(ys.min()) + 12)),
-                    cv2.FONT_HERSHEY_SIMPLEX, 0.4, colour, 1, cv2.LINE_AA)
+        cv2.putText(
+            outlines,
+            placement.model_id.split("/")[-1],
+            (int(xs.min()), max(12, int(ys.min()) + 12)),
+            cv2.FONT_HERSHEY_SIMPLEX,
+            0.4,
+            colour,
+            1,
+            cv2.LINE_AA,
+        )
     tiles = [photo, segment_overlay(rgb8, panoptic), outlines]
     if render is not None:
         tiles.append(cv2.resize(render, (rgb8.shape[1], rgb8.shape[0]), interpolation=cv2.INTER_LINEAR))
@@ -425,19 +538,23 @@ PHYSICAL = (("lost", "lost"), ("dup", "duplicates"), ("size", "implausible"), ("
 
 
 def format_table(rows: list[dict]) -> str:
-    header = (f"{'photo':<24} {'FoV err':>7} {'segs':>4} {'fit':>4} {'seg rec':>7} {'obj rec':>7} "
-              + " ".join(f"{c:>4}" for c, _ in PHYSICAL)
-              + f" {'si-log':>6} {'AbsRel':>6} {'δ1':>5} {'w/f/c':>5} {'RMSE init→fit':>15} {'SSIM init→fit':>13} {'FLIP init→fit':>13} {'s':>5}")
+    header = (
+        f"{'photo':<24} {'FoV err':>7} {'segs':>4} {'fit':>4} {'seg rec':>7} {'obj rec':>7} "
+        + " ".join(f"{c:>4}" for c, _ in PHYSICAL)
+        + f" {'si-log':>6} {'AbsRel':>6} {'δ1':>5} {'w/f/c':>5} {'RMSE init→fit':>15} {'SSIM init→fit':>13} {'FLIP init→fit':>13} {'s':>5}"
+    )
     lines = [header, "-" * len(header)]
     for r in rows:
         rmse = f"{r['rmse_init']:.3f}→{r['rmse']:.3f}" if "rmse" in r else "-"
         ssim = f"{r['ssim_init']:.3f}→{r['ssim']:.3f}" if "ssim" in r else "-"
         flip = f"{r['flip_init']:.3f}→{r['flip']:.3f}" if "flip" in r else "-"
         counts = " ".join(f"{_count(r, key) if key in r else '-':>4}" for _, key in PHYSICAL)
-        lines.append(f"{r['photo']:<24} {_cell(r.get('fov_error'), '+.2f', 7)} {r['segments']:>4} {r['fitted']:>4} "
-                     f"{_ratio(r, 'seg_recall'):>7} {_ratio(r, 'obj_recall'):>7} {counts} {_cell(r.get('silog'), '.3f', 6)} "
-                     f"{_cell(r.get('absrel'), '.3f', 6)} {_cell(r.get('delta1'), '.2f', 5)} "
-                     f"{_cell(r.get('room_accuracy'), '.2f', 5)} {rmse:>15} {ssim:>13} {flip:>13} {r['seconds']:5.0f}")
+        lines.append(
+            f"{r['photo']:<24} {_cell(r.get('fov_error'), '+.2f', 7)} {r['segments']:>4} {r['fitted']:>4} "
+            f"{_ratio(r, 'seg_recall'):>7} {_ratio(r, 'obj_recall'):>7} {counts} {_cell(r.get('silog'), '.3f', 6)} "
+            f"{_cell(r.get('absrel'), '.3f', 6)} {_cell(r.get('delta1'), '.2f', 5)} "
+            f"{_cell(r.get('room_accuracy'), '.2f', 5)} {rmse:>15} {ssim:>13} {flip:>13} {r['seconds']:5.0f}"
+        )
     boxed = [r for r in rows if "references" in r]
     fov = [abs(r["fov_error"]) for r in rows if "fov_error" in r]
     refs = sum(r["references"] for r in boxed)
@@ -448,16 +565,19 @@ def format_table(rows: list[dict]) -> str:
         f"{sum(r['segments'] for r in rows):>4} {sum(r['fitted'] for r in rows):>4} "
         f"{(str(sum(r['seg_recall'] for r in boxed)) + '/' + str(refs)) if boxed else '-':>7} "
         f"{(str(sum(r['obj_recall'] for r in boxed)) + '/' + str(refs)) if boxed else '-':>7} "
-        + " ".join(f"{sum(_count(r, key) for r in rows):>4}" for _, key in PHYSICAL) +
-        f" {_cell(_median(rows, 'silog'), '.3f', 6)} {_cell(_median(rows, 'absrel'), '.3f', 6)} "
+        + " ".join(f"{sum(_count(r, key) for r in rows):>4}" for _, key in PHYSICAL)
+        + f" {_cell(_median(rows, 'silog'), '.3f', 6)} {_cell(_median(rows, 'absrel'), '.3f', 6)} "
         f"{_cell(_median(rows, 'delta1'), '.2f', 5)} {_cell(_mean(rows, 'room_accuracy'), '.2f', 5)} "
         f"{_better(improved, 'rmse', lower=True):>15} {_better(improved, 'ssim', lower=False):>13} "
-        f"{_better([r for r in improved if 'flip' in r], 'flip', lower=True):>13} {sum(r['seconds'] for r in rows):5.0f}")
-    lines.append("(FoV err: median |error| in the total row; si-log, AbsRel, δ1: medians; w/f/c: mean wall/floor/ceiling "
-                 "pixel accuracy; RMSE/SSIM/FLIP: photos improved by "
-                 "the fit (renders denoised unless denoiser=none); recall at box IoU >= 0.5; lost: references a segment "
-                 "matches and no fitted object does; dup, size, pen, out: duplicate pairs, implausible sizes, pairs "
-                 f"through each other and objects beyond the room by > {PENETRATION * 100:g} cm)")
+        f"{_better([r for r in improved if 'flip' in r], 'flip', lower=True):>13} {sum(r['seconds'] for r in rows):5.0f}"
+    )
+    lines.append(
+        "(FoV err: median |error| in the total row; si-log, AbsRel, δ1: medians; w/f/c: mean wall/floor/ceiling "
+        "pixel accuracy; RMSE/SSIM/FLIP: photos improved by "
+        "the fit (renders denoised unless denoiser=none); recall at box IoU >= 0.5; lost: references a segment "
+        "matches and no fitted object does; dup, size, pen, out: duplicate pairs, implausible sizes, pairs "
+        f"through each other and objects beyond the room by > {PENETRATION * 100:g} cm)"
+    )
     for r in rows:
         details = [f"{c} {r[key]}" for c, key in PHYSICAL if r.get(key)]
         if details:
@@ -500,8 +620,10 @@ def stage_table(rows: list[dict]) -> str:
 def compare_table(before: list[dict], after: list[dict]) -> str:
     """Recall and fit columns of an earlier run (``before``) beside this one's, per photo."""
     old = {r["photo"]: r for r in before}
-    header = (f"{'photo':<24} {'segs':>9} {'fit':>9} {'seg rec':>13} {'obj rec':>13} {'lost':>7} {'AbsRel':>13} "
-              f"{'δ1':>11} {'w/f/c':>11} {'RMSE fit':>13} {'SSIM fit':>13} {'FLIP fit':>13}")
+    header = (
+        f"{'photo':<24} {'segs':>9} {'fit':>9} {'seg rec':>13} {'obj rec':>13} {'lost':>7} {'AbsRel':>13} "
+        f"{'δ1':>11} {'w/f/c':>11} {'RMSE fit':>13} {'SSIM fit':>13} {'FLIP fit':>13}"
+    )
     lines = [header, "-" * len(header)]
 
     def pair(a: dict | None, b: dict, key: str, fmt: str = "") -> str:
@@ -509,16 +631,19 @@ def compare_table(before: list[dict], after: list[dict]) -> str:
             if r is None or key not in r:
                 return "-"
             return f"{r[key]}/{r['references']}" if key.endswith("recall") else format(r[key], fmt)
+
         return f"{one(a)}→{one(b)}"
 
     for r in after:
         o = old.get(r["photo"])
         lost = f"{_count(o, 'lost') if o and 'lost' in o else '-'}→{_count(r, 'lost') if 'lost' in r else '-'}"
-        lines.append(f"{r['photo']:<24} {pair(o, r, 'segments'):>9} {pair(o, r, 'fitted'):>9} "
-                     f"{pair(o, r, 'seg_recall'):>13} {pair(o, r, 'obj_recall'):>13} {lost:>7} "
-                     f"{pair(o, r, 'absrel', '.3f'):>13} {pair(o, r, 'delta1', '.2f'):>11} "
-                     f"{pair(o, r, 'room_accuracy', '.2f'):>11} {pair(o, r, 'rmse', '.3f'):>13} "
-                     f"{pair(o, r, 'ssim', '.3f'):>13} {pair(o, r, 'flip', '.3f'):>13}")
+        lines.append(
+            f"{r['photo']:<24} {pair(o, r, 'segments'):>9} {pair(o, r, 'fitted'):>9} "
+            f"{pair(o, r, 'seg_recall'):>13} {pair(o, r, 'obj_recall'):>13} {lost:>7} "
+            f"{pair(o, r, 'absrel', '.3f'):>13} {pair(o, r, 'delta1', '.2f'):>11} "
+            f"{pair(o, r, 'room_accuracy', '.2f'):>11} {pair(o, r, 'rmse', '.3f'):>13} "
+            f"{pair(o, r, 'ssim', '.3f'):>13} {pair(o, r, 'flip', '.3f'):>13}"
+        )
 
     def total(rows: list[dict], key: str) -> str:
         boxed = [r for r in rows if "references" in r]
@@ -531,15 +656,17 @@ def compare_table(before: list[dict], after: list[dict]) -> str:
     shown = {r["photo"] for r in after}
     earlier = [o for o in before if o["photo"] in shown]
     lines.append("-" * len(header))
-    lines.append(f"{'total (' + str(len(after)) + ' photos)':<24} "
-                 f"{str(sum(r['segments'] for r in earlier)) + '→' + str(sum(r['segments'] for r in after)):>9} "
-                 f"{str(sum(r['fitted'] for r in earlier)) + '→' + str(sum(r['fitted'] for r in after)):>9} "
-                 f"{total(earlier, 'seg_recall') + '→' + total(after, 'seg_recall'):>13} "
-                 f"{total(earlier, 'obj_recall') + '→' + total(after, 'obj_recall'):>13} "
-                 f"{str(sum(_count(r, 'lost') for r in earlier)) + '→' + str(sum(_count(r, 'lost') for r in after)):>7} "
-                 f"{summary(earlier, 'absrel', np.median, '.3f') + '→' + summary(after, 'absrel', np.median, '.3f'):>13} "
-                 f"{summary(earlier, 'delta1', np.median, '.2f') + '→' + summary(after, 'delta1', np.median, '.2f'):>11} "
-                 f"{summary(earlier, 'room_accuracy', np.mean, '.2f') + '→' + summary(after, 'room_accuracy', np.mean, '.2f'):>11}")
+    lines.append(
+        f"{'total (' + str(len(after)) + ' photos)':<24} "
+        f"{str(sum(r['segments'] for r in earlier)) + '→' + str(sum(r['segments'] for r in after)):>9} "
+        f"{str(sum(r['fitted'] for r in earlier)) + '→' + str(sum(r['fitted'] for r in after)):>9} "
+        f"{total(earlier, 'seg_recall') + '→' + total(after, 'seg_recall'):>13} "
+        f"{total(earlier, 'obj_recall') + '→' + total(after, 'obj_recall'):>13} "
+        f"{str(sum(_count(r, 'lost') for r in earlier)) + '→' + str(sum(_count(r, 'lost') for r in after)):>7} "
+        f"{summary(earlier, 'absrel', np.median, '.3f') + '→' + summary(after, 'absrel', np.median, '.3f'):>13} "
+        f"{summary(earlier, 'delta1', np.median, '.2f') + '→' + summary(after, 'delta1', np.median, '.2f'):>11} "
+        f"{summary(earlier, 'room_accuracy', np.mean, '.2f') + '→' + summary(after, 'room_accuracy', np.mean, '.2f'):>11}"
+    )
     lines.append("(total: recall sums, median AbsRel and δ1, mean w/f/c)")
     return "\n".join(lines)
 
@@ -548,22 +675,28 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--photos", type=Path, default=PHOTOS, help="a folder with index.csv (default: %(default)s)")
     parser.add_argument("--only", nargs="+", metavar="NAME", help="run these photos only (folder names)")
-    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                        help="a config override for every run")
+    parser.add_argument(
+        "--set", action="append", default=[], metavar="KEY=VALUE", help="a config override for every run"
+    )
     parser.add_argument("--until", metavar="STAGE", help="stop every run after this stage (run.until)")
     parser.add_argument("--out", type=Path, default=OUT, help="runs, sheets, rows.json (default: %(default)s)")
     parser.add_argument("--cache", type=Path, help="the shared cache (default: OUT/cache)")
     parser.add_argument("--save", type=Path, help="write the rows here (default: OUT/rows.json)")
     parser.add_argument("--compare", type=Path, help="rows.json of an earlier run to print beside this one")
-    parser.add_argument("--no-run", action="store_true",
-                        help="evaluate the run folders already in OUT/runs again (after changing this script)")
+    parser.add_argument(
+        "--no-run",
+        action="store_true",
+        help="evaluate the run folders already in OUT/runs again (after changing this script)",
+    )
     args = parser.parse_args()
     entries = read_index(args.photos.resolve())
     if args.only:
         unknown = set(args.only) - {e.name for e in entries}
         if unknown:
-            sys.exit(f"real_photos: --only {', '.join(sorted(unknown))}: not in {args.photos / 'index.csv'}; "
-                     f"names: {', '.join(e.name for e in entries)}")
+            sys.exit(
+                f"real_photos: --only {', '.join(sorted(unknown))}: not in {args.photos / 'index.csv'}; "
+                f"names: {', '.join(e.name for e in entries)}"
+            )
         entries = [e for e in entries if e.name in args.only]
     if args.compare and not args.compare.is_file():
         sys.exit(f"real_photos: --compare {args.compare}: no such file; give the rows.json an earlier run wrote")
@@ -590,8 +723,10 @@ def main() -> None:
     save = args.save or args.out / "rows.json"
     save.parent.mkdir(parents=True, exist_ok=True)
     save.write_text(json.dumps(rows, indent=1) + "\n")
-    print(f"Real photos run bare ({args.photos}; overrides: {' '.join(args.set) or 'none'}"
-          f"{'; until ' + args.until if args.until else ''})\n")
+    print(
+        f"Real photos run bare ({args.photos}; overrides: {' '.join(args.set) or 'none'}"
+        f"{'; until ' + args.until if args.until else ''})\n"
+    )
     print(format_table(rows))
     print(f"\nfinished: {len(rows)}/{len(rows) + len(failed)}")
     for name, error in failed.items():

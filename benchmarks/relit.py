@@ -29,7 +29,9 @@ from psdr_room_core.method.material_priors import LUMINANCE, painted
 from psdr_room_core.method.stages.export import scene_folder
 
 
-def render(scene_dir: Path, light: str | None, offset: np.ndarray, spp: int) -> tuple[np.ndarray, np.ndarray, str, list]:
+def render(
+    scene_dir: Path, light: str | None, offset: np.ndarray, spp: int
+) -> tuple[np.ndarray, np.ndarray, str, list]:
     """(as fitted, light moved) sRGB renders of a scene folder, the moved light's name, and its walls' materials."""
     registry = plugin_system().registry
     library = registry.implementation("material_graph", "torch_graph").factory()
@@ -51,8 +53,11 @@ def render(scene_dir: Path, light: str | None, offset: np.ndarray, spp: int) -> 
                 (Path(folder) / path).parent.mkdir(parents=True, exist_ok=True)
                 (Path(folder) / path).write_bytes(data)
             images.append(render_folder(Path(folder), spp, renderer, denoiser))
-    walls = [(p["part"], float(np.dot(p["base_color"], LUMINANCE)), p["specular"]) for p in state["parts"]
-             if painted(p["part"])]
+    walls = [
+        (p["part"], float(np.dot(p["base_color"], LUMINANCE)), p["specular"])
+        for p in state["parts"]
+        if painted(p["part"])
+    ]
     return images[0], images[1], name, walls
 
 
@@ -77,8 +82,16 @@ def main() -> None:
             height = round(fitted.shape[0] * args.width / fitted.shape[1])
             pair = [cv2.resize(x, (args.width, height), interpolation=cv2.INTER_AREA) for x in (fitted, moved)]
             row = np.hstack(pair)
-            cv2.putText(row, f"{label}: as fitted | {name} moved", (6, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5,
-                        (255, 255, 255), 1, cv2.LINE_AA)
+            cv2.putText(
+                row,
+                f"{label}: as fitted | {name} moved",
+                (6, 18),
+                cv2.FONT_HERSHEY_SIMPLEX,
+                0.5,
+                (255, 255, 255),
+                1,
+                cv2.LINE_AA,
+            )
             rows.append(row)
     except PsdrRoomError as exc:
         sys.exit(f"relit: {exc}")

@@ -23,8 +23,9 @@ from psdr_room_core.method.geometry import TriangleMesh, box_mesh, quad_mesh
 from psdr_room_core.method.rgb_scene import room_quads
 from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
 
-ROOM = RoomBox(camera_to_world=np.eye(4), center=np.array([0.0, 1.4, 0.0]), half_size=np.array([2.5, 1.4, 2.0]),
-               yaw=0.0)
+ROOM = RoomBox(
+    camera_to_world=np.eye(4), center=np.array([0.0, 1.4, 0.0]), half_size=np.array([2.5, 1.4, 2.0]), yaw=0.0
+)
 BOXES = {  # name: (centre, half size, yaw)
     "table": ((0.6, 0.38, -0.8), (0.6, 0.38, 0.4), 0.0),
     "cabinet": ((1.8, 0.95, -1.7), (0.55, 0.95, 0.25), 0.0),
@@ -37,7 +38,8 @@ def scene(width: int, height: int) -> tuple[Camera, np.ndarray, dict[str, Triang
     c2w = np.eye(4)
     pitch = np.radians(-10.0)
     c2w[:3, :3] = np.diag([1.0, -1.0, -1.0]) @ np.array(
-        [[1, 0, 0], [0, np.cos(pitch), -np.sin(pitch)], [0, np.sin(pitch), np.cos(pitch)]])
+        [[1, 0, 0], [0, np.cos(pitch), -np.sin(pitch)], [0, np.sin(pitch), np.cos(pitch)]]
+    )
     c2w[:3, 3] = [0.0, 1.5, 1.8]
     meshes = {name: quad_mesh(quad) for name, quad in room_quads(ROOM).items()}
     parts = {name: {"floor": 1, "ceiling": 2}.get(name, 0) for name in meshes}
@@ -76,8 +78,13 @@ def main() -> None:
         width, height = (int(x) for x in size.split("x"))
         camera, c2w, meshes, parts = scene(width, height)
         light = quad_mesh(np.array([[-0.5, 2.75, -0.5], [0.5, 2.75, -0.5], [0.5, 2.75, 0.5], [-0.5, 2.75, 0.5]]))
-        renderer = MitsubaRenderer(spp=args.spp, spp_boundary=args.spp_boundary, rgb_spp=args.rgb_spp,
-                                   max_depth=args.max_depth, rgb_geometry_gradients=True)
+        renderer = MitsubaRenderer(
+            spp=args.spp,
+            spp_boundary=args.spp_boundary,
+            rgb_spp=args.rgb_spp,
+            max_depth=args.max_depth,
+            rgb_geometry_gradients=True,
+        )
         geometry = renderer.geometry(camera, c2w, meshes, parts, emitters={"light": (light, (10.0, 10.0, 10.0))})
         base = {name: torch.tensor(mesh.vertices, dtype=torch.float32) for name, mesh in meshes.items()}
         offset = torch.zeros(3, requires_grad=True)
@@ -92,17 +99,20 @@ def main() -> None:
         radiance = torch.full((3,), 10.0, requires_grad=True)
 
         def rgb(iteration: int) -> None:
-            image = geometry.render_rgb(base_color=dict(zip(meshes, albedo)), radiance={"light": radiance},
-                                        iteration=iteration)
+            image = geometry.render_rgb(
+                base_color=dict(zip(meshes, albedo)), radiance={"light": radiance}, iteration=iteration
+            )
             image.mean().backward()
 
         def rgb_geometry(iteration: int) -> None:
             vertices = {name: v + offset for name, v in base.items()}
             geometry.render_rgb(vertices, iteration=iteration).mean().backward()
 
-        for label, step in (("masks+depth (direct, projective)", masks_depth),
-                            ("rgb, albedo+light grads (prb)", rgb),
-                            ("rgb, vertex grads (prb_projective)", rgb_geometry)):
+        for label, step in (
+            ("masks+depth (direct, projective)", masks_depth),
+            ("rgb, albedo+light grads (prb)", rgb),
+            ("rgb, vertex grads (prb_projective)", rgb_geometry),
+        ):
             first, steady = timed(step, args.iterations)
             rows.append((size, label, first, steady))
             print(f"{size:>8}  {label:<36} first {first:7.2f} s   then {steady:6.3f} s/it", flush=True)
@@ -112,8 +122,10 @@ def main() -> None:
     print("| --- | --- | --- | --- |")
     for size, label, first, steady in rows:
         print(f"| {size} | {label} | {first:.2f} | {steady:.3f} |")
-    print(f"\n(spp {args.spp}, spp_boundary {args.spp_boundary}, rgb_spp {args.rgb_spp}, max_depth {args.max_depth}, "
-          f"{len(BOXES)} boxes + 6 room quads, parts {3 + len(BOXES)})")
+    print(
+        f"\n(spp {args.spp}, spp_boundary {args.spp_boundary}, rgb_spp {args.rgb_spp}, max_depth {args.max_depth}, "
+        f"{len(BOXES)} boxes + 6 room quads, parts {3 + len(BOXES)})"
+    )
 
 
 if __name__ == "__main__":

@@ -36,13 +36,23 @@ from psdr_room_plugins.synth.scene import HARD_CASES, generate
 def iou(truth: dict, box: RoomBox) -> float:
     """3D IoU with the true box, compared in the true camera's frame (see ``room_iou``)."""
     gt = truth["room"]
-    reference = RoomBox(camera_to_world=np.asarray(truth["camera_to_world"]), center=np.array(gt["center"]),
-                        half_size=np.array(gt["half_size"]), yaw=gt["yaw"])
+    reference = RoomBox(
+        camera_to_world=np.asarray(truth["camera_to_world"]),
+        center=np.array(gt["center"]),
+        half_size=np.array(gt["half_size"]),
+        yaw=gt["yaw"],
+    )
     return room_iou(reference, box)
 
 
-def evaluate(scene: Path, run_dir: Path, overrides: list[str], true_fov: bool = False, bare: bool = False,
-             until: str = "room_fit") -> dict:
+def evaluate(
+    scene: Path,
+    run_dir: Path,
+    overrides: list[str],
+    true_fov: bool = False,
+    bare: bool = False,
+    until: str = "room_fit",
+) -> dict:
     """Run one scene up to ``until`` (at least room_fit; ``bare``: its photo alone, without the depth and
     segmentation beside it); return its row of the table."""
     truth = json.loads((scene / "ground_truth.json").read_text())
@@ -71,17 +81,23 @@ def evaluate(scene: Path, run_dir: Path, overrides: list[str], true_fov: bool = 
 
 def print_table(rows: list[dict], title: str) -> None:
     print(f"\n{title}")
-    print(f"{'scene':<28}{'FoV err':>9}{'fitted':>8}{'IoU init':>10}{'IoU fit':>9}{'1st it (s)':>12}{'it (s)':>8}"
-          f"{'stages (s)':>12}  floor from")
+    print(
+        f"{'scene':<28}{'FoV err':>9}{'fitted':>8}{'IoU init':>10}{'IoU fit':>9}{'1st it (s)':>12}{'it (s)':>8}"
+        f"{'stages (s)':>12}  floor from"
+    )
     for r in rows:
-        print(f"{r['scene']:<28}{r['fov_error']:>+9.2f}{r['fov_error_fit']:>+8.2f}{r['iou_init']:>10.3f}{r['iou_fit']:>9.3f}"
-              f"{r['first_it']:>12.2f}{r['it']:>8.3f}{r['stages']:>12.1f}  {r['floor']}")
+        print(
+            f"{r['scene']:<28}{r['fov_error']:>+9.2f}{r['fov_error_fit']:>+8.2f}{r['iou_init']:>10.3f}{r['iou_fit']:>9.3f}"
+            f"{r['first_it']:>12.2f}{r['it']:>8.3f}{r['stages']:>12.1f}  {r['floor']}"
+        )
     if len(rows) > 1:
         mean = {k: statistics.fmean(r[k] for r in rows) for k in ("iou_init", "iou_fit", "it", "stages")}
         fov = statistics.median(abs(r["fov_error"]) for r in rows)
         fov_fit = statistics.median(abs(r["fov_error_fit"]) for r in rows)
-        print(f"{'mean (FoV: median |err|)':<28}{fov:>9.2f}{fov_fit:>8.2f}{mean['iou_init']:>10.3f}{mean['iou_fit']:>9.3f}"
-              f"{'':>12}{mean['it']:>8.3f}{mean['stages']:>12.1f}")
+        print(
+            f"{'mean (FoV: median |err|)':<28}{fov:>9.2f}{fov_fit:>8.2f}{mean['iou_init']:>10.3f}{mean['iou_fit']:>9.3f}"
+            f"{'':>12}{mean['it']:>8.3f}{mean['stages']:>12.1f}"
+        )
 
 
 def main() -> None:
@@ -89,12 +105,24 @@ def main() -> None:
     parser.add_argument("--scenes", type=int, default=10, help="random scenes, seeds 0..N-1")
     parser.add_argument("--data", type=Path, help="keep the rendered scenes here (reused when present)")
     parser.add_argument("--no-hard", action="store_true", help="skip the hard cases")
-    parser.add_argument("--cases", nargs="+", choices=HARD_CASES, default=list(HARD_CASES), metavar="CASE",
-                        help=f"the hard cases to run (default: all of {', '.join(HARD_CASES)})")
-    parser.add_argument("--width", type=int, default=640, help="photo width (height = 3/4); real photos are at least 640")
+    parser.add_argument(
+        "--cases",
+        nargs="+",
+        choices=HARD_CASES,
+        default=list(HARD_CASES),
+        metavar="CASE",
+        help=f"the hard cases to run (default: all of {', '.join(HARD_CASES)})",
+    )
+    parser.add_argument(
+        "--width", type=int, default=640, help="photo width (height = 3/4); real photos are at least 640"
+    )
     parser.add_argument("--spp", type=int, default=64)
-    parser.add_argument("--depth-noise", type=float, default=0.05,
-                        help="relative error of the depth given to the pipeline, as from a depth estimator (0: exact)")
+    parser.add_argument(
+        "--depth-noise",
+        type=float,
+        default=0.05,
+        help="relative error of the depth given to the pipeline, as from a depth estimator (0: exact)",
+    )
     parser.add_argument("--true-fov", action="store_true", help="give the pipeline the true FoV (fov=fixed)")
     parser.add_argument("--bare", action="store_true", help="each photo alone: offline segmentation and depth")
     parser.add_argument("--until", default="room_fit", help="the last stage of each run (export_scene: all of them)")
@@ -109,11 +137,19 @@ def main() -> None:
             if not (scene / "ground_truth.json").is_file():
                 width = args.width
                 write_scene(generate(seed, case, width, round(width * 3 / 4)), scene, args.spp, args.depth_noise)
-            row = evaluate(scene, Path(tmp) / "runs" / scene.name, [f"cache_dir={Path(tmp) / 'cache'}", *args.overrides],
-                           args.true_fov, args.bare, args.until)
+            row = evaluate(
+                scene,
+                Path(tmp) / "runs" / scene.name,
+                [f"cache_dir={Path(tmp) / 'cache'}", *args.overrides],
+                args.true_fov,
+                args.bare,
+                args.until,
+            )
             rows["random" if case == "random" else "hard"].append(row)
             print(f"  {scene.name}: IoU {row['iou_init']:.3f} -> {row['iou_fit']:.3f}", flush=True)
-    print_table(rows["random"], f"{args.scenes} random synthetic rooms ({args.width}x{round(args.width * 3 / 4)} photos)")
+    print_table(
+        rows["random"], f"{args.scenes} random synthetic rooms ({args.width}x{round(args.width * 3 / 4)} photos)"
+    )
     if rows["hard"]:
         print_table(rows["hard"], "hard cases")
     if rows["random"] and not math.isnan(rows["random"][0]["iou_fit"]):

@@ -42,10 +42,19 @@ PREVIOUS = [
     "renderer.mitsuba.freeze=false",  # path-traced renders traced in Python every iteration (replayed now)
 ]
 """Overrides that bring back the settings the defaults replaced (issue 20)."""
-WIDTH_KEYS = ("room_fit.render_width", "retrieval.silhouette.render_width", "place_objects.render_width",
-              "fit_objects.render_width", "fit_appearance.render_width")
-SHORT_FITS = ["room_fit.iterations=20", "fit_objects.iterations=20", "fit_objects.convergence.window=0",
-              "fit_appearance.iterations=10"]
+WIDTH_KEYS = (
+    "room_fit.render_width",
+    "retrieval.silhouette.render_width",
+    "place_objects.render_width",
+    "fit_objects.render_width",
+    "fit_appearance.render_width",
+)
+SHORT_FITS = [
+    "room_fit.iterations=20",
+    "fit_objects.iterations=20",
+    "fit_objects.convergence.window=0",
+    "fit_appearance.iterations=10",
+]
 
 
 def timed_run(photo: Path, label: str, overrides: list[str]) -> dict:
@@ -68,8 +77,14 @@ def quality(m: dict) -> dict[str, str]:
     """The figures that must not get worse, as printed."""
     fit = m.get("fit_appearance_log", {})
     artifacts = m["run_dir"] / "artifacts"
-    placed = next((artifacts / name / "placements.json" for name in ("placements_fit", "placements")
-                   if (artifacts / name).is_dir()), None)
+    placed = next(
+        (
+            artifacts / name / "placements.json"
+            for name in ("placements_fit", "placements")
+            if (artifacts / name).is_dir()
+        ),
+        None,
+    )
     out = {"objects placed": str(len(json.loads(placed.read_text())["objects"])) if placed else "–"}
     for key, name in (("rmse", "RMSE"), ("ssim", "SSIM"), ("flip", "ꟻLIP")):
         if key in fit:
@@ -96,8 +111,10 @@ def agreement(preview: dict, full: dict) -> str:
     both = [s for s in theirs if s in ours and theirs[s]]
     first = sum(bool(ours[s]) and ours[s][0] == theirs[s][0] for s in both)
     listed = sum(theirs[s][0] in ours[s] for s in both)
-    return (f"first pick as the full run's for {first}/{len(both)} objects, the full run's first pick in the "
-            f"preview's candidates for {listed}/{len(both)}")
+    return (
+        f"first pick as the full run's for {first}/{len(both)} objects, the full run's first pick in the "
+        f"preview's candidates for {listed}/{len(both)}"
+    )
 
 
 def side_by_side(name: str, old: dict, new: dict) -> None:
@@ -108,10 +125,13 @@ def side_by_side(name: str, old: dict, new: dict) -> None:
         before = old["stages"].get(stage, {}).get("compute_seconds", float("nan"))
         print(f"| {stage} | {before:.1f} | {s['compute_seconds']:.1f} | {s.get('peak_rss_mb', 0):.0f} |")
     old_total, new_total = old["total_seconds"], new["total_seconds"]
-    print(f"| **stages** | **{old_total:.1f}** | **{new_total:.1f}** ({old_total / new_total:.2f}×) | "
-          f"{peak(new):.0f} |")
-    print(f"| process wall (start-up included) | {old['wall']:.1f} | {new['wall']:.1f} "
-          f"({old['wall'] / new['wall']:.2f}×) | |")
+    print(
+        f"| **stages** | **{old_total:.1f}** | **{new_total:.1f}** ({old_total / new_total:.2f}×) | {peak(new):.0f} |"
+    )
+    print(
+        f"| process wall (start-up included) | {old['wall']:.1f} | {new['wall']:.1f} "
+        f"({old['wall'] / new['wall']:.2f}×) | |"
+    )
     for (key, before), after in zip(quality(old).items(), quality(new).values()):
         print(f"| {key} | {before} | {after} | |")
 
@@ -134,8 +154,12 @@ def scaling_table(title: str, column: str, runs: dict[str, dict]) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", default="0,1", help="the synthetic rooms of the side-by-side table ('': none)")
-    parser.add_argument("--old", action="append", metavar="KEY=VALUE",
-                        help="the previous defaults as overrides (default: the settings issue 20 replaced)")
+    parser.add_argument(
+        "--old",
+        action="append",
+        metavar="KEY=VALUE",
+        help="the previous defaults as overrides (default: the settings issue 20 replaced)",
+    )
     parser.add_argument("--no-scaling", action="store_true", help="only the side-by-side table and the preview")
     parser.add_argument("--objects", default="2,4,8,16")
     parser.add_argument("--widths", default="160,320,640")
@@ -143,8 +167,9 @@ def main() -> None:
     old_overrides = args.old or PREVIOUS
     OUT.mkdir(parents=True, exist_ok=True)
     print(f"previous defaults: {' '.join(old_overrides)}")
-    scenes = [("example (NYU basement)", EXAMPLE)] + [(f"synthetic room {s}", synth_scene(int(s)))
-                                                       for s in args.seeds.split(",") if s]
+    scenes = [("example (NYU basement)", EXAMPLE)] + [
+        (f"synthetic room {s}", synth_scene(int(s))) for s in args.seeds.split(",") if s
+    ]
     runs = {}
     for name, photo in scenes:
         label = photo.parent.name
@@ -152,9 +177,11 @@ def main() -> None:
         old = timed_run(photo, f"{label}_previous", old_overrides)
         side_by_side(name, old, new)
     preview = timed_run(EXAMPLE, "preview", ["+preset=preview"])
-    print(f"\npreview (+preset=preview, until place_objects) on the example: stages {preview['total_seconds']:.1f} s, "
-          f"process wall {preview['wall']:.1f} s, {quality(preview)['objects placed']} objects, "
-          f"peak RSS {peak(preview):.0f} MiB; {agreement(preview, runs[EXAMPLE])}")
+    print(
+        f"\npreview (+preset=preview, until place_objects) on the example: stages {preview['total_seconds']:.1f} s, "
+        f"process wall {preview['wall']:.1f} s, {quality(preview)['objects placed']} objects, "
+        f"peak RSS {peak(preview):.0f} MiB; {agreement(preview, runs[EXAMPLE])}"
+    )
     if args.no_scaling:
         return
     by_objects = {}
@@ -163,11 +190,14 @@ def main() -> None:
         m = timed_run(photo, f"objects_{count}", SHORT_FITS)
         placed = quality(m)["objects placed"]
         by_objects[f"{count} asked, {placed} placed"] = m
-    scaling_table("time vs objects (synthetic room 0; fits cut to " + ", ".join(SHORT_FITS) + ")", "objects",
-                  by_objects)
+    scaling_table(
+        "time vs objects (synthetic room 0; fits cut to " + ", ".join(SHORT_FITS) + ")", "objects", by_objects
+    )
     by_width = {}
     for width in (int(w) for w in args.widths.split(",")):
-        by_width[f"{width} px"] = timed_run(EXAMPLE, f"width_{width}", [f"{k}={width}" for k in WIDTH_KEYS] + SHORT_FITS)
+        by_width[f"{width} px"] = timed_run(
+            EXAMPLE, f"width_{width}", [f"{k}={width}" for k in WIDTH_KEYS] + SHORT_FITS
+        )
     scaling_table("time vs working resolution (the example; fits cut as above)", "render_width", by_width)
 
 

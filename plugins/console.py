@@ -34,5 +34,11 @@ def after_run(run: RunRecord, run_dir: Path) -> None:
     cached = sum(r.cached for r in run.stages)
     total = sum(r.seconds for r in run.stages)
     peak = max((r.peak_rss_mb for r in run.stages), default=0.0)
-    log.info("done: %d stages (%d cached) in %.2f s, peak memory %.0f MiB → %s", len(run.stages), cached, total, peak,
-             run_dir)
+    log.info(
+        "done: %d stages (%d cached) in %.2f s, peak memory %.0f MiB → %s",
+        len(run.stages),
+        cached,
+        total,
+        peak,
+        run_dir,
+    )

@@ -50,7 +50,9 @@ class OidnDenoiser:
             return f"none: {self._failure}"
         return f"oidn {_distribution_version('pyoidn')} ({self.quality})"
 
-    def denoise(self, rgb: np.ndarray, albedo: np.ndarray | None = None, normal: np.ndarray | None = None) -> np.ndarray:
+    def denoise(
+        self, rgb: np.ndarray, albedo: np.ndarray | None = None, normal: np.ndarray | None = None
+    ) -> np.ndarray:
         """``rgb`` without its noise (float32 [H,W,3], linear, any non-negative range)."""
         module = self._load()
         colour = np.ascontiguousarray(np.maximum(rgb, 0.0), dtype=np.float32)
@@ -75,7 +77,9 @@ class NoDenoiser:
     def describe(self) -> str:
         return "none"
 
-    def denoise(self, rgb: np.ndarray, albedo: np.ndarray | None = None, normal: np.ndarray | None = None) -> np.ndarray:
+    def denoise(
+        self, rgb: np.ndarray, albedo: np.ndarray | None = None, normal: np.ndarray | None = None
+    ) -> np.ndarray:
         return np.asarray(rgb, dtype=np.float32)
 
 

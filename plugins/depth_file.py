@@ -55,7 +55,9 @@ class FileDepth:
         if self.path is not None:
             return None if self.path.is_file() else f"{self.path} does not exist"
         found = find_depth_sidecar(photo)
-        return None if found is not None else f"no {' / '.join(photo.stem + s for s in DEPTH_SUFFIXES)} beside the photo"
+        return (
+            None if found is not None else f"no {' / '.join(photo.stem + s for s in DEPTH_SUFFIXES)} beside the photo"
+        )
 
     def estimate(self, image: Image, camera: Camera, panoptic: Panoptic, photo: Path) -> DepthMap:
         path = self._locate(photo)

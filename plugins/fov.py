@@ -32,8 +32,10 @@ class VanishingPointsFov:
             cy=result.cy,
             method=f"vanishing_points/{result.method}",
             confidence=result.confidence,
-            extra={"vanishing_points": [list(map(float, v)) for v in result.vanishing_points],
-                   "segments": result.n_segments},
+            extra={
+                "vanishing_points": [list(map(float, v)) for v in result.vanishing_points],
+                "segments": result.n_segments,
+            },
         )
 
 

@@ -34,7 +34,9 @@ class Adam:
         wall time for the iteration: forward, backward and step)."""
         import torch
 
-        groups = [{"params": [tensor], "lr": float(learning_rates[name]), "name": name} for name, tensor in params.items()]
+        groups = [
+            {"params": [tensor], "lr": float(learning_rates[name]), "name": name} for name, tensor in params.items()
+        ]
         optimizer = torch.optim.Adam(groups, betas=self.betas, eps=self.eps)
         schedule = torch.optim.lr_scheduler.ExponentialLR(optimizer, gamma=self.decay)
         history = []

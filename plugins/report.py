@@ -91,9 +91,11 @@ def _comparison(run: RunRecord) -> str:
         return ""
     render = appearance.images["render"]
     photo = cv2.resize(image.to_uint8(), (render.shape[1], render.shape[0]), interpolation=cv2.INTER_AREA)
-    return (f'<h2>photo | render</h2><div class="compare"><img src="{_png(photo)}" alt="photo">'
-            f'<img class="top" src="{_png(render)}" alt="final render"></div><br>'
-            '<label>render ◀ ▶ photo <input id="slider" type="range" min="0" max="100" value="50"></label>')
+    return (
+        f'<h2>photo | render</h2><div class="compare"><img src="{_png(photo)}" alt="photo">'
+        f'<img class="top" src="{_png(render)}" alt="final render"></div><br>'
+        '<label>render ◀ ▶ photo <input id="slider" type="range" min="0" max="100" value="50"></label>'
+    )
 
 
 def _metric_rows(run: RunRecord) -> str:
@@ -102,8 +104,11 @@ def _metric_rows(run: RunRecord) -> str:
     for stage, artifact in run.artifacts.items():
         if isinstance(artifact, OptimizationLog):
             summary = artifact.summary
-            cells = ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in summary.items()
-                              if isinstance(v, (int, float, str)))
+            cells = ", ".join(
+                f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
+                for k, v in summary.items()
+                if isinstance(v, (int, float, str))
+            )
             rows.append(f"<tr><td>{html.escape(stage)}</td><td>{html.escape(cells)}</td></tr>")
     return "".join(rows)
 
@@ -120,10 +125,14 @@ def render_report(run: RunRecord, alpha: float) -> str:
     facts = []
     camera = run.artifacts.get("camera")
     if camera is not None:
-        facts.append(f"vertical FoV {camera.vfov_deg:.2f}° ({html.escape(camera.method)}, confidence {camera.confidence:.2f})")
+        facts.append(
+            f"vertical FoV {camera.vfov_deg:.2f}° ({html.escape(camera.method)}, confidence {camera.confidence:.2f})"
+        )
         if "camera_fit" in run.artifacts:
             facts.append(f"vertical FoV after room_fit {run.artifacts['camera_fit'].vfov_deg:.2f}°")
-    room = next((run.artifacts[n] for n in ("room_box_objects", "room_box_fit", "room_box") if n in run.artifacts), None)
+    room = next(
+        (run.artifacts[n] for n in ("room_box_objects", "room_box_fit", "room_box") if n in run.artifacts), None
+    )
     if room is not None:
         size = " × ".join(f"{2 * h:.2f}" for h in room.half_size)
         facts.append(f"room box {size} (x × y × z), camera height {room.extra.get('camera_height', float('nan')):.2f}")
@@ -131,11 +140,16 @@ def render_report(run: RunRecord, alpha: float) -> str:
     fit = run.artifacts.get("fit_appearance_log")
     if fit is not None and "rmse" in fit.summary:
         s = fit.summary
-        perceptual = (f"LPIPS {s['lpips_init']:.3f} → {s['lpips']:.3f}" if "lpips" in s else
-                      "LPIPS: not computed (psdr-room-models download alexnet_imagenet lpips_alex_v01 installs it)")
+        perceptual = (
+            f"LPIPS {s['lpips_init']:.3f} → {s['lpips']:.3f}"
+            if "lpips" in s
+            else "LPIPS: not computed (psdr-room-models download alexnet_imagenet lpips_alex_v01 installs it)"
+        )
         flip = f", ꟻLIP {s['flip_init']:.3f} → {s['flip']:.3f}" if "flip" in s else ""
-        facts.append(f"RMSE (1/8 size) {s['rmse_init']:.4f} → {s['rmse']:.4f}, SSIM {s['ssim_init']:.3f} → "
-                     f"{s['ssim']:.3f}{flip}; {perceptual}")
+        facts.append(
+            f"RMSE (1/8 size) {s['rmse_init']:.4f} → {s['rmse']:.4f}, SSIM {s['ssim_init']:.3f} → "
+            f"{s['ssim']:.3f}{flip}; {perceptual}"
+        )
         if "denoiser" in s:
             facts.append(f"renders denoised by: {s['denoiser']}")
     figures = "".join(
@@ -144,7 +158,8 @@ def render_report(run: RunRecord, alpha: float) -> str:
     )
     impls = "".join(
         f"<li>{html.escape(c)} = <b>{html.escape(d['name'])}</b> v{html.escape(d['version'])} — {html.escape(d['origin'])}"
-        + (f"<br><small>selected by {html.escape(d['selected_by'])}</small>" if "selected_by" in d else "") + "</li>"
+        + (f"<br><small>selected by {html.escape(d['selected_by'])}</small>" if "selected_by" in d else "")
+        + "</li>"
         for c, d in run.implementations.items()
     )
     total = sum(r.seconds for r in run.stages)

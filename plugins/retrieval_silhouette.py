@@ -38,8 +38,10 @@ def open_database(database: str, fraction: float, seed: int) -> Any:
     else:
         root = Path(database).expanduser()
         if not (root / "index.json").is_file():
-            raise PsdrRoomError(f"{root}: not an object database (no index.json); set retrieval.<impl>.database=builtin "
-                                "or a folder written by `psdr-room-db`")
+            raise PsdrRoomError(
+                f"{root}: not an object database (no index.json); set retrieval.<impl>.database=builtin "
+                "or a folder written by `psdr-room-db`"
+            )
         db = ObjectDatabase.load(root)
     return db if float(fraction) >= 1.0 else db.subset(float(fraction), int(seed))
 
@@ -49,7 +51,9 @@ def object_mesh(db: Any, model_id: str) -> ObjectMesh:
     try:
         return db.mesh(model_id)
     except KeyError:
-        raise PsdrRoomError(f"object model '{model_id}' is not in the database; pick one listed by `psdr-room-db list`") from None
+        raise PsdrRoomError(
+            f"object model '{model_id}' is not in the database; pick one listed by `psdr-room-db list`"
+        ) from None
 
 
 class SilhouetteRetrieval:
@@ -63,15 +67,40 @@ class SilhouetteRetrieval:
     ``shortlist_share`` of them where that is more (at least ``k``; ``shortlist`` 0: all), are refined and ranked
     by their refined score."""
 
-    def __init__(self, database: str = "builtin", fraction: float = 1.0, seed: int = 0, n_yaw: int = 12,
-                 refine: int = 2, coarse: int = 1, explore: int = 3, polish: int = 2, halvings: int = 2,
-                 render_width: int = 160, max_pixels: int = 3000, size_weight: float = 0.3,
-                 range_weight: float = 5.0, box_weight: float = 0.5, room_weight: float = 2.0,
-                 back_weight: float = 0.5, shortlist: int = 12, shortlist_share: float = 0.2) -> None:
+    def __init__(
+        self,
+        database: str = "builtin",
+        fraction: float = 1.0,
+        seed: int = 0,
+        n_yaw: int = 12,
+        refine: int = 2,
+        coarse: int = 1,
+        explore: int = 3,
+        polish: int = 2,
+        halvings: int = 2,
+        render_width: int = 160,
+        max_pixels: int = 3000,
+        size_weight: float = 0.3,
+        range_weight: float = 5.0,
+        box_weight: float = 0.5,
+        room_weight: float = 2.0,
+        back_weight: float = 0.5,
+        shortlist: int = 12,
+        shortlist_share: float = 0.2,
+    ) -> None:
         self.spec = (str(database), float(fraction), int(seed))
-        self.search = SearchParams(n_yaw=int(n_yaw), refine=int(refine), coarse=int(coarse), explore=int(explore),
-                                   polish=int(polish), halvings=int(halvings), turns=[], box_weight=float(box_weight),
-                                   room_weight=float(room_weight), back_weight=float(back_weight))
+        self.search = SearchParams(
+            n_yaw=int(n_yaw),
+            refine=int(refine),
+            coarse=int(coarse),
+            explore=int(explore),
+            polish=int(polish),
+            halvings=int(halvings),
+            turns=[],
+            box_weight=float(box_weight),
+            room_weight=float(room_weight),
+            back_weight=float(back_weight),
+        )
         self.render_width = int(render_width)
         self.max_pixels = int(max_pixels)
         self.size_weight, self.range_weight = float(size_weight), float(range_weight)
@@ -100,22 +129,40 @@ class SilhouetteRetrieval:
 
     def rank(self, query: ObjectQuery, camera: Camera, camera_to_world: np.ndarray, k: int) -> list[Candidate]:
         models = [r for name in query.categories for r in self.database.category(name)] or list(self.database.records)
-        target = ViewTarget.build(camera, camera_to_world, query.mask, query.points, query.scene_points,
-                                  self.render_width, self.max_pixels, query.box, query.room)
+        target = ViewTarget.build(
+            camera,
+            camera_to_world,
+            query.mask,
+            query.points,
+            query.scene_points,
+            self.render_width,
+            self.max_pixels,
+            query.box,
+            query.room,
+        )
         starts = []
         for record in models:
             mesh = self.database.mesh(record.id)
             prior = SizePrior.of(record.category, record.extent, self.size_weight, self.range_weight)
-            search = ViewSearch(target, mesh.vertices, mesh.faces, self.search, caster=self._caster(record.id, mesh),
-                                prior=prior, backed=record.category in BACKED)
+            search = ViewSearch(
+                target,
+                mesh.vertices,
+                mesh.faces,
+                self.search,
+                caster=self._caster(record.id, mesh),
+                prior=prior,
+                backed=record.category in BACKED,
+            )
             starts.append((self.score(search.start[0]), record, search))
         starts.sort(key=lambda s: (-s[0], s[1].id))
         keep = len(starts)
         if self.shortlist > 0:
             keep = max(self.shortlist, k, math.ceil(self.shortlist_share * len(starts)))
         fits = [(record, search.finish()) for _, record, search in starts[:keep]]
-        scored = [Candidate(record.id, self.score(fit.error), record.category, {"iou": fit.iou, **fit.terms})
-                  for record, fit in fits]
+        scored = [
+            Candidate(record.id, self.score(fit.error), record.category, {"iou": fit.iou, **fit.terms})
+            for record, fit in fits
+        ]
         scored.sort(key=lambda c: (-c.score, c.model_id))
         return scored[:k]
 

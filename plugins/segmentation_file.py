@@ -53,7 +53,9 @@ class FileSegmentation:
         if self.path is not None:
             return None if self.path.is_file() else f"{self.path} does not exist"
         found = find_segmentation_sidecar(photo)
-        return None if found is not None else f"no {photo.stem}.labelme.json or {photo.stem}.panoptic.png beside the photo"
+        return (
+            None if found is not None else f"no {photo.stem}.labelme.json or {photo.stem}.panoptic.png beside the photo"
+        )
 
     def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic:
         return read_segmentation(*self._locate(photo), image)
@@ -74,8 +76,10 @@ def read_segmentation(kind: str, path: Path, image: Image) -> Panoptic:
             raise PsdrRoomError(f"{path}: segmentation is {ids.shape[1]}x{ids.shape[0]}, not aligned with the photo")
         sx, sy = image.width / ids.shape[1], image.height / ids.shape[0]
         ids = cv2.resize(ids, (image.width, image.height), interpolation=cv2.INTER_NEAREST)
-        segments = [s if s.box is None else replace(s, box=(s.box[0] * sx, s.box[1] * sy, s.box[2] * sx,
-                                                            s.box[3] * sy)) for s in segments]
+        segments = [
+            s if s.box is None else replace(s, box=(s.box[0] * sx, s.box[1] * sy, s.box[2] * sx, s.box[3] * sy))
+            for s in segments
+        ]
     present = set(np.unique(ids).tolist())
     return Panoptic(ids=ids.astype(np.int32), segments=[s for s in segments if s.id in present])
 

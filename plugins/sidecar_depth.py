@@ -65,12 +65,14 @@ def read_depth_options(depth_path: Path) -> dict:
     try:
         meta = json.loads(meta_path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise SidecarError(f"{meta_path}: not valid JSON ({exc}); write e.g. {{\"encoding\": \"png16\", \"scale\": 1000}}") from None
+        raise SidecarError(
+            f'{meta_path}: not valid JSON ({exc}); write e.g. {{"encoding": "png16", "scale": 1000}}'
+        ) from None
     if not isinstance(meta, dict):
-        raise SidecarError(f"{meta_path}: expected a JSON object; write e.g. {{\"encoding\": \"png16\", \"scale\": 1000}}")
+        raise SidecarError(f'{meta_path}: expected a JSON object; write e.g. {{"encoding": "png16", "scale": 1000}}')
     unknown = sorted(set(meta) - {"encoding", "scale"})
     if unknown:
-        raise SidecarError(f"{meta_path}: unknown key(s) {', '.join(unknown)}; only \"encoding\" and \"scale\" are read")
+        raise SidecarError(f'{meta_path}: unknown key(s) {", ".join(unknown)}; only "encoding" and "scale" are read')
     options: dict = {}
     if "encoding" in meta:
         options["encoding"] = _check_encoding(meta["encoding"], meta_path)
@@ -118,7 +120,9 @@ def read_depth(path: Path, encoding: str = "auto", scale: float = 1000.0) -> tup
         hint = "positive finite depth values (invalid pixels as 0 or NaN)"
 
     if not valid.any():
-        raise SidecarError(f"{path}: every depth value is invalid (0, negative or not finite); the file must hold {hint}")
+        raise SidecarError(
+            f"{path}: every depth value is invalid (0, negative or not finite); the file must hold {hint}"
+        )
     depth = np.where(valid, depth, np.float32(0.0)).astype(np.float32, copy=False)
     return depth, valid
 
@@ -137,7 +141,9 @@ def _check_scale(scale: object, path: Path) -> float:
     except (TypeError, ValueError):
         value = float("nan")
     if isinstance(scale, bool) or not math.isfinite(value) or value <= 0:
-        raise SidecarError(f"{path}: depth scale must be a positive number (raw units per metre, e.g. 1000 for mm), got {scale!r}")
+        raise SidecarError(
+            f"{path}: depth scale must be a positive number (raw units per metre, e.g. 1000 for mm), got {scale!r}"
+        )
     return value
 
 
@@ -195,7 +201,9 @@ def _read_npy(path: Path) -> np.ndarray:
         arr = np.load(path, allow_pickle=False)
     except (OSError, ValueError, EOFError) as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise SidecarError(f"{path}: not a readable .npy array ({msg}); save it with numpy.save(path, depth.astype('float32'))") from None
+        raise SidecarError(
+            f"{path}: not a readable .npy array ({msg}); save it with numpy.save(path, depth.astype('float32'))"
+        ) from None
     if not isinstance(arr, np.ndarray):  # an .npz archive under a .npy name
         if hasattr(arr, "close"):
             arr.close()
@@ -205,7 +213,9 @@ def _read_npy(path: Path) -> np.ndarray:
     if arr.ndim == 3 and arr.shape[0] == 1:
         arr = arr[0]
     if arr.ndim != 2:
-        raise SidecarError(f"{path}: expected a 2-D HxW depth array, got shape {arr.shape}; save depth[:, :] as float32")
+        raise SidecarError(
+            f"{path}: expected a 2-D HxW depth array, got shape {arr.shape}; save depth[:, :] as float32"
+        )
     if not np.issubdtype(arr.dtype, np.floating):
         raise SidecarError(
             f"{path}: expected a float depth array, got {arr.dtype}; convert to float32 in your units "
@@ -226,7 +236,9 @@ def _read_exr(path: Path) -> np.ndarray:
     try:
         bitmap = mi.Bitmap(str(path), mi.Bitmap.FileFormat.OpenEXR)
     except RuntimeError:
-        raise SidecarError(f"{path}: damaged or not an OpenEXR file; re-export the depth as float EXR or .npy") from None
+        raise SidecarError(
+            f"{path}: damaged or not an OpenEXR file; re-export the depth as float EXR or .npy"
+        ) from None
     names = [field.name for field in bitmap.struct_()]
     data = np.array(bitmap)
     if data.ndim == 3:
@@ -241,4 +253,6 @@ def _pick_channel(names: list[str], path: Path) -> int:
     for wanted in _DEPTH_CHANNELS:
         if wanted in keys:
             return keys.index(wanted)
-    raise SidecarError(f"{path}: cannot tell which EXR channel holds depth (channels: {', '.join(names)}); name it Z or depth, or save a single channel")
+    raise SidecarError(
+        f"{path}: cannot tell which EXR channel holds depth (channels: {', '.join(names)}); name it Z or depth, or save a single channel"
+    )

@@ -101,9 +101,31 @@ _PHRASES = {
 _SURFACES = ("wall", "floor", "ceiling", "window", "door")
 _MATERIALS = frozenset(
     {
-        "brick", "stone", "tile", "tiled", "wood", "wooden", "panel", "paneling", "panelling", "concrete",
-        "marble", "plaster", "painted", "paint", "glass", "metal", "laminate", "vinyl", "parquet", "granite",
-        "cement", "ceramic", "mosaic", "board", "drywall",
+        "brick",
+        "stone",
+        "tile",
+        "tiled",
+        "wood",
+        "wooden",
+        "panel",
+        "paneling",
+        "panelling",
+        "concrete",
+        "marble",
+        "plaster",
+        "painted",
+        "paint",
+        "glass",
+        "metal",
+        "laminate",
+        "vinyl",
+        "parquet",
+        "granite",
+        "cement",
+        "ceramic",
+        "mosaic",
+        "board",
+        "drywall",
     }
 )
 _DROP_WORDS = frozenset({"other", "merged", "stuff", "the", "a"})
@@ -189,7 +211,9 @@ def _load_json(path: Path, what: str) -> Any:
     except (OSError, UnicodeDecodeError) as exc:
         raise SidecarError(f"{path}: cannot read the {what} ({exc}); check the file and its permissions") from None
     except json.JSONDecodeError as exc:
-        raise SidecarError(f"{path}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg}); fix the syntax") from None
+        raise SidecarError(
+            f"{path}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg}); fix the syntax"
+        ) from None
 
 
 def _as_int(value: Any, path: Path, what: str) -> int:
@@ -207,7 +231,9 @@ def _read_panoptic_png(png: Path) -> np.ndarray:
             mode = im.mode
             arr = np.array(im)
     except (OSError, ValueError, Image.DecompressionBombError) as exc:
-        raise SidecarError(f"{png}: not a readable image ({exc}); save the id map as an RGB PNG (id = R + 256*G + 256^2*B)") from None
+        raise SidecarError(
+            f"{png}: not a readable image ({exc}); save the id map as an RGB PNG (id = R + 256*G + 256^2*B)"
+        ) from None
     if mode in ("RGB", "RGBA"):
         return panoptic_ids(arr)
     if mode in ("L", "P", "I;16", "I;16B", "I;16L", "I"):  # ids stored directly (e.g. LabelMe's label.png)
@@ -225,7 +251,7 @@ def _pick_annotation(doc: dict, png: Path, json_path: Path) -> dict:
     if not isinstance(anns, list) or not anns:
         raise SidecarError(
             f"{json_path}: unknown JSON structure (no 'segments_info' and no 'annotations' list); "
-            f"write COCO panoptic: {{\"segments_info\": [{{\"id\", \"category_id\"}}], \"categories\": [{{\"id\", \"name\"}}]}}"
+            f'write COCO panoptic: {{"segments_info": [{{"id", "category_id"}}], "categories": [{{"id", "name"}}]}}'
         )
     if not all(isinstance(a, dict) for a in anns):
         raise SidecarError(f"{json_path}: 'annotations' must be a list of objects; fix the JSON")
@@ -239,7 +265,9 @@ def _pick_annotation(doc: dict, png: Path, json_path: Path) -> dict:
     if len(anns) == 1:  # a renamed single-image file (e.g. photo.panoptic.png)
         return anns[0]
     names = ", ".join(str(a.get("file_name")) for a in anns[:3]) + (", ..." if len(anns) > 3 else "")
-    raise SidecarError(f"{json_path}: no annotation has file_name {png.name!r} (found {names}); rename the PNG or fix file_name")
+    raise SidecarError(
+        f"{json_path}: no annotation has file_name {png.name!r} (found {names}); rename the PNG or fix file_name"
+    )
 
 
 def read_coco_panoptic(png: Path, json_path: Path) -> tuple[np.ndarray, list[Segment]]:
@@ -259,17 +287,21 @@ def read_coco_panoptic(png: Path, json_path: Path) -> tuple[np.ndarray, list[Seg
     ids = _read_panoptic_png(png)
     doc = _load_json(json_path, "panoptic JSON")
     if not isinstance(doc, dict):
-        raise SidecarError(f"{json_path}: unknown JSON structure (top level is not an object); write a COCO panoptic annotation object")
+        raise SidecarError(
+            f"{json_path}: unknown JSON structure (top level is not an object); write a COCO panoptic annotation object"
+        )
     ann = _pick_annotation(doc, png, json_path)
     infos = ann.get("segments_info")
     if not isinstance(infos, list):
-        raise SidecarError(f"{json_path}: 'segments_info' must be a list of {{\"id\", \"category_id\"}} objects; fix the JSON")
+        raise SidecarError(
+            f'{json_path}: \'segments_info\' must be a list of {{"id", "category_id"}} objects; fix the JSON'
+        )
 
     cats = doc.get("categories", ann.get("categories"))
     names: dict[int, str] = {}
     if cats is not None:
         if not isinstance(cats, list) or not all(isinstance(c, dict) and "id" in c and "name" in c for c in cats):
-            raise SidecarError(f"{json_path}: 'categories' must be a list of {{\"id\", \"name\"}} objects; fix the JSON")
+            raise SidecarError(f'{json_path}: \'categories\' must be a list of {{"id", "name"}} objects; fix the JSON')
         names = {_as_int(c["id"], json_path, "category id"): str(c["name"]) for c in cats}
 
     segments: list[Segment] = []
@@ -287,23 +319,35 @@ def read_coco_panoptic(png: Path, json_path: Path) -> tuple[np.ndarray, list[Seg
         if "category_id" in info:
             cid = _as_int(info["category_id"], json_path, f"segments_info[{k}].category_id")
             if cid not in names:
-                fix = "add it to 'categories'" if names else "add a 'categories' list of {\"id\", \"name\"}"
+                fix = "add it to 'categories'" if names else 'add a \'categories\' list of {"id", "name"}'
                 raise SidecarError(f"{json_path}: segment {sid} has category_id {cid}, which has no name; {fix}")
             cat_name = names[cid]
         elif isinstance(label, str):
             cat_name = label
         else:
-            raise SidecarError(f"{json_path}: segment {sid} has no category_id; add one (and its name under 'categories')")
+            raise SidecarError(
+                f"{json_path}: segment {sid} has no category_id; add one (and its name under 'categories')"
+            )
         if not isinstance(label, str) or not label:
             label = cat_name
         score, box = info.get("score"), info.get("prompt_box")
         if score is not None and not isinstance(score, (int, float)):
             raise SidecarError(f"{json_path}: segment {sid} has score {score!r}; give a number or leave it out")
-        if box is not None and not (isinstance(box, list) and len(box) == 4
-                                    and all(isinstance(v, (int, float)) for v in box)):
-            raise SidecarError(f"{json_path}: segment {sid} has prompt_box {box!r}; give [x0, y0, x1, y1] or leave it out")
-        segments.append(Segment(sid, category_of(cat_name), label, None if score is None else float(score),
-                                None if box is None else tuple(float(v) for v in box)))
+        if box is not None and not (
+            isinstance(box, list) and len(box) == 4 and all(isinstance(v, (int, float)) for v in box)
+        ):
+            raise SidecarError(
+                f"{json_path}: segment {sid} has prompt_box {box!r}; give [x0, y0, x1, y1] or leave it out"
+            )
+        segments.append(
+            Segment(
+                sid,
+                category_of(cat_name),
+                label,
+                None if score is None else float(score),
+                None if box is None else tuple(float(v) for v in box),
+            )
+        )
 
     present = np.unique(ids)
     present = present[present != 0]
@@ -359,19 +403,25 @@ def _points(shape: dict, k: int, json_path: Path) -> np.ndarray:
     except (TypeError, ValueError):
         arr = None
     if arr is None or arr.ndim != 2 or arr.shape[1] != 2 or not np.all(np.isfinite(arr)):
-        raise SidecarError(f"{json_path}: shape {k} ({shape.get('label')!r}) has malformed points; give a list of [x, y] pairs")
+        raise SidecarError(
+            f"{json_path}: shape {k} ({shape.get('label')!r}) has malformed points; give a list of [x, y] pairs"
+        )
     return arr.reshape(-1, 2)
 
 
 def _decode_mask(shape: dict, k: int, json_path: Path) -> np.ndarray:
     data = shape.get("mask")
     if not isinstance(data, str):
-        raise SidecarError(f"{json_path}: mask shape {k} ({shape.get('label')!r}) has no base64 'mask'; redraw it or use a polygon")
+        raise SidecarError(
+            f"{json_path}: mask shape {k} ({shape.get('label')!r}) has no base64 'mask'; redraw it or use a polygon"
+        )
     try:
         with Image.open(io.BytesIO(base64.b64decode(data))) as im:
             return np.array(im.convert("L")) > 0
     except (binascii.Error, OSError, ValueError):
-        raise SidecarError(f"{json_path}: mask shape {k} ({shape.get('label')!r}) has an unreadable 'mask' image; redraw it or use a polygon") from None
+        raise SidecarError(
+            f"{json_path}: mask shape {k} ({shape.get('label')!r}) has an unreadable 'mask' image; redraw it or use a polygon"
+        ) from None
 
 
 def read_labelme(json_path: Path, shape: tuple[int, int] | None = None) -> tuple[np.ndarray, list[Segment]]:
@@ -387,18 +437,24 @@ def read_labelme(json_path: Path, shape: tuple[int, int] | None = None) -> tuple
     json_path = Path(json_path)
     doc = _load_json(json_path, "LabelMe JSON")
     if not isinstance(doc, dict) or not isinstance(doc.get("shapes"), list):
-        raise SidecarError(f"{json_path}: not a LabelMe file (no 'shapes' list); save it from LabelMe or add \"shapes\": [...]")
+        raise SidecarError(
+            f"{json_path}: not a LabelMe file (no 'shapes' list); save it from LabelMe or add \"shapes\": [...]"
+        )
     try:
         file_h = int(doc["imageHeight"]) if doc.get("imageHeight") is not None else None
         file_w = int(doc["imageWidth"]) if doc.get("imageWidth") is not None else None
     except (TypeError, ValueError):
-        raise SidecarError(f"{json_path}: imageHeight/imageWidth must be integers; fix them to the photo's size") from None
+        raise SidecarError(
+            f"{json_path}: imageHeight/imageWidth must be integers; fix them to the photo's size"
+        ) from None
     if file_h is None or file_w is None:
         if shape is None:
             raise SidecarError(f"{json_path}: no imageHeight/imageWidth; add the photo's size to the JSON")
         file_h, file_w = int(shape[0]), int(shape[1])
     if file_h <= 0 or file_w <= 0:
-        raise SidecarError(f"{json_path}: imageHeight/imageWidth must be positive, got {file_h}x{file_w}; fix them to the photo's size")
+        raise SidecarError(
+            f"{json_path}: imageHeight/imageWidth must be positive, got {file_h}x{file_w}; fix them to the photo's size"
+        )
     out_h, out_w = (int(shape[0]), int(shape[1])) if shape is not None else (file_h, file_w)
     sx, sy = out_w / file_w, out_h / file_h
 
@@ -410,7 +466,9 @@ def read_labelme(json_path: Path, shape: tuple[int, int] | None = None) -> tuple
             raise SidecarError(f"{json_path}: shape {k} is not an object; fix the 'shapes' list")
         label = shp.get("label")
         if not isinstance(label, str) or not label.strip():
-            raise SidecarError(f"{json_path}: shape {k} has no label; give it a class name such as wall, floor or chair")
+            raise SidecarError(
+                f"{json_path}: shape {k} has no label; give it a class name such as wall, floor or chair"
+            )
         label = label.strip()
         kind = str(shp.get("shape_type") or "polygon").lower()
         if kind in ("line", "linestrip", "point", "points") or label.lower() in BACKGROUND_LABELS:
@@ -420,7 +478,9 @@ def read_labelme(json_path: Path, shape: tuple[int, int] | None = None) -> tuple
         mask = np.zeros((out_h, out_w), dtype=np.uint8)
         if kind == "polygon":
             if len(pts) < 3:
-                raise SidecarError(f"{where} has {len(pts)} point(s); a polygon needs at least 3 — add points or delete it")
+                raise SidecarError(
+                    f"{where} has {len(pts)} point(s); a polygon needs at least 3 — add points or delete it"
+                )
             _fill_polygon(mask, pts * (sx, sy))
         elif kind == "rectangle":
             if len(pts) != 2:
@@ -429,7 +489,9 @@ def read_labelme(json_path: Path, shape: tuple[int, int] | None = None) -> tuple
             _fill_polygon(mask, np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]))
         elif kind == "circle":
             if len(pts) != 2:
-                raise SidecarError(f"{where} has {len(pts)} points; a circle needs its centre and one point on it — redraw it")
+                raise SidecarError(
+                    f"{where} has {len(pts)} points; a circle needs its centre and one point on it — redraw it"
+                )
             (cx, cy), (px, py) = pts
             rx, ry = math.hypot(px - cx, py - cy) * sx, math.hypot(px - cx, py - cy) * sy
             yy, xx = np.mgrid[0:out_h, 0:out_w]
@@ -446,7 +508,11 @@ def read_labelme(json_path: Path, shape: tuple[int, int] | None = None) -> tuple
             yb, xb = min(y0 + h, file_h), min(x0 + w, file_w)
             if yb > ya and xb > xa:
                 full[ya:yb, xa:xb] = small[ya - y0 : yb - y0, xa - x0 : xb - x0]
-            mask = full if (out_h, out_w) == (file_h, file_w) else cv2.resize(full, (out_w, out_h), interpolation=cv2.INTER_NEAREST)
+            mask = (
+                full
+                if (out_h, out_w) == (file_h, file_w)
+                else cv2.resize(full, (out_w, out_h), interpolation=cv2.INTER_NEAREST)
+            )
         else:
             raise SidecarError(f"{where}: unsupported shape_type {kind!r}; use polygon, rectangle, circle or mask")
 

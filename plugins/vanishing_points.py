@@ -134,9 +134,7 @@ class _Segments:
     scale: float  # working pixels per centred unit
 
 
-def estimate_camera(
-    rgb: np.ndarray, params: VanishingPointParams = VanishingPointParams()
-) -> VanishingPointResult:
+def estimate_camera(rgb: np.ndarray, params: VanishingPointParams = VanishingPointParams()) -> VanishingPointResult:
     """Estimate the vertical FoV and focal length of ``rgb`` (float HxWx3 sRGB in [0, 1])."""
     height, width = rgb.shape[:2]
     grey, zoom = _working_grey(rgb, params.max_side)
@@ -185,7 +183,6 @@ def line_segments(rgb: np.ndarray, params: VanishingPointParams = VanishingPoint
     """(N, 4) line segments ``x1, y1, x2, y2`` of ``rgb`` in its own pixels, as the estimate uses them."""
     grey, zoom = _working_grey(rgb, params.max_side)
     return _detect_segments(grey, params) / zoom
-
 
 
 def _working_grey(rgb: np.ndarray, max_side: int) -> tuple[np.ndarray, float]:
@@ -406,9 +403,7 @@ def _pair_frames(
     return focals[f][upright], rots[upright]
 
 
-def _polish_rotations(
-    segs: _Segments, focals: np.ndarray, rots: np.ndarray, tau: float, rounds: int = 2
-) -> np.ndarray:
+def _polish_rotations(segs: _Segments, focals: np.ndarray, rots: np.ndarray, tau: float, rounds: int = 2) -> np.ndarray:
     """Re-fit each frame's axes to its supporting segments at fixed focal (weighted Procrustes).
 
     An axis direction is the vector most orthogonal to the interpretation planes (K^T l) of
@@ -512,9 +507,7 @@ def _offsets_and_jacobian(
     return offsets[0], np.moveaxis((offsets[1:] - offsets[0]) / eps, 0, -1)
 
 
-def _prior_residual(
-    log_f: np.ndarray, h_units: float, params: VanishingPointParams
-) -> tuple[np.ndarray, np.ndarray]:
+def _prior_residual(log_f: np.ndarray, h_units: float, params: VanishingPointParams) -> tuple[np.ndarray, np.ndarray]:
     """Residual and derivative (w.r.t. log f) of the Gaussian FoV prior."""
     residual = (_vfov_deg(np.exp(log_f), h_units) - params.fallback_vfov_deg) / params.prior_sigma_deg
     return residual, _dvfov_dlogf(log_f, h_units) / params.prior_sigma_deg
@@ -566,9 +559,7 @@ def _dvfov_dlogf(log_f: np.ndarray, h_units: float) -> np.ndarray:
     return -np.degrees(2.0 * t / (1.0 + t * t))
 
 
-def _vps_to_input_pixels(
-    vps: np.ndarray, scale: float, width: int, height: int
-) -> list[tuple[float, float, float]]:
+def _vps_to_input_pixels(vps: np.ndarray, scale: float, width: int, height: int) -> list[tuple[float, float, float]]:
     """Map centred-unit VPs to unit homogeneous input-pixel coordinates."""
     to_pixels = np.array([[scale, 0, (width - 1) / 2.0], [0, scale, (height - 1) / 2.0], [0, 0, 1]])
     out = vps @ to_pixels.T
@@ -576,9 +567,7 @@ def _vps_to_input_pixels(
     return [tuple(float(c) for c in v) for v in out]
 
 
-def _fallback_result(
-    width: int, height: int, n_segments: int, params: VanishingPointParams
-) -> VanishingPointResult:
+def _fallback_result(width: int, height: int, n_segments: int, params: VanishingPointParams) -> VanishingPointResult:
     """Result with the fallback FoV, used when the lines do not support an estimate."""
     return VanishingPointResult(
         vfov_deg=float(params.fallback_vfov_deg),

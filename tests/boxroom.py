@@ -15,7 +15,12 @@ ROOM_MIN = np.array([-2.5, 0.0, -2.0])
 ROOM_MAX = np.array([2.5, 3.0, 2.0])
 LIGHT = np.array([0.5, 2.8, 0.5])
 FACE_ALBEDO = [  # left wall, right wall, floor, ceiling, back wall, front wall
-    (0.7, 0.65, 0.5), (0.55, 0.65, 0.7), (0.5, 0.4, 0.3), (0.85, 0.85, 0.82), (0.7, 0.7, 0.6), (0.6, 0.55, 0.65)
+    (0.7, 0.65, 0.5),
+    (0.55, 0.65, 0.7),
+    (0.5, 0.4, 0.3),
+    (0.85, 0.85, 0.82),
+    (0.7, 0.7, 0.6),
+    (0.6, 0.55, 0.65),
 ]
 
 # (min corner, max corner, yaw in degrees about the box centre, RGB albedo)
@@ -53,9 +58,7 @@ def render_box_room(
     return np.clip(image, 0.0, 1.0).astype(np.float32)
 
 
-def _camera_rays(
-    vfov_deg: float, width: int, height: int, yaw: float, pitch: float, roll: float
-) -> np.ndarray:
+def _camera_rays(vfov_deg: float, width: int, height: int, yaw: float, pitch: float, roll: float) -> np.ndarray:
     """(H, W, 3) world ray directions through pixel centres."""
     focal = height / (2.0 * np.tan(np.radians(vfov_deg) / 2.0))
     u, v = np.meshgrid(np.arange(width) - (width - 1) / 2.0, np.arange(height) - (height - 1) / 2.0)
@@ -176,13 +179,17 @@ def _blur(image: np.ndarray) -> np.ndarray:
         first, last = np.take(image, [0], axis=axis), np.take(image, [-1], axis=axis)
         padded = np.concatenate([first, image, last], axis=axis)
         n = image.shape[axis]
-        image = (np.take(padded, range(0, n), axis=axis) + 2 * np.take(padded, range(1, n + 1), axis=axis)
-                 + np.take(padded, range(2, n + 2), axis=axis)) / 4.0
+        image = (
+            np.take(padded, range(0, n), axis=axis)
+            + 2 * np.take(padded, range(1, n + 1), axis=axis)
+            + np.take(padded, range(2, n + 2), axis=axis)
+        ) / 4.0
     return image
 
 
-def checker_floor(vfov: float, pitch: float, tile: float, yaw: float = 20.0, width: int = 320, height: int = 240
-                  ) -> np.ndarray:
+def checker_floor(
+    vfov: float, pitch: float, tile: float, yaw: float = 20.0, width: int = 320, height: int = 240
+) -> np.ndarray:
     """A floor of big black and white tiles (``tile`` metres) filling the view of a camera 1.5 m above it, looking
     ``pitch`` degrees down: two families of a few long lines, no vertical one."""
     focal = height / (2 * np.tan(np.radians(vfov) / 2))

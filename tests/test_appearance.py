@@ -60,15 +60,38 @@ def _c2w(z: float, pitch_deg: float) -> np.ndarray:
 C2W = _c2w(-0.5, -25.0)
 ROOM = RoomBox(camera_to_world=C2W, center=np.array([0.0, 1.5, 0.0]), half_size=np.array([3.0, 1.5, 3.0]), yaw=0.0)
 CAMERA = Camera.from_vfov(96, 72, 60.0)
-TRUE_SRGB = {"floor": (0.45, 0.36, 0.30), "ceiling": (0.85, 0.85, 0.82), "wall_x_neg": (0.70, 0.55, 0.40),
-             "wall_x_pos": (0.40, 0.55, 0.70), "wall_z_neg": (0.6, 0.6, 0.6), "wall_z_pos": (0.55, 0.65, 0.45)}
+TRUE_SRGB = {
+    "floor": (0.45, 0.36, 0.30),
+    "ceiling": (0.85, 0.85, 0.82),
+    "wall_x_neg": (0.70, 0.55, 0.40),
+    "wall_x_pos": (0.40, 0.55, 0.70),
+    "wall_z_neg": (0.6, 0.6, 0.6),
+    "wall_z_pos": (0.55, 0.65, 0.45),
+}
 TRUE_RADIANCE = 2.5
-LIGHT_PARAMS = {**{k: v for k, v in yaml.safe_load((ROOT / "conf" / "stage" / "init_lights.yaml").read_text()).items()
-                   if not k.startswith("_")}, "render_width": 96}
-FIT_PARAMS = {**{k: v for k, v in yaml.safe_load((ROOT / "conf" / "stage" / "fit_appearance.yaml").read_text()).items()
-                 if not k.startswith("_")},
-              "iterations": 40, "render_width": 96, "spp": 8, "grad_spp": 4, "final_spp": 128, "map_size": 32,
-              "min_region_px": 16, "plain_check": False}  # the graph's own fit; the plain check has its own test
+LIGHT_PARAMS = {
+    **{
+        k: v
+        for k, v in yaml.safe_load((ROOT / "conf" / "stage" / "init_lights.yaml").read_text()).items()
+        if not k.startswith("_")
+    },
+    "render_width": 96,
+}
+FIT_PARAMS = {
+    **{
+        k: v
+        for k, v in yaml.safe_load((ROOT / "conf" / "stage" / "fit_appearance.yaml").read_text()).items()
+        if not k.startswith("_")
+    },
+    "iterations": 40,
+    "render_width": 96,
+    "spp": 8,
+    "grad_spp": 4,
+    "final_spp": 128,
+    "map_size": 32,
+    "min_region_px": 16,
+    "plain_check": False,
+}  # the graph's own fit; the plain check has its own test
 
 
 @pytest.fixture(scope="module")
@@ -77,8 +100,13 @@ def library() -> TorchGraphLibrary:
 
 
 def _implementations(library: TorchGraphLibrary) -> dict:
-    return {"renderer": MitsubaRenderer(spp=4), "material_graph": library, "texture": RandomCnnDescriptor(),
-            "optimizer": Adam(), "denoiser": OidnDenoiser(quality="fast")}
+    return {
+        "renderer": MitsubaRenderer(spp=4),
+        "material_graph": library,
+        "texture": RandomCnnDescriptor(),
+        "optimizer": Adam(),
+        "denoiser": OidnDenoiser(quality="fast"),
+    }
 
 
 def _assignment(albedo: dict[str, tuple[float, float, float]]) -> MaterialAssignment:
@@ -91,7 +119,9 @@ def photo(library: TorchGraphLibrary) -> tuple[Image, Panoptic, Lights]:
     ctx = StageContext("init_lights", LIGHT_PARAMS, 0, Path("photo.png"), _implementations(library))
     empty = Panoptic(ids=np.zeros((72, 96), np.int32), segments=[])
     grey = _assignment({n: (0.5, 0.5, 0.5) for n in TRUE_SRGB})
-    layout = init_lights(ctx, Image(rgb=np.full((72, 96, 3), 0.5, np.float32)), empty, CAMERA, ROOM, Placements(objects=[]), grey)
+    layout = init_lights(
+        ctx, Image(rgb=np.full((72, 96, 3), 0.5, np.float32)), empty, CAMERA, ROOM, Placements(objects=[]), grey
+    )
     lights = [Light(l.name, l.kind, l.mesh, (TRUE_RADIANCE,) * 3, l.part) for l in layout.lights]
     parts = initial_parts(_assignment(TRUE_SRGB), library)
     scene = build_scene(part_meshes(ROOM, Placements(objects=[])), parts, lights, layout.fixtures, library, 32)
@@ -103,8 +133,10 @@ def photo(library: TorchGraphLibrary) -> tuple[Image, Panoptic, Lights]:
     category = {n: n.split("_")[0] for n in names}
     seg_ids = {"floor": 1, "ceiling": 2, "wall": 3}
     labels = np.array([0] + [seg_ids[category[n]] for n in names], np.int32)[ids + 1]
-    panoptic = Panoptic(ids=labels, segments=[Segment(1, "floor", "floor"), Segment(2, "ceiling", "ceiling"),
-                                              Segment(3, "wall", "wall")])
+    panoptic = Panoptic(
+        ids=labels,
+        segments=[Segment(1, "floor", "floor"), Segment(2, "ceiling", "ceiling"), Segment(3, "wall", "wall")],
+    )
     return Image(rgb=linear_to_srgb(linear).astype(np.float32), original_size=(96, 72)), panoptic, layout
 
 
@@ -115,7 +147,10 @@ def test_light_layout_follows_the_paper(photo: tuple[Image, Panoptic, Lights]) -
     assert kinds.count("ceiling") == 6 and kinds.count("behind_camera") == 1
     # Only the far wall is in view (the side walls lie outside the 75° horizontal field of view).
     assert sorted(l.name for l in layout.lights if l.kind == "invisible_wall") == [
-        "light_wall_x_neg", "light_wall_x_pos", "light_wall_z_neg"]
+        "light_wall_x_neg",
+        "light_wall_x_pos",
+        "light_wall_z_neg",
+    ]
     for light in layout.lights:
         quad = light.mesh.vertices
         assert not in_view(quad, CAMERA, C2W) and not behind_camera(quad, C2W) or light.kind != "ceiling"
@@ -129,8 +164,9 @@ def test_light_layout_follows_the_paper(photo: tuple[Image, Panoptic, Lights]) -
     assert in_view(cells[0], CAMERA, up) and not in_view(cells[0], CAMERA, C2W)
 
 
-def test_initial_radiance_is_recovered_from_one_render(library: TorchGraphLibrary,
-                                                        photo: tuple[Image, Panoptic, Lights]) -> None:
+def test_initial_radiance_is_recovered_from_one_render(
+    library: TorchGraphLibrary, photo: tuple[Image, Panoptic, Lights]
+) -> None:
     image, panoptic, _ = photo
     ctx = StageContext("init_lights", LIGHT_PARAMS, 0, Path("photo.png"), _implementations(library))
     lights = init_lights(ctx, image, panoptic, CAMERA, ROOM, Placements(objects=[]), _assignment(TRUE_SRGB))
@@ -151,18 +187,27 @@ def fitted(library: TorchGraphLibrary, photo: tuple[Image, Panoptic, Lights]) ->
     image, panoptic, layout = photo
     meshes = part_meshes(ROOM, Placements(objects=[]))
     ids, _ = render_part_ids(MitsubaRenderer(spp=4), CAMERA, C2W, meshes, 96)
-    medians = {n: tuple(float(c) for c in np.median(image.rgb[ids == k], axis=0)) for k, n in enumerate(meshes)
-               if (ids == k).any()}
+    medians = {
+        n: tuple(float(c) for c in np.median(image.rgb[ids == k], axis=0))
+        for k, n in enumerate(meshes)
+        if (ids == k).any()
+    }
     parts = []
     for name in TRUE_SRGB:
         colour = medians.get(name, (0.6, 0.6, 0.6))
         if name == "floor":
-            parts.append(PartMaterial(name, "procedural", colour, material="herringbone_oak", scale=2.0,
-                                      crops=((20, 50, 76, 72),)))
+            parts.append(
+                PartMaterial(
+                    name, "procedural", colour, material="herringbone_oak", scale=2.0, crops=((20, 50, 76, 72),)
+                )
+            )
         else:
-            parts.append(PartMaterial(name, "homogeneous", colour, crops=((40, 2, 70, 20),) if name == "wall_z_pos" else ()))
-    start = Lights(lights=[Light(l.name, l.kind, l.mesh, (1.0, 1.0, 1.0), l.part) for l in layout.lights],
-                   fixtures=layout.fixtures)
+            parts.append(
+                PartMaterial(name, "homogeneous", colour, crops=((40, 2, 70, 20),) if name == "wall_z_pos" else ())
+            )
+    start = Lights(
+        lights=[Light(l.name, l.kind, l.mesh, (1.0, 1.0, 1.0), l.part) for l in layout.lights], fixtures=layout.fixtures
+    )
     ctx = StageContext("fit_appearance", FIT_PARAMS, 0, Path("photo.png"), _implementations(library))
     out = fit_appearance(ctx, image, CAMERA, ROOM, Placements(objects=[]), MaterialAssignment(parts=parts), start)
     return {"out": out, "start": start, "materials": MaterialAssignment(parts=parts)}
@@ -208,18 +253,23 @@ def test_fit_appearance_stops_on_a_plateau(library: TorchGraphLibrary, photo: tu
 
 
 @pytest.mark.parametrize("photo_pattern", [False, True], ids=["plain photo floor", "patterned photo floor"])
-def test_a_pattern_the_photo_does_not_show_is_made_plain(library: TorchGraphLibrary,
-                                                         photo: tuple[Image, Panoptic, Lights], photo_pattern: bool) -> None:
+def test_a_pattern_the_photo_does_not_show_is_made_plain(
+    library: TorchGraphLibrary, photo: tuple[Image, Panoptic, Lights], photo_pattern: bool
+) -> None:
     image, _, layout = photo
-    lights = Lights(lights=[Light(l.name, l.kind, l.mesh, (TRUE_RADIANCE,) * 3, l.part) for l in layout.lights],
-                    fixtures=layout.fixtures)
+    lights = Lights(
+        lights=[Light(l.name, l.kind, l.mesh, (TRUE_RADIANCE,) * 3, l.part) for l in layout.lights],
+        fixtures=layout.fixtures,
+    )
     floor = PartMaterial("floor", "procedural", TRUE_SRGB["floor"], material="herringbone_oak", scale=2.0)
-    assignment = MaterialAssignment(parts=[floor] + [PartMaterial(n, "homogeneous", TRUE_SRGB[n]) for n in TRUE_SRGB
-                                                     if n != "floor"])
+    assignment = MaterialAssignment(
+        parts=[floor] + [PartMaterial(n, "homogeneous", TRUE_SRGB[n]) for n in TRUE_SRGB if n != "floor"]
+    )
     parts = initial_parts(assignment, library)
     meshes = part_meshes(ROOM, Placements(objects=[]))
-    geometry = build_scene(meshes, parts, lights.lights, lights.fixtures, library, 32).renderer(MitsubaRenderer(),
-                                                                                                  CAMERA, C2W, 96)
+    geometry = build_scene(meshes, parts, lights.lights, lights.fixtures, library, 32).renderer(
+        MitsubaRenderer(), CAMERA, C2W, 96
+    )
     model, denoiser = AppearanceModel(parts, lights, library, 32), OidnDenoiser(quality="fast")
     patterned = picture(geometry, denoiser, model.inputs(), 128, 1)
     # the photo: the same room with a plain floor, or with the pattern (independent samples)
@@ -236,9 +286,16 @@ def test_a_pattern_the_photo_does_not_show_is_made_plain(library: TorchGraphLibr
 
 @pytest.fixture(scope="module")
 def exported(fitted: dict, library: TorchGraphLibrary, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    ctx = StageContext("export_scene", {"spp": 64, "max_depth": 3, "texture_size": 64, "glb": True, "usd": True}, 0,
-                       Path("photo.png"), {"material_graph": library})
-    cloud = PointCloud(points=np.zeros((1, 3)), colors=np.zeros((1, 3), np.uint8), segment=np.zeros(1, np.int32), segments=[])
+    ctx = StageContext(
+        "export_scene",
+        {"spp": 64, "max_depth": 3, "texture_size": 64, "glb": True, "usd": True},
+        0,
+        Path("photo.png"),
+        {"material_graph": library},
+    )
+    cloud = PointCloud(
+        points=np.zeros((1, 3)), colors=np.zeros((1, 3), np.uint8), segment=np.zeros(1, np.int32), segments=[]
+    )
     files = export_scene(ctx, CAMERA, ROOM, cloud, Placements(objects=[]), fitted["start"], fitted["out"]["appearance"])
     folder = tmp_path_factory.mktemp("scene")
     for name, data in files.files.items():
@@ -270,10 +327,15 @@ def test_every_part_is_a_shape_mitsuba_reaches_by_id(tmp_path: Path) -> None:
     from psdr_room_core.method.shading import Surface
     from psdr_room_core.method.stages.export import read_mesh_ply, scene_folder, scene_state
 
-    quads = {name: quad_mesh(np.array([[x, 0, 3], [x + 1, 0, 3], [x + 1, 1, 3], [x, 1, 3]], float))
-             for x, name in enumerate(["wall_a", "wall_b", "door_panel", "door_handles"])}
-    scene = RgbScene(meshes=quads, surfaces={name: Surface((0.6, 0.6, 0.6), 0.5, 0.5) for name in quads},
-                     emitters={"light_a": (quads["wall_a"], (3.0, 3.0, 3.0)), "light_b": (quads["wall_b"], (3.0, 3.0, 3.0))})
+    quads = {
+        name: quad_mesh(np.array([[x, 0, 3], [x + 1, 0, 3], [x + 1, 1, 3], [x, 1, 3]], float))
+        for x, name in enumerate(["wall_a", "wall_b", "door_panel", "door_handles"])
+    }
+    scene = RgbScene(
+        meshes=quads,
+        surfaces={name: Surface((0.6, 0.6, 0.6), 0.5, 0.5) for name in quads},
+        emitters={"light_a": (quads["wall_a"], (3.0, 3.0, 3.0)), "light_b": (quads["wall_b"], (3.0, 3.0, 3.0))},
+    )
     state = scene_state(CAMERA, C2W, [], [], [], 64)
     for name, data in scene_folder(scene, state, spp=4, max_depth=3, glb=False, usd=False).items():
         (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
@@ -300,12 +362,17 @@ def test_glb_loads_and_validates(exported: Path) -> None:
     validator = ROOT / ".venv" / "node_modules" / "gltf-validator"
     node = shutil.which("node")
     if node is None or not validator.is_dir():
-        pytest.skip("the Khronos glTF validator is not installed (scripts/setup.sh --test installs it where npm exists)")
-    script = ("const v = require(process.argv[1]); const fs = require('fs');"
-              "v.validateBytes(new Uint8Array(fs.readFileSync(process.argv[2]))).then(r => console.log(JSON.stringify("
-              "{errors: r.issues.numErrors, warnings: r.issues.numWarnings, messages: r.issues.messages})));")
-    result = subprocess.run([node, "-e", script, str(validator), str(exported / "scene.glb")], capture_output=True,
-                            text=True, timeout=120)
+        pytest.skip(
+            "the Khronos glTF validator is not installed (scripts/setup.sh --test installs it where npm exists)"
+        )
+    script = (
+        "const v = require(process.argv[1]); const fs = require('fs');"
+        "v.validateBytes(new Uint8Array(fs.readFileSync(process.argv[2]))).then(r => console.log(JSON.stringify("
+        "{errors: r.issues.numErrors, warnings: r.issues.numWarnings, messages: r.issues.messages})));"
+    )
+    result = subprocess.run(
+        [node, "-e", script, str(validator), str(exported / "scene.glb")], capture_output=True, text=True, timeout=120
+    )
     report = json.loads(result.stdout)
     assert report["errors"] == 0 and report["warnings"] == 0, report["messages"][:5]
 
@@ -313,7 +380,7 @@ def test_glb_loads_and_validates(exported: Path) -> None:
 def _glb_json(path: Path) -> dict:
     data = path.read_bytes()
     length = int.from_bytes(data[12:16], "little")
-    return json.loads(data[20:20 + length])
+    return json.loads(data[20 : 20 + length])
 
 
 def test_glb_carries_the_fitted_specular_the_lights_and_the_photo_aspect(exported: Path) -> None:
@@ -344,7 +411,10 @@ def test_the_studios_glb_keeps_everything_but_the_punctual_lights(exported: Path
 
     whole = (exported / "scene.glb").read_bytes()
     unlit = without_lights(whole)
-    gltf, original = json.loads(unlit[20:20 + int.from_bytes(unlit[12:16], "little")]), _glb_json(exported / "scene.glb")
+    gltf, original = (
+        json.loads(unlit[20 : 20 + int.from_bytes(unlit[12:16], "little")]),
+        _glb_json(exported / "scene.glb"),
+    )
     assert "KHR_lights_punctual" not in json.dumps(gltf) and "KHR_lights_punctual" in json.dumps(original)
     assert gltf["meshes"] == original["meshes"] and gltf["materials"] == original["materials"]
     assert [n["name"] for n in gltf["nodes"]] == [n["name"] for n in original["nodes"]]
@@ -405,8 +475,15 @@ def test_blender_panels_block_light_as_in_mitsuba(exported: Path, tmp_path: Path
     scene = tmp_path / "back_wall"
     assert edit_main([str(exported), "--out", str(scene), "--spp", "4", *darkened]) == 0
     registry = plugin_system().registry
-    reference = render_folder(scene, 256, registry.implementation("renderer", "mitsuba").factory(),
-                              registry.implementation("denoiser", "oidn").factory()).astype(np.float64) / 255
+    reference = (
+        render_folder(
+            scene,
+            256,
+            registry.implementation("renderer", "mitsuba").factory(),
+            registry.implementation("denoiser", "oidn").factory(),
+        ).astype(np.float64)
+        / 255
+    )
     build_blend(scene, tmp_path / "back_wall.blend", blender, tmp_path / "cycles.png", "cycles", 128)
     image = cv2.imread(str(tmp_path / "cycles.png"))[..., ::-1].astype(np.float64) / 255
     luminance = np.array([0.2126, 0.7152, 0.0722])
@@ -428,8 +505,12 @@ def test_blender_builds_the_scene_lit_in_cycles_and_eevee(exported: Path, tmp_pa
         pytest.skip("Blender is not installed (scripts/setup.sh --test installs Debian's blender as root)")
     registry = plugin_system().registry
     denoiser = registry.implementation("denoiser", "oidn").factory()
-    reference = render_folder(exported, 256, registry.implementation("renderer", "mitsuba").factory(),
-                              denoiser).astype(np.float64) / 255
+    reference = (
+        render_folder(exported, 256, registry.implementation("renderer", "mitsuba").factory(), denoiser).astype(
+            np.float64
+        )
+        / 255
+    )
     luminance = np.array([0.2126, 0.7152, 0.0722])
     for engine, spp in (("cycles", 256), ("eevee", 16)):
         png = tmp_path / f"{engine}.png"
@@ -454,9 +535,23 @@ def test_edits_rerender_without_optimising(exported: Path, tmp_path: Path, capsy
     base = tmp_path / "base"
     assert edit_main([str(exported), "--out", str(base), "--spp", "32"]) == 0
     brighter = tmp_path / "brighter"
-    assert edit_main([str(exported), "light.scale=2", "material.floor=red_brick", "material.floor.scale=4",
-                      "material.wall_x_pos.base_color=[0.8,0.1,0.1]", "camera.fov=70", "--out", str(brighter),
-                      "--spp", "32"]) == 0
+    assert (
+        edit_main(
+            [
+                str(exported),
+                "light.scale=2",
+                "material.floor=red_brick",
+                "material.floor.scale=4",
+                "material.wall_x_pos.base_color=[0.8,0.1,0.1]",
+                "camera.fov=70",
+                "--out",
+                str(brighter),
+                "--spp",
+                "32",
+            ]
+        )
+        == 0
+    )
     state = json.loads((brighter / "appearance.json").read_text())
     floor = next(p for p in state["parts"] if p["part"] == "floor")
     assert floor["material"] == "red_brick" and floor["scale"] == 4.0
@@ -483,8 +578,9 @@ def test_edits_rerender_without_optimising(exported: Path, tmp_path: Path, capsy
         apply_edit(load_state(exported, library), "material.floor", "no_such_graph", library)
 
 
-def test_edit_never_replaces_a_folder_it_did_not_write(exported: Path, tmp_path: Path,
-                                                      capsys: pytest.CaptureFixture) -> None:
+def test_edit_never_replaces_a_folder_it_did_not_write(
+    exported: Path, tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "thesis.tex").write_text("years of work")
@@ -500,8 +596,9 @@ def test_edit_never_replaces_a_folder_it_did_not_write(exported: Path, tmp_path:
 
 
 @pytest.mark.parametrize("field", ["part", "light", "fixture"])
-def test_edit_refuses_names_that_leave_the_scene_folder(exported: Path, tmp_path: Path, field: str,
-                                                        capsys: pytest.CaptureFixture) -> None:
+def test_edit_refuses_names_that_leave_the_scene_folder(
+    exported: Path, tmp_path: Path, field: str, capsys: pytest.CaptureFixture
+) -> None:
     scene = tmp_path / "scene"
     shutil.copytree(exported, scene)
     state = json.loads((scene / "appearance.json").read_text())
@@ -527,9 +624,11 @@ def test_walls_and_ceiling_stay_paint_whatever_the_fit_does(library: TorchGraphL
     before the fit starts."""
     from psdr_room_core.method.material_priors import LUMINANCE, PaintPrior, within_paint
 
-    parts = [PartAppearance("wall_x_neg", "homogeneous", (0.004, 0.002, 0.001), 0.3, 0.95),
-             PartAppearance("ceiling", "homogeneous", (0.9, 0.9, 0.9), 0.5, 0.5),
-             PartAppearance("floor", "homogeneous", (0.004, 0.002, 0.001), 0.3, 0.95)]
+    parts = [
+        PartAppearance("wall_x_neg", "homogeneous", (0.004, 0.002, 0.001), 0.3, 0.95),
+        PartAppearance("ceiling", "homogeneous", (0.9, 0.9, 0.9), 0.5, 0.5),
+        PartAppearance("floor", "homogeneous", (0.004, 0.002, 0.001), 0.3, 0.95),
+    ]
     prior = PaintPrior()
     start = within_paint(parts[0], prior)
     assert float(np.dot(start.base_color, LUMINANCE)) == pytest.approx(0.1) and start.specular == 0.5
@@ -570,20 +669,35 @@ def test_srgb_curves_invert_each_other() -> None:
     assert torch.isfinite(t.grad).all()
 
 
-def test_a_lamp_emits_from_its_largest_visible_part(library: TorchGraphLibrary, photo: tuple[Image, Panoptic, Lights]
-                                                     ) -> None:
+def test_a_lamp_emits_from_its_largest_visible_part(
+    library: TorchGraphLibrary, photo: tuple[Image, Panoptic, Lights]
+) -> None:
     """A lamp object's most visible material group becomes an emitter (§4.4), and the appearance fit runs
     with it as a light rather than a surface."""
     from psdr_room_core.method.artifacts import ObjectMesh, Placement
     from psdr_room_core.method.geometry import box_mesh
 
-    shade, base = box_mesh(np.array([0.0, 0.6, 0.0]), np.array([0.25, 0.2, 0.25])), \
-        box_mesh(np.array([0.0, 0.2, 0.0]), np.array([0.05, 0.2, 0.05]))
-    mesh = ObjectMesh(vertices=np.vstack([shade.vertices, base.vertices]),
-                      faces=np.vstack([shade.faces, base.faces + 8]), face_group=np.repeat([0, 1], 12),
-                      groups=("shade", "base"), colors=np.array([[0.9, 0.9, 0.8], [0.2, 0.2, 0.2]]))
-    lamp = Placement(segment_id=4, label="lamp", model_id="test/lamp", mesh=mesh, position=(0.5, 0.0, 1.5), yaw=0.0,
-                     scale=1.0, support="floor")
+    shade, base = (
+        box_mesh(np.array([0.0, 0.6, 0.0]), np.array([0.25, 0.2, 0.25])),
+        box_mesh(np.array([0.0, 0.2, 0.0]), np.array([0.05, 0.2, 0.05])),
+    )
+    mesh = ObjectMesh(
+        vertices=np.vstack([shade.vertices, base.vertices]),
+        faces=np.vstack([shade.faces, base.faces + 8]),
+        face_group=np.repeat([0, 1], 12),
+        groups=("shade", "base"),
+        colors=np.array([[0.9, 0.9, 0.8], [0.2, 0.2, 0.2]]),
+    )
+    lamp = Placement(
+        segment_id=4,
+        label="lamp",
+        model_id="test/lamp",
+        mesh=mesh,
+        position=(0.5, 0.0, 1.5),
+        yaw=0.0,
+        scale=1.0,
+        support="floor",
+    )
     image, panoptic, _ = photo
     ids, _ = render_part_ids(MitsubaRenderer(spp=4), CAMERA, C2W, part_meshes(ROOM, Placements(objects=[lamp])), 96)
     labels = panoptic.ids.copy()
@@ -591,15 +705,24 @@ def test_a_lamp_emits_from_its_largest_visible_part(library: TorchGraphLibrary, 
     segments = [*panoptic.segments, Segment(4, "lamp", "lamp")]
     with_lamp = Panoptic(ids=labels, segments=segments)
     placements = Placements(objects=[lamp])
-    assignment = MaterialAssignment(parts=[*_assignment(TRUE_SRGB).parts,
-                                           PartMaterial("object_4_shade", "homogeneous", (0.9, 0.9, 0.8)),
-                                           PartMaterial("object_4_base", "homogeneous", (0.2, 0.2, 0.2))])
+    assignment = MaterialAssignment(
+        parts=[
+            *_assignment(TRUE_SRGB).parts,
+            PartMaterial("object_4_shade", "homogeneous", (0.9, 0.9, 0.8)),
+            PartMaterial("object_4_base", "homogeneous", (0.2, 0.2, 0.2)),
+        ]
+    )
     ctx = StageContext("init_lights", LIGHT_PARAMS, 0, Path("photo.png"), _implementations(library))
     lights = init_lights(ctx, image, with_lamp, CAMERA, ROOM, placements, assignment)
     lamps = [l for l in lights.lights if l.kind == "lamp"]
     assert [(l.name, l.part) for l in lamps] == [("light_lamp_4", "object_4_shade")]
-    ctx = StageContext("fit_appearance", {**FIT_PARAMS, "iterations": 2, "final_spp": 8}, 0, Path("photo.png"),
-                       _implementations(library))
+    ctx = StageContext(
+        "fit_appearance",
+        {**FIT_PARAMS, "iterations": 2, "final_spp": 8},
+        0,
+        Path("photo.png"),
+        _implementations(library),
+    )
     out = fit_appearance(ctx, image, CAMERA, ROOM, placements, assignment, lights)
     assert "light_lamp_4" in out["appearance"].radiance and out["appearance"].part("object_4_shade") is None
     assert out["appearance"].part("object_4_base") is not None

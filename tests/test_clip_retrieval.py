@@ -22,13 +22,16 @@ def tiny_clip(path: Path, output: str = "image_embeds") -> Path:
     """pixel_values [N,3,224,224] → mean colour per channel → a fixed 3→4 linear map: [N,4] (CLIP's signature)."""
     weight = numpy_helper.from_array(np.array([[1, 0, 0, 0.5], [0, 1, 0, 0.5], [0, 0, 1, 0.5]], np.float32), "w")
     graph = helper.make_graph(
-        [helper.make_node("GlobalAveragePool", ["pixel_values"], ["pooled"]),
-         helper.make_node("Flatten", ["pooled"], ["flat"], axis=1),
-         helper.make_node("MatMul", ["flat", "w"], [output])],
+        [
+            helper.make_node("GlobalAveragePool", ["pixel_values"], ["pooled"]),
+            helper.make_node("Flatten", ["pooled"], ["flat"], axis=1),
+            helper.make_node("MatMul", ["flat", "w"], [output]),
+        ],
         "tiny_clip",
         [helper.make_tensor_value_info("pixel_values", TensorProto.FLOAT, ["batch", 3, 224, 224])],
         [helper.make_tensor_value_info(output, TensorProto.FLOAT, ["batch", 4])],
-        initializer=[weight])
+        initializer=[weight],
+    )
     onnx.save(helper.make_model(graph, opset_imports=[helper.make_opsetid("", 13)]), path)
     return path
 
@@ -53,8 +56,9 @@ class ColourDatabase:
 
 
 def retrieval(model: Path, tmp_path: Path) -> ClipRetrieval:
-    impl = ClipRetrieval(model=None, path=str(model), family="clip_vit_b32_image", intra_op_threads=1,
-                         cache_dir=str(tmp_path / "cache"))
+    impl = ClipRetrieval(
+        model=None, path=str(model), family="clip_vit_b32_image", intra_op_threads=1, cache_dir=str(tmp_path / "cache")
+    )
     impl._db = ColourDatabase()
     return impl
 
@@ -62,8 +66,9 @@ def retrieval(model: Path, tmp_path: Path) -> ClipRetrieval:
 def query(colour: tuple[int, int, int], category: str | None = None) -> ObjectQuery:
     crop = np.full((60, 120, 3), colour, np.uint8)
     crop[:, :10] = 255  # some background context
-    return ObjectQuery(1, "thing", (category,) if category else (), np.ones((4, 4), bool), np.zeros((1, 3)), crop,
-                       np.zeros((1, 3)))
+    return ObjectQuery(
+        1, "thing", (category,) if category else (), np.ones((4, 4), bool), np.zeros((1, 3)), crop, np.zeros((1, 3))
+    )
 
 
 def test_clip_input_is_a_centre_crop_with_clip_statistics() -> None:

@@ -47,6 +47,8 @@ def test_adam_stops_on_the_plateau() -> None:
     def bowl(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
         return (x**2).sum() + 1.0, {}
 
-    history = Adam().minimize({"x": x}, {"x": 0.1}, bowl, 1000, stop=Plateau(window=20, tolerance=0.01, min_iterations=40))
+    history = Adam().minimize(
+        {"x": x}, {"x": 0.1}, bowl, 1000, stop=Plateau(window=20, tolerance=0.01, min_iterations=40)
+    )
     assert 40 <= len(history) < 300 and abs(float(x.detach())) < 0.2
     assert len(Adam().minimize({"x": x}, {"x": 0.1}, bowl, 50)) == 50  # no stop: all

@@ -52,8 +52,15 @@ def photo(tmp_path: Path) -> Path:
     return path
 
 
-def run(cfg: dict, photo: Path, store: Store, tmp_path: Path, mode: str = "readwrite", events: Events | None = None,
-        **select: str) -> RunRecord:
+def run(
+    cfg: dict,
+    photo: Path,
+    store: Store,
+    tmp_path: Path,
+    mode: str = "readwrite",
+    events: Events | None = None,
+    **select: str,
+) -> RunRecord:
     extra = [(toy_plugin, TOY)] + ([(events, Origin("events", "tests", "events"))] if events else [])
     plugins = load_plugins(extra=extra)
     pipeline = Pipeline.from_config(cfg)
@@ -78,10 +85,10 @@ def test_rerun_is_fully_cached_and_same_digests(tmp_path: Path, photo: Path) -> 
 @pytest.mark.parametrize(
     ("change", "expected"),
     [
-        (lambda c: c["a"].update(start=3.0), {"a", "b", "c"}),          # a stage's config
+        (lambda c: c["a"].update(start=3.0), {"a", "b", "c"}),  # a stage's config
         (lambda c: c["scaler"]["toy"].update(factor=3.0), {"b", "c"}),  # an implementation's params
-        (lambda c: c.update(seed=1), {"a", "b", "c", "d"}),             # the seed is in every key
-        (lambda c: c["b"].update(note="x"), {"b"}),                     # b's output is unchanged: c stays cached
+        (lambda c: c.update(seed=1), {"a", "b", "c", "d"}),  # the seed is in every key
+        (lambda c: c["b"].update(note="x"), {"b"}),  # b's output is unchanged: c stays cached
     ],
 )
 def test_config_change_invalidates_exactly_dependents(tmp_path: Path, photo: Path, change: Any, expected: set) -> None:
@@ -152,14 +159,18 @@ class Scene:
 
 def test_a_stage_leaves_no_reference_cycles_to_the_next(tmp_path: Path, photo: Path) -> None:
     leaver = CycleLeaver()
-    cfg = {**copy.deepcopy(BASE), "e": {"_stage_": "leave", "_inputs_": {"x": "a"}, "_outputs_": ["e"]},
-           "f": {"_stage_": "check", "_inputs_": {"x": "e"}, "_outputs_": ["f"]}}
+    cfg = {
+        **copy.deepcopy(BASE),
+        "e": {"_stage_": "leave", "_inputs_": {"x": "a"}, "_outputs_": ["e"]},
+        "f": {"_stage_": "check", "_inputs_": {"x": "e"}, "_outputs_": ["f"]},
+    }
     plugins = load_plugins(extra=[(toy_plugin, TOY), (leaver, Origin("leaver", "tests", "leaver"))])
     enabled = gc.isenabled()
     gc.disable()  # only the engine's collection can free the cycle
     try:
         Runner(plugins, cfg, photo, Store(tmp_path / "cache"), Store(tmp_path / "scratch")).run(
-            Pipeline.from_config(cfg).select())
+            Pipeline.from_config(cfg).select()
+        )
     finally:
         if enabled:
             gc.enable()
@@ -167,8 +178,9 @@ def test_a_stage_leaves_no_reference_cycles_to_the_next(tmp_path: Path, photo: P
 
 
 @pytest.mark.parametrize("damage", ["edit", "delete", "manifest"])
-def test_a_damaged_cache_entry_is_moved_aside_and_recomputed(tmp_path: Path, photo: Path, damage: str,
-                                                             caplog: pytest.LogCaptureFixture) -> None:
+def test_a_damaged_cache_entry_is_moved_aside_and_recomputed(
+    tmp_path: Path, photo: Path, damage: str, caplog: pytest.LogCaptureFixture
+) -> None:
     store = Store(tmp_path / "cache")
     first = run(BASE, photo, store, tmp_path)
     entry = store.lookup(next(r.key for r in first.stages if r.name == "b"))
@@ -289,8 +301,10 @@ def test_a_stage_input_its_function_does_not_take_fails_when_the_pipeline_is_bui
     cfg["c"]["_inputs_"] = {"x": "a", "why": "b"}
     with pytest.raises(PsdrRoomError) as wrong:
         check_stage_inputs(Pipeline.from_config(cfg).nodes, registry)
-    assert str(wrong.value) == ("stage 'c': input 'why' is not a parameter of its function; expected x, y (stage "
-                                "function toy_add), found x, why; fix c._inputs_")
+    assert str(wrong.value) == (
+        "stage 'c': input 'why' is not a parameter of its function; expected x, y (stage "
+        "function toy_add), found x, why; fix c._inputs_"
+    )
     cfg["c"]["_inputs_"] = {"x": "a"}
     with pytest.raises(PsdrRoomError, match="stage 'c': no input for parameter 'y'; expected x, y .* found x; add it"):
         check_stage_inputs(Pipeline.from_config(cfg).nodes, registry)
@@ -309,8 +323,10 @@ def test_injected_artifact_replaces_its_producer(tmp_path: Path, photo: Path) ->
     assert record.artifacts["c"].value == 10.0 + 20.0
 
 
-AUTO = {**BASE, "scaler": {"impl": "auto", "auto": {"order": ["toy_sidecar", "toy"]}, "toy_sidecar": {},
-                              "toy": {"factor": 2.0}}}
+AUTO = {
+    **BASE,
+    "scaler": {"impl": "auto", "auto": {"order": ["toy_sidecar", "toy"]}, "toy_sidecar": {}, "toy": {"factor": 2.0}},
+}
 
 
 def test_auto_selects_the_first_usable_implementation_and_keys_the_choice(tmp_path: Path, photo: Path) -> None:

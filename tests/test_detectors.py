@@ -51,8 +51,9 @@ def side_logits(bins: tuple[float, ...]) -> np.ndarray:
     return logits
 
 
-def nanodet_graph(path: Path, objects: list[tuple[int, int, int, int, float, tuple]],
-                  signature: str = "nanodet") -> Path:
+def nanodet_graph(
+    path: Path, objects: list[tuple[int, int, int, int, float, tuple]], signature: str = "nanodet"
+) -> Path:
     """A graph returning constant NanoDet outputs: ``objects`` are (stride, column, row, class, score,
     (left, top, right, bottom) bins); ``signature="wrong"`` gives a classifier-like single output."""
     image = helper.make_tensor_value_info("image", TensorProto.FLOAT, [1, 3, SIZE, SIZE])
@@ -67,16 +68,19 @@ def nanodet_graph(path: Path, objects: list[tuple[int, int, int, int, float, tup
     if signature == "wrong":
         values = {"logits": np.zeros((1, 1000), np.float32)}
     # out = constant + 0 * mean(image): the outputs depend on the input, as a real network's do
-    nodes = [helper.make_node("ReduceMean", ["image"], ["mean"], keepdims=0),
-             helper.make_node("Mul", ["mean", "zero"], ["nothing"])]
+    nodes = [
+        helper.make_node("ReduceMean", ["image"], ["mean"], keepdims=0),
+        helper.make_node("Mul", ["mean", "zero"], ["nothing"]),
+    ]
     inits = [numpy_helper.from_array(np.zeros((), np.float32), "zero")]
     outputs = []
     for name, value in values.items():
         inits.append(numpy_helper.from_array(value, f"{name}_value"))
         nodes.append(helper.make_node("Add", [f"{name}_value", "nothing"], [name]))
         outputs.append(helper.make_tensor_value_info(name, TensorProto.FLOAT, list(value.shape)))
-    model = helper.make_model(helper.make_graph(nodes, "nanodet_like", [image], outputs, inits),
-                              opset_imports=[helper.make_opsetid("", 13)])
+    model = helper.make_model(
+        helper.make_graph(nodes, "nanodet_like", [image], outputs, inits), opset_imports=[helper.make_opsetid("", 13)]
+    )
     model.ir_version = 8
     onnx.checker.check_model(model)
     onnx.save(model, str(path))
@@ -177,8 +181,11 @@ def test_wrong_signature_corrupt_and_missing_models(tmp_path: Path) -> None:
     corrupt = tmp_path / "corrupt.onnx"
     corrupt.write_bytes(b"\x08\x07 this is not a protobuf")
     missing = tmp_path / "missing.onnx"
-    for path, problem in ((wrong, "not a NanoDet-style detector"), (corrupt, "not a loadable ONNX model"),
-                          (missing, "no such model file")):
+    for path, problem in (
+        (wrong, "not a NanoDet-style detector"),
+        (corrupt, "not a loadable ONNX model"),
+        (missing, "no such model file"),
+    ):
         detector = NanodetOnnx(path=str(path), intra_op_threads=1)
         with pytest.raises(PsdrRoomError) as exc:
             detector.detect(working_image(), PHOTO)
@@ -201,10 +208,13 @@ def half_size_image() -> Image:
 
 
 def test_boxes_file_scales_photo_pixels_to_the_working_image(tmp_path: Path) -> None:
-    photo = photo_with_boxes(tmp_path, "boxes:\n"
-                                       "  - {label: sofa, category: object, box: [100, 200, 300, 400]}\n"
-                                       "  - {label: floor lamp, category: lamp, box: [0, 0, 1000, 800.0]}\n"
-                                       "  - {label: vase, box: [10, 20, 30, 40]}\n")
+    photo = photo_with_boxes(
+        tmp_path,
+        "boxes:\n"
+        "  - {label: sofa, category: object, box: [100, 200, 300, 400]}\n"
+        "  - {label: floor lamp, category: lamp, box: [0, 0, 1000, 800.0]}\n"
+        "  - {label: vase, box: [10, 20, 30, 40]}\n",
+    )
     detector = BoxesFile()
     assert detector.unavailable(photo) is None
     assert detector.external_files(photo) == [tmp_path / "room.boxes.yaml"]
@@ -230,26 +240,35 @@ def test_boxes_file_path_parameter_and_missing_file(tmp_path: Path) -> None:
     one_line(exc, str(tmp_path / "room.boxes.yaml"), "no such boxes file")
 
 
-@pytest.mark.parametrize("text, parts", [
-    ("boxes: [{label: sofa, box: [1, 2, 3, 4]}\n", ("not valid YAML", "line")),
-    ("- {label: sofa, box: [1, 2, 3, 4]}\n", ("expected a single key 'boxes'",)),
-    ("boxes: {label: sofa}\n", ("expected a single key 'boxes'",)),
-    ("boxes: []\nscale: 2\n", ("expected a single key 'boxes'",)),
-    ("boxes: [[1, 2, 3, 4]]\n", ("boxes[0] is not a mapping",)),
-    ("boxes: [{label: a, box: [1, 2, 3, 4]}, {label: b, bbox: [1, 2, 3, 4]}]\n", ("boxes[1] has unknown key(s) bbox",)),
-    ("boxes: [{box: [1, 2, 3, 4]}]\n", ("boxes[0].label is missing",)),
-    ("boxes: [{label: sofa, category: furniture, box: [1, 2, 3, 4]}]\n",
-     ("boxes[0].category 'furniture' is unknown", "wall, floor, ceiling, window, door, lamp, object")),
-    ("boxes: [{label: sofa, box: [1, 2, 3]}]\n", ("boxes[0].box [1, 2, 3] is not four numbers",)),
-    ("boxes: [{label: sofa, box: [1, 2, true, 4]}]\n", ("boxes[0].box", "not four numbers")),
-    ("boxes: [{label: sofa, box: '1 2 3 4'}]\n", ("boxes[0].box", "not four numbers")),
-    ("boxes: [{label: sofa, box: [300, 200, 100, 400]}]\n", ("boxes[0].box [300, 200, 100, 400] is inverted",)),
-    ("boxes: [{label: sofa, box: [100, 400, 300, 400]}]\n", ("is inverted or empty",)),
-    ("boxes: [{label: sofa, box: [100, 200, 1001, 400]}]\n", ("is outside the 1000x800 photo", "EXIF")),
-    ("boxes: [{label: sofa, box: [-1, 200, 300, 400]}]\n", ("is outside the 1000x800 photo",)),
-])
-def test_boxes_file_errors_name_the_file_the_entry_and_the_fix(tmp_path: Path, text: str,
-                                                                parts: tuple[str, ...]) -> None:
+@pytest.mark.parametrize(
+    "text, parts",
+    [
+        ("boxes: [{label: sofa, box: [1, 2, 3, 4]}\n", ("not valid YAML", "line")),
+        ("- {label: sofa, box: [1, 2, 3, 4]}\n", ("expected a single key 'boxes'",)),
+        ("boxes: {label: sofa}\n", ("expected a single key 'boxes'",)),
+        ("boxes: []\nscale: 2\n", ("expected a single key 'boxes'",)),
+        ("boxes: [[1, 2, 3, 4]]\n", ("boxes[0] is not a mapping",)),
+        (
+            "boxes: [{label: a, box: [1, 2, 3, 4]}, {label: b, bbox: [1, 2, 3, 4]}]\n",
+            ("boxes[1] has unknown key(s) bbox",),
+        ),
+        ("boxes: [{box: [1, 2, 3, 4]}]\n", ("boxes[0].label is missing",)),
+        (
+            "boxes: [{label: sofa, category: furniture, box: [1, 2, 3, 4]}]\n",
+            ("boxes[0].category 'furniture' is unknown", "wall, floor, ceiling, window, door, lamp, object"),
+        ),
+        ("boxes: [{label: sofa, box: [1, 2, 3]}]\n", ("boxes[0].box [1, 2, 3] is not four numbers",)),
+        ("boxes: [{label: sofa, box: [1, 2, true, 4]}]\n", ("boxes[0].box", "not four numbers")),
+        ("boxes: [{label: sofa, box: '1 2 3 4'}]\n", ("boxes[0].box", "not four numbers")),
+        ("boxes: [{label: sofa, box: [300, 200, 100, 400]}]\n", ("boxes[0].box [300, 200, 100, 400] is inverted",)),
+        ("boxes: [{label: sofa, box: [100, 400, 300, 400]}]\n", ("is inverted or empty",)),
+        ("boxes: [{label: sofa, box: [100, 200, 1001, 400]}]\n", ("is outside the 1000x800 photo", "EXIF")),
+        ("boxes: [{label: sofa, box: [-1, 200, 300, 400]}]\n", ("is outside the 1000x800 photo",)),
+    ],
+)
+def test_boxes_file_errors_name_the_file_the_entry_and_the_fix(
+    tmp_path: Path, text: str, parts: tuple[str, ...]
+) -> None:
     photo = photo_with_boxes(tmp_path, text)
     with pytest.raises(PsdrRoomError) as exc:
         BoxesFile().detect(half_size_image(), photo)
@@ -288,8 +307,9 @@ def test_bundled_nanodet_finds_the_chairs_of_a_real_photo() -> None:
     chairs = np.array([d.box for d in detections.items if d.label == "chair"])
     # the white chair in front of the table, in the reference boxes of SUN RGB-D: [198, 263, 401, 528]
     assert len(chairs) and box_iou(np.array([198.0, 263, 401, 528]), chairs).max() > 0.5
-    assert all(0 <= d.box[0] < d.box[2] <= image.width and 0 <= d.box[1] < d.box[3] <= image.height
-               for d in detections.items)
+    assert all(
+        0 <= d.box[0] < d.box[2] <= image.width and 0 <= d.box[1] < d.box[3] <= image.height for d in detections.items
+    )
     assert {d.label for d in detections.items} <= set(INDOOR)
     scores = [d.score for d in detections.items]
     assert scores == sorted(scores, reverse=True) and min(scores) >= 0.3

@@ -47,8 +47,9 @@ def room() -> dict:
     rotation = _rotation(25.0, 8.0)
     camera = Camera.from_vfov(WIDTH, HEIGHT, 55.0)
     vps = (camera.K @ rotation).T
-    camera = Camera.from_vfov(WIDTH, HEIGHT, 55.0,
-                              extra={"vanishing_points": (vps / np.linalg.norm(vps, axis=1, keepdims=True)).tolist()})
+    camera = Camera.from_vfov(
+        WIDTH, HEIGHT, 55.0, extra={"vanishing_points": (vps / np.linalg.norm(vps, axis=1, keepdims=True)).tolist()}
+    )
     frame = frame_from_vanishing_points(camera, camera.extra["vanishing_points"])
     rays = frame.rays(camera, WIDTH, HEIGHT)
     labels, t = box.trace(rays.reshape(-1, 3), ROOM[None])
@@ -59,8 +60,9 @@ def room() -> dict:
     return {"camera": camera, "rays": rays, "labels": labels, "t": t, "rgb": np.clip(rgb, 0, 1).astype(np.float32)}
 
 
-def _standing_box(room: dict, left: int, right: int, height_m: float, camera_height_m: float = 1.5,
-                  above_bottom: int = 20) -> np.ndarray:
+def _standing_box(
+    room: dict, left: int, right: int, height_m: float, camera_height_m: float = 1.5, above_bottom: int = 20
+) -> np.ndarray:
     """The mask of a front-facing panel standing on the floor: columns ``left:right``, bottom on the floor
     ``above_bottom`` rows above the photo's bottom edge, top ``height_m`` above the floor."""
     rays, labels, t = room["rays"], room["labels"], room["t"]
@@ -75,7 +77,7 @@ def _standing_box(room: dict, left: int, right: int, height_m: float, camera_hei
     y_on_plane = rays[:, col, 1] * (contact @ normal) / along
     top = int(np.flatnonzero(y_on_plane <= top_y)[0])
     mask = np.zeros(labels.shape, bool)
-    mask[top:bottom + 1, left:right] = True
+    mask[top : bottom + 1, left:right] = True
     return mask
 
 
@@ -173,11 +175,18 @@ def test_nearer_objects_are_painted_over_farther_ones(room: dict) -> None:
 
     def around(mask: np.ndarray, label: str, score: float) -> Detection:
         rows, cols = np.nonzero(mask)
-        return Detection(label, "object", (cols.min() - 2.0, rows.min() - 2.0, cols.max() + 3.0, rows.max() + 3.0),
-                         score)
+        return Detection(
+            label, "object", (cols.min() - 2.0, rows.min() - 2.0, cols.max() + 3.0, rows.max() + 3.0), score
+        )
 
-    found = discover(rgb8, room["rays"], surfaces, [around(near, "chair", 0.8), around(far, "cabinet", 0.6)],
-                     DiscoveryParams(), proposals=None)
+    found = discover(
+        rgb8,
+        room["rays"],
+        surfaces,
+        [around(near, "chair", 0.8), around(far, "cabinet", 0.6)],
+        DiscoveryParams(),
+        proposals=None,
+    )
     assert [f.detection.label for f in found] == ["cabinet", "chair"]  # far first
     assert not (found[0].mask & found[1].mask).any()
 
@@ -215,8 +224,10 @@ def test_an_empty_room_gives_no_objects_and_no_error(room: dict) -> None:
 # ----------------------------------------------------------------------------------------------- categories
 def test_overlapping_prompts_vote_for_the_label() -> None:
     tv = Detection("tv", "object", (100.0, 100.0, 200.0, 220.0), 0.3)
-    chairs = [Detection("chair", "object", (102.0, 98.0, 198.0, 222.0), 0.2),
-              Detection("chair", "object", (98.0, 104.0, 204.0, 218.0), 0.18)]
+    chairs = [
+        Detection("chair", "object", (102.0, 98.0, 198.0, 222.0), 0.2),
+        Detection("chair", "object", (98.0, 104.0, 204.0, 218.0), 0.18),
+    ]
     far = Detection("tv", "object", (400.0, 100.0, 450.0, 150.0), 0.3)
     voted = vote_labels([tv, *chairs, far], iou=0.6)
     assert [d.label for d in voted] == ["chair", "chair", "chair", "tv"]

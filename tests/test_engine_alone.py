@@ -48,8 +48,12 @@ SCRIPT = textwrap.dedent("""
 
 
 def test_a_toy_pipeline_on_the_engine_alone(tmp_path: Path) -> None:
-    result = subprocess.run([sys.executable, "-c", SCRIPT, str(Path(__file__).parent), str(tmp_path)],
-                            capture_output=True, text=True, timeout=120)
+    result = subprocess.run(
+        [sys.executable, "-c", SCRIPT, str(Path(__file__).parent), str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert result.returncode == 0, result.stderr[-3000:]
     values, packages = result.stdout.strip().splitlines()
     assert values == "6.0 [False, False] [True, True]"

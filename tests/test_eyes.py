@@ -57,7 +57,7 @@ def test_labels_of_a_generated_room_are_exact_at_pixel_centres(made: dict) -> No
     triangles = np.concatenate([m.vertices[m.faces] for m in meshes.values()])
     owner = np.concatenate([np.full(len(m.faces), k) for k, m in enumerate(meshes.values())])
     camera, pose = sample.camera, sample.camera_to_world
-    v, u = np.mgrid[0:camera.height, 0:camera.width] + 0.5
+    v, u = np.mgrid[0 : camera.height, 0 : camera.width] + 0.5
     rays = np.stack([(u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, np.ones_like(u)], -1).reshape(-1, 3)
     depth, hit = _nearest_hits(pose[:3, 3], rays @ pose[:3, :3].T, triangles)  # t along a z = 1 ray is z-depth
     truth = np.array([sample.labels[n] for n in meshes])[owner[hit]]
@@ -68,8 +68,13 @@ def test_labels_of_a_generated_room_are_exact_at_pixel_centres(made: dict) -> No
     # true depths of the pixels around
     grid = depth.reshape(camera.height, camera.width)
     padded = np.pad(grid, 2, mode="reflect", reflect_type="odd")  # the border pixels reach beyond the last centre
-    around = np.stack([padded[2 + dy:2 + dy + camera.height, 2 + dx:2 + dx + camera.width]
-                       for dy in range(-2, 3) for dx in range(-2, 3)])
+    around = np.stack(
+        [
+            padded[2 + dy : 2 + dy + camera.height, 2 + dx : 2 + dx + camera.width]
+            for dy in range(-2, 3)
+            for dx in range(-2, 3)
+        ]
+    )
     low, high = (a.reshape(-1) for a in (around.min(axis=0), around.max(axis=0)))
     same = (got["instance"] == truth[:, 2]) & (got["surface"] == truth[:, 0]) & (maps["depth"].reshape(-1) > 0)
     assert same.mean() > 0.9
@@ -88,8 +93,9 @@ def test_the_data_engine_is_deterministic_and_writes_whole_samples(tmp_path: Pat
     main(["--out", str(tmp_path), "--seeds", "5", "--spp", "2", "--width", "48", "--height", "36"])
     again = dict(np.load(tmp_path / "000005.npz"))
     assert all(np.array_equal(first[1][k], again[k]) for k in first[1])
-    image = render_photo(sample_room(5, made["database"], made["library"], [], 48, 36), made["renderer"],
-                         made["denoiser"], 2)
+    image = render_photo(
+        sample_room(5, made["database"], made["library"], [], 48, 36), made["renderer"], made["denoiser"], 2
+    )
     assert image.shape == (36, 48, 3) and image.std() > 5
 
 
@@ -141,8 +147,9 @@ def test_two_training_steps_lower_the_loss(pack) -> None:
     items = [example(pack, i, None) for i in range(len(pack))]
     batch = {k: torch.from_numpy(np.stack([it[k] for it in items])) for k in items[0]}
     batch["image"] = batch["image"].float() / 255.0
-    optimiser = torch.optim.AdamW([{"params": net.head_parameters(), "lr": 1e-3},
-                                   {"params": net.encoder_parameters(), "lr": 1e-4}])
+    optimiser = torch.optim.AdamW(
+        [{"params": net.head_parameters(), "lr": 1e-3}, {"params": net.encoder_parameters(), "lr": 1e-4}]
+    )
 
     def total() -> torch.Tensor:
         return sum(LOSS_WEIGHTS[k] * v for k, v in losses(net(batch["image"]), batch).items())
@@ -176,12 +183,16 @@ def test_psdr_room_train_resumes_and_exports_a_network_onnxruntime_runs(pack, tm
     assert [o.shape[1] for o in out] == list(OUTPUTS.values()) and all(np.isfinite(o).all() for o in out)
 
 
-@pytest.mark.parametrize("argv, says", [
-    (["--seeds", "abc"], "--seeds abc: give a range"),
-    (["--textures", "/no/such/folder"], "--textures /no/such/folder: no such folder"),
-])
-def test_the_data_engine_refuses_bad_arguments_in_one_line(tmp_path: Path, capsys: pytest.CaptureFixture,
-                                                           argv: list[str], says: str) -> None:
+@pytest.mark.parametrize(
+    "argv, says",
+    [
+        (["--seeds", "abc"], "--seeds abc: give a range"),
+        (["--textures", "/no/such/folder"], "--textures /no/such/folder: no such folder"),
+    ],
+)
+def test_the_data_engine_refuses_bad_arguments_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture, argv: list[str], says: str
+) -> None:
     with pytest.raises(SystemExit) as exit_:
         main(["--out", str(tmp_path / "data"), *argv])
     assert exit_.value.code == 2 and says in capsys.readouterr().err

@@ -45,8 +45,18 @@ def seen(retriever: SilhouetteRetrieval, model_id: str, to_world: np.ndarray) ->
 def query(segment_id: int, label: str, mask: np.ndarray, points: np.ndarray, guessed: bool) -> ObjectQuery:
     named = meaning(label)
     assert named is not None
-    return ObjectQuery(segment_id, label, named.categories, mask, points[mask], np.zeros((4, 4, 3), np.uint8),
-                       points[mask], None, named.alternates if guessed else (), guessed)
+    return ObjectQuery(
+        segment_id,
+        label,
+        named.categories,
+        mask,
+        points[mask],
+        np.zeros((4, 4, 3), np.uint8),
+        points[mask],
+        None,
+        named.alternates if guessed else (),
+        guessed,
+    )
 
 
 # --------------------------------------------------------------------------------------------- labels
@@ -85,8 +95,9 @@ def test_a_bed_label_never_retrieves_a_desk(retriever: SilhouetteRetrieval) -> N
     assert drawn and all(c.category == "bed" for c in drawn)
     guessed = _rank_by_label(retriever, query(1, "bed", bed_mask, bed_points, guessed=True), CAMERA, C2W, 5, 0.1)
     assert guessed[0].category == "bed" and guessed[0].model_id == "kenney/bedDouble"
-    desk_mask, desk_points = seen(retriever, "parametric/desk_005",
-                                  pose_matrix(np.array([0.2, 0.0, 2.5]), math.radians(200.0), 1.0))
+    desk_mask, desk_points = seen(
+        retriever, "parametric/desk_005", pose_matrix(np.array([0.2, 0.0, 2.5]), math.radians(200.0), 1.0)
+    )
     labelled = _rank_by_label(retriever, query(2, "bed", desk_mask, desk_points, guessed=False), CAMERA, C2W, 5, 0.1)
     assert all(c.category == "bed" for c in labelled)
     detected = _rank_by_label(retriever, query(2, "bed", desk_mask, desk_points, guessed=True), CAMERA, C2W, 5, 0.1)
@@ -108,20 +119,28 @@ def _split_scene(retriever: SilhouetteRetrieval) -> tuple[Panoptic, PointCloud, 
     floor = C2W[:3, 3] + rays * (-C2W[1, 3] / np.minimum(rays[..., 1:2], -1e-6))
     world = np.where(mask[..., None], points, floor)
     keep = (ids > 1) | (rays[..., 1] < -1e-3)
-    return (Panoptic(ids=ids, segments=[Segment(1, "floor", "floor"), Segment(5, "object", "bed", 0.4),
-                                        Segment(6, "object", "bed", 0.5)]),
-            PointCloud(points=((world[keep] - C2W[:3, 3]) @ C2W[:3, :3]).astype(np.float32),
-                       colors=np.zeros((int(keep.sum()), 3), np.uint8), segment=ids[keep],
-                       segments=[Segment(1, "floor", "floor"), Segment(5, "object", "bed", 0.4),
-                                 Segment(6, "object", "bed", 0.5)]),
-            mask, floor)
+    return (
+        Panoptic(
+            ids=ids,
+            segments=[Segment(1, "floor", "floor"), Segment(5, "object", "bed", 0.4), Segment(6, "object", "bed", 0.5)],
+        ),
+        PointCloud(
+            points=((world[keep] - C2W[:3, 3]) @ C2W[:3, :3]).astype(np.float32),
+            colors=np.zeros((int(keep.sum()), 3), np.uint8),
+            segment=ids[keep],
+            segments=[Segment(1, "floor", "floor"), Segment(5, "object", "bed", 0.4), Segment(6, "object", "bed", 0.5)],
+        ),
+        mask,
+        floor,
+    )
 
 
 def _judge(retriever: SilhouetteRetrieval):  # type: ignore[no-untyped-def]
     def judge(whole: str, union: Part, parts: list[Part]) -> tuple[float, list[float]]:
         def best(part: Part) -> float:
-            q = ObjectQuery(part.segment.id, whole, (whole,), part.mask, part.points, np.zeros((4, 4, 3), np.uint8),
-                            part.points)
+            q = ObjectQuery(
+                part.segment.id, whole, (whole,), part.mask, part.points, np.zeros((4, 4, 3), np.uint8), part.points
+            )
             return retriever.rank(q, CAMERA, C2W, 1)[0].score
 
         return best(union), [best(p) for p in parts]
@@ -149,17 +168,22 @@ def test_a_floor_region_labelled_bed_under_a_bed_stays_apart(retriever: Silhouet
     rows = np.flatnonzero(mask.any(axis=1))
     columns = np.flatnonzero(mask.any(axis=0))
     carpet = np.zeros(mask.shape, bool)
-    carpet[rows[-1] + 1:, columns[0]:columns[-1]] = True
+    carpet[rows[-1] + 1 :, columns[0] : columns[-1]] = True
     ids[carpet] = 7
     segments = [Segment(1, "floor", "floor"), Segment(6, "object", "bed", 0.7), Segment(7, "object", "bed", 0.2)]
     world = np.where(carpet[..., None], floor, np.nan)
     points = (world[carpet] - C2W[:3, 3]) @ C2W[:3, :3]
     keep = cloud.segment != 7
-    cloud = PointCloud(points=np.vstack([cloud.points[keep], points.astype(np.float32)]),
-                       colors=np.zeros((int(keep.sum()) + len(points), 3), np.uint8),
-                       segment=np.concatenate([np.where(cloud.segment[keep] == 5, 6, cloud.segment[keep]),
-                                               np.full(len(points), 7, np.int32)]), segments=segments)
-    grouped, _, notes = group_segments(Panoptic(ids=ids, segments=segments), cloud, CAMERA, ROOM, True, GroupParams(),
-                                       _judge(retriever))
+    cloud = PointCloud(
+        points=np.vstack([cloud.points[keep], points.astype(np.float32)]),
+        colors=np.zeros((int(keep.sum()) + len(points), 3), np.uint8),
+        segment=np.concatenate(
+            [np.where(cloud.segment[keep] == 5, 6, cloud.segment[keep]), np.full(len(points), 7, np.int32)]
+        ),
+        segments=segments,
+    )
+    grouped, _, notes = group_segments(
+        Panoptic(ids=ids, segments=segments), cloud, CAMERA, ROOM, True, GroupParams(), _judge(retriever)
+    )
     assert sorted(s.id for s in grouped.segments if s.category == "object") == [6, 7]
     assert all("kept apart" in note for note in notes), notes

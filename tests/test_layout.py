@@ -40,7 +40,9 @@ def _rotation(yaw_deg: float, pitch_deg: float) -> np.ndarray:
 def _camera(rotation: np.ndarray, width: int = 320, height: int = 240) -> Camera:
     camera = Camera.from_vfov(width, height, 55.0)
     vps = (camera.K @ rotation).T
-    return Camera.from_vfov(width, height, 55.0, extra={"vanishing_points": (vps / np.linalg.norm(vps, axis=1, keepdims=True)).tolist()})
+    return Camera.from_vfov(
+        width, height, 55.0, extra={"vanishing_points": (vps / np.linalg.norm(vps, axis=1, keepdims=True)).tolist()}
+    )
 
 
 def _render(camera: Camera, frame: ManhattanFrame) -> tuple[Image, np.ndarray, np.ndarray]:
@@ -160,12 +162,13 @@ def test_grabcut_cuts_the_object_out_of_its_box() -> None:
 def test_box_prompts_become_object_segments(room: tuple) -> None:
     camera, image, labels, _ = room
     rgb = image.rgb.copy()
-    yy, xx = np.mgrid[:camera.height, :camera.width]
+    yy, xx = np.mgrid[: camera.height, : camera.width]
     sofa = ((xx - 160) / 40.0) ** 2 + ((yy - 170) / 25.0) ** 2 < 1.0
     rgb[sofa] = [0.8, 0.3, 0.2]
     prompts = Detections(items=[Detection("couch", "object", (112.0, 140.0, 208.0, 200.0), 0.8)])
-    panoptic = LayoutSegmentation(n_random=1500).segment(Image(rgb=rgb, source="room.png", original_size=(320, 240)),
-                                                         camera, prompts, PHOTO)
+    panoptic = LayoutSegmentation(n_random=1500).segment(
+        Image(rgb=rgb, source="room.png", original_size=(320, 240)), camera, prompts, PHOTO
+    )
     couch = [s for s in panoptic.segments if s.label == "couch"]
     assert len(couch) == 1 and couch[0].category == "object"
     mask = panoptic.ids == couch[0].id
@@ -187,7 +190,9 @@ def test_boxes_yaml_replaces_the_detector(tmp_path: Path) -> None:
     overrides = [f"image={photo}", f"cache_dir={tmp_path / 'cache'}", "run.until=detect", "report.enabled=false"]
     record = execute(compose_config(overrides, plugins), tmp_path / "run1", plugins)
     assert record.implementations["detector"]["name"] == "nanodet_onnx"
-    photo.with_suffix(".boxes.yaml").write_text("boxes:\n  - {label: sofa, category: object, box: [100, 120, 220, 200]}\n")
+    photo.with_suffix(".boxes.yaml").write_text(
+        "boxes:\n  - {label: sofa, category: object, box: [100, 120, 220, 200]}\n"
+    )
     record = execute(compose_config(overrides, plugins), tmp_path / "run2", plugins)
     assert record.implementations["detector"]["name"] == "boxes_file"
     assert "not" not in record.implementations["detector"]["selected_by"]
@@ -204,9 +209,19 @@ def _run_bare(image: Image, tmp_path: Path, until: str) -> RunRecord:
     photo = tmp_path / "photo.png"
     cv2.imwrite(str(photo), image.to_uint8()[..., ::-1])
     plugins = plugin_system()
-    overrides = [f"image={photo}", f"cache_dir={tmp_path / 'cache'}", f"run.until={until}", "report.enabled=false",
-                 "detector=none", "fov=fixed", "fov.fixed.vfov_deg=55.0", "segmentation=layout", "depth=layout",
-                 "segmentation.layout.n_random=1500", "depth.layout.n_random=1500"]
+    overrides = [
+        f"image={photo}",
+        f"cache_dir={tmp_path / 'cache'}",
+        f"run.until={until}",
+        "report.enabled=false",
+        "detector=none",
+        "fov=fixed",
+        "fov.fixed.vfov_deg=55.0",
+        "segmentation=layout",
+        "depth=layout",
+        "segmentation.layout.n_random=1500",
+        "depth.layout.n_random=1500",
+    ]
     return execute(compose_config(overrides, plugins), tmp_path / "run", plugins)
 
 
@@ -214,8 +229,9 @@ def _render_true(rotation: np.ndarray) -> tuple[Image, np.ndarray]:
     """The room seen by a camera whose frame axes are ``rotation`` (rendered in that true frame, whichever
     axis the vanishing points would call up): the image and its surface labels."""
     camera = _camera(rotation)
-    frame = ManhattanFrame(rotation=rotation, vanishing_points=np.asarray(camera.extra["vanishing_points"]),
-                           observed=True)
+    frame = ManhattanFrame(
+        rotation=rotation, vanishing_points=np.asarray(camera.extra["vanishing_points"]), observed=True
+    )
     image, labels, _ = _render(camera, frame)
     return image, labels
 
@@ -294,7 +310,7 @@ def test_the_floor_colour_runs_up_from_the_bottom_band() -> None:
     carpet = np.zeros((height, width), dtype=bool)
     for y in range(60, height):  # a corridor floor narrowing towards its vanishing point at row 60
         half = (y - 60) * 1.6
-        carpet[y, max(0, int(80 - half)):int(80 + half) + 1] = True
+        carpet[y, max(0, int(80 - half)) : int(80 + half) + 1] = True
     rgb[carpet] = (0.42, 0.33, 0.24)
     rug = np.zeros_like(carpet)
     rug[80:95, 70:90] = True

@@ -20,8 +20,10 @@ def _write_weights(directory: Path, seed: int = 0) -> None:
         features[f"features.{index}.weight"] = torch.randn(o, c, k, k, generator=generator) * (2.0 / (c * k * k)) ** 0.5
         features[f"features.{index}.bias"] = torch.zeros(o)
     torch.save(features, directory / "alexnet-owt-7be5be79.pth")
-    heads = {f"lin{n}.model.1.weight": torch.rand(1, o, 1, 1, generator=generator)
-             for n, (_, _, o, _, _, _) in enumerate(lpips.CONVS)}
+    heads = {
+        f"lin{n}.model.1.weight": torch.rand(1, o, 1, 1, generator=generator)
+        for n, (_, _, o, _, _, _) in enumerate(lpips.CONVS)
+    }
     torch.save(heads, directory / "lpips_alex_v0.1.pth")
 
 
@@ -48,7 +50,9 @@ def test_distance_is_zero_for_equal_images_and_grows_with_change(tmp_path: Path)
 def test_a_wrong_file_is_a_one_line_error(tmp_path: Path) -> None:
     _write_weights(tmp_path)
     torch.save({"lin0.model.1.weight": torch.rand(1, 3, 1, 1)}, tmp_path / "lpips_alex_v0.1.pth")
-    with pytest.raises(PsdrRoomError, match=r"lpips_alex_v0.1.pth: 'lin0.model.1.weight' should be a tensor of shape \[1, 64, 1, 1\]"):
+    with pytest.raises(
+        PsdrRoomError, match=r"lpips_alex_v0.1.pth: 'lin0.model.1.weight' should be a tensor of shape \[1, 64, 1, 1\]"
+    ):
         lpips.installed(tmp_path)
     (tmp_path / "alexnet-owt-7be5be79.pth").write_bytes(b"not a torch file")
     with pytest.raises(PsdrRoomError, match="not a readable torch state dict"):

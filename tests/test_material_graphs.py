@@ -38,8 +38,11 @@ GOOD = {
     "category": "test",
     "nodes": {
         "bricks": {"type": "tiles", "params": {"cols": 2, "rows": 4, "gap": {"value": 0.1, "range": [0.05, 0.2]}}},
-        "colour": {"type": "gradient_map", "inputs": {"input": "bricks.random"},
-                   "params": {"ramp": [[0.0, "#803020"], [1.0, "#c06040"]]}},
+        "colour": {
+            "type": "gradient_map",
+            "inputs": {"input": "bricks.random"},
+            "params": {"ramp": [[0.0, "#803020"], [1.0, "#c06040"]]},
+        },
         "normal": {"type": "height_to_normal", "inputs": {"height": "bricks.height"}},
     },
     "outputs": {"base_color": "colour", "roughness": 0.8, "height": "bricks.height", "normal": "normal"},
@@ -65,42 +68,80 @@ def broken(**changes: object) -> dict:
 def test_a_valid_graph_evaluates_to_the_five_maps() -> None:
     material = parse_graph(GOOD, NODES, source="good.yaml")
     params = material.parameters()
-    assert set(params) == {"bricks.offset", "bricks.random_offset", "bricks.gap", "bricks.bevel",
-                           "bricks.height_variation", "colour.ramp", "normal.strength"}
+    assert set(params) == {
+        "bricks.offset",
+        "bricks.random_offset",
+        "bricks.gap",
+        "bricks.bevel",
+        "bricks.height_variation",
+        "colour.ramp",
+        "normal.strength",
+    }
     assert all(t.requires_grad and t.is_leaf for t in params.values())
     maps = material.evaluate((48, 64), params)
     assert {k: tuple(v.shape) for k, v in maps.items()} == {
-        "base_color": (3, 48, 64), "roughness": (1, 48, 64), "metallic": (1, 48, 64), "height": (1, 48, 64),
-        "normal": (3, 48, 64)}
+        "base_color": (3, 48, 64),
+        "roughness": (1, 48, 64),
+        "metallic": (1, 48, 64),
+        "height": (1, 48, 64),
+        "normal": (3, 48, 64),
+    }
     assert float(maps["roughness"].mean()) == pytest.approx(0.8) and float(maps["metallic"].max()) == 0.0
     assert 0.05 <= float(material.values(params)["bricks.gap"].detach()) <= 0.2
     maps["base_color"].sum().backward()
     assert params["colour.ramp"].grad is not None and float(params["colour.ramp"].grad.abs().sum()) > 0
 
 
-@pytest.mark.parametrize("change, message", [
-    ({"nodes/bricks/type": "bricks"}, r"node 'bricks': unknown type 'bricks'; known: .*tiles"),
-    ({"nodes/bricks/params/colums": 3}, r"node 'bricks' \(tiles\): unknown parameter\(s\) colums; known: cols"),
-    ({"nodes/bricks/params/cols": 0}, r"node 'bricks' \(tiles\): parameter 'cols': must be an integer in \[1, 256\]"),
-    ({"nodes/bricks/params/gap": 0.9}, r"node 'bricks' \(tiles\): parameter 'gap': value 0.9 is outside \[0.0, 0.4\]"),
-    ({"nodes/bricks/params/gap": {"value": 0.1, "range": [0.0, 0.9]}}, r"parameter 'gap': range .* reaches outside"),
-    ({"nodes/bricks/params/rows": 3}, r"node 'bricks' \(tiles\): rows must be even when offset"),
-    ({"nodes/colour/inputs": {}}, r"node 'colour' \(gradient_map\): input 'input' is not connected"),
-    ({"nodes/colour/inputs": {"input": "brick.random"}}, r"node 'colour' \(gradient_map\): input 'input': no node named 'brick'"),
-    ({"nodes/colour/inputs": {"input": "bricks.rnd"}}, r"input 'input': node 'bricks' \(tiles\) has no output 'rnd'; outputs: height, mask, random"),
-    ({"nodes/colour/inputs": {"img": "bricks"}}, r"node 'colour' \(gradient_map\): unknown input\(s\) img; known: input"),
-    ({"nodes/colour/params/ramp": [[0.0, "red"], [1.0, "#ffffff"]]}, r"parameter 'ramp': colour 'red' is not '#rrggbb'"),
-    ({"nodes/colour/colour": 1}, r"node 'colour': unknown key\(s\) colour"),
-    ({"nodes/bricks/inputs": {"seed": "colour"}}, r"node 'bricks' \(tiles\): unknown input\(s\) seed; known: \(none: a generator\)"),
-    ({"outputs/base_color": None}, r"'outputs' must be a mapping with at least base_color"),
-    ({"outputs/albedo": "colour"}, r"outputs: unknown output 'albedo'; known: base_color"),
-    ({"outputs/roughness": 1.5}, r"outputs: roughness: must be a number in \[0, 1\]"),
-    ({"outputs/normal": "bricks.height"}, r"outputs: normal: 'bricks.height' must be a normal map"),
-    ({"outputs/height": "normal"}, r"outputs: height: 'normal' must be a \[0, 1\] map, not a normal map"),
-    ({"nodes/bricks.x": {"type": "uniform"}}, r"node name 'bricks.x' must be letters"),
-    ({"tile_size": -1}, r"tile_size must be a positive number"),
-    ({"colour": "red"}, r"unknown key\(s\) colour; a graph has name, category"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({"nodes/bricks/type": "bricks"}, r"node 'bricks': unknown type 'bricks'; known: .*tiles"),
+        ({"nodes/bricks/params/colums": 3}, r"node 'bricks' \(tiles\): unknown parameter\(s\) colums; known: cols"),
+        (
+            {"nodes/bricks/params/cols": 0},
+            r"node 'bricks' \(tiles\): parameter 'cols': must be an integer in \[1, 256\]",
+        ),
+        (
+            {"nodes/bricks/params/gap": 0.9},
+            r"node 'bricks' \(tiles\): parameter 'gap': value 0.9 is outside \[0.0, 0.4\]",
+        ),
+        (
+            {"nodes/bricks/params/gap": {"value": 0.1, "range": [0.0, 0.9]}},
+            r"parameter 'gap': range .* reaches outside",
+        ),
+        ({"nodes/bricks/params/rows": 3}, r"node 'bricks' \(tiles\): rows must be even when offset"),
+        ({"nodes/colour/inputs": {}}, r"node 'colour' \(gradient_map\): input 'input' is not connected"),
+        (
+            {"nodes/colour/inputs": {"input": "brick.random"}},
+            r"node 'colour' \(gradient_map\): input 'input': no node named 'brick'",
+        ),
+        (
+            {"nodes/colour/inputs": {"input": "bricks.rnd"}},
+            r"input 'input': node 'bricks' \(tiles\) has no output 'rnd'; outputs: height, mask, random",
+        ),
+        (
+            {"nodes/colour/inputs": {"img": "bricks"}},
+            r"node 'colour' \(gradient_map\): unknown input\(s\) img; known: input",
+        ),
+        (
+            {"nodes/colour/params/ramp": [[0.0, "red"], [1.0, "#ffffff"]]},
+            r"parameter 'ramp': colour 'red' is not '#rrggbb'",
+        ),
+        ({"nodes/colour/colour": 1}, r"node 'colour': unknown key\(s\) colour"),
+        (
+            {"nodes/bricks/inputs": {"seed": "colour"}},
+            r"node 'bricks' \(tiles\): unknown input\(s\) seed; known: \(none: a generator\)",
+        ),
+        ({"outputs/base_color": None}, r"'outputs' must be a mapping with at least base_color"),
+        ({"outputs/albedo": "colour"}, r"outputs: unknown output 'albedo'; known: base_color"),
+        ({"outputs/roughness": 1.5}, r"outputs: roughness: must be a number in \[0, 1\]"),
+        ({"outputs/normal": "bricks.height"}, r"outputs: normal: 'bricks.height' must be a normal map"),
+        ({"outputs/height": "normal"}, r"outputs: height: 'normal' must be a \[0, 1\] map, not a normal map"),
+        ({"nodes/bricks.x": {"type": "uniform"}}, r"node name 'bricks.x' must be letters"),
+        ({"tile_size": -1}, r"tile_size must be a positive number"),
+        ({"colour": "red"}, r"unknown key\(s\) colour; a graph has name, category"),
+    ],
+)
 def test_invalid_graphs_name_the_node_and_field(change: dict, message: str) -> None:
     with pytest.raises(GraphError, match=message) as info:
         parse_graph(broken(**change), NODES, source="my_graph.yaml")
@@ -109,9 +150,13 @@ def test_invalid_graphs_name_the_node_and_field(change: dict, message: str) -> N
 
 
 def test_cycles_are_reported_with_the_loop() -> None:
-    data = broken(**{"nodes/blurred": {"type": "blur", "inputs": {"input": "mixed"}},
-                     "nodes/mixed": {"type": "blend", "inputs": {"background": "colour", "foreground": "blurred"}},
-                     "outputs/base_color": "mixed"})
+    data = broken(
+        **{
+            "nodes/blurred": {"type": "blur", "inputs": {"input": "mixed"}},
+            "nodes/mixed": {"type": "blend", "inputs": {"background": "colour", "foreground": "blurred"}},
+            "outputs/base_color": "mixed",
+        }
+    )
     with pytest.raises(GraphError, match=r"cycle \((blurred -> mixed -> blurred|mixed -> blurred -> mixed)\)"):
         parse_graph(data, NODES, source="loop.yaml")
 
@@ -125,7 +170,7 @@ def test_graph_files_in_yaml_and_json(tmp_path: Path) -> None:
     (tmp_path / "bad.yaml").write_text("nodes: {a: [\n")
     with pytest.raises(GraphError, match=r"bad.yaml: not valid YAML"):
         load_graph(tmp_path / "bad.yaml", NODES)
-    (tmp_path / "bad.json").write_text("{\"nodes\": }")
+    (tmp_path / "bad.json").write_text('{"nodes": }')
     with pytest.raises(GraphError, match=r"bad.json: not valid JSON \(line 1"):
         load_graph(tmp_path / "bad.json", NODES)
 
@@ -144,15 +189,54 @@ def test_fixed_parameters_are_not_optimised_and_values_round_trip() -> None:
 def test_library_covers_the_rooms_materials() -> None:
     names = LIBRARY.names()
     assert len(names) >= 40
-    for wanted in ("oak_planks", "walnut_planks", "herringbone_oak", "parquet_basketweave", "oak_wood", "walnut_wood",
-                   "painted_wood_white", "white_square_tiles", "subway_tiles", "hex_tiles", "white_marble", "terrazzo",
-                   "concrete", "white_plaster", "beige_paint", "wallpaper_stripes", "wallpaper_damask", "red_brick",
-                   "linen_weave", "velvet", "denim_twill", "chunky_knit", "brown_leather", "plush_carpet",
-                   "rug_diamond", "brushed_steel", "painted_metal_black", "clear_glass"):
+    for wanted in (
+        "oak_planks",
+        "walnut_planks",
+        "herringbone_oak",
+        "parquet_basketweave",
+        "oak_wood",
+        "walnut_wood",
+        "painted_wood_white",
+        "white_square_tiles",
+        "subway_tiles",
+        "hex_tiles",
+        "white_marble",
+        "terrazzo",
+        "concrete",
+        "white_plaster",
+        "beige_paint",
+        "wallpaper_stripes",
+        "wallpaper_damask",
+        "red_brick",
+        "linen_weave",
+        "velvet",
+        "denim_twill",
+        "chunky_knit",
+        "brown_leather",
+        "plush_carpet",
+        "rug_diamond",
+        "brushed_steel",
+        "painted_metal_black",
+        "clear_glass",
+    ):
         assert wanted in names
     categories = {m.category for m in LIBRARY.materials()}
-    assert {"wood floor", "wood furniture", "tiles", "stone", "wall", "wallpaper", "brick", "fabric", "knit",
-            "leather", "carpet", "rug", "metal", "glass"} <= categories
+    assert {
+        "wood floor",
+        "wood furniture",
+        "tiles",
+        "stone",
+        "wall",
+        "wallpaper",
+        "brick",
+        "fabric",
+        "knit",
+        "leather",
+        "carpet",
+        "rug",
+        "metal",
+        "glass",
+    } <= categories
     assert all(m.description and m.tags for m in LIBRARY.materials())
 
 
@@ -214,19 +298,31 @@ def _plugin(**hooks: object) -> SimpleNamespace:
     return SimpleNamespace(**{name: hookimpl(fn) for name, fn in hooks.items()})
 
 
-def test_plugins_add_graphs_and_node_types(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
-                                           caplog: pytest.LogCaptureFixture) -> None:
+def test_plugins_add_graphs_and_node_types(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
     def noise_free(ctx, inputs, p):  # noqa: ANN001, ANN202 - a node function
         return (inputs["input"] * p["gain"]).clamp(0, 1)
 
-    gain = NodeType("gain", "filter", noise_free, {"gain": Float(0.0, 2.0, 1.0)}, {"input": Input(None)},
-                    doc="multiply by a gain")
-    graph = broken(**{"nodes/brighter": {"type": "gain", "inputs": {"input": "colour"}, "params": {"gain": 1.2}},
-                      "outputs/base_color": "brighter"})
+    gain = NodeType(
+        "gain", "filter", noise_free, {"gain": Float(0.0, 2.0, 1.0)}, {"input": Input(None)}, doc="multiply by a gain"
+    )
+    graph = broken(
+        **{
+            "nodes/brighter": {"type": "gain", "inputs": {"input": "colour"}, "params": {"gain": 1.2}},
+            "outputs/base_color": "brighter",
+        }
+    )
     (tmp_path / "plugin_bricks.yaml").write_text(yaml.safe_dump(graph))
     (tmp_path / "oak_planks.yaml").write_text(yaml.safe_dump(GOOD))  # a name already taken: left out
-    system = load_plugins(extra=[(_plugin(material_graphs=lambda: [str(tmp_path)], material_nodes=lambda: [gain]),
-                                  Origin("extra_materials", "extra 1.0", "extra = extra"))])
+    system = load_plugins(
+        extra=[
+            (
+                _plugin(material_graphs=lambda: [str(tmp_path)], material_nodes=lambda: [gain]),
+                Origin("extra_materials", "extra 1.0", "extra = extra"),
+            )
+        ]
+    )
     assert not system.registry.failures
     monkeypatch.setattr("psdr_room_core.engine.plugins.plugin_system", lambda: system)
     library = TorchGraphLibrary()

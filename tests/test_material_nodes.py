@@ -111,7 +111,8 @@ def test_node_tiles_seamlessly(name: str) -> None:
         for dim in (-1, -2):
             seam, interior = seam_ratio(x.detach(), dim)
             assert seam <= 1.5 * interior + 1e-3, (
-                f"{name}.{port}: wrap-around difference {seam:.4f} vs interior neighbours at most {interior:.4f}")
+                f"{name}.{port}: wrap-around difference {seam:.4f} vs interior neighbours at most {interior:.4f}"
+            )
         # exact periodicity: the node evaluated one tile further is the same map
         difference = float((shifted[port] - x).abs().mean())
         assert difference < 1e-3, f"{name}.{port} changes by {difference:.4f} one tile over: not periodic"
@@ -132,7 +133,8 @@ def test_node_outputs_stay_in_range(name: str) -> None:
                 assert bool((x[2] > 0).all()), f"{name}.{port}: normals must face out of the surface"
             else:
                 assert float(x.min()) >= -1e-5 and float(x.max()) <= 1 + 1e-5, (
-                    f"{name}.{port} outside [0, 1]: [{float(x.min()):.4f}, {float(x.max()):.4f}]")
+                    f"{name}.{port} outside [0, 1]: [{float(x.min()):.4f}, {float(x.max()):.4f}]"
+                )
 
 
 @pytest.mark.parametrize("name", sorted(n for n, t in NODE_TYPES.items() if t.continuous))
@@ -150,10 +152,36 @@ def test_gradients_reach_every_continuous_parameter(name: str) -> None:
 
 
 def test_every_node_kind_of_the_issue_is_there() -> None:
-    wanted = {"value_noise", "perlin_noise", "fbm", "cellular", "tiles", "hex_tiles", "planks", "herringbone",
-              "parquet", "stripes", "wood_rings", "wood_grain", "weave", "knit", "gradient", "shape", "blend", "levels",
-              "curves", "gradient_map", "hsl", "blur", "directional_warp", "slope_blur", "transform",
-              "height_to_normal", "edge_detect", "clamp"}
+    wanted = {
+        "value_noise",
+        "perlin_noise",
+        "fbm",
+        "cellular",
+        "tiles",
+        "hex_tiles",
+        "planks",
+        "herringbone",
+        "parquet",
+        "stripes",
+        "wood_rings",
+        "wood_grain",
+        "weave",
+        "knit",
+        "gradient",
+        "shape",
+        "blend",
+        "levels",
+        "curves",
+        "gradient_map",
+        "hsl",
+        "blur",
+        "directional_warp",
+        "slope_blur",
+        "transform",
+        "height_to_normal",
+        "edge_detect",
+        "clamp",
+    }
     assert wanted <= set(NODE_TYPES)
     assert {t.kind for t in NODE_TYPES.values()} == {"generator", "filter"}
     assert all(t.doc for t in NODE_TYPES.values()), "every node type needs a one-line description"

@@ -35,13 +35,22 @@ CONF = Path(__file__).resolve().parents[1] / "conf"
 C2W = np.eye(4)
 C2W[:3, :3] = np.diag([-1.0, -1.0, 1.0])  # OpenCV camera looking along world +Z, Y up ...
 tilt = math.radians(-25)  # ... pitched down to see the floor
-C2W[:3, :3] = C2W[:3, :3] @ np.array([[1, 0, 0], [0, math.cos(tilt), -math.sin(tilt)], [0, math.sin(tilt), math.cos(tilt)]])
+C2W[:3, :3] = C2W[:3, :3] @ np.array(
+    [[1, 0, 0], [0, math.cos(tilt), -math.sin(tilt)], [0, math.sin(tilt), math.cos(tilt)]]
+)
 C2W[:3, 3] = [0.0, 1.5, -2.5]
 ROOM = RoomBox(camera_to_world=C2W, center=np.array([0.0, 1.5, 0.0]), half_size=np.array([3.0, 1.5, 3.0]), yaw=0.0)
 CAMERA = Camera.from_vfov(200, 150, 60.0)
 WALL = (0.62, 0.52, 0.40)
-PARAMS = {**{k: v for k, v in yaml.safe_load((CONF / "stage" / "assign_materials.yaml").read_text()).items()
-             if not k.startswith("_")}, "render_width": 200, "map_size": 128}
+PARAMS = {
+    **{
+        k: v
+        for k, v in yaml.safe_load((CONF / "stage" / "assign_materials.yaml").read_text()).items()
+        if not k.startswith("_")
+    },
+    "render_width": 200,
+    "map_size": 128,
+}
 SHELF = (slice(20, 52), slice(70, 130))
 """Rows and columns of the photo where a bookshelf the segmentation calls wall stands before the far wall."""
 
@@ -89,14 +98,18 @@ def test_crop_windows_are_disjoint_inside_and_large_enough() -> None:
 
 def test_crops_file_is_scaled_to_the_working_image_and_checked(tmp_path: Path) -> None:
     path = tmp_path / "photo.crops.yaml"
-    path.write_text("crops:\n  - {image: [100, 50, 300, 250], part: floor}\n  - {image: [0, 0, 80, 60], render: [10, 10, 50, 40]}\n")
+    path.write_text(
+        "crops:\n  - {image: [100, 50, 300, 250], part: floor}\n  - {image: [0, 0, 80, 60], render: [10, 10, 50, 40]}\n"
+    )
     crops = read_crops(path, (800, 600), (400, 300))
     assert crops[0].image == (50, 25, 150, 125) and crops[0].part == "floor" and crops[0].render is None
     assert crops[1].render == (5, 5, 25, 20) and crops[1].part is None
-    for text, words in (("crops:\n  - {image: [100, 50, 900, 250], part: floor}\n", "inside the 800x600 photo"),
-                        ("crops:\n  - {image: [1, 2, 3], part: floor}\n", "[x0, y0, x1, y1]"),
-                        ("crops:\n  - {image: [0, 0, 9, 9], part: floor, render: [0, 0, 9, 9]}\n", "exactly one of"),
-                        ("crops: [\n", "unreadable crops file")):
+    for text, words in (
+        ("crops:\n  - {image: [100, 50, 900, 250], part: floor}\n", "inside the 800x600 photo"),
+        ("crops:\n  - {image: [1, 2, 3], part: floor}\n", "[x0, y0, x1, y1]"),
+        ("crops:\n  - {image: [0, 0, 9, 9], part: floor, render: [0, 0, 9, 9]}\n", "exactly one of"),
+        ("crops: [\n", "unreadable crops file"),
+    ):
         path.write_text(text)
         with pytest.raises(PsdrRoomError, match=words) as info:
             read_crops(path, (800, 600), (400, 300))
@@ -105,8 +118,10 @@ def test_crops_file_is_scaled_to_the_working_image_and_checked(tmp_path: Path) -
 
 def test_a_written_crops_file_reads_back_and_a_wrong_one_is_not_written(tmp_path: Path) -> None:
     path = tmp_path / "photo.crops.yaml"
-    entries: list[dict[str, object]] = [{"image": [100.0, 50.0, 300.0, 250.0], "part": "floor"},
-                                        {"image": [0, 0, 80, 60], "render": [10, 10, 50, 40]}]
+    entries: list[dict[str, object]] = [
+        {"image": [100.0, 50.0, 300.0, 250.0], "part": "floor"},
+        {"image": [0, 0, 80, 60], "render": [10, 10, 50, 40]},
+    ]
     write_crops(path, entries, (800, 600))
     assert [c.image for c in read_crops(path, (800, 600), (800, 600))] == [(100, 50, 300, 250), (0, 0, 80, 60)]
     before = path.read_text()
@@ -121,8 +136,9 @@ def test_vote_prefers_materials_listed_by_several_crops() -> None:
     assert vote([[("a", 0.4), ("b", 0.6)]])[0] == ("b", 0.6)
 
 
-def test_index_retrieves_a_library_material_from_a_turned_view(library: TorchGraphLibrary,
-                                                                descriptor: RandomCnnDescriptor) -> None:
+def test_index_retrieves_a_library_material_from_a_turned_view(
+    library: TorchGraphLibrary, descriptor: RandomCnnDescriptor
+) -> None:
     index = MaterialIndex.build(library, descriptor, 128)
     assert index.names == library.names() and index.spacing > 0
     for name in ("red_brick", "herringbone_oak"):
@@ -132,8 +148,9 @@ def test_index_retrieves_a_library_material_from_a_turned_view(library: TorchGra
         assert index.names[best] == name and index.similarity(float(distances[best])) > 0.33
 
 
-def test_transform_search_recovers_the_scale_and_rotation(library: TorchGraphLibrary,
-                                                          descriptor: RandomCnnDescriptor) -> None:
+def test_transform_search_recovers_the_scale_and_rotation(
+    library: TorchGraphLibrary, descriptor: RandomCnnDescriptor
+) -> None:
     camera = Camera.from_vfov(160, 120, 60.0)
     c2w = np.eye(4)
     c2w[:3, :3] = np.diag([-1.0, -1.0, 1.0])
@@ -152,18 +169,25 @@ def test_transform_search_recovers_the_scale_and_rotation(library: TorchGraphLib
     assert luminance(fit.views[0]) == pytest.approx(luminance(crops[0][0]), rel=0.05)
 
 
-def _rendered_room(tmp_path: Path, library: TorchGraphLibrary, material: str, scale: float, shelf: bool = False
-                   ) -> tuple[StageContext, Image, Panoptic]:
+def _rendered_room(
+    tmp_path: Path, library: TorchGraphLibrary, material: str, scale: float, shelf: bool = False
+) -> tuple[StageContext, Image, Panoptic]:
     """A photo of the room: the floor wears ``material`` (planar x/z mapping, ``scale``), the walls and
     ceiling flat colours with a little noise; the panoptic labels come from the same render. With ``shelf``,
     a dark bookshelf with pale shelves stands at :data:`SHELF`, labelled wall (clutter the segmentation
     missed)."""
-    ctx = StageContext("assign_materials", PARAMS, 0, tmp_path / "photo.png",
-                       {"renderer": MitsubaRenderer(spp=4), "material_graph": library, "texture": RandomCnnDescriptor()})
+    ctx = StageContext(
+        "assign_materials",
+        PARAMS,
+        0,
+        tmp_path / "photo.png",
+        {"renderer": MitsubaRenderer(spp=4), "material_graph": library, "texture": RandomCnnDescriptor()},
+    )
     empty = Panoptic(ids=np.zeros((150, 200), np.int32), segments=[])
     parts = scene_parts(ROOM, Placements(objects=[]), empty, PARAMS["room_colours"])
-    ids, depth = render_part_ids(ctx.impl("renderer"), CAMERA, ROOM.camera_to_world, {p.name: p.mesh for p in parts},
-                                 PARAMS["render_width"])
+    ids, depth = render_part_ids(
+        ctx.impl("renderer"), CAMERA, ROOM.camera_to_world, {p.name: p.mesh for p in parts}, PARAMS["render_width"]
+    )
     names = [p.name for p in parts]
     segment_of = np.array([0] + [1 if n == "floor" else 2 if n == "ceiling" else 3 for n in names], np.int32)
     panoptic_ids = segment_of[ids + 1]  # part index (-1: none) → segment 1 floor, 2 ceiling, 3 wall
@@ -184,14 +208,17 @@ def _rendered_room(tmp_path: Path, library: TorchGraphLibrary, material: str, sc
     rgb[floor] = texture[floor]
     if shelf:
         rgb[SHELF] = (0.25, 0.16, 0.10)
-        rgb[SHELF[0].start:SHELF[0].stop:8, SHELF[1]] = (0.80, 0.74, 0.60)
-    panoptic = Panoptic(ids=panoptic_ids, segments=[Segment(1, "floor", "floor"), Segment(2, "ceiling", "ceiling"),
-                                                    Segment(3, "wall", "wall")])
+        rgb[SHELF[0].start : SHELF[0].stop : 8, SHELF[1]] = (0.80, 0.74, 0.60)
+    panoptic = Panoptic(
+        ids=panoptic_ids,
+        segments=[Segment(1, "floor", "floor"), Segment(2, "ceiling", "ceiling"), Segment(3, "wall", "wall")],
+    )
     return ctx, Image(rgb=np.clip(rgb, 0, 1), original_size=(200, 150)), panoptic
 
 
 def test_assign_materials_finds_the_floor_material_and_keeps_plain_walls_homogeneous(
-        tmp_path: Path, library: TorchGraphLibrary) -> None:
+    tmp_path: Path, library: TorchGraphLibrary
+) -> None:
     ctx, image, panoptic = _rendered_room(tmp_path, library, "herringbone_oak", 2.0)
     out = assign_materials(ctx, image, panoptic, CAMERA, ROOM, Placements(objects=[]))
     floor = out.part("floor")
@@ -226,8 +253,10 @@ def test_a_room_side_is_retrieved_only_from_its_categories(tmp_path: Path, libra
 
 def test_user_crops_replace_the_automatic_ones(tmp_path: Path, library: TorchGraphLibrary) -> None:
     ctx, image, panoptic = _rendered_room(tmp_path, library, "herringbone_oak", 2.0)
-    (tmp_path / "photo.crops.yaml").write_text("crops:\n  - {image: [60, 120, 140, 148], part: floor}\n"
-                                               "  - {image: [10, 10, 40, 40], render: [10, 10, 40, 40]}\n")
+    (tmp_path / "photo.crops.yaml").write_text(
+        "crops:\n  - {image: [60, 120, 140, 148], part: floor}\n"
+        "  - {image: [10, 10, 40, 40], render: [10, 10, 40, 40]}\n"
+    )
     out = assign_materials(ctx, image, panoptic, CAMERA, ROOM, Placements(objects=[]))
     assert out.part("floor").crops == ((60, 120, 140, 148),)  # type: ignore[union-attr]
     assert sum(len(p.crops) for p in out.parts) == 2
@@ -236,8 +265,9 @@ def test_user_crops_replace_the_automatic_ones(tmp_path: Path, library: TorchGra
         assign_materials(ctx, image, panoptic, CAMERA, ROOM, Placements(objects=[]))
 
 
-def test_crops_and_colours_avoid_clutter_the_segmentation_called_wall(tmp_path: Path, library: TorchGraphLibrary
-                                                                      ) -> None:
+def test_crops_and_colours_avoid_clutter_the_segmentation_called_wall(
+    tmp_path: Path, library: TorchGraphLibrary
+) -> None:
     ctx, image, panoptic = _rendered_room(tmp_path, library, "herringbone_oak", 2.0, shelf=True)
     assert set(np.unique(panoptic.ids[SHELF])) == {3}  # the shelf is all "wall" in the segmentation
     out = assign_materials(ctx, image, panoptic, CAMERA, ROOM, Placements(objects=[]))
@@ -271,5 +301,5 @@ def test_dominant_colour_is_the_colour_most_pixels_share() -> None:
     rgb8 = np.zeros((10, 10, 3), np.uint8)
     rgb8[:6] = (230, 225, 210)  # a pale wall ...
     rgb8[6:8] = (200, 120, 60)  # ... a cork board ...
-    rgb8[8:] = (20, 20, 25)     # ... a dark desk front: the channel medians would mix them
+    rgb8[8:] = (20, 20, 25)  # ... a dark desk front: the channel medians would mix them
     assert dominant_colour(rgb8, np.ones((10, 10), bool)) == pytest.approx((230 / 255, 225 / 255, 210 / 255))

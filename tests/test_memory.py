@@ -12,7 +12,7 @@ from psdr_room_core.engine.memory import PeakMemory
 def test_a_block_that_allocates_peaks_higher_than_one_that_does_not() -> None:
     with PeakMemory() as large:
         block = bytearray(300 * 2**20)
-        block[:: 4096] = b"x" * len(block[:: 4096])  # touch every page: resident, not just reserved
+        block[::4096] = b"x" * len(block[::4096])  # touch every page: resident, not just reserved
         del block
     with PeakMemory() as small:
         pass

@@ -60,9 +60,18 @@ def no_network(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def entry(name: str = "tiny", url: str | None = None, **overrides) -> dict:
-    data = {"name": name, "capability": "depth", "family": "depth_anything_v2", "file": f"{name}.onnx",
-            "url": url, "size": len(CONTENT), "sha256": SHA, "licence": "MIT", "source": "https://example.org/tiny",
-            "obtain": "copy it by hand"}
+    data = {
+        "name": name,
+        "capability": "depth",
+        "family": "depth_anything_v2",
+        "file": f"{name}.onnx",
+        "url": url,
+        "size": len(CONTENT),
+        "sha256": SHA,
+        "licence": "MIT",
+        "source": "https://example.org/tiny",
+        "obtain": "copy it by hand",
+    }
     data.update(overrides)
     return data
 
@@ -113,8 +122,9 @@ def test_registry_file_errors_are_one_line_naming_the_file(tmp_path: Path) -> No
 
 
 def test_plugins_add_registries_through_the_hook(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
-    extra = registry_file(tmp_path / "plugin_models.json", entry("plugin_depth"),
-                          entry("depth_anything_v2_small", file="shadow.onnx"))
+    extra = registry_file(
+        tmp_path / "plugin_models.json", entry("plugin_depth"), entry("depth_anything_v2_small", file="shadow.onnx")
+    )
 
     class ToyPlugin:
         @hookimpl
@@ -152,8 +162,9 @@ def test_download_from_a_local_server(tmp_path: Path, server: str) -> None:
 
 
 def test_present_unverified_file_is_kept_unless_forced(tmp_path: Path, server: str) -> None:
-    registry = models.load_registry([registry_file(
-        tmp_path / "r.json", entry(url=f"{server}/weights.bin", sha256=None, size=None))])
+    registry = models.load_registry(
+        [registry_file(tmp_path / "r.json", entry(url=f"{server}/weights.bin", sha256=None, size=None))]
+    )
     (tmp_path / "tiny.onnx").write_bytes(b"copied by hand")
     assert models.download("tiny", tmp_path, registry, progress=False).read_bytes() == b"copied by hand"
     assert models.download("tiny", tmp_path, registry, progress=False, force=True).read_bytes() == CONTENT
@@ -161,7 +172,9 @@ def test_present_unverified_file_is_kept_unless_forced(tmp_path: Path, server: s
 
 def test_checksum_mismatch_saves_nothing(tmp_path: Path, server: str) -> None:
     wrong = "0" * 64
-    registry = models.load_registry([registry_file(tmp_path / "r.json", entry(url=f"{server}/weights.bin", sha256=wrong))])
+    registry = models.load_registry(
+        [registry_file(tmp_path / "r.json", entry(url=f"{server}/weights.bin", sha256=wrong))]
+    )
     models_dir = tmp_path / "models"
     models_dir.mkdir()
     with pytest.raises(PsdrRoomError) as excinfo:
@@ -173,10 +186,15 @@ def test_checksum_mismatch_saves_nothing(tmp_path: Path, server: str) -> None:
 
 
 def test_size_mismatch_and_http_errors(tmp_path: Path, server: str) -> None:
-    registry = models.load_registry([registry_file(
-        tmp_path / "r.json",
-        entry("sized", url=f"{server}/weights.bin", size=len(CONTENT) + 1, sha256=None),
-        entry("gone", url=f"{server}/moved.bin"))])
+    registry = models.load_registry(
+        [
+            registry_file(
+                tmp_path / "r.json",
+                entry("sized", url=f"{server}/weights.bin", size=len(CONTENT) + 1, sha256=None),
+                entry("gone", url=f"{server}/moved.bin"),
+            )
+        ]
+    )
     with pytest.raises(PsdrRoomError, match="expected"):
         models.download("sized", tmp_path / "models", registry, progress=False)
     with pytest.raises(PsdrRoomError) as excinfo:
@@ -228,8 +246,9 @@ def test_list_runs_offline_and_shows_every_model(tmp_path: Path, capsys: pytest.
         assert column in out.splitlines()[1]
 
 
-def test_list_and_verify_report_installed_corrupt_unverified(tmp_path: Path, capsys: pytest.CaptureFixture,
-                                                            no_network) -> None:
+def test_list_and_verify_report_installed_corrupt_unverified(
+    tmp_path: Path, capsys: pytest.CaptureFixture, no_network
+) -> None:
     reg = registry_file(tmp_path / "r.json", entry("good"), entry("bad"), entry("loose", sha256=None, size=None))
     models_dir = tmp_path / "models"
     models_dir.mkdir()
@@ -253,9 +272,14 @@ def test_list_and_verify_report_installed_corrupt_unverified(tmp_path: Path, cap
 def test_cli_download_local_and_offline(tmp_path: Path, server: str, capsys: pytest.CaptureFixture) -> None:
     reg = registry_file(tmp_path / "r.json", entry(url=f"{server}/weights.bin"), entry("offline", url=CLOSED_PORT))
     models_dir = tmp_path / "models"
-    assert models_cli.main(["--registry", str(reg), "download", "tiny", "--quiet", "--models-dir", str(models_dir)]) == 0
+    assert (
+        models_cli.main(["--registry", str(reg), "download", "tiny", "--quiet", "--models-dir", str(models_dir)]) == 0
+    )
     assert "tiny: " in capsys.readouterr().out and (models_dir / "tiny.onnx").read_bytes() == CONTENT
-    assert models_cli.main(["--registry", str(reg), "download", "offline", "--quiet", "--models-dir", str(models_dir)]) == 2
+    assert (
+        models_cli.main(["--registry", str(reg), "download", "offline", "--quiet", "--models-dir", str(models_dir)])
+        == 2
+    )
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and err.startswith("psdr-room-models: error: cannot reach 127.0.0.1"), err
     assert leftovers(models_dir) == [models.HASH_CACHE, "tiny.onnx"]

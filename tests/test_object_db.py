@@ -69,7 +69,9 @@ def test_every_model_is_in_the_canonical_frame(db: ObjectDatabase) -> None:
         assert v.dtype == np.float64 and f.dtype == np.int64 and mesh.face_group.dtype == np.int64, record.id
         lo, hi = v.min(axis=0), v.max(axis=0)
         assert lo[1] == pytest.approx(0.0, abs=1e-9), record.id  # bottom at y = 0
-        assert (lo[0] + hi[0]) / 2 == pytest.approx(0.0, abs=1e-9) and (lo[2] + hi[2]) / 2 == pytest.approx(0.0, abs=1e-9)
+        assert (lo[0] + hi[0]) / 2 == pytest.approx(0.0, abs=1e-9) and (lo[2] + hi[2]) / 2 == pytest.approx(
+            0.0, abs=1e-9
+        )
         assert np.allclose(hi - lo, record.extent, atol=1e-4), record.id
         assert min(record.extent[0], record.extent[2]) > 0.0 and max(record.extent) < 4.0, (record.id, record.extent)
         assert mesh.groups == record.groups and len(mesh.colors) == len(mesh.groups)
@@ -113,26 +115,56 @@ def test_parametric_parts_face_front() -> None:
     high = chair.vertices[chair.vertices[:, 1] > 0.6]
     assert high[:, 2].mean() < 0  # the back rest is behind the seat
     assert parametric.chair(back_style="none").extent[1] < 0.5  # a stool
-    for mesh, part in ((parametric.refrigerator(), "handles"), (parametric.frame(), "picture"),
-                       (parametric.oven(), "door"), (parametric.washer(), "door"), (parametric.microwave(), "door"),
-                       (parametric.monitor(), "screen"), (parametric.kitchen_unit(), "fronts")):
+    for mesh, part in (
+        (parametric.refrigerator(), "handles"),
+        (parametric.frame(), "picture"),
+        (parametric.oven(), "door"),
+        (parametric.washer(), "door"),
+        (parametric.microwave(), "door"),
+        (parametric.monitor(), "screen"),
+        (parametric.kitchen_unit(), "fronts"),
+    ):
         assert group_centre(mesh, part)[2] > 0, part
     assert parametric.frame().extent[2] < 0.06 and parametric.kitchen_unit(kind="base").groups[-1] == "counter"
 
 
-@pytest.mark.parametrize("category, changes", [
-    ("chair", {"back_style": "spindles"}), ("chair", {"leg_style": "swivel"}), ("chair", {"armrests": True}),
-    ("sofa", {"seats": 2}), ("sofa", {"arm_style": "rolled"}), ("sofa", {"chaise": "left"}),
-    ("sofa", {"leg_style": "plinth"}), ("table", {"shape": "round"}), ("table", {"leg_style": "pedestal"}),
-    ("bed", {"headboard": "slats"}), ("cabinet", {"drawers": 3}), ("shelf", {"shelves": 3}),
-    ("desk", {"drawers_side": "left"}), ("lamp", {"kind": "floor"}), ("lamp", {"shade": "globe"}),
-    ("rug", {"shape": "round"}), ("pillow", {"shape": "bolster"}), ("plant", {"foliage": "tree"}),
-    ("tv", {"stand": "pedestal"}), ("ottoman", {"shape": "round"}), ("ottoman", {"legs_height": 0.1}),
-    ("kitchen_unit", {"kind": "wall"}), ("kitchen_unit", {"modules": 2}), ("container", {"kind": "basket"}),
-    ("container", {"kind": "crate"}), ("frame", {"kind": "whiteboard"}), ("frame", {"mat": 0.05}),
-    ("monitor", {"stand": "disc"}), ("refrigerator", {"style": "side_by_side"}), ("oven", {"kind": "wall"}),
-    ("microwave", {"width": 0.6}), ("washer", {"finish": "black", "height": 0.9}),
-])
+@pytest.mark.parametrize(
+    "category, changes",
+    [
+        ("chair", {"back_style": "spindles"}),
+        ("chair", {"leg_style": "swivel"}),
+        ("chair", {"armrests": True}),
+        ("sofa", {"seats": 2}),
+        ("sofa", {"arm_style": "rolled"}),
+        ("sofa", {"chaise": "left"}),
+        ("sofa", {"leg_style": "plinth"}),
+        ("table", {"shape": "round"}),
+        ("table", {"leg_style": "pedestal"}),
+        ("bed", {"headboard": "slats"}),
+        ("cabinet", {"drawers": 3}),
+        ("shelf", {"shelves": 3}),
+        ("desk", {"drawers_side": "left"}),
+        ("lamp", {"kind": "floor"}),
+        ("lamp", {"shade": "globe"}),
+        ("rug", {"shape": "round"}),
+        ("pillow", {"shape": "bolster"}),
+        ("plant", {"foliage": "tree"}),
+        ("tv", {"stand": "pedestal"}),
+        ("ottoman", {"shape": "round"}),
+        ("ottoman", {"legs_height": 0.1}),
+        ("kitchen_unit", {"kind": "wall"}),
+        ("kitchen_unit", {"modules": 2}),
+        ("container", {"kind": "basket"}),
+        ("container", {"kind": "crate"}),
+        ("frame", {"kind": "whiteboard"}),
+        ("frame", {"mat": 0.05}),
+        ("monitor", {"stand": "disc"}),
+        ("refrigerator", {"style": "side_by_side"}),
+        ("oven", {"kind": "wall"}),
+        ("microwave", {"width": 0.6}),
+        ("washer", {"finish": "black", "height": 0.9}),
+    ],
+)
 def test_parametric_parameters_change_the_mesh(category: str, changes: dict) -> None:
     generate = parametric.GENERATORS[category]
     a, b = generate(), generate(**changes)
@@ -144,7 +176,9 @@ def test_parametric_catalogue_variants_are_distinct(db: ObjectDatabase) -> None:
     for record in db.records:
         if record.id.startswith("parametric/"):
             mesh = db.mesh(record.id)
-            key = f"{len(mesh.vertices)}:{np.round(mesh.vertices[:50], 4).tobytes().hex()}:{mesh.colors.tobytes().hex()}"
+            key = (
+                f"{len(mesh.vertices)}:{np.round(mesh.vertices[:50], 4).tobytes().hex()}:{mesh.colors.tobytes().hex()}"
+            )
             assert key not in seen, (record.id, seen.get(key))
             seen[key] = record.id
 
@@ -158,8 +192,12 @@ def test_format_round_trips(db: ObjectDatabase, tmp_path: Path) -> None:
     assert [r.id for r in loaded.records] == [r.id for r in small.records]
     for record in small.records:
         back = loaded.record(record.id)
-        assert (back.category, back.name, back.licence, back.groups) == (record.category, record.name, record.licence,
-                                                                         record.groups)
+        assert (back.category, back.name, back.licence, back.groups) == (
+            record.category,
+            record.name,
+            record.licence,
+            record.groups,
+        )
         assert np.allclose(back.extent, record.extent, atol=1e-5)
         a, b = small.mesh(record.id), loaded.mesh(record.id)
         assert np.allclose(a.vertices, b.vertices, atol=1e-5) and np.array_equal(a.faces, b.faces)
@@ -174,10 +212,21 @@ def test_index_is_built_from_model_files_in_other_units_and_axes(tmp_path: Path)
     (folder / "crate.obj").write_text(
         "mtllib crate.mtl\n"
         "v 0 0 0\nv 100 0 0\nv 100 40 0\nv 0 40 0\nv 0 0 50\nv 100 0 50\nv 100 40 50\nv 0 40 50\n"
-        "usemtl wood\nf 1 4 3 2\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\nusemtl lid\nf -4 -3 -2 -1\n")
+        "usemtl wood\nf 1 4 3 2\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\nusemtl lid\nf -4 -3 -2 -1\n"
+    )
     (folder / "crate.mtl").write_text("newmtl wood\nKd 0.6 0.4 0.2\nnewmtl lid\nKd 0.1 0.1 0.1\n")
-    (folder / "model.json").write_text(json.dumps({"category": "cabinet", "licence": "CC0", "mesh": "crate.obj",
-                                                   "up_axis": "+z", "front_axis": "-y", "unit_scale": 0.01}))
+    (folder / "model.json").write_text(
+        json.dumps(
+            {
+                "category": "cabinet",
+                "licence": "CC0",
+                "mesh": "crate.obj",
+                "up_axis": "+z",
+                "front_axis": "-y",
+                "unit_scale": 0.01,
+            }
+        )
+    )
     build_index(tmp_path / "db")
     loaded = ObjectDatabase.load(tmp_path / "db")
     record = loaded.record("mine/crate")
@@ -208,29 +257,54 @@ def _record(model_id: str):  # type: ignore[no-untyped-def]
     from psdr_room_plugins.object_db.database import ModelRecord
 
     mesh = parametric.rug(border=0.0)
-    return ModelRecord(id=model_id, category="rug", name="a rug", source="test", licence="CC0", groups=mesh.groups,
-                       extent=mesh.extent)
+    return ModelRecord(
+        id=model_id, category="rug", name="a rug", source="test", licence="CC0", groups=mesh.groups, extent=mesh.extent
+    )
 
 
-@pytest.mark.parametrize("damage, where, field", [
-    (lambda r, i: (r / "index.json").unlink(), "index.json", "cannot read"),
-    (lambda r, i: (r / "index.json").write_text("{not json"), "index.json", "not valid JSON"),
-    (lambda r, i: (r / "index.json").write_text('{"models": 3}'), "index.json", "'models'"),
-    (lambda r, i: (r / "index.json").write_text(json.dumps({"models": [{**i["models"][0], "licence": None}]})),
-     "index.json", "'licence'"),
-    (lambda r, i: (r / "index.json").write_text(json.dumps({"models": [{k: v for k, v in i["models"][0].items()
-                                                                         if k != "licence"}]})),
-     "index.json", "'licence' is missing"),
-    (lambda r, i: (r / "index.json").write_text(json.dumps({"models": [{**i["models"][0], "category": "couch"}]})),
-     "index.json", "'category'"),
-    (lambda r, i: (r / "index.json").write_text(json.dumps({"models": [{**i["models"][0], "extent": [1, 2]}]})),
-     "index.json", "'extent'"),
-    (lambda r, i: (r / "index.json").write_text(json.dumps({"models": [{**i["models"][0], "id": "../x"}]})),
-     "index.json", "'id'"),
-    (lambda r, i: (r / "index.json").write_text(json.dumps({"models": i["models"] * 2})), "index.json", "twice"),
-    (lambda r, i: (r / "index.json").write_text(json.dumps({"format": "other", "models": i["models"]})),
-     "index.json", "'format'"),
-])
+@pytest.mark.parametrize(
+    "damage, where, field",
+    [
+        (lambda r, i: (r / "index.json").unlink(), "index.json", "cannot read"),
+        (lambda r, i: (r / "index.json").write_text("{not json"), "index.json", "not valid JSON"),
+        (lambda r, i: (r / "index.json").write_text('{"models": 3}'), "index.json", "'models'"),
+        (
+            lambda r, i: (r / "index.json").write_text(json.dumps({"models": [{**i["models"][0], "licence": None}]})),
+            "index.json",
+            "'licence'",
+        ),
+        (
+            lambda r, i: (r / "index.json").write_text(
+                json.dumps({"models": [{k: v for k, v in i["models"][0].items() if k != "licence"}]})
+            ),
+            "index.json",
+            "'licence' is missing",
+        ),
+        (
+            lambda r, i: (r / "index.json").write_text(
+                json.dumps({"models": [{**i["models"][0], "category": "couch"}]})
+            ),
+            "index.json",
+            "'category'",
+        ),
+        (
+            lambda r, i: (r / "index.json").write_text(json.dumps({"models": [{**i["models"][0], "extent": [1, 2]}]})),
+            "index.json",
+            "'extent'",
+        ),
+        (
+            lambda r, i: (r / "index.json").write_text(json.dumps({"models": [{**i["models"][0], "id": "../x"}]})),
+            "index.json",
+            "'id'",
+        ),
+        (lambda r, i: (r / "index.json").write_text(json.dumps({"models": i["models"] * 2})), "index.json", "twice"),
+        (
+            lambda r, i: (r / "index.json").write_text(json.dumps({"format": "other", "models": i["models"]})),
+            "index.json",
+            "'format'",
+        ),
+    ],
+)
 def test_index_errors_name_the_file_and_field(tmp_path: Path, damage, where: str, field: str) -> None:
     index = _good_db(tmp_path)
     ObjectDatabase.load(tmp_path)  # sound before the damage
@@ -241,18 +315,36 @@ def test_index_errors_name_the_file_and_field(tmp_path: Path, damage, where: str
     assert where in message and field in message and "\n" not in message
 
 
-@pytest.mark.parametrize("damage, where, field", [
-    (lambda folder: (folder / "model.json").write_text(json.dumps({**json.loads((folder / "model.json").read_text()),
-                                                                   "up_axis": "up"})), "model.json", "'up_axis'"),
-    (lambda folder: (folder / "model.json").write_text(json.dumps({**json.loads((folder / "model.json").read_text()),
-                                                                   "unit_scale": -1})), "model.json", "'unit_scale'"),
-    (lambda folder: (folder / "model.json").write_text(json.dumps({**json.loads((folder / "model.json").read_text()),
-                                                                   "unit_scale": 2.0})), "model.json", "'extent'"),
-    (lambda folder: (folder / "mesh.obj").write_text("v 0 0 0\nf 1 2 3\n"), "mesh.obj", "not defined"),
-    (lambda folder: (folder / "mesh.obj").write_text("v 0 0 zero\n"), "mesh.obj:1", "cannot parse"),
-    (lambda folder: (folder / "mesh.obj").unlink(), "mesh.obj", "cannot read"),
-    (lambda folder: (folder / "mesh.mtl").write_text("newmtl field\nKd red\n"), "mesh.mtl:2", "Kd"),
-])
+@pytest.mark.parametrize(
+    "damage, where, field",
+    [
+        (
+            lambda folder: (folder / "model.json").write_text(
+                json.dumps({**json.loads((folder / "model.json").read_text()), "up_axis": "up"})
+            ),
+            "model.json",
+            "'up_axis'",
+        ),
+        (
+            lambda folder: (folder / "model.json").write_text(
+                json.dumps({**json.loads((folder / "model.json").read_text()), "unit_scale": -1})
+            ),
+            "model.json",
+            "'unit_scale'",
+        ),
+        (
+            lambda folder: (folder / "model.json").write_text(
+                json.dumps({**json.loads((folder / "model.json").read_text()), "unit_scale": 2.0})
+            ),
+            "model.json",
+            "'extent'",
+        ),
+        (lambda folder: (folder / "mesh.obj").write_text("v 0 0 0\nf 1 2 3\n"), "mesh.obj", "not defined"),
+        (lambda folder: (folder / "mesh.obj").write_text("v 0 0 zero\n"), "mesh.obj:1", "cannot parse"),
+        (lambda folder: (folder / "mesh.obj").unlink(), "mesh.obj", "cannot read"),
+        (lambda folder: (folder / "mesh.mtl").write_text("newmtl field\nKd red\n"), "mesh.mtl:2", "Kd"),
+    ],
+)
 def test_model_errors_name_the_file_and_field(tmp_path: Path, damage, where: str, field: str) -> None:
     _good_db(tmp_path)
     damage(tmp_path / "mine" / "a")
@@ -266,26 +358,47 @@ def test_model_errors_name_the_file_and_field(tmp_path: Path, damage, where: str
 # ------------------------------------------------------------------------------------------------ 3D-FUTURE
 def _fake_3dfuture(root: Path) -> None:
     info = [
-        {"model_id": "0a1b-sofa", "super-category": "Sofa", "category": "Three-Seat / Multi-seat Sofa",
-         "style": "Modern", "theme": "Smooth Net", "material": "Cloth"},
-        {"model_id": "2c3d-stool", "super-category": "Pier/Stool", "category": None, "style": "Nordic",
-         "theme": None, "material": "Wood"},
-        {"model_id": "4e5f-wardrobe", "super-category": "Cabinet/Shelf/Desk", "category": "Wardrobe",
-         "style": "Others", "theme": None, "material": None},
+        {
+            "model_id": "0a1b-sofa",
+            "super-category": "Sofa",
+            "category": "Three-Seat / Multi-seat Sofa",
+            "style": "Modern",
+            "theme": "Smooth Net",
+            "material": "Cloth",
+        },
+        {
+            "model_id": "2c3d-stool",
+            "super-category": "Pier/Stool",
+            "category": None,
+            "style": "Nordic",
+            "theme": None,
+            "material": "Wood",
+        },
+        {
+            "model_id": "4e5f-wardrobe",
+            "super-category": "Cabinet/Shelf/Desk",
+            "category": "Wardrobe",
+            "style": "Others",
+            "theme": None,
+            "material": None,
+        },
         {"model_id": "6a7b-gone", "super-category": "Bed", "category": "King-size Bed"},
     ]
     (root / "model_info.json").write_text(json.dumps(info))
     cube = "v -1 0 -0.5\nv 1 0 -0.5\nv 1 0.8 -0.5\nv -1 0.8 -0.5\nv -1 0 0.5\nv 1 0 0.5\nv 1 0.8 0.5\nv -1 0.8 0.5\n"
-    faces = ("usemtl Fabric_01\nf 1 4 3\nf 1 3 2\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\n"
-             "usemtl Wood_02\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\nf 5 6 7\nf 5 7 8\n")
+    faces = (
+        "usemtl Fabric_01\nf 1 4 3\nf 1 3 2\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\n"
+        "usemtl Wood_02\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\nf 5 6 7\nf 5 7 8\n"
+    )
     for model_id, scale in (("0a1b-sofa", 1.0), ("2c3d-stool", 0.25), ("4e5f-wardrobe", 0.6)):
         folder = root / "3D-FUTURE-model" / model_id
         folder.mkdir(parents=True)
         lines = cube.splitlines()
         scaled = "\n".join("v " + " ".join(f"{float(x) * scale:g}" for x in ln.split()[1:]) for ln in lines)
         (folder / "raw_model.obj").write_text(f"mtllib model.mtl\no {model_id}\n{scaled}\nvt 0 0\n{faces}")
-        (folder / "model.mtl").write_text("newmtl Fabric_01\nKd 0.8 0.2 0.2\nmap_Kd texture.png\nnewmtl Wood_02\n"
-                                          "Kd 0.5 0.3 0.1\n")
+        (folder / "model.mtl").write_text(
+            "newmtl Fabric_01\nKd 0.8 0.2 0.2\nmap_Kd texture.png\nnewmtl Wood_02\nKd 0.5 0.3 0.1\n"
+        )
         (folder / "image.jpg").write_bytes(b"\xff\xd8\xff\xd9")
 
 

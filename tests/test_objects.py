@@ -47,8 +47,15 @@ C2W[:3, :3] = np.diag([-1.0, -1.0, 1.0])  # OpenCV camera looking along world +Z
 C2W[:3, 3] = [0.0, 1.5, -2.5]
 ROOM = RoomBox(camera_to_world=C2W, center=np.array([0.0, 1.5, 0.0]), half_size=np.array([3.0, 1.5, 3.0]), yaw=0.0)
 CAMERA = Camera.from_vfov(160, 120, 60.0)
-PHYSICAL = {"size_tolerance": 0.15, "duplicate_share": 0.5, "penetration": 0.03, "max_shift": 0.5, "directions": 16,
-            "keep_iou": 0.5, "max_growth": 1.0}
+PHYSICAL = {
+    "size_tolerance": 0.15,
+    "duplicate_share": 0.5,
+    "penetration": 0.03,
+    "max_shift": 0.5,
+    "directions": 16,
+    "keep_iou": 0.5,
+    "max_growth": 1.0,
+}
 
 
 def l_shape() -> ObjectMesh:
@@ -56,10 +63,19 @@ def l_shape() -> ObjectMesh:
     seat = box_mesh(np.array([0.0, 0.2, 0.0]), np.array([1.0, 0.2, 0.4]))
     arm = box_mesh(np.array([0.8, 0.4, 0.6]), np.array([0.2, 0.4, 0.3]))
     vertices = np.vstack([seat.vertices, arm.vertices])
-    vertices -= [(vertices[:, 0].min() + vertices[:, 0].max()) / 2, 0.0, (vertices[:, 2].min() + vertices[:, 2].max()) / 2]
+    vertices -= [
+        (vertices[:, 0].min() + vertices[:, 0].max()) / 2,
+        0.0,
+        (vertices[:, 2].min() + vertices[:, 2].max()) / 2,
+    ]
     faces = np.vstack([seat.faces, arm.faces + 8])
-    return ObjectMesh(vertices=vertices, faces=faces, face_group=np.repeat([0, 1], 12), groups=("frame", "arm"),
-                      colors=np.array([[0.6, 0.3, 0.2], [0.2, 0.2, 0.2]]))
+    return ObjectMesh(
+        vertices=vertices,
+        faces=faces,
+        face_group=np.repeat([0, 1], 12),
+        groups=("frame", "arm"),
+        colors=np.array([[0.6, 0.3, 0.2], [0.2, 0.2, 0.2]]),
+    )
 
 
 def test_initial_pose_centres_on_the_median_at_half_the_radius() -> None:
@@ -78,7 +94,9 @@ def test_initial_pose_centres_on_the_median_at_half_the_radius() -> None:
 def test_yaw_sweep_finds_the_rotation_of_the_target_silhouette() -> None:
     mesh = l_shape()
     position, scale = np.array([0.3, 0.0, 1.5]), 1.0
-    target = silhouette(CAMERA, C2W, transform(mesh.vertices, pose_matrix(position, math.radians(90), scale)), mesh.faces)
+    target = silhouette(
+        CAMERA, C2W, transform(mesh.vertices, pose_matrix(position, math.radians(90), scale)), mesh.faces
+    )
     yaw, error = best_yaw(CAMERA, C2W, mesh.vertices, mesh.faces, position, scale, target, n_yaw=12)
     assert math.degrees(yaw) == pytest.approx(90.0) and error == 0.0
 
@@ -105,8 +123,15 @@ def test_the_batched_cast_equals_one_cast_per_pose() -> None:
     the whole image and over a window (the retrieval's union windows)."""
     mesh = l_shape()
     caster = MeshCaster(mesh.vertices, mesh.faces)
-    poses = [pose_matrix(np.array([x, 0.0, z]), math.radians(yaw), s)
-             for x, z, yaw, s in ((0.3, 1.5, 35.0, 1.4), (-0.5, 2.5, 200.0, 0.8), (0.0, 1.0, 90.0, 1.0), (2.0, 1.0, 0.0, 1.0))]
+    poses = [
+        pose_matrix(np.array([x, 0.0, z]), math.radians(yaw), s)
+        for x, z, yaw, s in (
+            (0.3, 1.5, 35.0, 1.4),
+            (-0.5, 2.5, 200.0, 0.8),
+            (0.0, 1.0, 90.0, 1.0),
+            (2.0, 1.0, 0.0, 1.0),
+        )
+    ]
     for window in (None, (40, 30, 120, 100)):
         batch = caster.depth_many(CAMERA, C2W, poses, window)
         assert batch.shape[0] == len(poses) and (batch > 0).any(axis=(1, 2)).sum() >= 3
@@ -171,8 +196,9 @@ def test_the_shortlist_refines_only_the_best_starts() -> None:
     assert {c.model_id for c in short} <= {c.model_id for c in full.rank(query, CAMERA, C2W, 26)}
 
 
-def _seen(meshes: list[tuple[ObjectMesh | TriangleMesh, np.ndarray]],
-          camera: Camera = CAMERA) -> tuple[np.ndarray, np.ndarray]:
+def _seen(
+    meshes: list[tuple[ObjectMesh | TriangleMesh, np.ndarray]], camera: Camera = CAMERA
+) -> tuple[np.ndarray, np.ndarray]:
     """(index of the nearest mesh per pixel, -1 for none; its world points, as depth would give) of posed meshes."""
     depths = np.stack([depth_map(camera, C2W, transform(m.vertices, to_world), m.faces) for m, to_world in meshes])
     depths[depths == 0] = np.inf
@@ -196,8 +222,9 @@ def test_fit_view_recovers_the_pose_from_mask_and_points(yaw_deg: float) -> None
     mesh = l_shape()
     truth = pose_matrix(np.array([0.4, 0.0, 1.8]), math.radians(yaw_deg), 1.3)
     mask, points = _seen_points(mesh, truth)
-    view = fit_view(ViewTarget.build(CAMERA, C2W, mask, points, points, 160), mesh.vertices, mesh.faces,
-                    support_height=0.0)
+    view = fit_view(
+        ViewTarget.build(CAMERA, C2W, mask, points, points, 160), mesh.vertices, mesh.faces, support_height=0.0
+    )
     error = (math.degrees(view.yaw) - yaw_deg + 180.0) % 360.0 - 180.0
     assert abs(error) < 3.0  # the sweep's best rotation, polished
     assert view.scale == pytest.approx(1.3, rel=0.03) and view.iou > 0.95
@@ -226,8 +253,9 @@ def test_an_object_cut_by_the_image_border_is_not_shrunk_into_it() -> None:
     truth = pose_matrix(np.array([1.3, 0.0, 1.2]), math.radians(60), 1.2)  # its left part is out of the frame
     mask, points = _seen_points(mesh, truth)
     assert mask[:, 0].any()
-    view = fit_view(ViewTarget.build(CAMERA, C2W, mask, points, points, 160), mesh.vertices, mesh.faces,
-                    support_height=0.0)
+    view = fit_view(
+        ViewTarget.build(CAMERA, C2W, mask, points, points, 160), mesh.vertices, mesh.faces, support_height=0.0
+    )
     assert view.scale == pytest.approx(1.2, rel=0.05)
     assert np.linalg.norm(view.position - truth[:3, 3]) < 0.08
 
@@ -244,24 +272,36 @@ def test_a_box_prompted_mask_without_the_legs_is_not_shrunk_into_the_seat() -> N
     rows = np.flatnonzero(full.any(axis=1))
     ys, xs = np.nonzero(full)
     box = (float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1))
-    tops = (points[:, 1] > 0.6)  # the table top's pixels only, as GrabCut leaves them
+    tops = points[:, 1] > 0.6  # the table top's pixels only, as GrabCut leaves them
     mask = np.zeros_like(full)
     mask[ys[tops], xs[tops]] = True
     assert mask.sum() < 0.9 * full.sum() and rows[-1] > np.flatnonzero(mask.any(axis=1))[-1] + 10
-    with_box = fit_view(ViewTarget.build(CAMERA, C2W, mask, points[tops], points, 160, box=box), mesh.vertices,
-                        mesh.faces, support_height=0.0)
-    without = fit_view(ViewTarget.build(CAMERA, C2W, mask, points[tops], points, 160), mesh.vertices, mesh.faces,
-                       support_height=0.0)
+    with_box = fit_view(
+        ViewTarget.build(CAMERA, C2W, mask, points[tops], points, 160, box=box),
+        mesh.vertices,
+        mesh.faces,
+        support_height=0.0,
+    )
+    without = fit_view(
+        ViewTarget.build(CAMERA, C2W, mask, points[tops], points, 160), mesh.vertices, mesh.faces, support_height=0.0
+    )
     assert with_box.scale == pytest.approx(1.0, rel=0.05) and with_box.iou > 0.9
     assert abs(without.scale - 1.0) > abs(with_box.scale - 1.0)
 
 
-def _query(segment_id: int, points: np.ndarray, rows: slice, cols: slice, shape: tuple[int, int] = (120, 160),
-           category: str | None = None) -> ObjectQuery:
+def _query(
+    segment_id: int,
+    points: np.ndarray,
+    rows: slice,
+    cols: slice,
+    shape: tuple[int, int] = (120, 160),
+    category: str | None = None,
+) -> ObjectQuery:
     mask = np.zeros(shape, dtype=bool)
     mask[rows, cols] = True
-    return ObjectQuery(segment_id, "thing", (category,) if category else (), mask, points, np.zeros((4, 4, 3), np.uint8),
-                       points)
+    return ObjectQuery(
+        segment_id, "thing", (category,) if category else (), mask, points, np.zeros((4, 4, 3), np.uint8), points
+    )
 
 
 def _cloud(centre: list[float], half: list[float], n: int = 500) -> np.ndarray:
@@ -272,11 +312,15 @@ def test_support_rules_floor_parent_wall_free() -> None:
     floor = np.zeros((120, 160), dtype=bool)
     floor[90:, :] = True
     queries = [
-        _query(1, _cloud([0.0, 0.4, 1.0], [0.6, 0.4, 0.4]), slice(60, 88), slice(40, 100)),    # table: on the floor
-        _query(2, _cloud([0.0, 1.0, 1.0], [0.15, 0.2, 0.15]), slice(45, 58), slice(60, 75)),   # vase: on the table
-        _query(3, _cloud([2.95, 1.6, 1.5], [0.03, 0.3, 0.4]), slice(20, 40), slice(130, 150)), # picture: on the +x wall
-        _query(4, _cloud([-1.0, 2.0, 0.5], [0.2, 0.1, 0.2]), slice(5, 15), slice(10, 30)),     # floating: free
-        _query(5, _cloud([1.5, 0.5, 1.0], [0.3, 0.3, 0.3]), slice(60, 70), slice(120, 128)),   # low but far from the floor mask
+        _query(1, _cloud([0.0, 0.4, 1.0], [0.6, 0.4, 0.4]), slice(60, 88), slice(40, 100)),  # table: on the floor
+        _query(2, _cloud([0.0, 1.0, 1.0], [0.15, 0.2, 0.15]), slice(45, 58), slice(60, 75)),  # vase: on the table
+        _query(
+            3, _cloud([2.95, 1.6, 1.5], [0.03, 0.3, 0.4]), slice(20, 40), slice(130, 150)
+        ),  # picture: on the +x wall
+        _query(4, _cloud([-1.0, 2.0, 0.5], [0.2, 0.1, 0.2]), slice(5, 15), slice(10, 30)),  # floating: free
+        _query(
+            5, _cloud([1.5, 0.5, 1.0], [0.3, 0.3, 0.3]), slice(60, 70), slice(120, 128)
+        ),  # low but far from the floor mask
     ]
     relations = support_relations(queries, floor, ROOM, SupportParams())
     assert relations[1] == [("floor", None)]
@@ -295,18 +339,21 @@ def test_a_parent_must_hold_its_child_and_hidden_bottoms_of_furniture_stand_on_t
     # a sofa behind the table: its mask touches the table's from above, its bottom is hidden, its points
     # are 1.5 behind the table's: not on the table; a grounded category, so on the floor
     behind = _cloud([0.0, 0.7, 2.5], [0.8, 0.2, 0.3])
-    relations = support_relations([front, _query(2, behind, slice(45, 59), slice(30, 110), category="sofa")], floor,
-                                  ROOM, SupportParams())
+    relations = support_relations(
+        [front, _query(2, behind, slice(45, 59), slice(30, 110), category="sofa")], floor, ROOM, SupportParams()
+    )
     assert relations[2] == [("floor", None)]
     unknown = support_relations([front, _query(2, behind, slice(45, 59), slice(30, 110))], floor, ROOM, SupportParams())
     assert unknown[2] == [("free", None)]
     # a cabinet whose points stand right on the table's top: on it, or on the floor behind it; a vase: on it
     above = _cloud([0.0, 1.05, 1.1], [0.3, 0.25, 0.2])
-    both = support_relations([front, _query(2, above, slice(45, 59), slice(50, 90), category="cabinet")], floor, ROOM,
-                             SupportParams())
+    both = support_relations(
+        [front, _query(2, above, slice(45, 59), slice(50, 90), category="cabinet")], floor, ROOM, SupportParams()
+    )
     assert both[2] == [("parent", 1), ("floor", None)]
-    vase = support_relations([front, _query(2, above, slice(45, 59), slice(50, 90), category="lamp")], floor, ROOM,
-                             SupportParams())
+    vase = support_relations(
+        [front, _query(2, above, slice(45, 59), slice(50, 90), category="lamp")], floor, ROOM, SupportParams()
+    )
     assert vase[2] == [("parent", 1)]
 
 
@@ -319,8 +366,12 @@ def test_wall_frame_faces_into_the_room() -> None:
 
 def test_placements_round_trip_with_meshes(tmp_path: Path) -> None:
     mesh = l_shape()
-    placements = Placements(objects=[Placement(7, "couch", "parametric/sofa_003", mesh, (0.1, 0.0, 2.0), 0.5, 0.8,
-                                               "parent", 3, "sofa", 0.83)], extra={"dropped": []})
+    placements = Placements(
+        objects=[
+            Placement(7, "couch", "parametric/sofa_003", mesh, (0.1, 0.0, 2.0), 0.5, 0.8, "parent", 3, "sofa", 0.83)
+        ],
+        extra={"dropped": []},
+    )
     placements.save(tmp_path)
     loaded = Placements.load(tmp_path)
     p = loaded.objects[0]
@@ -335,33 +386,57 @@ def test_placements_round_trip_with_meshes(tmp_path: Path) -> None:
 def _scene(truth: list[Placement], camera: Camera) -> tuple[Panoptic, DepthMap]:
     """Exact-ish targets: the renderer's own masks and depth of the true poses at the photo's resolution."""
     meshes = {f"object_{p.segment_id}": weld(TriangleMesh(p.world_vertices(), p.mesh.faces)) for p in truth}
-    renderer = MitsubaRenderer(spp=16, spp_boundary=4).geometry(camera, C2W, meshes, {n: i for i, n in enumerate(meshes)})
+    renderer = MitsubaRenderer(spp=16, spp_boundary=4).geometry(
+        camera, C2W, meshes, {n: i for i, n in enumerate(meshes)}
+    )
     masks, weighted, alpha = (t.numpy() for t in renderer.render())
     ids = np.where(masks.max(axis=0) > 0.5, np.argmax(masks, axis=0) + 1, 0)
     segments = [Segment(i + 1, "object", p.label) for i, p in enumerate(truth)]
     covered = alpha > 0.5
-    return (Panoptic(ids=np.array([0, *[p.segment_id for p in truth]])[ids].astype(np.int32),
-                     segments=[Segment(p.segment_id, s.category, s.label) for p, s in zip(truth, segments)]),
-            DepthMap(depth=np.where(covered, weighted / np.maximum(alpha, 1e-6), 0).astype(np.float32), valid=covered))
+    return (
+        Panoptic(
+            ids=np.array([0, *[p.segment_id for p in truth]])[ids].astype(np.int32),
+            segments=[Segment(p.segment_id, s.category, s.label) for p, s in zip(truth, segments)],
+        ),
+        DepthMap(depth=np.where(covered, weighted / np.maximum(alpha, 1e-6), 0).astype(np.float32), valid=covered),
+    )
 
 
 def test_fit_objects_recovers_perturbed_poses(tmp_path: Path) -> None:
     mesh = l_shape()
-    truth = [Placement(1, "sofa", "m", mesh, (-0.6, 0.0, 1.2), math.radians(20), 0.9, "floor"),
-             Placement(2, "sofa", "m", mesh, (1.0, 0.0, 2.2), math.radians(-30), 0.8, "floor")]
+    truth = [
+        Placement(1, "sofa", "m", mesh, (-0.6, 0.0, 1.2), math.radians(20), 0.9, "floor"),
+        Placement(2, "sofa", "m", mesh, (1.0, 0.0, 2.2), math.radians(-30), 0.8, "floor"),
+    ]
     camera = Camera.from_vfov(96, 72, 60.0)
     panoptic, depth = _scene(truth, camera)
-    start = Placements(objects=[replace(truth[0], position=(-0.4, 0.0, 1.4), yaw=math.radians(30), scale=0.8),
-                                replace(truth[1], position=(1.2, 0.0, 2.0), yaw=math.radians(-22), scale=0.7)])
-    params = {"iterations": 60, "render_width": 96, "blur_sigmas": [2.0, 4.0], "blur_weight": 1.0,
-              "size_prior": {"scale_weight": 0.01, "range_weight": 0.2}, "room_weight": 0.2, "collision_weight": 2.0,
-              "back_weight": 0.05,
-              "physical": PHYSICAL,
-              "learning_rates": {"translation": 0.01, "log_scale": 0.01, "yaw": 1.0},
-              "yaw_test": {"at": 0.5, "angles": [180.0, 90.0, -90.0], "min_gain": 0.1},
-              "convergence": {"window": 0, "tolerance": 0.01, "min_iterations": 0}}  # all 60 iterations
-    ctx = StageContext(stage="fit_objects", params=params, seed=0, photo=tmp_path / "photo.png",
-                       implementations={"renderer": MitsubaRenderer(spp=4, spp_boundary=16), "optimizer": Adam()})
+    start = Placements(
+        objects=[
+            replace(truth[0], position=(-0.4, 0.0, 1.4), yaw=math.radians(30), scale=0.8),
+            replace(truth[1], position=(1.2, 0.0, 2.0), yaw=math.radians(-22), scale=0.7),
+        ]
+    )
+    params = {
+        "iterations": 60,
+        "render_width": 96,
+        "blur_sigmas": [2.0, 4.0],
+        "blur_weight": 1.0,
+        "size_prior": {"scale_weight": 0.01, "range_weight": 0.2},
+        "room_weight": 0.2,
+        "collision_weight": 2.0,
+        "back_weight": 0.05,
+        "physical": PHYSICAL,
+        "learning_rates": {"translation": 0.01, "log_scale": 0.01, "yaw": 1.0},
+        "yaw_test": {"at": 0.5, "angles": [180.0, 90.0, -90.0], "min_gain": 0.1},
+        "convergence": {"window": 0, "tolerance": 0.01, "min_iterations": 0},
+    }  # all 60 iterations
+    ctx = StageContext(
+        stage="fit_objects",
+        params=params,
+        seed=0,
+        photo=tmp_path / "photo.png",
+        implementations={"renderer": MitsubaRenderer(spp=4, spp_boundary=16), "optimizer": Adam()},
+    )
     image = Image(rgb=np.full((72, 96, 3), 0.5, np.float32))
     out = fit_objects(ctx, placements=start, camera=camera, room=ROOM, depth=depth, panoptic=panoptic, image=image)
 
@@ -382,14 +457,18 @@ def test_fit_objects_recovers_perturbed_poses(tmp_path: Path) -> None:
 
 def test_yaw_test_turns_an_object_placed_back_to_front() -> None:
     mesh = l_shape()
-    truth = [Placement(1, "sofa", "m", mesh, (-0.6, 0.0, 1.2), math.radians(20), 0.9, "floor"),
-             Placement(2, "sofa", "m", mesh, (1.0, 0.0, 2.2), math.radians(-30), 0.8, "floor")]
+    truth = [
+        Placement(1, "sofa", "m", mesh, (-0.6, 0.0, 1.2), math.radians(20), 0.9, "floor"),
+        Placement(2, "sofa", "m", mesh, (1.0, 0.0, 2.2), math.radians(-30), 0.8, "floor"),
+    ]
     camera = Camera.from_vfov(96, 72, 60.0)
     panoptic, depth = _scene(truth, camera)
     start = Placements(objects=[truth[0], replace(truth[1], yaw=math.radians(150))])  # the second faces away
     targets = object_targets(start, panoptic, depth, (camera.width, camera.height))
     model = PoseModel(start, ROOM, unit=3.0)
-    meshes = {k: TriangleMesh(v.detach().numpy(), model.welded[i].faces) for i, (k, v) in enumerate(model.vertices().items())}
+    meshes = {
+        k: TriangleMesh(v.detach().numpy(), model.welded[i].faces) for i, (k, v) in enumerate(model.vertices().items())
+    }
     renderer = MitsubaRenderer(spp=4).geometry(camera, C2W, meshes, {k: i for i, k in enumerate(meshes)})
     t_masks = torch.from_numpy(targets.masks)
 
@@ -431,13 +510,21 @@ def test_eq3_pays_for_a_backed_object_showing_its_back() -> None:
     """PoseModel.back_penalty: a bed facing away from the camera pays about 1, turned round 0; a sofa and a wall
     cabinet (which faces into the room whatever) nothing; and the yaw gets the gradient that turns the bed."""
     shape = box_mesh(np.array([0.0, 0.3, 0.0]), np.array([0.8, 0.3, 1.0]))
-    box = ObjectMesh(vertices=shape.vertices, faces=shape.faces, face_group=np.zeros(12, int), groups=("frame",),
-                     colors=np.array([[0.5, 0.5, 0.5]]))
-    placements = Placements(objects=[
-        Placement(1, "bed", "m", box, (0.0, 0.0, 2.0), math.radians(10), 1.0, "floor", category="bed"),
-        Placement(2, "bed", "m", box, (1.5, 0.0, 1.0), math.radians(190), 1.0, "floor", category="bed"),
-        Placement(3, "sofa", "m", box, (-1.5, 0.0, 1.0), 0.0, 1.0, "floor", category="sofa"),
-        Placement(4, "cabinet", "m", box, (0.0, 1.0, 2.9), math.pi, 0.3, "wall", anchor=3, category="cabinet")])
+    box = ObjectMesh(
+        vertices=shape.vertices,
+        faces=shape.faces,
+        face_group=np.zeros(12, int),
+        groups=("frame",),
+        colors=np.array([[0.5, 0.5, 0.5]]),
+    )
+    placements = Placements(
+        objects=[
+            Placement(1, "bed", "m", box, (0.0, 0.0, 2.0), math.radians(10), 1.0, "floor", category="bed"),
+            Placement(2, "bed", "m", box, (1.5, 0.0, 1.0), math.radians(190), 1.0, "floor", category="bed"),
+            Placement(3, "sofa", "m", box, (-1.5, 0.0, 1.0), 0.0, 1.0, "floor", category="sofa"),
+            Placement(4, "cabinet", "m", box, (0.0, 1.0, 2.9), math.pi, 0.3, "wall", anchor=3, category="cabinet"),
+        ]
+    )
     model = PoseModel(placements, ROOM, unit=3.0)
     penalty = model.back_penalty()
     assert penalty[0].item() > 0.95 and penalty[1].item() == 0.0 and penalty[2:].tolist() == [0.0, 0.0]
@@ -445,8 +532,15 @@ def test_eq3_pays_for_a_backed_object_showing_its_back() -> None:
     assert model.theta["yaw"].grad[0].item() != 0.0
 
 
-@pytest.mark.parametrize("model_id, yaw_deg", [("parametric/chair_004", 40.0), ("kenney/loungeSofaCorner", 200.0),
-                                               ("parametric/cabinet_005", 170.0), ("parametric/desk_005", 125.0)])
+@pytest.mark.parametrize(
+    "model_id, yaw_deg",
+    [
+        ("parametric/chair_004", 40.0),
+        ("kenney/loungeSofaCorner", 200.0),
+        ("parametric/cabinet_005", 170.0),
+        ("parametric/desk_005", 125.0),
+    ],
+)
 def test_silhouette_retrieval_ranks_the_true_model_first(model_id: str, yaw_deg: float) -> None:
     """A rendered view (mask and depth) of a database model, away from the sweep's rotations: among every
     model of its category, none explains it better than that model (a near twin may tie: within 0.1%). The cabinet
@@ -483,27 +577,72 @@ def test_guessed_objects_no_model_explains_are_dropped_drawn_ones_kept(tmp_path:
     ids[chair_mask] = 5
     ids[100:106, 90:130] = 6  # a thin strip of floor the layout guessed an object
     ids[108:114, 90:130] = 7  # the same, drawn by a person
-    segments = [Segment(1, "floor", "floor"), Segment(5, "object", "chair", 0.6, (0.0, 0.0, 160.0, 120.0)),
-                Segment(6, "object", "chair", 0.2), Segment(7, "object", "chair")]
+    segments = [
+        Segment(1, "floor", "floor"),
+        Segment(5, "object", "chair", 0.6, (0.0, 0.0, 160.0, 120.0)),
+        Segment(6, "object", "chair", 0.2),
+        Segment(7, "object", "chair"),
+    ]
     points = np.where(ids[..., None] == 5, 0.0, floor_points)
     points[chair_mask] = chair_points
     below = floor_points[..., 1] < 1e-6
     keep = (ids > 1) | below
     camera_points = (points[keep] - C2W[:3, 3]) @ C2W[:3, :3]
-    cloud = PointCloud(points=camera_points.astype(np.float32), colors=np.zeros((keep.sum(), 3), np.uint8),
-                       segment=ids[keep], segments=segments)
-    candidates = ObjectCandidates(ranked={k: [Candidate(chair_id, 1.0)] for k in (5, 6, 7)},
-                                  labels={k: "chair" for k in (5, 6, 7)})
-    params = {"pick": {}, "init": "silhouette", "radius_factor": 0.5, "render_width": 160,
-              "search": {"n_yaw": 8, "refine": 2, "coarse": 1, "polish": 1, "halvings": 1, "turns": [], "depth_weight": 2.0,
-                         "hidden_margin": 0.03, "room_weight": 2.0, "back_weight": 0.5},
-              "min_points": 30, "min_pixels": 100, "prune": {"min_iou": 0.3},
-              "size_prior": {"scale_weight": 0.3, "range_weight": 5.0}, "physical": PHYSICAL,
-              "support": {"floor_distance": 0.1, "edge_px": 20.0, "wall_distance": 0.15, "bottom_percentile": 2.0,
-                          "grounded": ["chair"], "floor_only": ["chair"]}}
-    ctx = StageContext(stage="place_objects", params=params, seed=0, photo=tmp_path / "photo.png",
-                       implementations={"retrieval": retriever})
-    out = place_objects(ctx, candidates, Image(rgb=np.full((120, 160, 3), 0.5, np.float32)),
-                        Panoptic(ids=ids, segments=segments), cloud, CAMERA, ROOM)
+    cloud = PointCloud(
+        points=camera_points.astype(np.float32),
+        colors=np.zeros((keep.sum(), 3), np.uint8),
+        segment=ids[keep],
+        segments=segments,
+    )
+    candidates = ObjectCandidates(
+        ranked={k: [Candidate(chair_id, 1.0)] for k in (5, 6, 7)}, labels={k: "chair" for k in (5, 6, 7)}
+    )
+    params = {
+        "pick": {},
+        "init": "silhouette",
+        "radius_factor": 0.5,
+        "render_width": 160,
+        "search": {
+            "n_yaw": 8,
+            "refine": 2,
+            "coarse": 1,
+            "polish": 1,
+            "halvings": 1,
+            "turns": [],
+            "depth_weight": 2.0,
+            "hidden_margin": 0.03,
+            "room_weight": 2.0,
+            "back_weight": 0.5,
+        },
+        "min_points": 30,
+        "min_pixels": 100,
+        "prune": {"min_iou": 0.3},
+        "size_prior": {"scale_weight": 0.3, "range_weight": 5.0},
+        "physical": PHYSICAL,
+        "support": {
+            "floor_distance": 0.1,
+            "edge_px": 20.0,
+            "wall_distance": 0.15,
+            "bottom_percentile": 2.0,
+            "grounded": ["chair"],
+            "floor_only": ["chair"],
+        },
+    }
+    ctx = StageContext(
+        stage="place_objects",
+        params=params,
+        seed=0,
+        photo=tmp_path / "photo.png",
+        implementations={"retrieval": retriever},
+    )
+    out = place_objects(
+        ctx,
+        candidates,
+        Image(rgb=np.full((120, 160, 3), 0.5, np.float32)),
+        Panoptic(ids=ids, segments=segments),
+        cloud,
+        CAMERA,
+        ROOM,
+    )
     assert sorted(p.segment_id for p in out.objects) == [5, 7]
     assert len(out.extra["pruned"]) == 1 and out.extra["pruned"][0].startswith("6:chair"), out.extra["pruned"]

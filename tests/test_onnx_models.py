@@ -61,18 +61,21 @@ def _unnormalise(family: str, out: str = "rgb", half: bool = False) -> tuple[lis
     if half:
         nodes.append(helper.make_node("Cast", ["pixel_values"], ["pixel_values32"], to=TensorProto.FLOAT))
         source = "pixel_values32"
-    nodes += [helper.make_node("Mul", [source, "std"], ["scaled"]),
-              helper.make_node("Add", ["scaled", "mean"], [out])]
+    nodes += [helper.make_node("Mul", [source, "std"], ["scaled"]), helper.make_node("Add", ["scaled", "mean"], [out])]
     return nodes, inits
 
 
-def red_disparity_model(path: Path, family: str, static: tuple[int, int] | None = None,
-                        output_channels_dim: bool = False, half: bool = False) -> Path:
+def red_disparity_model(
+    path: Path,
+    family: str,
+    static: tuple[int, int] | None = None,
+    output_channels_dim: bool = False,
+    half: bool = False,
+) -> Path:
     """A depth graph whose disparity is the photo's red channel (after undoing the normalisation);
     ``half``: float16 input, like the ``model_fp16.onnx`` exports."""
     nodes, inits = _unnormalise(family, half=half)
-    inits += [numpy_helper.from_array(np.array(v, np.int64), n)
-              for n, v in (("s0", [0]), ("s1", [1]), ("ax", [1]))]
+    inits += [numpy_helper.from_array(np.array(v, np.int64), n) for n, v in (("s0", [0]), ("s1", [1]), ("ax", [1]))]
     nodes.append(helper.make_node("Slice", ["rgb", "s0", "s1", "ax"], ["red"]))
     if output_channels_dim:
         nodes.append(helper.make_node("Identity", ["red"], ["predicted_depth"]))
@@ -100,14 +103,14 @@ def stats_model(path: Path) -> Path:
 
 # Reference colours and the ADE20K class each one stands for (a nearest-colour classifier).
 COLOURS = {
-    (0.0, 0.0, 0.0): 0,     # black   -> wall
-    (0.0, 0.0, 1.0): 5,     # blue    -> ceiling
-    (0.0, 1.0, 0.0): 3,     # green   -> floor
-    (1.0, 1.0, 1.0): 19,    # white   -> chair
-    (1.0, 1.0, 0.0): 8,     # yellow  -> windowpane
-    (1.0, 0.0, 1.0): 14,    # magenta -> door
-    (0.0, 1.0, 1.0): 36,    # cyan    -> lamp
-    (1.0, 0.0, 0.0): 134,   # red     -> sconce
+    (0.0, 0.0, 0.0): 0,  # black   -> wall
+    (0.0, 0.0, 1.0): 5,  # blue    -> ceiling
+    (0.0, 1.0, 0.0): 3,  # green   -> floor
+    (1.0, 1.0, 1.0): 19,  # white   -> chair
+    (1.0, 1.0, 0.0): 8,  # yellow  -> windowpane
+    (1.0, 0.0, 1.0): 14,  # magenta -> door
+    (0.0, 1.0, 1.0): 36,  # cyan    -> lamp
+    (1.0, 0.0, 0.0): 134,  # red     -> sconce
 }
 
 
@@ -138,8 +141,8 @@ def mask_classification_model(path: Path, n_classes: int = 150, pixel_mask: bool
     conv, conv_inits = _nearest_colour_scores(len(queries), dict(enumerate(c for c, _ in queries)), "dot")
     nodes += conv + [
         helper.make_node("ReduceSumSquare", ["rgb"], ["x2"], axes=[1], keepdims=1),
-        helper.make_node("Sub", ["dot", "x2"], ["neg_dist2"]),          # -|x - c|²
-        helper.make_node("Add", ["neg_dist2", "radius"], ["inside"]),   # > 0 within 0.3 of the colour
+        helper.make_node("Sub", ["dot", "x2"], ["neg_dist2"]),  # -|x - c|²
+        helper.make_node("Add", ["neg_dist2", "radius"], ["inside"]),  # > 0 within 0.3 of the colour
         helper.make_node("Mul", ["inside", "sharp"], ["mask_full"]),
         helper.make_node("AveragePool", ["mask_full"], ["masks_queries_logits"], kernel_shape=[4, 4], strides=[4, 4]),
     ]
@@ -152,8 +155,10 @@ def mask_classification_model(path: Path, n_classes: int = 150, pixel_mask: bool
     inputs = [_image_input()]
     if pixel_mask:
         inputs.append(helper.make_tensor_value_info("pixel_mask", TensorProto.INT64, ["N", "H", "W"]))
-    outputs = [helper.make_tensor_value_info("class_queries_logits", TensorProto.FLOAT, [1, len(queries), n_classes + 1]),
-               helper.make_tensor_value_info("masks_queries_logits", TensorProto.FLOAT, ["N", len(queries), "h", "w"])]
+    outputs = [
+        helper.make_tensor_value_info("class_queries_logits", TensorProto.FLOAT, [1, len(queries), n_classes + 1]),
+        helper.make_tensor_value_info("masks_queries_logits", TensorProto.FLOAT, ["N", len(queries), "h", "w"]),
+    ]
     return _save(path, nodes, inputs, outputs, inits)
 
 
@@ -202,15 +207,18 @@ def one_line(excinfo: pytest.ExceptionInfo, path: Path, *phrases: str) -> str:
 
 
 # =================================================================================== input layout
-@pytest.mark.parametrize(("family", "hw", "expected"), [
-    ("depth_anything_v2", (23, 37), (518, 840)),    # shorter side 518, both multiples of 14
-    ("depth_anything_v2", (480, 640), (518, 686)),
-    ("depth_anything_v2", (641, 479), (700, 518)),  # portrait
-    ("dpt", (480, 640), (384, 512)),
-    ("midas", (480, 640), (256, 256)),
-    ("segformer_ade20k", (23, 37), (512, 512)),
-    ("mask2former_ade20k", (480, 640), (512, 672)),
-])
+@pytest.mark.parametrize(
+    ("family", "hw", "expected"),
+    [
+        ("depth_anything_v2", (23, 37), (518, 840)),  # shorter side 518, both multiples of 14
+        ("depth_anything_v2", (480, 640), (518, 686)),
+        ("depth_anything_v2", (641, 479), (700, 518)),  # portrait
+        ("dpt", (480, 640), (384, 512)),
+        ("midas", (480, 640), (256, 256)),
+        ("segformer_ade20k", (23, 37), (512, 512)),
+        ("mask2former_ade20k", (480, 640), (512, 672)),
+    ],
+)
 def test_network_size_per_family(family: str, hw: tuple[int, int], expected: tuple[int, int]) -> None:
     spec = INPUTS[family]
     got = network_size(*hw, spec)
@@ -245,14 +253,18 @@ def test_disparity_to_depth_is_unit_range_inverse() -> None:
     assert valid.tolist() == [[True, False], [False, False]] and depth[0, 0] == 1.0
 
 
-@pytest.mark.parametrize(("family", "static", "channel_dim", "half"), [
-    ("depth_anything_v2", None, False, False),
-    ("depth_anything_v2", None, False, True),    # a float16 export
-    ("dpt", None, True, False),
-    ("midas", (256, 256), False, False),         # a fixed-size export: the photo is squashed to it and back
-])
-def test_depth_end_to_end_on_a_non_square_odd_photo(tmp_path: Path, family: str, static, channel_dim: bool,
-                                                    half: bool) -> None:
+@pytest.mark.parametrize(
+    ("family", "static", "channel_dim", "half"),
+    [
+        ("depth_anything_v2", None, False, False),
+        ("depth_anything_v2", None, False, True),  # a float16 export
+        ("dpt", None, True, False),
+        ("midas", (256, 256), False, False),  # a fixed-size export: the photo is squashed to it and back
+    ],
+)
+def test_depth_end_to_end_on_a_non_square_odd_photo(
+    tmp_path: Path, family: str, static, channel_dim: bool, half: bool
+) -> None:
     path = red_disparity_model(tmp_path / f"{family}.onnx", family, static, channel_dim, half)
     image = ramp_photo()
     impl = OnnxDepth(model=None, path=str(path), family=family, intra_op_threads=1)
@@ -264,12 +276,13 @@ def test_depth_end_to_end_on_a_non_square_odd_photo(tmp_path: Path, family: str,
     away = np.zeros_like(expected_valid)  # inside the photo and clear of the red-free block's blurred edge
     away[1:-1, 1:-1] = True
     away[:11, :13] = False
-    assert not depth.valid[1:6, 1:7].any()                        # the red-free block is invalid
+    assert not depth.valid[1:6, 1:7].any()  # the red-free block is invalid
     assert depth.valid[away].all()
-    assert depth.depth[depth.valid].max() == pytest.approx(1.0)   # unit range
+    assert depth.depth[depth.valid].max() == pytest.approx(1.0)  # unit range
     # the same depth up to scale where the ramp is sharp (the block's blurred edge may hold the farthest pixel)
-    np.testing.assert_allclose(depth.depth[away] / depth.depth[away].max(), expected[away] / expected[away].max(),
-                               rtol=0.06)
+    np.testing.assert_allclose(
+        depth.depth[away] / depth.depth[away].max(), expected[away] / expected[away].max(), rtol=0.06
+    )
     # depth falls from left to right (red rises): the ramp's orientation survived the round trip
     row = depth.depth[15]
     assert row[12] > row[20] > row[30]
@@ -279,12 +292,18 @@ def test_depth_wrong_signature_is_one_line_naming_the_file(tmp_path: Path) -> No
     image = ramp_photo()
     seg = segformer_model(tmp_path / "looks_like_segformer.onnx")
     with pytest.raises(PsdrRoomError) as excinfo:
-        OnnxDepth(model=None, path=str(seg), family="depth_anything_v2").estimate(image, camera_for(image), NO_PANOPTIC, PHOTO)
+        OnnxDepth(model=None, path=str(seg), family="depth_anything_v2").estimate(
+            image, camera_for(image), NO_PANOPTIC, PHOTO
+        )
     one_line(excinfo, seg, "signature", "depth_anything_v2", "logits[")
     two_inputs = tmp_path / "two_inputs.onnx"
-    _save(two_inputs, [helper.make_node("Add", ["pixel_values", "other"], ["predicted_depth"])],
-          [_image_input(), helper.make_tensor_value_info("other", TensorProto.FLOAT, ["N", 3, "H", "W"])],
-          [helper.make_tensor_value_info("predicted_depth", TensorProto.FLOAT, ["N", 3, "H", "W"])], [])
+    _save(
+        two_inputs,
+        [helper.make_node("Add", ["pixel_values", "other"], ["predicted_depth"])],
+        [_image_input(), helper.make_tensor_value_info("other", TensorProto.FLOAT, ["N", 3, "H", "W"])],
+        [helper.make_tensor_value_info("predicted_depth", TensorProto.FLOAT, ["N", 3, "H", "W"])],
+        [],
+    )
     with pytest.raises(PsdrRoomError) as excinfo:
         OnnxDepth(model=None, path=str(two_inputs), family="dpt").estimate(image, camera_for(image), NO_PANOPTIC, PHOTO)
     one_line(excinfo, two_inputs, "one float image input")
@@ -300,12 +319,16 @@ def test_missing_and_corrupt_registry_models(tmp_path: Path) -> None:
     one_line(excinfo, path, "not found", "psdr-room-models download depth_anything_v2_small")
     path.write_bytes(b"\x08\x07<!DOCTYPE html> this is a captive portal, not a network" * 50)
     with pytest.raises(PsdrRoomError) as excinfo:
-        OnnxDepth(model="depth_anything_v2_small", models_dir=str(tmp_path)).estimate(image, camera_for(image), NO_PANOPTIC, PHOTO)
+        OnnxDepth(model="depth_anything_v2_small", models_dir=str(tmp_path)).estimate(
+            image, camera_for(image), NO_PANOPTIC, PHOTO
+        )
     one_line(excinfo, path, "not a loadable ONNX model", "psdr-room-models download depth_anything_v2_small")
     real = red_disparity_model(tmp_path / "real.onnx", "depth_anything_v2").read_bytes()
     path.write_bytes(real[: len(real) // 2])  # an interrupted copy
     with pytest.raises(PsdrRoomError) as excinfo:
-        OnnxDepth(model="depth_anything_v2_small", models_dir=str(tmp_path)).estimate(image, camera_for(image), NO_PANOPTIC, PHOTO)
+        OnnxDepth(model="depth_anything_v2_small", models_dir=str(tmp_path)).estimate(
+            image, camera_for(image), NO_PANOPTIC, PHOTO
+        )
     one_line(excinfo, path, "not a loadable ONNX model")
 
 
@@ -323,8 +346,13 @@ def test_configuration_errors() -> None:
 
 def test_threads_come_from_config(tmp_path: Path) -> None:
     path = red_disparity_model(tmp_path / "m.onnx", "depth_anything_v2")
-    impl = OnnxDepth(model=None, path=str(path), family="depth_anything_v2", intra_op_threads=1,
-                     providers=["NoSuchExecutionProvider", "CPUExecutionProvider"])
+    impl = OnnxDepth(
+        model=None,
+        path=str(path),
+        family="depth_anything_v2",
+        intra_op_threads=1,
+        providers=["NoSuchExecutionProvider", "CPUExecutionProvider"],
+    )
     session = impl.network.session
     assert session.get_session_options().intra_op_num_threads == 1
     assert session.get_providers() == ["CPUExecutionProvider"]
@@ -339,8 +367,21 @@ def test_ade20k_table_and_categories() -> None:
     assert by_label["door"] == "door" and by_label["screen door"] == "door"
     assert {by_label[k] for k in ("lamp", "light", "chandelier", "sconce")} == {"lamp"}
     assert by_label["rug"] == "floor"  # lies flat on it (category_of's rule)
-    assert {by_label[k] for k in ("chair", "sofa", "bed", "cabinet", "chest of drawers", "painting", "curtain",
-                                   "television receiver", "stairs", "fireplace")} == {"object"}
+    assert {
+        by_label[k]
+        for k in (
+            "chair",
+            "sofa",
+            "bed",
+            "cabinet",
+            "chest of drawers",
+            "painting",
+            "curtain",
+            "television receiver",
+            "stairs",
+            "fireplace",
+        )
+    } == {"object"}
     assert {ade20k.LABELS[k] for k in ade20k.STUFF} >= {"wall", "floor", "ceiling", "sky", "rug"}
     assert "chair" not in {ade20k.LABELS[k] for k in ade20k.STUFF}
 
@@ -358,30 +399,52 @@ def test_class_map_matches_full_resolution_argmax() -> None:
 
 
 def test_panoptic_from_classes_splits_objects_not_stuff() -> None:
-    classes = np.zeros((40, 60), np.int32)          # wall
-    classes[30:] = 3                                # floor
-    classes[5:15, 5:15] = 19                        # chair 1
-    classes[5:15, 30:40] = 19                       # chair 2
-    classes[0:2, 50:52] = 19                        # a 4-pixel speck: left unlabelled
-    classes[20:25, 0:5] = 0                         # more wall, touching nothing else of class 0? still one segment
+    classes = np.zeros((40, 60), np.int32)  # wall
+    classes[30:] = 3  # floor
+    classes[5:15, 5:15] = 19  # chair 1
+    classes[5:15, 30:40] = 19  # chair 2
+    classes[0:2, 50:52] = 19  # a 4-pixel speck: left unlabelled
+    classes[20:25, 0:5] = 0  # more wall, touching nothing else of class 0? still one segment
     panoptic = panoptic_from_classes(classes, min_fraction=0.002)
     labels = sorted((s.label, s.category) for s in panoptic.segments)
     assert labels == [("chair", "object"), ("chair", "object"), ("floor", "floor"), ("wall", "wall")]
     assert (panoptic.ids[0:2, 50:52] == 0).all()
     chairs = [s.id for s in panoptic.segments if s.label == "chair"]
-    assert panoptic.ids[10, 10] in chairs and panoptic.ids[10, 35] in chairs and panoptic.ids[10, 10] != panoptic.ids[10, 35]
+    assert (
+        panoptic.ids[10, 10] in chairs
+        and panoptic.ids[10, 35] in chairs
+        and panoptic.ids[10, 10] != panoptic.ids[10, 35]
+    )
 
 
 def _check_colour_segmentation(panoptic: Panoptic, image: Image, directory: Path) -> None:
     assert panoptic.ids.shape == (image.height, image.width) and panoptic.ids.dtype == np.int32
     got = sorted((s.label, s.category) for s in panoptic.segments)
-    assert got == sorted([("wall", "wall"), ("ceiling", "ceiling"), ("floor", "floor"), ("chair", "object"),
-                          ("chair", "object"), ("windowpane", "window"), ("door", "door"), ("lamp", "lamp"),
-                          ("sconce", "lamp")]), got
+    assert got == sorted(
+        [
+            ("wall", "wall"),
+            ("ceiling", "ceiling"),
+            ("floor", "floor"),
+            ("chair", "object"),
+            ("chair", "object"),
+            ("windowpane", "window"),
+            ("door", "door"),
+            ("lamp", "lamp"),
+            ("sconce", "lamp"),
+        ]
+    ), got
     label_at = {s.id: s.label for s in panoptic.segments}
-    for (y, x), label in {(5, 60): "ceiling", (85, 60): "floor", (60, 5): "wall", (40, 18): "chair",
-                          (40, 58): "chair", (30, 96): "windowpane", (60, 94): "door", (62, 38): "lamp",
-                          (21, 40): "sconce"}.items():
+    for (y, x), label in {
+        (5, 60): "ceiling",
+        (85, 60): "floor",
+        (60, 5): "wall",
+        (40, 18): "chair",
+        (40, 58): "chair",
+        (30, 96): "windowpane",
+        (60, 94): "door",
+        (62, 38): "lamp",
+        (21, 40): "sconce",
+    }.items():
         assert label_at.get(int(panoptic.ids[y, x])) == label, (y, x, label)
     assert panoptic.ids[40, 18] != panoptic.ids[40, 58]  # two chairs, two segments
     assert panoptic.mask("ceiling")[:12].mean() > 0.97 and panoptic.mask("floor")[78:].mean() > 0.97
@@ -410,15 +473,21 @@ def test_segmentation_wrong_class_count_is_one_line(tmp_path: Path) -> None:
     image = colour_photo()
     coco = segformer_model(tmp_path / "segformer_cityscapes.onnx", n_classes=19)
     with pytest.raises(PsdrRoomError) as excinfo:
-        OnnxSegmentation(model=None, path=str(coco), family="segformer_ade20k").segment(image, NO_CAMERA, NO_DETECTIONS, PHOTO)
+        OnnxSegmentation(model=None, path=str(coco), family="segformer_ade20k").segment(
+            image, NO_CAMERA, NO_DETECTIONS, PHOTO
+        )
     one_line(excinfo, coco, "150 ADE20K classes")
     panoptic133 = mask_classification_model(tmp_path / "mask2former_coco.onnx", n_classes=133)
     with pytest.raises(PsdrRoomError) as excinfo:
-        OnnxSegmentation(model=None, path=str(panoptic133), family="mask2former_ade20k").segment(image, NO_CAMERA, NO_DETECTIONS, PHOTO)
+        OnnxSegmentation(model=None, path=str(panoptic133), family="mask2former_ade20k").segment(
+            image, NO_CAMERA, NO_DETECTIONS, PHOTO
+        )
     one_line(excinfo, panoptic133, "'no object'")
     depth = red_disparity_model(tmp_path / "depth.onnx", "dpt")
     with pytest.raises(PsdrRoomError) as excinfo:
-        OnnxSegmentation(model=None, path=str(depth), family="mask2former_ade20k").segment(image, NO_CAMERA, NO_DETECTIONS, PHOTO)
+        OnnxSegmentation(model=None, path=str(depth), family="mask2former_ade20k").segment(
+            image, NO_CAMERA, NO_DETECTIONS, PHOTO
+        )
     one_line(excinfo, depth, "class_queries_logits")
 
 
@@ -452,10 +521,21 @@ def test_run_with_onnx_models_and_weights_in_the_cache_key(tmp_path: Path) -> No
     depth_model = red_disparity_model(tmp_path / "depth.onnx", "depth_anything_v2")
     seg_model = segformer_model(tmp_path / "seg.onnx")
     plugins = _plugins()
-    overrides = [f"image={photo}", f"cache_dir={tmp_path / 'cache'}", "depth=onnx", "segmentation=onnx",
-                 f"depth.onnx.path={depth_model}", "depth.onnx.family=depth_anything_v2", "depth.onnx.intra_op_threads=1",
-                 f"segmentation.onnx.path={seg_model}", "segmentation.onnx.family=segformer_ade20k",
-                 "segmentation.onnx.input_size=128", "fov=fixed", "run.until=point_cloud", "report.enabled=false"]
+    overrides = [
+        f"image={photo}",
+        f"cache_dir={tmp_path / 'cache'}",
+        "depth=onnx",
+        "segmentation=onnx",
+        f"depth.onnx.path={depth_model}",
+        "depth.onnx.family=depth_anything_v2",
+        "depth.onnx.intra_op_threads=1",
+        f"segmentation.onnx.path={seg_model}",
+        "segmentation.onnx.family=segformer_ade20k",
+        "segmentation.onnx.input_size=128",
+        "fov=fixed",
+        "run.until=point_cloud",
+        "report.enabled=false",
+    ]
     record = execute(compose_config(overrides, plugins), tmp_path / "run1", plugins)
     assert record.implementations["depth"]["name"] == "onnx"
     assert record.implementations["segmentation"]["name"] == "onnx"

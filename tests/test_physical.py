@@ -28,19 +28,42 @@ def db() -> ObjectDatabase:
     return builtin_database()
 
 
-def placed(db: ObjectDatabase, model_id: str, segment_id: int, position: tuple[float, float, float],
-           yaw_deg: float = 0.0, scale: float = 1.0, explained: float = 0.8) -> Placement:
+def placed(
+    db: ObjectDatabase,
+    model_id: str,
+    segment_id: int,
+    position: tuple[float, float, float],
+    yaw_deg: float = 0.0,
+    scale: float = 1.0,
+    explained: float = 0.8,
+) -> Placement:
     """A database model standing on the floor."""
     record = db.record(model_id)
-    return Placement(segment_id, record.category, model_id, db.mesh(model_id), position, math.radians(yaw_deg), scale,
-                     "floor", None, record.category, explained)
+    return Placement(
+        segment_id,
+        record.category,
+        model_id,
+        db.mesh(model_id),
+        position,
+        math.radians(yaw_deg),
+        scale,
+        "floor",
+        None,
+        record.category,
+        explained,
+    )
 
 
 def cube_mesh() -> ObjectMesh:
     """A 1 m cube standing on y = 0, one group."""
     cube = box_mesh(np.array([0.0, 0.5, 0.0]), np.array([0.5, 0.5, 0.5]))
-    return ObjectMesh(vertices=cube.vertices, faces=cube.faces, face_group=np.zeros(len(cube.faces), np.int64),
-                      groups=("body",), colors=np.array([[0.5, 0.5, 0.5]]))
+    return ObjectMesh(
+        vertices=cube.vertices,
+        faces=cube.faces,
+        face_group=np.zeros(len(cube.faces), np.int64),
+        groups=("body",),
+        colors=np.array([[0.5, 0.5, 0.5]]),
+    )
 
 
 # --------------------------------------------------------------------------------------------- sizes
@@ -145,8 +168,14 @@ def test_an_object_beyond_the_room_is_brought_in_or_the_room_grows(db: ObjectDat
     assert drawn.room.center[1] - drawn.room.half_size[1] == pytest.approx(0.0)  # the floor stays
     guessed = settle([far], ROOM, CAMERA, drawn=set(), pixels={3: 500}, params=replace(PARAMS, keep_iou=1.0))
     assert guessed.placements == [] and "beyond the room box" in guessed.dropped[0]  # more than max_growth out
-    near = settle([replace(far, position=(0.0, 0.0, 5.0))], ROOM, CAMERA, drawn=set(), pixels={3: 500},
-                  params=replace(PARAMS, keep_iou=1.0))
+    near = settle(
+        [replace(far, position=(0.0, 0.0, 5.0))],
+        ROOM,
+        CAMERA,
+        drawn=set(),
+        pixels={3: 500},
+        params=replace(PARAMS, keep_iou=1.0),
+    )
     assert len(near.placements) == 1 and near.room.half_size[2] > ROOM.half_size[2]  # 0.7 m out: the room grows
     kept = settle([far], ROOM, CAMERA, drawn=set(), pixels={3: 500}, params=PARAMS, final=False)
     assert kept.room is ROOM and len(kept.placements) == 1  # place_objects leaves it to fit_objects

@@ -44,7 +44,9 @@ def test_conflicting_implementations_name_both_plugins() -> None:
     def register(registry):  # noqa: ANN001
         registry.add_implementation("fov", "fixed", object)
 
-    system = load_plugins(extra=[(plugin(register_implementations=register), Origin("rival", "rival-dist 1.0", "rival = rival"))])
+    system = load_plugins(
+        extra=[(plugin(register_implementations=register), Origin("rival", "rival-dist 1.0", "rival = rival"))]
+    )
     with pytest.raises(PsdrRoomError) as info:
         system.registry.implementation("fov", "fixed")
     message = str(info.value)
@@ -79,8 +81,20 @@ def third_party(tmp_path_factory: pytest.TempPathFactory) -> Path:
     shutil.copytree(REPO / "examples" / "third_party_plugin", source)
     target = tmp_path_factory.mktemp("site")
     subprocess.run(
-        [sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation", "--target", str(target), str(source)],
-        check=True, capture_output=True,
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "install",
+            "-q",
+            "--no-deps",
+            "--no-build-isolation",
+            "--target",
+            str(target),
+            str(source),
+        ],
+        check=True,
+        capture_output=True,
     )
     return target
 
@@ -90,8 +104,13 @@ def _env(cli_env: dict[str, str], site: Path) -> dict[str, str]:
 
 
 def test_third_party_plugin_is_listed(third_party: Path, cli_env: dict[str, str]) -> None:
-    out = subprocess.run([shutil.which("psdr-room-plugins") or "psdr-room-plugins"], env=_env(cli_env, third_party),
-                         capture_output=True, text=True, check=True).stdout
+    out = subprocess.run(
+        [shutil.which("psdr-room-plugins") or "psdr-room-plugins"],
+        env=_env(cli_env, third_party),
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
     line = next(row for row in out.splitlines() if row.startswith("fov") and " exif " in row)
     assert "plugin 'exif' (exif = psdr_room_exif, from psdr-room-exif 0.1.0)" in line
 
@@ -105,9 +124,16 @@ def test_third_party_plugin_selected_from_the_cli(third_party: Path, cli_env: di
         exif.get_ifd(0x8769)[0xA405] = 28
         pil.save(photo, exif=exif)
     result = subprocess.run(
-        [shutil.which("psdr-room") or "psdr-room", f"image={photo}", "fov=exif", "run.until=estimate_fov",
-         f"hydra.run.dir={tmp_path / 'run'}"],
-        env=_env(cli_env, third_party), capture_output=True, text=True,
+        [
+            shutil.which("psdr-room") or "psdr-room",
+            f"image={photo}",
+            "fov=exif",
+            "run.until=estimate_fov",
+            f"hydra.run.dir={tmp_path / 'run'}",
+        ],
+        env=_env(cli_env, third_party),
+        capture_output=True,
+        text=True,
     )
     assert result.returncode == 0, result.stderr
     metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
@@ -120,11 +146,20 @@ def test_third_party_plugin_selected_from_the_cli(third_party: Path, cli_env: di
 def test_third_party_settings_are_checked(third_party: Path, cli_env: dict[str, str], tmp_path: Path) -> None:
     """The plugin's declared schema (ExifSettings) refuses an impossible value before any stage runs."""
     result = subprocess.run(
-        [shutil.which("psdr-room") or "psdr-room", f"image={EXAMPLE}", "fov=exif", "fov.exif.fallback_vfov_deg=200",
-         f"hydra.run.dir={tmp_path / 'run'}", f"cache_dir={tmp_path / 'cache'}"],
-        env=_env(cli_env, third_party), capture_output=True, text=True,
+        [
+            shutil.which("psdr-room") or "psdr-room",
+            f"image={EXAMPLE}",
+            "fov=exif",
+            "fov.exif.fallback_vfov_deg=200",
+            f"hydra.run.dir={tmp_path / 'run'}",
+            f"cache_dir={tmp_path / 'cache'}",
+        ],
+        env=_env(cli_env, third_party),
+        capture_output=True,
+        text=True,
     )
     assert result.returncode != 0
     assert result.stderr.strip().splitlines() == [
-        "psdr-room: error: fov.exif.fallback_vfov_deg=200.0 is out of range; allowed: a number > 0 and < 180"]
+        "psdr-room: error: fov.exif.fallback_vfov_deg=200.0 is out of range; allowed: a number > 0 and < 180"
+    ]
     assert not (tmp_path / "cache").exists() and not (tmp_path / "run" / "metrics.json").exists()

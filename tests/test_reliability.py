@@ -27,9 +27,18 @@ from psdr_room_core.engine.run import execute
 def test_photo_names_as_people_write_them_run(name: str, tmp_path: Path, cli_env: dict[str, str]) -> None:
     photo = tmp_path / name
     shutil.copyfile(EXAMPLE, photo)
-    result = subprocess.run([shutil.which("psdr-room") or "psdr-room", f"image={photo}", "run.until=load_image",
-                             f"hydra.run.dir={tmp_path / 'run'}"], env=cli_env, capture_output=True, text=True,
-                            timeout=120)
+    result = subprocess.run(
+        [
+            shutil.which("psdr-room") or "psdr-room",
+            f"image={photo}",
+            "run.until=load_image",
+            f"hydra.run.dir={tmp_path / 'run'}",
+        ],
+        env=cli_env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert result.returncode == 0, result.stderr
     assert (tmp_path / "run" / "artifacts" / "image").is_dir()
 
@@ -64,18 +73,21 @@ def test_unwritable_run_folder_is_refused_before_hydra_writes(tmp_path: Path, mo
     assert list(parent.iterdir()) == []
 
 
-def test_a_read_only_cache_computes_without_storing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
-                                                   caplog: pytest.LogCaptureFixture) -> None:
+def test_a_read_only_cache_computes_without_storing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
     cache = tmp_path / "cache"
     Store(cache)
     monkeypatch.setattr(Store, "writable", lambda self: False)
     with caplog.at_level(logging.WARNING, logger="psdr_room"):
-        record = execute(compose_config([f"image={EXAMPLE}", "run.until=estimate_fov", f"cache_dir={cache}"]),
-                         tmp_path / "run")
+        record = execute(
+            compose_config([f"image={EXAMPLE}", "run.until=estimate_fov", f"cache_dir={cache}"]), tmp_path / "run"
+        )
     assert [r.name for r in record.stages] == ["load_image", "estimate_fov"]
     assert [r.getMessage() for r in caplog.records if "read-only" in r.getMessage()] == [
         f"cache_dir={cache} is read-only: finished stages are read from it, new results are not stored "
-        "(set cache_dir= to a writable folder to keep them)"]
+        "(set cache_dir= to a writable folder to keep them)"
+    ]
     assert list(Store(cache).entries()) == []
     assert (tmp_path / "run" / "metrics.json").is_file()
 
@@ -111,7 +123,8 @@ def test_a_stage_key_follows_its_own_code_only() -> None:
         assert not [m for m in code_modules(stage.fn) if m.startswith("psdr_room_core.engine")]
     renderer = registry.implementation("renderer", "mitsuba")
     assert {"psdr_room_plugins.mitsuba_renderer.session", "psdr_room_plugins.mitsuba_renderer.integrator"} <= set(
-        code_modules(renderer.factory))
+        code_modules(renderer.factory)
+    )
 
 
 def test_fingerprint_changes_with_an_imported_module(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -149,8 +149,9 @@ def test_forward_masks_and_depth_are_exact(renderer_cls) -> None:
 
 # ------------------------------------------------------------------- gradient checks: room + box object
 W, H = 64, 48
-ROOM = RoomBox(camera_to_world=np.eye(4), center=np.array([0.0, 1.5, 0.0]), half_size=np.array([2.0, 1.5, 2.5]),
-               yaw=0.0)
+ROOM = RoomBox(
+    camera_to_world=np.eye(4), center=np.array([0.0, 1.5, 0.0]), half_size=np.array([2.0, 1.5, 2.5]), yaw=0.0
+)
 OBJECT = (np.array([0.3, 0.6, -0.6]), np.array([0.45, 0.35, 0.3]), 0.35)  # centre, half size, yaw (floating)
 PARTS = {"wall_x_neg": 0, "wall_x_pos": 0, "wall_z_neg": 0, "wall_z_pos": 0, "floor": 1, "ceiling": 2, "object": 3}
 PARAMS = ["tx", "ty", "tz", "yaw", "log_scale", "log_scale_x", "log_scale_y", "log_scale_z", "wall_x", "ceiling"]
@@ -215,8 +216,11 @@ def test_mask_and_depth_gradients_match_finite_differences(renderer_cls) -> None
     camera, c2w = _camera()
     meshes = _meshes()
     with torch.no_grad():
-        target = renderer_cls(spp=256).geometry(camera, c2w, meshes, PARTS).render(
-            _vertices(torch.tensor(TARGET)), iteration=12345)
+        target = (
+            renderer_cls(spp=256)
+            .geometry(camera, c2w, meshes, PARTS)
+            .render(_vertices(torch.tensor(TARGET)), iteration=12345)
+        )
     renderer = renderer_cls(spp=64, spp_boundary=256).geometry(camera, c2w, meshes, PARTS)
     assert renderer.n_parts == 4
     # A target depth off by a scale and offset, as a monocular estimate is: per-pixel residuals then stay
@@ -255,8 +259,9 @@ def _rgb_geometry(renderer_cls, surfaces=None, **params):
     light = quad_mesh(np.array([[-0.4, 2.95, -0.4], [0.4, 2.95, -0.4], [0.4, 2.95, 0.4], [-0.4, 2.95, 0.4]]))
     albedo = {name: (0.6, 0.6, 0.6) for name in PARTS} | {"object": (0.8, 0.3, 0.2), "floor": (0.5, 0.45, 0.4)}
     surfaces = {name: Surface(base_color=rgb) for name, rgb in albedo.items()} | dict(surfaces or {})
-    return renderer_cls(max_depth=3, **params).geometry(camera, c2w, _meshes(), PARTS, surfaces=surfaces,
-                                                        emitters={"light": (light, (8.0, 8.0, 8.0))})
+    return renderer_cls(max_depth=3, **params).geometry(
+        camera, c2w, _meshes(), PARTS, surfaces=surfaces, emitters={"light": (light, (8.0, 8.0, 8.0))}
+    )
 
 
 def test_rgb_gradients_match_finite_differences(renderer_cls) -> None:
@@ -271,13 +276,17 @@ def test_rgb_gradients_match_finite_differences(renderer_cls) -> None:
     base = torch.tensor([[0.8, 0.3, 0.2], [0.5, 0.45, 0.4], [0.6, 0.6, 0.6], [8.0, 8.0, 8.0]], dtype=torch.float64)
     with torch.no_grad():
         goal = base * torch.tensor([[0.7, 1.4, 1.2], [1.3, 1.0, 0.8], [0.9, 1.1, 1.2], [1.2, 0.9, 1.0]])
-        target = pooled(_rgb_geometry(renderer_cls, rgb_spp=256).render_rgb(
-            base_color=dict(zip(names, goal[:3])), radiance={"light": goal[3]}, iteration=999))
+        target = pooled(
+            _rgb_geometry(renderer_cls, rgb_spp=256).render_rgb(
+                base_color=dict(zip(names, goal[:3])), radiance={"light": goal[3]}, iteration=999
+            )
+        )
     renderer = _rgb_geometry(renderer_cls, rgb_spp=64)
 
     def loss(x: torch.Tensor, iteration: int, geometry=renderer) -> torch.Tensor:
-        image = geometry.render_rgb(base_color=dict(zip(names, x[:3].float())), radiance={"light": x[3].float()},
-                                    iteration=iteration)
+        image = geometry.render_rgb(
+            base_color=dict(zip(names, x[:3].float())), radiance={"light": x[3].float()}, iteration=iteration
+        )
         return ((pooled(image) - target) ** 2).mean()
 
     x = base.clone().requires_grad_(True)
@@ -307,14 +316,18 @@ def test_rgb_map_and_roughness_gradients_match_finite_differences(renderer_cls) 
     surface = Surface(base_color=texture, roughness=0.4, uv=uv_metres / np.ptp(uv_metres, axis=0).max() * 2.0)
     with torch.no_grad():
         target = _rgb_geometry(renderer_cls, {"floor": surface}, rgb_spp=256).render_rgb(
-            base_color={"floor": torch.from_numpy(texture[::-1].copy())}, roughness={"object": torch.tensor([0.1])},
-            specular={"object": torch.tensor([1.0])}, iteration=999)
+            base_color={"floor": torch.from_numpy(texture[::-1].copy())},
+            roughness={"object": torch.tensor([0.1])},
+            specular={"object": torch.tensor([1.0])},
+            iteration=999,
+        )
     renderer = _rgb_geometry(renderer_cls, {"floor": surface}, rgb_spp=64)
     fine = _rgb_geometry(renderer_cls, {"floor": surface}, rgb_spp=256)
 
     def loss(t: torch.Tensor, rough: torch.Tensor, spec: torch.Tensor, iteration: int, geometry) -> torch.Tensor:
-        image = geometry.render_rgb(base_color={"floor": t}, roughness={"object": rough}, specular={"object": spec},
-                                    iteration=iteration)
+        image = geometry.render_rgb(
+            base_color={"floor": t}, roughness={"object": rough}, specular={"object": spec}, iteration=iteration
+        )
         return ((image - target) ** 2).mean()
 
     t0, r0, s0 = torch.from_numpy(texture), torch.tensor([0.4]), torch.tensor([0.5])
@@ -345,23 +358,33 @@ def test_frozen_rgb_passes_give_the_traced_images_and_gradients(renderer_cls) ->
     surfaces = {}
     for name in mapped:
         uv = planar_uv(meshes[name])[1]
-        surfaces[name] = Surface(base_color=rng.uniform(0.2, 0.8, (16, 16, 3)).astype(np.float32),
-                                 roughness=rng.uniform(0.2, 0.8, (16, 16, 1)).astype(np.float32),
-                                 uv=uv / np.ptp(uv, axis=0).max() * 2.0)
+        surfaces[name] = Surface(
+            base_color=rng.uniform(0.2, 0.8, (16, 16, 3)).astype(np.float32),
+            roughness=rng.uniform(0.2, 0.8, (16, 16, 1)).astype(np.float32),
+            uv=uv / np.ptp(uv, axis=0).max() * 2.0,
+        )
     runs = []
     for freeze in (False, True):
         geometry = _rgb_geometry(lambda **k: renderer_cls(freeze=freeze, **k), surfaces, rgb_spp=8)
         values = np.random.default_rng(5)
         out = []
         for iteration in range(6):
-            x = {f"{n}.{c}": torch.from_numpy(values.uniform(0.2, 0.8, (16, 16, k)).astype(np.float32)).requires_grad_()
-                 for n in mapped for c, k in (("colour", 3), ("roughness", 1))}
+            x = {
+                f"{n}.{c}": torch.from_numpy(values.uniform(0.2, 0.8, (16, 16, k)).astype(np.float32)).requires_grad_()
+                for n in mapped
+                for c, k in (("colour", 3), ("roughness", 1))
+            }
             x["object"] = torch.tensor(values.uniform(0.2, 0.8, 3), dtype=torch.float32, requires_grad=True)
             x["light"] = torch.tensor(values.uniform(5.0, 9.0, 3), dtype=torch.float32, requires_grad=True)
-            image = geometry.render_rgb(base_color={**{n: x[f"{n}.colour"] for n in mapped}, "object": x["object"]},
-                                        roughness={n: x[f"{n}.roughness"] for n in mapped}, radiance={"light": x["light"]},
-                                        iteration=iteration, spp=8, grad_spp=4)
-            grads = torch.autograd.grad((image ** 2).mean(), list(x.values()))
+            image = geometry.render_rgb(
+                base_color={**{n: x[f"{n}.colour"] for n in mapped}, "object": x["object"]},
+                roughness={n: x[f"{n}.roughness"] for n in mapped},
+                radiance={"light": x["light"]},
+                iteration=iteration,
+                spp=8,
+                grad_spp=4,
+            )
+            grads = torch.autograd.grad((image**2).mean(), list(x.values()))
             out.append((image.detach().numpy(), [g.numpy() for g in grads]))
         runs.append(out)
     for (traced, traced_grads), (frozen, frozen_grads) in zip(*runs):

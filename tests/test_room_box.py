@@ -41,8 +41,13 @@ def camera_rotation(heading_deg: float, pitch_down_deg: float, roll_deg: float) 
 
 
 def render_room(
-    camera_local: np.ndarray, heading_deg: float, pitch_down_deg: float, roll_deg: float, rng: np.random.Generator,
-    focal: float = 40.0, depth_error: float = 0.0,
+    camera_local: np.ndarray,
+    heading_deg: float,
+    pitch_down_deg: float,
+    roll_deg: float,
+    rng: np.random.Generator,
+    focal: float = 40.0,
+    depth_error: float = 0.0,
 ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
     """Ray-cast a 80 x 60 depth image (90 x 71 deg FoV at ``focal`` 40) from inside the box.
 
@@ -83,9 +88,7 @@ def test_ransac_floor_with_clutter() -> None:
     rotation = camera_rotation(0.0, 15.0, 3.0)
     centre = np.array([0.0, 1.4, 0.0])
     n_floor, n_clutter = 7000, 3000
-    floor = np.column_stack(
-        [rng.uniform(-2, 2, n_floor), rng.normal(0, NOISE, n_floor), rng.uniform(1, 5, n_floor)]
-    )
+    floor = np.column_stack([rng.uniform(-2, 2, n_floor), rng.normal(0, NOISE, n_floor), rng.uniform(1, 5, n_floor)])
     clutter = np.column_stack(
         [rng.uniform(-2, 2, n_clutter), rng.uniform(0.05, 1.0, n_clutter), rng.uniform(1, 5, n_clutter)]
     )
@@ -128,8 +131,9 @@ def test_box_recovery(pitch_down_deg: float, ceiling_visible: bool) -> None:
 
 def test_walls_tilted_by_an_estimated_depth_still_give_the_box() -> None:
     """A smooth 25% depth error from the top of the photo to the bottom tilts the walls by more than 10 deg."""
-    clouds, rotation, centre = render_room(np.array([0.5, 1.4, -1.3]), -6.0, 10.0, 2.0, np.random.default_rng(3),
-                                           depth_error=0.25)
+    clouds, rotation, centre = render_room(
+        np.array([0.5, 1.4, -1.3]), -6.0, 10.0, 2.0, np.random.default_rng(3), depth_error=0.25
+    )
     result = init_room_box(clouds)
     assert len(result.wall_planes) >= 2
     _, _, yaw = estimated_box_in_truth(result, rotation, centre)
@@ -140,8 +144,9 @@ def test_walls_tilted_by_an_estimated_depth_still_give_the_box() -> None:
 def test_an_unseen_side_wall_lies_a_room_width_beyond_the_frame() -> None:
     """A narrow view of the far wall: the side walls are out of view. The one behind the camera stays just
     behind it; the sides the camera faces go ``size_ratio`` camera heights from the walls opposite them."""
-    clouds, rotation, centre = render_room(np.array([0.0, 1.4, -1.6]), 0.0, 15.0, 0.0, np.random.default_rng(3),
-                                           focal=120.0)
+    clouds, rotation, centre = render_room(
+        np.array([0.0, 1.4, -1.6]), 0.0, 15.0, 0.0, np.random.default_rng(3), focal=120.0
+    )
     result = init_room_box(clouds)
     assert len(result.wall_planes) == 1  # the far wall only
     size = RoomInitParams().size_ratio * result.camera_height

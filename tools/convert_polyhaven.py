@@ -33,13 +33,24 @@ SOURCE = REPO.parent / "shared" / "data" / "meshes" / "polyhaven_robotlocomotion
 OUT = REPO / "plugins" / "object_db" / "library" / "polyhaven"
 
 MODELS: dict[str, tuple[str, dict[str, str]]] = {
-    "painted_wooden_cabinet_1k.gltf": ("painted_wooden_cabinet", {
-        "painted_wooden_cabinet": "body", "painted_wooden_cabinet_door_01": "doors",
-        "painted_wooden_cabinet_door_02": "doors", "painted_wooden_cabinet_drawer_01": "drawers",
-        "painted_wooden_cabinet_drawer_02": "drawers"}),
-    "painted_wooden_cabinet_02_1k.gltf": ("painted_wooden_cabinet_02", {
-        "painted_wooden_cabinet_02": "body", "painted_wooden_cabinet_02_door": "door",
-        "painted_wooden_cabinet_02_drawer": "drawer"}),
+    "painted_wooden_cabinet_1k.gltf": (
+        "painted_wooden_cabinet",
+        {
+            "painted_wooden_cabinet": "body",
+            "painted_wooden_cabinet_door_01": "doors",
+            "painted_wooden_cabinet_door_02": "doors",
+            "painted_wooden_cabinet_drawer_01": "drawers",
+            "painted_wooden_cabinet_drawer_02": "drawers",
+        },
+    ),
+    "painted_wooden_cabinet_02_1k.gltf": (
+        "painted_wooden_cabinet_02",
+        {
+            "painted_wooden_cabinet_02": "body",
+            "painted_wooden_cabinet_02_door": "door",
+            "painted_wooden_cabinet_02_drawer": "drawer",
+        },
+    ),
     "painted_wooden_stool_1k.gltf": ("painted_wooden_stool", {"painted_wooden_stool": "body"}),
     "sofa_03_1k.gltf": ("sofa_03", {"sofa_03": "frame", "sofa_03_fringe": "fringe"}),
     "wooden_bookshelf_worn_1k.gltf": ("wooden_bookshelf_worn", {"wooden_bookshelf_worn": "body"}),
@@ -73,7 +84,7 @@ def accessor(gltf: dict, buffers: list[bytes], index: int) -> np.ndarray:
     offset = view.get("byteOffset", 0) + a.get("byteOffset", 0)
     stride = view.get("byteStride") or n * dtype.itemsize
     raw = np.frombuffer(buffers[view["buffer"]], np.uint8)
-    rows = np.stack([raw[offset + i * stride: offset + i * stride + n * dtype.itemsize] for i in range(a["count"])])
+    rows = np.stack([raw[offset + i * stride : offset + i * stride + n * dtype.itemsize] for i in range(a["count"])])
     return rows.view(dtype).reshape(a["count"], n)
 
 
@@ -82,9 +93,13 @@ def node_matrix(node: dict) -> np.ndarray:
     if "matrix" in node:
         return np.asarray(node["matrix"], np.float64).reshape(4, 4).T
     x, y, z, w = node.get("rotation", (0.0, 0.0, 0.0, 1.0))
-    rotation = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                         [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                         [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    rotation = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
     matrix = np.eye(4)
     matrix[:3, :3] = rotation * np.asarray(node.get("scale", (1.0, 1.0, 1.0)))
     matrix[:3, 3] = node.get("translation", (0.0, 0.0, 0.0))
@@ -148,10 +163,19 @@ def convert(path: Path, name: str, groups: dict[str, str], out: Path) -> None:
     for root in gltf["scenes"][gltf.get("scene", 0)]["nodes"]:
         visit(root, np.eye(4))
     colours = np.array([sum(c * w for c, w in colour_parts[g]) / sum(w for _, w in colour_parts[g]) for g in names])
-    write_obj(out / f"{name}.obj", np.concatenate(vertices), np.concatenate(faces), np.concatenate(face_group), names,
-              colours, header=f"{name}: Poly Haven (CC0 1.0), converted by tools/convert_polyhaven.py; see License.txt")
-    print(f"{name}: {offset} vertices, {sum(len(f) for f in faces)} triangles, groups "
-          + ", ".join(f"{g} {np.round(c, 3).tolist()}" for g, c in zip(names, colours)))
+    write_obj(
+        out / f"{name}.obj",
+        np.concatenate(vertices),
+        np.concatenate(faces),
+        np.concatenate(face_group),
+        names,
+        colours,
+        header=f"{name}: Poly Haven (CC0 1.0), converted by tools/convert_polyhaven.py; see License.txt",
+    )
+    print(
+        f"{name}: {offset} vertices, {sum(len(f) for f in faces)} triangles, groups "
+        + ", ".join(f"{g} {np.round(c, 3).tolist()}" for g, c in zip(names, colours))
+    )
 
 
 def main() -> None:

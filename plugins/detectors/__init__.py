@@ -47,9 +47,22 @@ class NoDetector:
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("detector", "nanodet_onnx", NanodetOnnx, version="2", params=NanodetSettings,
-                                description="COCO object boxes from the bundled NanoDet-g 416 (onnxruntime, offline)")
-    registry.add_implementation("detector", "boxes_file", BoxesFile, version="1", params=BoxesFileSettings,
-                                description="object boxes from <photo stem>.boxes.yaml beside the photo")
-    registry.add_implementation("detector", "none", NoDetector, version="1", description="no object boxes",
-                                params=NoSettings)
+    registry.add_implementation(
+        "detector",
+        "nanodet_onnx",
+        NanodetOnnx,
+        version="2",
+        params=NanodetSettings,
+        description="COCO object boxes from the bundled NanoDet-g 416 (onnxruntime, offline)",
+    )
+    registry.add_implementation(
+        "detector",
+        "boxes_file",
+        BoxesFile,
+        version="1",
+        params=BoxesFileSettings,
+        description="object boxes from <photo stem>.boxes.yaml beside the photo",
+    )
+    registry.add_implementation(
+        "detector", "none", NoDetector, version="1", description="no object boxes", params=NoSettings
+    )

@@ -36,8 +36,9 @@ def _entry(path: Path, index: int, entry: Any, size: tuple[int, int]) -> Detecti
     """One validated entry, its box still in photo pixels."""
     where = f"{path}: boxes[{index}]"
     if not isinstance(entry, dict):
-        raise PsdrRoomError(f"{where} is not a mapping; write it as "
-                            "{label: NAME, category: object, box: [x0, y0, x1, y1]}")
+        raise PsdrRoomError(
+            f"{where} is not a mapping; write it as {{label: NAME, category: object, box: [x0, y0, x1, y1]}}"
+        )
     unknown = sorted(set(map(str, entry)) - set(KEYS))
     if unknown:
         raise PsdrRoomError(f"{where} has unknown key(s) {', '.join(unknown)}; use only {', '.join(KEYS)}")
@@ -46,17 +47,23 @@ def _entry(path: Path, index: int, entry: Any, size: tuple[int, int]) -> Detecti
         raise PsdrRoomError(f"{where}.label is missing or not text; give the object's name (e.g. label: sofa)")
     if category not in CATEGORIES:
         raise PsdrRoomError(f"{where}.category {category!r} is unknown; use one of {', '.join(CATEGORIES)}")
-    if (not isinstance(box, list) or len(box) != 4
-            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in box)):
+    if (
+        not isinstance(box, list)
+        or len(box) != 4
+        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in box)
+    ):
         raise PsdrRoomError(f"{where}.box {box!r} is not four numbers; write it as [x0, y0, x1, y1] in photo pixels")
     x0, y0, x1, y1 = map(float, box)
     if not (x1 > x0 and y1 > y0):
-        raise PsdrRoomError(f"{where}.box {box} is inverted or empty; write it as [x0, y0, x1, y1] "
-                            "with x1 > x0 and y1 > y0")
+        raise PsdrRoomError(
+            f"{where}.box {box} is inverted or empty; write it as [x0, y0, x1, y1] with x1 > x0 and y1 > y0"
+        )
     width, height = size
     if x0 < 0 or y0 < 0 or x1 > width or y1 > height:
-        raise PsdrRoomError(f"{where}.box {box} is outside the {width}x{height} photo; give it in pixels "
-                            "of the photo as displayed (after EXIF rotation), within 0..width and 0..height")
+        raise PsdrRoomError(
+            f"{where}.box {box} is outside the {width}x{height} photo; give it in pixels "
+            "of the photo as displayed (after EXIF rotation), within 0..width and 0..height"
+        )
     return Detection(label=label.strip(), category=category, box=(x0, y0, x1, y1))
 
 
@@ -65,8 +72,9 @@ def read_boxes(path: Path, size: tuple[int, int]) -> list[Detection]:
     try:
         data = yaml.safe_load(path.read_text())
     except FileNotFoundError:
-        raise PsdrRoomError(f"{path}: no such boxes file; write one ({EXAMPLE}) "
-                            "or fix detector.boxes_file.path") from None
+        raise PsdrRoomError(
+            f"{path}: no such boxes file; write one ({EXAMPLE}) or fix detector.boxes_file.path"
+        ) from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}" if mark is not None else ""
@@ -86,8 +94,9 @@ def check_boxes(path: Path, data: Any, size: tuple[int, int]) -> list[Detection]
 def write_boxes(path: Path, boxes: list[Detection], size: tuple[int, int]) -> None:
     """Write ``boxes`` (in photo pixels) as the boxes file ``path`` after checking them as :func:`read_boxes` will
     (a wrong box raises and writes nothing); the file appears whole or not at all."""
-    data = {"boxes": [{"label": d.label, "category": d.category, "box": [round(float(v), 1) for v in d.box]}
-                      for d in boxes]}
+    data = {
+        "boxes": [{"label": d.label, "category": d.category, "box": [round(float(v), 1) for v in d.box]} for d in boxes]
+    }
     check_boxes(path, data, size)
     write_whole(path, yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
 
@@ -122,6 +131,8 @@ class BoxesFile:
     def detect(self, image: Image, photo: Path) -> Detections:
         file = self._file(photo)
         sx, sy = photo_scale(image)
-        items = [Detection(label=d.label, category=d.category, score=d.score, box=scaled(d.box, sx, sy))
-                 for d in read_boxes(file, image.photo_size)]
+        items = [
+            Detection(label=d.label, category=d.category, score=d.score, box=scaled(d.box, sx, sy))
+            for d in read_boxes(file, image.photo_size)
+        ]
         return Detections(items=items, source=str(file))

@@ -58,8 +58,11 @@ def to_input(rgb: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     """The NCHW float32 input for an HxWx3 sRGB image in [0, 1], stretched to ``size`` (height, width)."""
     height, width = size
     downscale = height <= rgb.shape[0] and width <= rgb.shape[1]
-    resized = cv2.resize(np.ascontiguousarray(rgb, np.float32), (width, height),
-                         interpolation=cv2.INTER_AREA if downscale else cv2.INTER_LINEAR)
+    resized = cv2.resize(
+        np.ascontiguousarray(rgb, np.float32),
+        (width, height),
+        interpolation=cv2.INTER_AREA if downscale else cv2.INTER_LINEAR,
+    )
     bgr = np.clip(resized, 0.0, 1.0)[..., ::-1] * 255.0
     return np.ascontiguousarray(((bgr - MEAN_BGR) / STD_BGR).transpose(2, 0, 1)[None], dtype=np.float32)
 
@@ -85,8 +88,9 @@ def nms(boxes: np.ndarray, scores: np.ndarray, iou_threshold: float) -> np.ndarr
     return np.asarray(keep, np.int64)
 
 
-def decode(outputs: dict[str, np.ndarray], levels: Sequence[Level], class_ids: Sequence[int],
-           score_threshold: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def decode(
+    outputs: dict[str, np.ndarray], levels: Sequence[Level], class_ids: Sequence[int], score_threshold: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every (cell, kept class) pair scoring at least ``score_threshold``: (boxes [N,4] in input pixels, scores
     [N], COCO class indices [N]), before suppression."""
     class_ids = np.asarray(class_ids, np.int64)
@@ -100,15 +104,17 @@ def decode(outputs: dict[str, np.ndarray], levels: Sequence[Level], class_ids: S
         distances = (weights / weights.sum(axis=-1, keepdims=True)) @ np.arange(logits.shape[-1]) * level.stride
         cx = (cells % level.grid[1] + 0.5) * level.stride
         cy = (cells // level.grid[1] + 0.5) * level.stride
-        boxes.append(np.stack([cx - distances[:, 0], cy - distances[:, 1],
-                               cx + distances[:, 2], cy + distances[:, 3]], axis=1))
+        boxes.append(
+            np.stack([cx - distances[:, 0], cy - distances[:, 1], cx + distances[:, 2], cy + distances[:, 3]], axis=1)
+        )
         scores.append(probabilities[cells, k].astype(np.float64))
         classes.append(class_ids[k])
     return np.concatenate(boxes), np.concatenate(scores), np.concatenate(classes)
 
 
-def suppress(boxes: np.ndarray, scores: np.ndarray, classes: np.ndarray,
-             nms_iou: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def suppress(
+    boxes: np.ndarray, scores: np.ndarray, classes: np.ndarray, nms_iou: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The boxes class-wise non-maximum suppression keeps, best first."""
     per_class = [np.flatnonzero(classes == c) for c in np.unique(classes)]
     keep = np.concatenate([i[nms(boxes[i], scores[i], nms_iou)] for i in per_class] or [np.zeros(0, np.int64)])
@@ -124,22 +130,36 @@ def class_indices(classes: Sequence[str] | None) -> list[int]:
         if name not in COCO_80:
             close = difflib.get_close_matches(str(name), COCO_80, n=1)
             hint = f" (did you mean '{close[0]}'?)" if close else ""
-            raise PsdrRoomError(f"detector.nanodet_onnx.classes: '{name}' is not a COCO class{hint}; use names "
-                                "from psdr_room_plugins.detectors.coco.COCO_80, or null for all 80")
+            raise PsdrRoomError(
+                f"detector.nanodet_onnx.classes: '{name}' is not a COCO class{hint}; use names "
+                "from psdr_room_plugins.detectors.coco.COCO_80, or null for all 80"
+            )
     return [COCO_80.index(name) for name in classes]
 
 
 class NanodetOnnx:
     """COCO object boxes from a NanoDet ONNX export (the bundled NanoDet-g 416 unless ``path`` is set)."""
 
-    def __init__(self, path: str | None = None, score_threshold: float = 0.15, nms_iou: float = 0.5,
-                 max_detections: int = 100, classes: Sequence[str] | None = INDOOR, flip: bool = True,
-                 intra_op_threads: int = 0, providers: Sequence[str] = ("CPUExecutionProvider",)) -> None:
+    def __init__(
+        self,
+        path: str | None = None,
+        score_threshold: float = 0.15,
+        nms_iou: float = 0.5,
+        max_detections: int = 100,
+        classes: Sequence[str] | None = INDOOR,
+        flip: bool = True,
+        intra_op_threads: int = 0,
+        providers: Sequence[str] = ("CPUExecutionProvider",),
+    ) -> None:
         file = Path(path).expanduser() if path else BUNDLED
-        fix = ("check detector.nanodet_onnx.path names a NanoDet export" if path
-               else "reinstall psdr-room (the bundled model is missing or damaged) or set detector.nanodet_onnx.path")
-        self.network = OnnxNetwork(ModelFile(path=file, family="nanodet", name=file.stem, fix=fix),
-                                   intra_op_threads, providers)
+        fix = (
+            "check detector.nanodet_onnx.path names a NanoDet export"
+            if path
+            else "reinstall psdr-room (the bundled model is missing or damaged) or set detector.nanodet_onnx.path"
+        )
+        self.network = OnnxNetwork(
+            ModelFile(path=file, family="nanodet", name=file.stem, fix=fix), intra_op_threads, providers
+        )
         self.score_threshold = float(score_threshold)
         self.nms_iou = float(nms_iou)
         self.max_detections = int(max_detections)
@@ -152,8 +172,10 @@ class NanodetOnnx:
 
     def _signature_error(self, detail: str) -> PsdrRoomError:
         net = self.network
-        return net.error(f"not a NanoDet-style detector ({detail}; it has inputs {', '.join(map(str, net.inputs))} "
-                         f"and outputs {', '.join(map(str, net.outputs))}); {net.model.fix}")
+        return net.error(
+            f"not a NanoDet-style detector ({detail}; it has inputs {', '.join(map(str, net.inputs))} "
+            f"and outputs {', '.join(map(str, net.outputs))}); {net.model.fix}"
+        )
 
     @functools.cached_property
     def layout(self) -> tuple[tuple[int, int], list[Level]]:
@@ -165,15 +187,19 @@ class NanodetOnnx:
             raise self._signature_error("expected one image input [1,3,H,W] of fixed size")
         height, width = inputs[0].shape[2:]
         scores = {p.shape[1]: p.name for p in outputs if p.rank == 3 and p.shape[2] == len(COCO_80)}
-        distances = {p.shape[1]: p.name for p in outputs
-                     if p.rank == 3 and p.shape[2] and p.shape[2] != len(COCO_80) and p.shape[2] % 4 == 0}
+        distances = {
+            p.shape[1]: p.name
+            for p in outputs
+            if p.rank == 3 and p.shape[2] and p.shape[2] != len(COCO_80) and p.shape[2] % 4 == 0
+        }
         levels = []
         for stride in STRIDES:
             grid = (math.ceil(height / stride), math.ceil(width / stride))
             cells = grid[0] * grid[1]
             if cells not in scores or cells not in distances:
-                raise self._signature_error(f"expected class scores [1,{cells},80] and box distributions "
-                                            f"[1,{cells},4n] for stride {stride}")
+                raise self._signature_error(
+                    f"expected class scores [1,{cells},80] and box distributions [1,{cells},4n] for stride {stride}"
+                )
             levels.append(Level(stride, scores[cells], distances[cells], grid))
         return (height, width), levels
 
@@ -189,17 +215,32 @@ class NanodetOnnx:
 
     def detect(self, image: Image, photo: Path) -> Detections:
         (height, width), levels = self.layout
-        found = [decode(self.network.run(to_input(image.rgb, (height, width))), levels, self.class_ids,
-                        self.score_threshold)]
+        found = [
+            decode(self.network.run(to_input(image.rgb, (height, width))), levels, self.class_ids, self.score_threshold)
+        ]
         if self.flip:  # test-time augmentation: the mirrored photo's boxes, mirrored back
-            boxes, scores, classes = decode(self.network.run(to_input(image.rgb[:, ::-1], (height, width))), levels,
-                                            self.class_ids, self.score_threshold)
-            found.append((np.stack([width - boxes[:, 2], boxes[:, 1], width - boxes[:, 0], boxes[:, 3]], axis=1)
-                          if len(boxes) else boxes, scores, classes))
+            boxes, scores, classes = decode(
+                self.network.run(to_input(image.rgb[:, ::-1], (height, width))),
+                levels,
+                self.class_ids,
+                self.score_threshold,
+            )
+            found.append(
+                (
+                    np.stack([width - boxes[:, 2], boxes[:, 1], width - boxes[:, 0], boxes[:, 3]], axis=1)
+                    if len(boxes)
+                    else boxes,
+                    scores,
+                    classes,
+                )
+            )
         boxes, scores, classes = suppress(*(np.concatenate(parts) for parts in zip(*found)), self.nms_iou)
         scale = np.array([image.width / width, image.height / height] * 2)
         limit = np.array([image.width, image.height] * 2, np.float64)
         boxes = np.clip(boxes * scale, 0.0, limit)
-        items = [Detection(label=COCO_80[c], category="object", box=tuple(map(float, b)), score=float(s))
-                 for b, s, c in zip(boxes, scores, classes) if b[2] > b[0] and b[3] > b[1]]
-        return Detections(items=items[:self.max_detections], source=f"nanodet_onnx ({self.path.name})")
+        items = [
+            Detection(label=COCO_80[c], category="object", box=tuple(map(float, b)), score=float(s))
+            for b, s, c in zip(boxes, scores, classes)
+            if b[2] > b[0] and b[3] > b[1]
+        ]
+        return Detections(items=items[: self.max_detections], source=f"nanodet_onnx ({self.path.name})")

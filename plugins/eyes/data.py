@@ -39,7 +39,7 @@ class Pack:
 
     def photo(self, index: int) -> np.ndarray:
         """Sample ``index``'s photo, RGB uint8 [240, 320, 3]."""
-        data = self.jpeg[self.offsets[index]:self.offsets[index + 1]]
+        data = self.jpeg[self.offsets[index] : self.offsets[index + 1]]
         return cv2.imdecode(data, cv2.IMREAD_COLOR)[..., ::-1]
 
     def split(self, validation: float) -> tuple[np.ndarray, np.ndarray]:
@@ -70,7 +70,9 @@ def _quarter(array: np.ndarray) -> np.ndarray:
 
 def build_pack(folder: Path, path: Path, quality: int = 85, limit: int | None = None) -> Pack:
     """Pack every complete sample of ``folder`` (at most ``limit``, lowest seeds first) into ``path``."""
-    seeds = sorted(int(p.stem) for p in folder.glob("*.npz") if p.stem.isdigit() and (folder / f"{p.stem}.jpg").is_file())
+    seeds = sorted(
+        int(p.stem) for p in folder.glob("*.npz") if p.stem.isdigit() and (folder / f"{p.stem}.jpg").is_file()
+    )
     seeds = seeds[:limit] if limit else seeds
     chunks, offsets, labels = [], [0], {k: [] for k in ("surface", "category", "instance", "depth")}
     for seed in seeds:
@@ -81,9 +83,13 @@ def build_pack(folder: Path, path: Path, quality: int = 85, limit: int | None = 
         with np.load(folder / f"{seed:06d}.npz") as data:
             for key in labels:
                 labels[key].append(_quarter(data[key]))
-    pack = Pack(np.array(seeds, np.int64), np.concatenate(chunks) if chunks else np.zeros(0, np.uint8),
-                np.array(offsets, np.int64), *(np.stack(labels[k]) for k in ("surface", "category", "instance")),
-                np.stack(labels["depth"]).astype(np.float16))
+    pack = Pack(
+        np.array(seeds, np.int64),
+        np.concatenate(chunks) if chunks else np.zeros(0, np.uint8),
+        np.array(offsets, np.int64),
+        *(np.stack(labels[k]) for k in ("surface", "category", "instance")),
+        np.stack(labels["depth"]).astype(np.float16),
+    )
     pack.save(path)
     return pack
 
@@ -121,7 +127,7 @@ def centre_targets(instance: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nda
         mask = instance == value
         cy, cx = float(ys[mask].mean()), float(xs[mask].mean())
         sigma = max(0.8, float(np.sqrt(mask.sum())) / 6.0)
-        heat = np.maximum(heat, np.exp(-((xs - cx) ** 2 + (ys - cy) ** 2) / (2 * sigma ** 2)))
+        heat = np.maximum(heat, np.exp(-((xs - cx) ** 2 + (ys - cy) ** 2) / (2 * sigma**2)))
         heat[min(int(round(cy)), h - 1), min(int(round(cx)), w - 1)] = 1.0  # the focal loss's positive
         offset[0][mask], offset[1][mask] = cx - xs[mask], cy - ys[mask]
         weight[mask] = 1.0
@@ -139,17 +145,27 @@ def example(pack: Pack, index: int, rng: np.random.Generator | None) -> dict[str
         lh, lw = int(round(LABEL_SIZE[0] / zoom)), int(round(LABEL_SIZE[1] / zoom))
         y0, x0 = int(rng.integers(0, LABEL_SIZE[0] - lh + 1)), int(rng.integers(0, LABEL_SIZE[1] - lw + 1))
         crop = (slice(y0, y0 + lh), slice(x0, x0 + lw))
-        image = cv2.resize(image[y0 * STRIDE:(y0 + lh) * STRIDE, x0 * STRIDE:(x0 + lw) * STRIDE],
-                           INPUT_SIZE[::-1], interpolation=cv2.INTER_LINEAR)
+        image = cv2.resize(
+            image[y0 * STRIDE : (y0 + lh) * STRIDE, x0 * STRIDE : (x0 + lw) * STRIDE],
+            INPUT_SIZE[::-1],
+            interpolation=cv2.INTER_LINEAR,
+        )
         rows = (np.arange(LABEL_SIZE[0]) * lh // LABEL_SIZE[0])[:, None]
         cols = (np.arange(LABEL_SIZE[1]) * lw // LABEL_SIZE[1])[None, :]
         surface, category, instance, depth = (a[crop][rows, cols] for a in (surface, category, instance, depth))
         if rng.random() < 0.5:
-            image, surface, category, instance, depth = (np.ascontiguousarray(a[:, ::-1]) for a in
-                                                         (image, surface, category, instance, depth))
+            image, surface, category, instance, depth = (
+                np.ascontiguousarray(a[:, ::-1]) for a in (image, surface, category, instance, depth)
+            )
         image = augment_photo(image, rng)
     heat, offset, weight = centre_targets(instance)
     category = np.where((surface == OBJECT) & (category > 0), category - 1, IGNORE)
-    return {"image": np.ascontiguousarray(image.transpose(2, 0, 1)), "surface": surface,
-            "category": category, "center": heat[None], "offset": offset, "offset_weight": weight[None],
-            "depth": depth[None]}
+    return {
+        "image": np.ascontiguousarray(image.transpose(2, 0, 1)),
+        "surface": surface,
+        "category": category,
+        "center": heat[None],
+        "offset": offset,
+        "offset_weight": weight[None],
+        "depth": depth[None],
+    }

@@ -25,8 +25,15 @@ def softmax(logits: np.ndarray, axis: int = 0) -> np.ndarray:
     return shifted / shifted.sum(axis=axis, keepdims=True)
 
 
-def instances(surface: np.ndarray, category: np.ndarray, center: np.ndarray, offset: np.ndarray,
-              threshold: float = 0.3, min_pixels: int = 6, reach: float = 6.0) -> list[Instance]:
+def instances(
+    surface: np.ndarray,
+    category: np.ndarray,
+    center: np.ndarray,
+    offset: np.ndarray,
+    threshold: float = 0.3,
+    min_pixels: int = 6,
+    reach: float = 6.0,
+) -> list[Instance]:
     """Furniture instances of one image's outputs ([C, h, w] each, no batch): centres are the heatmap's local
     maxima above ``threshold``; each object pixel joins the centre nearest to where its offset points, if that
     is within ``reach`` output pixels (else it joins none); an instance's category is the one its pixels give
@@ -40,7 +47,7 @@ def instances(surface: np.ndarray, category: np.ndarray, center: np.ndarray, off
     ys, xs = np.nonzero(objects)
     ty, tx = ys + offset[1, ys, xs], xs + offset[0, ys, xs]
     distance = (ty[:, None] - cy[None, :]) ** 2 + (tx[:, None] - cx[None, :]) ** 2
-    owner = np.where(distance.min(axis=1) <= reach ** 2, distance.argmin(axis=1), -1)
+    owner = np.where(distance.min(axis=1) <= reach**2, distance.argmin(axis=1), -1)
     probabilities = softmax(category)
     found = []
     for k in range(len(cy)):

@@ -115,12 +115,20 @@ class OnnxEncoder(nn.Module):
         values: dict[str, torch.Tensor] = {self.input: x}
         resized_from: dict[str, torch.Tensor] = {}
         for op, inputs, output, attrs in self.nodes:
-            args = [values[n] if n in values else self.params[self.names[n]] if n in self.names else None
-                    for n in inputs]
+            args = [
+                values[n] if n in values else self.params[self.names[n]] if n in self.names else None for n in inputs
+            ]
             if op == "Conv":
                 pads = attrs.get("pads", [0, 0, 0, 0])
-                out = F.conv2d(args[0], args[1], args[2] if len(args) > 2 else None, tuple(attrs.get("strides", (1, 1))),
-                               (pads[0], pads[1]), tuple(attrs.get("dilations", (1, 1))), attrs.get("group", 1))
+                out = F.conv2d(
+                    args[0],
+                    args[1],
+                    args[2] if len(args) > 2 else None,
+                    tuple(attrs.get("strides", (1, 1))),
+                    (pads[0], pads[1]),
+                    tuple(attrs.get("dilations", (1, 1))),
+                    attrs.get("group", 1),
+                )
             elif op == "Pad":
                 pads = attrs[f"const:{inputs[1]}"].tolist()
                 half = len(pads) // 2  # ONNX: all begins, then all ends; torch: last axis first, (begin, end)
@@ -135,9 +143,13 @@ class OnnxEncoder(nn.Module):
                 a, b = args
                 if a.shape[-2:] != b.shape[-2:]:  # a ×2 / ×0.5 resize of a map that is not a multiple of 32
                     if inputs[0] in resized_from:
-                        a = F.interpolate(resized_from[inputs[0]], size=b.shape[-2:], mode="bilinear", align_corners=False)
+                        a = F.interpolate(
+                            resized_from[inputs[0]], size=b.shape[-2:], mode="bilinear", align_corners=False
+                        )
                     else:
-                        b = F.interpolate(resized_from[inputs[1]], size=a.shape[-2:], mode="bilinear", align_corners=False)
+                        b = F.interpolate(
+                            resized_from[inputs[1]], size=a.shape[-2:], mode="bilinear", align_corners=False
+                        )
                 out = a + b
             elif op == "Resize":
                 scales = attrs[f"const:{inputs[2]}"]
@@ -145,8 +157,12 @@ class OnnxEncoder(nn.Module):
                 resized_from[output] = args[0]
                 out = F.interpolate(args[0], size=size, mode="bilinear", align_corners=False)
             elif op == "MaxPool":
-                out = F.max_pool2d(args[0], tuple(attrs["kernel_shape"]), tuple(attrs["strides"]),
-                                   tuple(attrs.get("pads", [0, 0, 0, 0])[:2]))
+                out = F.max_pool2d(
+                    args[0],
+                    tuple(attrs["kernel_shape"]),
+                    tuple(attrs["strides"]),
+                    tuple(attrs.get("pads", [0, 0, 0, 0])[:2]),
+                )
             else:
                 raise NotImplementedError(f"ONNX operator {op} is not read by the eyes encoder")
             values[output] = out

@@ -33,7 +33,9 @@ INPUT_SIZE = (240, 320)
 
 
 def _block(channels_in: int, channels_out: int) -> nn.Sequential:
-    return nn.Sequential(nn.Conv2d(channels_in, WIDTH, 3, padding=1), nn.LeakyReLU(0.1), nn.Conv2d(WIDTH, channels_out, 1))
+    return nn.Sequential(
+        nn.Conv2d(channels_in, WIDTH, 3, padding=1), nn.LeakyReLU(0.1), nn.Conv2d(WIDTH, channels_out, 1)
+    )
 
 
 class EyesNet(nn.Module):
@@ -56,8 +58,9 @@ class EyesNet(nn.Module):
         for name in ("p4", "p5"):
             f8 = f8 + F.interpolate(self.lateral[name](maps[name]), size=size8, mode="bilinear", align_corners=False)
         f8 = self.smooth8(f8)
-        f4 = self.lateral["c2"](maps["c2"]) + F.interpolate(f8, size=maps["c2"].shape[-2:], mode="bilinear",
-                                                            align_corners=False)
+        f4 = self.lateral["c2"](maps["c2"]) + F.interpolate(
+            f8, size=maps["c2"].shape[-2:], mode="bilinear", align_corners=False
+        )
         return self.smooth4(f4)
 
     def forward(self, rgb: torch.Tensor) -> dict[str, torch.Tensor]:
@@ -96,8 +99,15 @@ def export_onnx(net: EyesNet, path: Path, half: bool = False) -> Path:
     partial = path.with_suffix(".part.onnx")
     with torch.no_grad(), warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the tracer's notes on shapes taken as constants: the input size is fixed
-        torch.onnx.export(_Exported(net), (torch.zeros(1, 3, *INPUT_SIZE),), str(partial), input_names=["image"],
-                          output_names=list(OUTPUTS), opset_version=17, dynamo=False)
+        torch.onnx.export(
+            _Exported(net),
+            (torch.zeros(1, 3, *INPUT_SIZE),),
+            str(partial),
+            input_names=["image"],
+            output_names=list(OUTPUTS),
+            opset_version=17,
+            dynamo=False,
+        )
     model = onnx.load(str(partial))
     if half:
         model = _half_weights(model)

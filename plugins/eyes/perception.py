@@ -53,8 +53,9 @@ def _session(path: str, threads: int, digest: str) -> object:
     try:
         return ort.InferenceSession(path, options, providers=["CPUExecutionProvider"])
     except Exception:  # onnxruntime raises its own types for damaged files
-        raise PsdrRoomError(f"{path}: not a loadable ONNX network; train or copy it again (psdr-room-train "
-                            "writes eyes.onnx)") from None
+        raise PsdrRoomError(
+            f"{path}: not a loadable ONNX network; train or copy it again (psdr-room-train writes eyes.onnx)"
+        ) from None
 
 
 _RECENT: dict[tuple[str, bytes], dict[str, np.ndarray]] = {}
@@ -64,8 +65,13 @@ _RECENT: dict[tuple[str, bytes], dict[str, np.ndarray]] = {}
 class Eyes:
     """The shipped (or another trained) eyes network on one photo's working image."""
 
-    def __init__(self, path: str | None = None, intra_op_threads: int = 0, center_threshold: float = 0.3,
-                 min_instance_fraction: float = 0.002) -> None:
+    def __init__(
+        self,
+        path: str | None = None,
+        intra_op_threads: int = 0,
+        center_threshold: float = 0.3,
+        min_instance_fraction: float = 0.002,
+    ) -> None:
         self.path = Path(path) if path else SHIPPED
         self.threads = int(intra_op_threads)
         self.center_threshold = float(center_threshold)
@@ -106,11 +112,14 @@ class Eyes:
     # -- what the outputs say ------------------------------------------------------------------------------
     def surfaces(self, image: Image, out: dict[str, np.ndarray]) -> np.ndarray:
         """Surface class per working-image pixel (:data:`.labels.SURFACES`)."""
-        logits = np.stack([cv2.resize(c, (image.width, image.height), interpolation=cv2.INTER_LINEAR)
-                           for c in out["surface"]])
+        logits = np.stack(
+            [cv2.resize(c, (image.width, image.height), interpolation=cv2.INTER_LINEAR) for c in out["surface"]]
+        )
         return logits.argmax(axis=0)
 
-    def objects(self, image: Image, out: dict[str, np.ndarray], surface: np.ndarray) -> list[tuple[np.ndarray, str, float]]:
+    def objects(
+        self, image: Image, out: dict[str, np.ndarray], surface: np.ndarray
+    ) -> list[tuple[np.ndarray, str, float]]:
         """(mask, category name, score) of each piece of furniture found, at working resolution."""
         found = instances(out["surface"], out["category"], out["center"], out["offset"], self.center_threshold)
         if not found:
@@ -174,8 +183,9 @@ class EyesDepth(Eyes):
     """Relative depth by the eyes network, normalised to a unit range (``metric=False``) as the paper's."""
 
     def estimate(self, image: Image, camera: Camera, panoptic: Panoptic, photo: Path) -> DepthMap:
-        log_depth = cv2.resize(self.outputs(image)["depth"][0], (image.width, image.height),
-                               interpolation=cv2.INTER_LINEAR)
+        log_depth = cv2.resize(
+            self.outputs(image)["depth"][0], (image.width, image.height), interpolation=cv2.INTER_LINEAR
+        )
         depth = np.exp(log_depth - log_depth.max()).astype(np.float32)
         return DepthMap(depth=depth, valid=np.isfinite(depth) & (depth > 0), metric=False, source=self.describe())
 

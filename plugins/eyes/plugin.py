@@ -25,15 +25,20 @@ def _factory(kind: str):  # type: ignore[no-untyped-def]
 
         return getattr(perception, kind)(**params)
 
-    make.__doc__ = {"EyesSegmentation": "walls, floor, ceiling, windows, doors and furniture instances from "
-                                        "psdr-room's own network (trained on its renders)",
-                    "EyesDepth": "relative depth from psdr-room's own network (trained on its renders)",
-                    "EyesDetector": "furniture boxes from psdr-room's own network (trained on its renders)"}[kind]
+    make.__doc__ = {
+        "EyesSegmentation": "walls, floor, ceiling, windows, doors and furniture instances from "
+        "psdr-room's own network (trained on its renders)",
+        "EyesDepth": "relative depth from psdr-room's own network (trained on its renders)",
+        "EyesDetector": "furniture boxes from psdr-room's own network (trained on its renders)",
+    }[kind]
     return make
 
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    for capability, kind in (("segmentation", "EyesSegmentation"), ("depth", "EyesDepth"),
-                             ("detector", "EyesDetector")):
+    for capability, kind in (
+        ("segmentation", "EyesSegmentation"),
+        ("depth", "EyesDepth"),
+        ("detector", "EyesDetector"),
+    ):
         registry.add_implementation(capability, "eyes", _factory(kind), params=EyesSettings)

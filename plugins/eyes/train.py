@@ -39,11 +39,12 @@ def losses(out: dict, batch: dict) -> dict:
 
     terms = {"surface": F.cross_entropy(out["surface"], batch["surface"])}
     labelled = (batch["category"] != IGNORE).sum()
-    terms["category"] = (F.cross_entropy(out["category"], batch["category"], ignore_index=IGNORE, reduction="sum")
-                         / labelled.clamp(min=1))
+    terms["category"] = F.cross_entropy(
+        out["category"], batch["category"], ignore_index=IGNORE, reduction="sum"
+    ) / labelled.clamp(min=1)
     p, gt = out["center"].clamp(1e-4, 1 - 1e-4), batch["center"]  # CenterNet's penalty-reduced focal loss
     positive = gt.eq(1.0).float()
-    focal = -(positive * (1 - p) ** 2 * torch.log(p) + (1 - positive) * (1 - gt) ** 4 * p ** 2 * torch.log(1 - p))
+    focal = -(positive * (1 - p) ** 2 * torch.log(p) + (1 - positive) * (1 - gt) ** 4 * p**2 * torch.log(1 - p))
     terms["center"] = focal.sum() / positive.sum().clamp(min=1)
     weight = batch["offset_weight"]
     terms["offset"] = ((out["offset"] - batch["offset"]).abs() * weight).sum() / (2 * weight.sum()).clamp(min=1)
@@ -51,8 +52,8 @@ def losses(out: dict, batch: dict) -> dict:
     difference = torch.where(valid, out["depth"] - torch.log(batch["depth"].clamp(min=1e-3)), 0.0)
     count = valid.flatten(1).sum(1).clamp(min=1)
     mean = difference.flatten(1).sum(1) / count
-    squared = (difference ** 2).flatten(1).sum(1) / count
-    terms["depth"] = (squared - 0.85 * mean ** 2).clamp(min=0).sqrt().mean()  # scale-invariant log error
+    squared = (difference**2).flatten(1).sum(1) / count
+    terms["depth"] = (squared - 0.85 * mean**2).clamp(min=0).sqrt().mean()  # scale-invariant log error
     return terms
 
 
@@ -70,7 +71,7 @@ def validate(net, pack, indices: Sequence[int], device: str, batch_size: int) ->
     absrel, delta = [], []
     with torch.no_grad():
         for start in range(0, len(indices), batch_size):
-            items = [example(pack, int(i), None) for i in indices[start:start + batch_size]]
+            items = [example(pack, int(i), None) for i in indices[start : start + batch_size]]
             images = torch.from_numpy(np.stack([it["image"] for it in items])).to(device).float() / 255.0
             out = {k: v.float().cpu().numpy() for k, v in net(images).items()}
             for b, item in enumerate(items):
@@ -78,7 +79,9 @@ def validate(net, pack, indices: Sequence[int], device: str, batch_size: int) ->
                 counts["surface"][0] += int((surface == item["surface"]).sum())
                 counts["surface"][1] += surface.size
                 labelled = item["category"] >= 0
-                counts["category"][0] += int((out["category"][b].argmax(0)[labelled] == item["category"][labelled]).sum())
+                counts["category"][0] += int(
+                    (out["category"][b].argmax(0)[labelled] == item["category"][labelled]).sum()
+                )
                 counts["category"][1] += int(labelled.sum())
                 reference = item["depth"][0]
                 if (reference > 0).any():
@@ -95,11 +98,13 @@ def validate(net, pack, indices: Sequence[int], device: str, batch_size: int) ->
                     counts["recall"][1] += 1
                     counts["recall"][0] += any((m.mask & mask).sum() / (m.mask | mask).sum() >= 0.5 for m in found)
     net.train()
-    return {"surface_accuracy": counts["surface"][0] / max(counts["surface"][1], 1),
-            "category_accuracy": counts["category"][0] / max(counts["category"][1], 1),
-            "instance_recall": counts["recall"][0] / max(counts["recall"][1], 1),
-            "depth_absrel": float(np.mean(absrel)) if absrel else float("nan"),
-            "depth_delta1": float(np.mean(delta)) if delta else float("nan")}
+    return {
+        "surface_accuracy": counts["surface"][0] / max(counts["surface"][1], 1),
+        "category_accuracy": counts["category"][0] / max(counts["category"][1], 1),
+        "instance_recall": counts["recall"][0] / max(counts["recall"][1], 1),
+        "depth_absrel": float(np.mean(absrel)) if absrel else float("nan"),
+        "depth_delta1": float(np.mean(delta)) if delta else float("nan"),
+    }
 
 
 _PACK = None
@@ -123,7 +128,10 @@ def _batches(indices: np.ndarray, batch_size: int, seed: int, epoch: int, pool=N
     rng = np.random.default_rng([seed, epoch])
     order = rng.permutation(indices)
     seeds = rng.integers(0, 2**31, len(order))
-    groups = [(order[k:k + batch_size], seeds[k:k + batch_size]) for k in range(0, len(order) - batch_size + 1, batch_size)]
+    groups = [
+        (order[k : k + batch_size], seeds[k : k + batch_size])
+        for k in range(0, len(order) - batch_size + 1, batch_size)
+    ]
     yield from (pool.map(_make_batch, groups) if pool is not None else map(_make_batch, groups))
 
 
@@ -144,8 +152,13 @@ def _commit() -> str:
     if os.environ.get("PSDR_ROOM_COMMIT"):
         return os.environ["PSDR_ROOM_COMMIT"]
     try:
-        return subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=True,
-                              cwd=Path(__file__).resolve().parent).stdout.strip()
+        return subprocess.run(
+            ["git", "rev-parse", "HEAD"],
+            capture_output=True,
+            text=True,
+            check=True,
+            cwd=Path(__file__).resolve().parent,
+        ).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
         return "unknown"
 
@@ -185,8 +198,10 @@ def train(args: argparse.Namespace) -> dict:
     net = EyesNet().to(device)
     for key in net.encoder.frozen(args.freeze):
         net.encoder.params[key].requires_grad_(False)
-    groups = [{"params": [p for p in net.encoder_parameters() if p.requires_grad], "lr": args.lr_encoder},
-              {"params": net.head_parameters(), "lr": args.lr_head}]
+    groups = [
+        {"params": [p for p in net.encoder_parameters() if p.requires_grad], "lr": args.lr_encoder},
+        {"params": net.head_parameters(), "lr": args.lr_head},
+    ]
     optimiser = torch.optim.AdamW([g for g in groups if g["params"]], weight_decay=1e-4)
     steps_per_epoch = max(1, len(training) // args.batch)
     total = args.epochs * steps_per_epoch if not args.steps else args.steps
@@ -200,8 +215,11 @@ def train(args: argparse.Namespace) -> dict:
         optimiser.load_state_dict(state["optimiser"])
         epoch, step, history = state["epoch"], state["step"], state["history"]
         print(f"psdr-room-train: resuming {checkpoint} at epoch {epoch}, step {step}", flush=True)
-    print(f"psdr-room-train: {len(training)} training and {len(held)} held-out samples, batch {args.batch}, "
-          f"{total} steps on {device}, encoder frozen: {args.freeze}", flush=True)
+    print(
+        f"psdr-room-train: {len(training)} training and {len(held)} held-out samples, batch {args.batch}, "
+        f"{total} steps on {device}, encoder frozen: {args.freeze}",
+        flush=True,
+    )
     net.train()
     pool = _workers(pack, args.workers)
     first = step
@@ -236,23 +254,49 @@ def train(args: argparse.Namespace) -> dict:
         if epoch % args.validate_every and step < total:
             continue
         scores = validate(net, pack, held, device, args.batch)
-        history.append({"epoch": epoch, "step": step, "seconds": time.monotonic() - began,
-                        **{k: v / max(count, 1) for k, v in sums.items()}, **scores})
-        print("psdr-room-train: " + " ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
-                                             for k, v in history[-1].items()), flush=True)
+        history.append(
+            {
+                "epoch": epoch,
+                "step": step,
+                "seconds": time.monotonic() - began,
+                **{k: v / max(count, 1) for k, v in sums.items()},
+                **scores,
+            }
+        )
+        print(
+            "psdr-room-train: "
+            + " ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in history[-1].items()),
+            flush=True,
+        )
         partial = checkpoint.with_suffix(".part")
-        torch.save({"net": net.state_dict(), "optimiser": optimiser.state_dict(), "epoch": epoch, "step": step,
-                    "history": history}, partial)
+        torch.save(
+            {
+                "net": net.state_dict(),
+                "optimiser": optimiser.state_dict(),
+                "epoch": epoch,
+                "step": step,
+                "history": history,
+            },
+            partial,
+        )
         partial.replace(checkpoint)
         plot(history, args.out / "curves.png")
     if pool is not None:
         pool.shutdown(cancel_futures=True)
     onnx_path = export_onnx(net.cpu(), args.out / "eyes.onnx", half=True)
-    note = {"sha256": hashlib.sha256(onnx_path.read_bytes()).hexdigest(),
-            "command": " ".join(["psdr-room-train", *sys.argv[1:]]),
-            "commit": _commit(), "data_seeds": [int(pack.seeds.min()), int(pack.seeds.max())],
-            "samples": len(pack), "held_out": len(held), "epochs": epoch, "steps": step, "device": device,
-            "freeze": args.freeze, "validation": history[-1] if history else {}}
+    note = {
+        "sha256": hashlib.sha256(onnx_path.read_bytes()).hexdigest(),
+        "command": " ".join(["psdr-room-train", *sys.argv[1:]]),
+        "commit": _commit(),
+        "data_seeds": [int(pack.seeds.min()), int(pack.seeds.max())],
+        "samples": len(pack),
+        "held_out": len(held),
+        "epochs": epoch,
+        "steps": step,
+        "device": device,
+        "freeze": args.freeze,
+        "validation": history[-1] if history else {},
+    }
     (args.out / "eyes.json").write_text(json.dumps(note, indent=2) + "\n")
     print(f"psdr-room-train: wrote {onnx_path} ({onnx_path.stat().st_size / 1e6:.1f} MB)", flush=True)
     return note["validation"]
@@ -267,16 +311,24 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--out", type=Path, required=True, help="run folder: checkpoint, curves, eyes.onnx")
     parser.add_argument("--epochs", type=int, default=12)
     parser.add_argument("--steps", type=int, default=0, help="stop after this many steps (0: the epochs')")
-    parser.add_argument("--minutes", type=float, default=0.0,
-                        help="fewer steps when the epochs' would take longer than this (timed after the warm-up)")
+    parser.add_argument(
+        "--minutes",
+        type=float,
+        default=0.0,
+        help="fewer steps when the epochs' would take longer than this (timed after the warm-up)",
+    )
     parser.add_argument("--batch", type=int, default=8)
     parser.add_argument("--lr-head", type=float, default=1e-3)
     parser.add_argument("--lr-encoder", type=float, default=1e-4)
     parser.add_argument("--warmup", type=int, default=200, help="steps of linear learning-rate warm-up")
     parser.add_argument("--freeze", choices=FREEZE, default="stride8")
     parser.add_argument("--validation", type=float, default=0.05, help="fraction of samples held out")
-    parser.add_argument("--validate-every", type=int, default=1, help="score the held-out samples (and save a "
-                        "checkpoint) every this many epochs, and after the last")
+    parser.add_argument(
+        "--validate-every",
+        type=int,
+        default=1,
+        help="score the held-out samples (and save a checkpoint) every this many epochs, and after the last",
+    )
     parser.add_argument("--limit", type=int, help="pack at most this many samples")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--device", default="auto", help="auto, cpu or cuda")

@@ -29,9 +29,19 @@ def _depth(**params: object) -> object:
 @hookimpl
 def register_implementations(registry: Registry) -> None:
     registry.add_implementation(
-        "segmentation", "layout", _segmentation, version="3", params=LayoutSegmentationSettings,
+        "segmentation",
+        "layout",
+        _segmentation,
+        version="3",
+        params=LayoutSegmentationSettings,
         description="walls/floor/ceiling of a box layout fitted to the photo's lines; objects discovered among "
-                    "detector boxes and what the room cannot explain, cut out by GrabCut")
+        "detector boxes and what the room cannot explain, cut out by GrabCut",
+    )
     registry.add_implementation(
-        "depth", "layout", _depth, version="2", params=LayoutDepthSettings,
-        description="depth of a box room fitted to the segmentation, objects standing on its floor (camera height assumed)")
+        "depth",
+        "layout",
+        _depth,
+        version="2",
+        params=LayoutDepthSettings,
+        description="depth of a box room fitted to the segmentation, objects standing on its floor (camera height assumed)",
+    )

@@ -84,13 +84,19 @@ def label_score(labels: np.ndarray, room: np.ndarray, wall_segment: np.ndarray, 
     return score / n_room
 
 
-def search(score: Callable[[np.ndarray], np.ndarray], search_range: SearchRange, rng: np.random.Generator,
-           n_random: int, n_starts: int, batch: int = 256) -> tuple[np.ndarray, float]:
+def search(
+    score: Callable[[np.ndarray], np.ndarray],
+    search_range: SearchRange,
+    rng: np.random.Generator,
+    n_random: int,
+    n_starts: int,
+    batch: int = 256,
+) -> tuple[np.ndarray, float]:
     """The best hypothesis (5,) and its score: random sampling in log space, then a pattern search
     (coordinate steps halving from 0.3 to 0.005 in log space) from the ``n_starts`` best samples."""
     lo, hi = search_range.bounds()
     samples = rng.uniform(lo, hi, size=(n_random, 5))
-    scores = np.concatenate([score(boxes_from_log(samples[i:i + batch])) for i in range(0, n_random, batch)])
+    scores = np.concatenate([score(boxes_from_log(samples[i : i + batch])) for i in range(0, n_random, batch)])
     best_u, best_s = samples[0], -np.inf
     for start in np.argsort(-scores)[:n_starts]:
         u, s = samples[start].copy(), scores[start]

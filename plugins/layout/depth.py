@@ -15,8 +15,9 @@ from .segmentation import layout_params
 ROOM = ("wall", "floor", "ceiling")
 
 
-def object_depth(mask: np.ndarray, rays: np.ndarray, room_depth: np.ndarray,
-                 box: tuple[float, float, float, float] | None = None) -> np.ndarray:
+def object_depth(
+    mask: np.ndarray, rays: np.ndarray, room_depth: np.ndarray, box: tuple[float, float, float, float] | None = None
+) -> np.ndarray:
     """Z-depth (H, W) of an object's pixels (0 elsewhere) on the vertical plane through its floor contact.
 
     The contact is the lowest mask pixel (median column of the lowest row), or, for a box-prompted segment,
@@ -69,6 +70,10 @@ class LayoutDepth:
                 depth = np.where(mask, placed, depth)
         valid = np.isfinite(depth) & (depth > 0)
         depth = np.where(valid, depth * self.camera_height_m, 0.0).astype(np.float32)
-        return DepthMap(depth=depth, valid=valid, metric=False,
-                        source=f"layout (box {np.round(fitted.box, 2).tolist()} camera heights; "
-                               f"camera {self.camera_height_m} m above the floor assumed)")
+        return DepthMap(
+            depth=depth,
+            valid=valid,
+            metric=False,
+            source=f"layout (box {np.round(fitted.box, 2).tolist()} camera heights; "
+            f"camera {self.camera_height_m} m above the floor assumed)",
+        )

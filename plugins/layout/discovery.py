@@ -73,15 +73,35 @@ class DiscoveryParams:
     a box round a group of them: dropped."""
     min_visible: float = 0.2
     """An object showing less than this share of its mask once nearer objects are painted is dropped."""
-    parts: Mapping[str, Sequence[str]] = field(default_factory=lambda: {
-        "sofa": ("chair", "pillow", "ottoman"), "bed": ("pillow", "sofa", "chair", "table"),
-        "shelf": ("tv", "box", "frame"), "cabinet": ("tv", "appliance", "refrigerator", "box", "frame")})
+    parts: Mapping[str, Sequence[str]] = field(
+        default_factory=lambda: {
+            "sofa": ("chair", "pillow", "ottoman"),
+            "bed": ("pillow", "sofa", "chair", "table"),
+            "shelf": ("tv", "box", "frame"),
+            "cabinet": ("tv", "appliance", "refrigerator", "box", "frame"),
+        }
+    )
     """Database category → categories a detector calls parts of it (a sofa's seat is a "chair")."""
-    heights: Mapping[str, Sequence[float]] = field(default_factory=lambda: {
-        "chair": (0.45, 1.3), "sofa": (0.5, 1.2), "ottoman": (0.25, 0.6), "bed": (0.3, 1.7), "table": (0.35, 1.15),
-        "desk": (0.6, 1.5), "cabinet": (0.3, 2.6), "shelf": (0.5, 2.6), "refrigerator": (0.7, 2.1),
-        "appliance": (0.2, 1.3), "tv": (0.25, 1.8), "lamp": (0.25, 2.1), "plant": (0.2, 2.6), "box": (0.08, 1.2),
-        "pillow": (0.2, 0.7), "object": (0.1, 2.8)})
+    heights: Mapping[str, Sequence[float]] = field(
+        default_factory=lambda: {
+            "chair": (0.45, 1.3),
+            "sofa": (0.5, 1.2),
+            "ottoman": (0.25, 0.6),
+            "bed": (0.3, 1.7),
+            "table": (0.35, 1.15),
+            "desk": (0.6, 1.5),
+            "cabinet": (0.3, 2.6),
+            "shelf": (0.5, 2.6),
+            "refrigerator": (0.7, 2.1),
+            "appliance": (0.2, 1.3),
+            "tv": (0.25, 1.8),
+            "lamp": (0.25, 2.1),
+            "plant": (0.2, 2.6),
+            "box": (0.08, 1.2),
+            "pillow": (0.2, 0.7),
+            "object": (0.1, 2.8),
+        }
+    )
     """Database category (``object``: unknown) → (lowest, highest) top height above the floor, metres."""
     size_slack: float = 1.8
     """Height ranges are widened by this factor both ways (the camera height is assumed, the layout approximate)."""
@@ -138,8 +158,14 @@ class Discovered:
     mask: np.ndarray
 
 
-def footing(mask: np.ndarray, rays: np.ndarray, occluders: np.ndarray, camera_height_m: float,
-            box: tuple[float, float, float, float] | None = None, band: int = 3) -> Footing:
+def footing(
+    mask: np.ndarray,
+    rays: np.ndarray,
+    occluders: np.ndarray,
+    camera_height_m: float,
+    box: tuple[float, float, float, float] | None = None,
+    band: int = 3,
+) -> Footing:
     """The floor contact of ``mask`` in the fitted room: ``rays`` (H, W, 3) are frame-coordinate pixel rays with
     unit camera z (floor ``y = -1``); ``occluders`` marks pixels of nearer objects. The contact is the median
     column of the mask's lowest ``band`` rows, on the prompt ``box``'s bottom row where that is lower (the
@@ -147,10 +173,10 @@ def footing(mask: np.ndarray, rays: np.ndarray, occluders: np.ndarray, camera_he
     on the vertical plane through the contact facing the camera."""
     height = mask.shape[0]
     rows = np.flatnonzero(mask.any(axis=1))
-    low = mask[max(0, int(rows[-1]) - band + 1):int(rows[-1]) + 1].any(axis=0)
+    low = mask[max(0, int(rows[-1]) - band + 1) : int(rows[-1]) + 1].any(axis=0)
     bottom = int(rows[-1]) if box is None else min(height - 1, max(int(rows[-1]), int(np.ceil(box[3])) - 1))
     col = int(np.median(np.flatnonzero(low)))
-    below = occluders[min(height - 1, bottom + 1):min(height, bottom + 1 + band), np.flatnonzero(low)]
+    below = occluders[min(height - 1, bottom + 1) : min(height, bottom + 1 + band), np.flatnonzero(low)]
     if bottom >= height - 2:
         return Footing(depth=None, seen="cut")
     if below.size and below.mean() > 0.5:
@@ -215,9 +241,11 @@ def absorbs(candidate: Candidate, kept: Candidate, params: DiscoveryParams) -> b
     sofa found after its seat was taken for a chair), and ``candidate`` scores at least ``absorb_score`` of
     ``kept``'s score. (A box holding several objects of its category is a group, not a whole: see
     :func:`group_size`.)"""
-    return ((kept.category == candidate.category or kept.category in params.parts.get(candidate.category, ()))
-            and _inside(kept.box, candidate.box) >= params.part_overlap
-            and candidate.detection.score >= params.absorb_score * kept.detection.score)
+    return (
+        (kept.category == candidate.category or kept.category in params.parts.get(candidate.category, ()))
+        and _inside(kept.box, candidate.box) >= params.part_overlap
+        and candidate.detection.score >= params.absorb_score * kept.detection.score
+    )
 
 
 def _side_by_side(a: np.ndarray, b: np.ndarray) -> bool:
@@ -230,9 +258,15 @@ def group_size(candidate: Candidate, others: Sequence[Candidate], params: Discov
     """How many prompts of ``candidate``'s category, scoring at least ``group_score`` of it and standing side
     by side, lie inside its box: two or more make it a box round a group (two chairs in one "chair" box).
     Prompts stacked in the same columns are pieces of one object (a chair's back boxed apart from its seat)."""
-    inside = [o for o in others if o is not candidate and o.category == candidate.category
-              and o.detection.score >= params.group_score * candidate.detection.score
-              and _inside(o.box, candidate.box) >= params.part_overlap and _iou(o.box, candidate.box) <= params.nms_iou]
+    inside = [
+        o
+        for o in others
+        if o is not candidate
+        and o.category == candidate.category
+        and o.detection.score >= params.group_score * candidate.detection.score
+        and _inside(o.box, candidate.box) >= params.part_overlap
+        and _iou(o.box, candidate.box) <= params.nms_iou
+    ]
     chosen: list[Candidate] = []
     for o in inside:
         if all(_side_by_side(o.box, c.box) for c in chosen):
@@ -323,9 +357,12 @@ class Selection:
             if weak and self.surfaces.share_explained(mask) > params.max_explained:
                 self.drop("weak, and the room's colours explain it", probe)
                 continue
-            candidate = Candidate(probe.detection, mask, probe.category,
-                                  footing(mask, self.rays, occupied & ~mask, params.camera_height_m,
-                                          probe.detection.box))
+            candidate = Candidate(
+                probe.detection,
+                mask,
+                probe.category,
+                footing(mask, self.rays, occupied & ~mask, params.camera_height_m, probe.detection.box),
+            )
             reason = implausible(candidate, params)
             if reason is not None:
                 self.drop(reason, candidate)
@@ -353,7 +390,7 @@ class Selection:
         far = sorted(self.kept, key=lambda c: -c.footing.distance)
         found = []
         for i, candidate in enumerate(far):
-            nearer = [c.mask for c in far[i + 1:]]
+            nearer = [c.mask for c in far[i + 1 :]]
             shown = candidate.mask & ~np.any(nearer, axis=0) if nearer else candidate.mask
             if shown.sum() < self.params.min_visible * candidate.mask.sum():
                 self.drop("hidden by nearer objects", candidate)
@@ -366,8 +403,14 @@ class Selection:
             log.info("discovery: dropped %d prompt(s) (%s): %s", len(labels), reason, ", ".join(sorted(set(labels))))
 
 
-def discover(rgb8: np.ndarray, rays: np.ndarray, surfaces: SurfaceColours, prompts: Sequence[Detection],
-             params: DiscoveryParams, proposals: ProposalParams | None = None) -> list[Discovered]:
+def discover(
+    rgb8: np.ndarray,
+    rays: np.ndarray,
+    surfaces: SurfaceColours,
+    prompts: Sequence[Detection],
+    params: DiscoveryParams,
+    proposals: ProposalParams | None = None,
+) -> list[Discovered]:
     """The objects among ``prompts`` and then among the class-agnostic proposals round what they leave
     unexplained (:func:`~.proposals.clutter_proposals`, unless ``proposals`` is None), far to near (see the
     module docstring); ``rays`` as :func:`footing`'s, ``surfaces`` the colour models of the fitted room."""

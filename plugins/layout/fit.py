@@ -89,7 +89,7 @@ def _clutter_weights(detections: Detections, image: Image, shape: tuple[int, int
     sy, sx = shape[0] / image.height, shape[1] / image.width
     for d in detections.items:
         x0, y0, x1, y1 = d.box
-        weights[int(y0 * sy):int(np.ceil(y1 * sy)), int(x0 * sx):int(np.ceil(x1 * sx))] = weight
+        weights[int(y0 * sy) : int(np.ceil(y1 * sy)), int(x0 * sx) : int(np.ceil(x1 * sx))] = weight
     return weights
 
 
@@ -110,21 +110,22 @@ def floor_colour_region(image: Image, below: np.ndarray, band: np.ndarray, toler
     return np.isin(component, joined[joined > 0])
 
 
-def _floor_prior(rays: np.ndarray, detections: Detections | None, image: Image, band: float,
-                 colour_tolerance: float) -> np.ndarray:
+def _floor_prior(
+    rays: np.ndarray, detections: Detections | None, image: Image, band: float, colour_tolerance: float
+) -> np.ndarray:
     """(H, W) 1 where the floor is likely, below the horizon: the bottom ``band`` of rows, the bottom edges of
     object boxes and (``colour_tolerance`` > 0) the band's colour running up from it
     (:func:`floor_colour_region`)."""
     height, width = rays.shape[:2]
     prior = np.zeros((height, width), dtype=np.float32)
-    prior[height - max(1, round(band * height)):] = 1.0
+    prior[height - max(1, round(band * height)) :] = 1.0
     if colour_tolerance > 0:
         prior[floor_colour_region(image, rays[..., 1] < 0, prior > 0, colour_tolerance)] = 1.0
     sy, sx = height / image.height, width / image.width
-    for d in (detections.items if detections is not None else []):
+    for d in detections.items if detections is not None else []:
         x0, _, x1, y1 = d.box
         row = min(height - 1, int(y1 * sy))
-        prior[max(0, row - 1):row + 1, int(x0 * sx):int(np.ceil(x1 * sx))] = 1.0
+        prior[max(0, row - 1) : row + 1, int(x0 * sx) : int(np.ceil(x1 * sx))] = 1.0
     return prior * (rays[..., 1] < 0)
 
 
@@ -143,8 +144,13 @@ def _room_labels(panoptic: Panoptic, shape: tuple[int, int]) -> tuple[np.ndarray
     return room, wall_index, len(walls)
 
 
-def fit_layout(image: Image, camera: Camera, params: LayoutParams, detections: Detections | None = None,
-               panoptic: Panoptic | None = None) -> Layout:
+def fit_layout(
+    image: Image,
+    camera: Camera,
+    params: LayoutParams,
+    detections: Detections | None = None,
+    panoptic: Panoptic | None = None,
+) -> Layout:
     """The box room that best explains the photo's line orientations (and ``panoptic``'s room labels).
 
     When the box fitted upright shows no floor, the photo may look steeply down at one (a tiled floor's
@@ -155,8 +161,9 @@ def fit_layout(image: Image, camera: Camera, params: LayoutParams, detections: D
     """
     frame = manhattan_frame(image, camera)
     if detections is not None:
-        detections = Detections(items=[d for d in detections.items if d.score >= params.box_score],
-                                source=detections.source)
+        detections = Detections(
+            items=[d for d in detections.items if d.score >= params.box_score], source=detections.source
+        )
     evidence = _evidence(frame, image, camera, params, detections)
     layout = _fit_in_frame(frame, evidence, image, camera, params, panoptic, float(evidence.sum()))
     shape = _grid_shape(image, params.grid_side)
@@ -168,15 +175,20 @@ def fit_layout(image: Image, camera: Camera, params: LayoutParams, detections: D
         if total > evidence.sum():
             layout = _fit_in_frame(frame, evidence, image, camera, params, panoptic, total)
         steep = _fit_in_frame(down, steep_evidence, image, camera, params, panoptic, total)
-        log.info("layout: no floor in the upright fit (score %.3f); looking %.0f° down at a floor scores %.3f",
-                 layout.score, np.degrees(np.arcsin(-down.rotation[2, 1])), steep.score)
+        log.info(
+            "layout: no floor in the upright fit (score %.3f); looking %.0f° down at a floor scores %.3f",
+            layout.score,
+            np.degrees(np.arcsin(-down.rotation[2, 1])),
+            steep.score,
+        )
         if steep.score > layout.score:
             layout = steep
     return layout
 
 
-def _evidence(frame: ManhattanFrame, image: Image, camera: Camera, params: LayoutParams,
-              detections: Detections | None) -> np.ndarray:
+def _evidence(
+    frame: ManhattanFrame, image: Image, camera: Camera, params: LayoutParams, detections: Detections | None
+) -> np.ndarray:
     """(3, N) orientation evidence on the grid in ``frame``: the lines' sweeps (weighted down inside object boxes)
     and the floor prior below the frame's horizon."""
     shape = _grid_shape(image, params.grid_side)
@@ -189,13 +201,21 @@ def _evidence(frame: ManhattanFrame, image: Image, camera: Camera, params: Layou
     if detections is not None:
         evidence *= _clutter_weights(detections, image, shape, params.clutter_weight)[None]
     rays = frame.rays(camera, shape[1], shape[0])
-    evidence[1] = np.maximum(evidence[1], params.floor_prior * _floor_prior(rays, detections, image, params.floor_band,
-                                                                         params.floor_colour))
+    evidence[1] = np.maximum(
+        evidence[1], params.floor_prior * _floor_prior(rays, detections, image, params.floor_band, params.floor_colour)
+    )
     return evidence.reshape(3, -1)
 
 
-def _fit_in_frame(frame: ManhattanFrame, evidence: np.ndarray, image: Image, camera: Camera, params: LayoutParams,
-                  panoptic: Panoptic | None, total: float) -> Layout:
+def _fit_in_frame(
+    frame: ManhattanFrame,
+    evidence: np.ndarray,
+    image: Image,
+    camera: Camera,
+    params: LayoutParams,
+    panoptic: Panoptic | None,
+    total: float,
+) -> Layout:
     """The best box in ``frame`` for ``evidence``, its orientation agreement counted out of ``total``."""
     shape = _grid_shape(image, params.grid_side)
     rays = frame.rays(camera, shape[1], shape[0]).reshape(-1, 3)
@@ -210,6 +230,7 @@ def _fit_in_frame(frame: ManhattanFrame, evidence: np.ndarray, image: Image, cam
             agreement = agreement + params.label_weight * box.label_score(labels, room, wall_index, n_walls)
         return agreement
 
-    best, best_score = box.search(score, params.search_range, np.random.default_rng(params.seed),
-                                  params.n_random, params.n_starts)
+    best, best_score = box.search(
+        score, params.search_range, np.random.default_rng(params.seed), params.n_random, params.n_starts
+    )
     return Layout(frame=frame, box=best, score=best_score)

@@ -22,8 +22,9 @@ class GrabCutParams:
     that its thin pieces join outside the mask, as a chair's back and seat); smaller ones are noise."""
 
 
-def grabcut_mask(rgb8: np.ndarray, box: tuple[float, float, float, float], params: GrabCutParams,
-                 taken: np.ndarray | None = None) -> np.ndarray | None:
+def grabcut_mask(
+    rgb8: np.ndarray, box: tuple[float, float, float, float], params: GrabCutParams, taken: np.ndarray | None = None
+) -> np.ndarray | None:
     """The object's boolean mask (H, W) inside ``box`` (x0, y0, x1, y1 pixels): its largest connected piece
     and those ``min_part`` of it, or None when GrabCut leaves too little of the box. Pixels ``taken`` (H, W) by other objects
     start as probable background: the box's own object must win them by colour."""
@@ -38,7 +39,7 @@ def grabcut_mask(rgb8: np.ndarray, box: tuple[float, float, float, float], param
     if min(crop.shape[:2]) < 4 or rect[2] < 2 or rect[3] < 2:
         return None
     mask = np.full(crop.shape[:2], cv2.GC_BGD, np.uint8)
-    mask[rect[1]:rect[1] + rect[3], rect[0]:rect[0] + rect[2]] = cv2.GC_PR_FGD
+    mask[rect[1] : rect[1] + rect[3], rect[0] : rect[0] + rect[2]] = cv2.GC_PR_FGD
     if taken is not None:
         mask[(mask == cv2.GC_PR_FGD) & taken[cy0:cy1, cx0:cx1]] = cv2.GC_PR_BGD
     if not (mask == cv2.GC_PR_FGD).any():

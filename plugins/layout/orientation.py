@@ -45,8 +45,9 @@ def _crosses(a: np.ndarray, b: np.ndarray, blockers: np.ndarray) -> np.ndarray:
     return (orient(a, b, c) * orient(a, b, d) < 0) & (orient(c, d, a) * orient(c, d, b) < 0)
 
 
-def _sweep_polygon(segment: np.ndarray, vp: np.ndarray, reach: float, blockers: np.ndarray,
-                   steps: int = 12) -> np.ndarray:
+def _sweep_polygon(
+    segment: np.ndarray, vp: np.ndarray, reach: float, blockers: np.ndarray, steps: int = 12
+) -> np.ndarray:
     """Quadrilateral swept by ``segment`` moving towards and away from ``vp``: up to ``reach`` pixels, never
     past a finite vanishing point, and only until it meets one of ``blockers`` (segments of the third axis,
     which lie on another plane: Lee et al.'s occlusion rule)."""
@@ -73,8 +74,9 @@ def _sweep_polygon(segment: np.ndarray, vp: np.ndarray, reach: float, blockers: 
     return np.round(np.array(corners)).astype(np.int32)
 
 
-def orientation_map(segments: np.ndarray, families: np.ndarray, vanishing_points: np.ndarray,
-                    shape: tuple[int, int], reach: float) -> np.ndarray:
+def orientation_map(
+    segments: np.ndarray, families: np.ndarray, vanishing_points: np.ndarray, shape: tuple[int, int], reach: float
+) -> np.ndarray:
     """(3, H, W) float32: 1 where the pixel's plane is confidently normal to axis k (and to no other)."""
     height, width = shape
     swept = np.zeros((3, 3, height, width), dtype=np.uint8)  # [i, j]: i-segments swept towards vp j

@@ -47,5 +47,7 @@ def clutter_proposals(surfaces: SurfaceColours, taken: np.ndarray, params: Propo
         if params.min_area * total <= area <= params.max_area * total and area >= params.min_fill * w * h:
             regions.append((int(area), (float(x), float(y), float(x + w), float(y + h))))
     regions.sort(key=lambda r: -r[0])
-    return [Detection(label="object", category="object", box=box, score=params.score)
-            for _, box in regions[:params.max_proposals]]
+    return [
+        Detection(label="object", category="object", box=box, score=params.score)
+        for _, box in regions[: params.max_proposals]
+    ]

@@ -19,8 +19,14 @@ from .proposals import ProposalParams
 
 log = logging.getLogger("psdr_room")
 
-SURFACE_CATEGORY = {box.WALL_X0: "wall", box.WALL_X1: "wall", box.WALL_Z0: "wall", box.WALL_Z1: "wall",
-                    box.FLOOR: "floor", box.CEILING: "ceiling"}
+SURFACE_CATEGORY = {
+    box.WALL_X0: "wall",
+    box.WALL_X1: "wall",
+    box.WALL_Z0: "wall",
+    box.WALL_Z1: "wall",
+    box.FLOOR: "floor",
+    box.CEILING: "ceiling",
+}
 
 
 def layout_params(search: dict[str, Any] | None, **params: Any) -> LayoutParams:
@@ -32,9 +38,15 @@ class LayoutSegmentation:
     """Box-layout room surfaces (one segment per visible wall) with the discovered objects on top
     (:mod:`.discovery`: the prompts GrabCut cuts out and the fitted room finds plausible, far to near)."""
 
-    def __init__(self, grabcut: dict[str, Any] | None = None, discovery: dict[str, Any] | None = None,
-                 proposals: dict[str, Any] | None = None, min_surface_fraction: float = 0.002,
-                 search: dict[str, Any] | None = None, **layout: Any) -> None:
+    def __init__(
+        self,
+        grabcut: dict[str, Any] | None = None,
+        discovery: dict[str, Any] | None = None,
+        proposals: dict[str, Any] | None = None,
+        min_surface_fraction: float = 0.002,
+        search: dict[str, Any] | None = None,
+        **layout: Any,
+    ) -> None:
         self.layout = layout_params(search, **layout)
         self.discovery = DiscoveryParams(grabcut=GrabCutParams(**(grabcut or {})), **(discovery or {}))
         self.proposals = ProposalParams(**proposals) if proposals is not None else None
@@ -56,11 +68,23 @@ class LayoutSegmentation:
         surfaces = SurfaceColours(rgb8, labels, unprompted(labels.shape, trusted))
         found = discover(rgb8, rays, surfaces, detections.items, self.discovery, self.proposals)
         for item in found:
-            segments.append(Segment(len(segments) + 1, item.detection.category, item.detection.label,
-                                    item.detection.score, item.detection.box))
+            segments.append(
+                Segment(
+                    len(segments) + 1,
+                    item.detection.category,
+                    item.detection.label,
+                    item.detection.score,
+                    item.detection.box,
+                )
+            )
             ids[item.mask] = segments[-1].id
         present = set(np.unique(ids).tolist())
         kept = [s for s in segments if s.id in present]
-        log.info("layout: box %s (score %.3f), %d objects from %d prompts", np.round(fitted.box, 2).tolist(),
-                 fitted.score, len(found), len(detections.items))
+        log.info(
+            "layout: box %s (score %.3f), %d objects from %d prompts",
+            np.round(fitted.box, 2).tolist(),
+            fitted.score,
+            len(found),
+            len(detections.items),
+        )
         return Panoptic(ids=ids, segments=kept)

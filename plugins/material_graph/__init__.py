@@ -28,8 +28,22 @@ from .library import TorchGraphLibrary
 from .nodes import Input, NodeType
 from .params import Choice, Color, Float, Floats, Int, Ramp, Seed
 
-__all__ = ["TorchGraphLibrary", "ProceduralMaterial", "GraphError", "load_graph", "parse_graph", "NodeType", "Input",
-           "Int", "Seed", "Choice", "Float", "Color", "Floats", "Ramp"]
+__all__ = [
+    "TorchGraphLibrary",
+    "ProceduralMaterial",
+    "GraphError",
+    "load_graph",
+    "parse_graph",
+    "NodeType",
+    "Input",
+    "Int",
+    "Seed",
+    "Choice",
+    "Float",
+    "Color",
+    "Floats",
+    "Ramp",
+]
 
 
 @dataclass

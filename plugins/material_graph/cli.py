@@ -29,8 +29,14 @@ DEFAULT_OUT = Path("materials")
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog=PROG, description="The procedural material library of psdr-room.")
-    parser.add_argument("--dir", action="append", type=Path, default=[], metavar="DIR",
-                        help="an extra directory of graph files (repeatable)")
+    parser.add_argument(
+        "--dir",
+        action="append",
+        type=Path,
+        default=[],
+        metavar="DIR",
+        help="an extra directory of graph files (repeatable)",
+    )
     commands = parser.add_subparsers(dest="command", required=True, metavar="{list,nodes,render,thumbs}")
     commands.add_parser("list", help="every material")
     commands.add_parser("nodes", help="every node type and its parameters")
@@ -70,17 +76,26 @@ def _run(args: argparse.Namespace) -> int:
     if args.command == "list":
         rows = [["name", "category", "nodes", "params", "tile", "description"]]
         for material in library.materials():
-            rows.append([material.name, material.category, str(len(material.nodes)),
-                         str(len(material.parameters(requires_grad=False))), f"{material.tile_size:g} m",
-                         material.description])
+            rows.append(
+                [
+                    material.name,
+                    material.category,
+                    str(len(material.nodes)),
+                    str(len(material.parameters(requires_grad=False))),
+                    f"{material.tile_size:g} m",
+                    material.description,
+                ]
+            )
         print(text_table(rows))
         print(f"{len(rows) - 1} materials ({', '.join(str(d) for d in library.dirs)})")
         return 0
     if args.command == "nodes":
         for name, node_type in sorted(library.node_types.items()):
             ins = ", ".join(f"{k}{'' if v.required else '?'}" for k, v in node_type.inputs.items())
-            print(f"{name} ({node_type.kind}{'; inputs ' + ins if ins else ''}; outputs "
-                  f"{', '.join(node_type.outputs)}): {node_type.doc}")
+            print(
+                f"{name} ({node_type.kind}{'; inputs ' + ins if ins else ''}; outputs "
+                f"{', '.join(node_type.outputs)}): {node_type.doc}"
+            )
             for key, spec in node_type.params.items():
                 print(f"    {key}: {spec.describe()}{' - ' + spec.doc if spec.doc else ''}")
         return 0

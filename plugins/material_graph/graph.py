@@ -98,8 +98,9 @@ class ProceduralMaterial:
     _bounds: dict[str, Bound] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
-        self._bounds = {f"{n.name}.{k}": v for n in self.nodes.values() for k, v in n.params.items()
-                        if isinstance(v, Bound)}
+        self._bounds = {
+            f"{n.name}.{k}": v for n in self.nodes.values() for k, v in n.params.items() if isinstance(v, Bound)
+        }
 
     # ------------------------------------------------------------------------------- parameters
     @property
@@ -124,16 +125,23 @@ class ProceduralMaterial:
         out = {}
         for key, value in values.items():
             if key not in self._bounds:
-                raise GraphError(f"{self.source}: material '{self.name}' has no continuous parameter '{key}'; "
-                                 f"known: {', '.join(self._bounds)}")
+                raise GraphError(
+                    f"{self.source}: material '{self.name}' has no continuous parameter '{key}'; "
+                    f"known: {', '.join(self._bounds)}"
+                )
             b = self._bounds[key]
             out[key] = to_unconstrained(torch.as_tensor(value, dtype=b.value.dtype).clamp(b.lo, b.hi), b.lo, b.hi)
         return out
 
     # ------------------------------------------------------------------------------- evaluation
-    def evaluate(self, size: int | tuple[int, int], params: Mapping[str, torch.Tensor] | None = None, *,
-                 device: str | torch.device | None = None,
-                 outputs: tuple[str, ...] = tuple(OUTPUTS)) -> dict[str, torch.Tensor]:
+    def evaluate(
+        self,
+        size: int | tuple[int, int],
+        params: Mapping[str, torch.Tensor] | None = None,
+        *,
+        device: str | torch.device | None = None,
+        outputs: tuple[str, ...] = tuple(OUTPUTS),
+    ) -> dict[str, torch.Tensor]:
         """The output maps at ``size`` (side or (H, W)) for unconstrained ``params`` (default: the graph's
         values), differentiable with respect to those tensors. See :mod:`.outputs` for the maps."""
         height, width = (size, size) if isinstance(size, int) else size
@@ -147,8 +155,10 @@ class ProceduralMaterial:
             for slot, declared in spec.type.inputs.items():
                 ref = spec.inputs.get(slot)
                 inputs[slot] = None if ref is None else to_channels(results[ref.node][ref.port], declared.channels)
-            values = {k: (v.constrained(params.get(f"{spec.name}.{k}")).to(device) if isinstance(v, Bound) else v)
-                      for k, v in spec.params.items()}
+            values = {
+                k: (v.constrained(params.get(f"{spec.name}.{k}")).to(device) if isinstance(v, Bound) else v)
+                for k, v in spec.params.items()
+            }
             out = spec.type.fn(ctx, inputs, values)
             results[spec.name] = out if isinstance(out, dict) else {spec.type.outputs[0]: out}
         maps: dict[str, torch.Tensor] = {}
@@ -211,8 +221,9 @@ def load_graph(path: Path, node_types: Mapping[str, NodeType]) -> ProceduralMate
     return parse_graph(read_graph_file(path), node_types, source=str(path), default_name=path.stem)
 
 
-def parse_graph(data: Mapping[str, Any], node_types: Mapping[str, NodeType], *, source: str = "<graph>",
-                default_name: str = "graph") -> ProceduralMaterial:
+def parse_graph(
+    data: Mapping[str, Any], node_types: Mapping[str, NodeType], *, source: str = "<graph>", default_name: str = "graph"
+) -> ProceduralMaterial:
     """Validate a graph mapping (see the module docstring) into a :class:`ProceduralMaterial`."""
 
     def fail(message: str) -> GraphError:
@@ -241,8 +252,10 @@ def parse_graph(data: Mapping[str, Any], node_types: Mapping[str, NodeType], *, 
     for node_name, raw in raw_nodes.items():
         nodes[str(node_name)] = _parse_node(str(node_name), raw, node_types, fail)
     for spec in nodes.values():
-        spec.inputs = {slot: _check_ref(ref, nodes, fail, f"node '{spec.name}' ({spec.type.name}): input '{slot}'")
-                       for slot, ref in spec.inputs.items()}
+        spec.inputs = {
+            slot: _check_ref(ref, nodes, fail, f"node '{spec.name}' ({spec.type.name}): input '{slot}'")
+            for slot, ref in spec.inputs.items()
+        }
 
     raw_outputs = data.get("outputs")
     if not isinstance(raw_outputs, dict) or "base_color" not in raw_outputs:
@@ -269,7 +282,8 @@ def parse_graph(data: Mapping[str, Any], node_types: Mapping[str, NodeType], *, 
 
     used: dict[str, set[str]] = {name: set() for name in nodes}
     for ref in [r for spec in nodes.values() for r in spec.inputs.values()] + [
-            r for r in outputs.values() if isinstance(r, Ref)]:
+        r for r in outputs.values() if isinstance(r, Ref)
+    ]:
         used[ref.node].add(ref.port)
     for spec in nodes.values():
         if spec.type.inert is not None:
@@ -279,9 +293,16 @@ def parse_graph(data: Mapping[str, Any], node_types: Mapping[str, NodeType], *, 
     order = _topological(nodes, fail)
     needed = _needed(nodes, [r for r in outputs.values() if isinstance(r, Ref)])
     ordered = {n: nodes[n] for n in order if n in needed}
-    return ProceduralMaterial(name=name, category=data.get("category", ""), description=data.get("description", ""),
-                              tags=list(tags), nodes=ordered, outputs=outputs, tile_size=float(tile_size),
-                              source=source)
+    return ProceduralMaterial(
+        name=name,
+        category=data.get("category", ""),
+        description=data.get("description", ""),
+        tags=list(tags),
+        nodes=ordered,
+        outputs=outputs,
+        tile_size=float(tile_size),
+        source=source,
+    )
 
 
 def _parse_node(name: str, raw: Any, node_types: Mapping[str, NodeType], fail: Any) -> NodeSpec:
@@ -311,8 +332,16 @@ def _parse_node(name: str, raw: Any, node_types: Mapping[str, NodeType], fail: A
         problem = node_type.check(params)
         if problem:
             raise fail(f"{where}: {problem}")
-    raw_inputs = _field(raw, "inputs", "a mapping of input -> node[.port]", "input", node_type.inputs,
-                        "(none: a generator)", where, fail)
+    raw_inputs = _field(
+        raw,
+        "inputs",
+        "a mapping of input -> node[.port]",
+        "input",
+        node_type.inputs,
+        "(none: a generator)",
+        where,
+        fail,
+    )
     inputs: dict[str, Ref] = {}
     for slot, declared in node_type.inputs.items():
         if slot in raw_inputs:
@@ -322,8 +351,16 @@ def _parse_node(name: str, raw: Any, node_types: Mapping[str, NodeType], fail: A
     return NodeSpec(name, node_type, params, inputs)
 
 
-def _field(raw: Mapping[str, Any], field: str, shape: str, noun: str, known: Mapping[str, Any], none: str,
-           where: str, fail: Any) -> dict[str, Any]:
+def _field(
+    raw: Mapping[str, Any],
+    field: str,
+    shape: str,
+    noun: str,
+    known: Mapping[str, Any],
+    none: str,
+    where: str,
+    fail: Any,
+) -> dict[str, Any]:
     """A node's ``field`` mapping (empty when absent), refusing any other shape and any key not in ``known``."""
     value = raw.get(field) or {}
     if not isinstance(value, dict):
@@ -349,8 +386,10 @@ def _check_ref(ref: Ref, nodes: Mapping[str, NodeSpec], fail: Any, where: str) -
     if not ref.port:
         return Ref(ref.node, ports[0])
     if ref.port not in ports:
-        raise fail(f"{where}: node '{ref.node}' ({nodes[ref.node].type.name}) has no output '{ref.port}'; "
-                   f"outputs: {', '.join(ports)}")
+        raise fail(
+            f"{where}: node '{ref.node}' ({nodes[ref.node].type.name}) has no output '{ref.port}'; "
+            f"outputs: {', '.join(ports)}"
+        )
     return ref
 
 
@@ -362,7 +401,7 @@ def _topological(nodes: Mapping[str, NodeSpec], fail: Any) -> list[str]:
         if state.get(name) == 2:
             return
         if state.get(name) == 1:
-            cycle = path[path.index(name):] + [name]
+            cycle = path[path.index(name) :] + [name]
             raise fail(f"node '{name}': the edges form a cycle ({' -> '.join(cycle)})")
         state[name] = 1
         for ref in nodes[name].inputs.values():

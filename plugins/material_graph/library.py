@@ -67,7 +67,9 @@ class TorchGraphLibrary:
         if not isinstance(node_type, NodeType) or node_type.kind not in KINDS:
             log.warning("psdr-room: material_nodes returned %r, not a NodeType; left out", node_type)
         elif node_type.name in self.node_types:
-            log.warning("psdr-room: material node type '%s' is already defined; the plugin's is left out", node_type.name)
+            log.warning(
+                "psdr-room: material node type '%s' is already defined; the plugin's is left out", node_type.name
+            )
         else:
             self.node_types[node_type.name] = node_type
 
@@ -76,12 +78,18 @@ class TorchGraphLibrary:
         files: dict[str, Path] = {}
         for directory in dirs:
             if not directory.is_dir():
-                raise PsdrRoomError(f"{directory}: material graph directory not found; fix "
-                                    "material_graph.torch_graph.extra_dirs (or the plugin returning it)")
+                raise PsdrRoomError(
+                    f"{directory}: material graph directory not found; fix "
+                    "material_graph.torch_graph.extra_dirs (or the plugin returning it)"
+                )
             for path in sorted(p for p in directory.iterdir() if p.suffix in GRAPH_SUFFIXES):
                 if path.stem in files:
-                    log.warning("psdr-room: material graph '%s' of %s is already defined by %s; left out",
-                                path.stem, path, files[path.stem])
+                    log.warning(
+                        "psdr-room: material graph '%s' of %s is already defined by %s; left out",
+                        path.stem,
+                        path,
+                        files[path.stem],
+                    )
                     continue
                 files[path.stem] = path
         return files
@@ -94,8 +102,9 @@ class TorchGraphLibrary:
     def material(self, name: str) -> ProceduralMaterial:
         """The validated graph called ``name`` (a one-line error listing the names when unknown)."""
         if name not in self.files:
-            raise PsdrRoomError(f"unknown material '{name}'; known: {', '.join(self.names())} "
-                                "(psdr-room-materials list)")
+            raise PsdrRoomError(
+                f"unknown material '{name}'; known: {', '.join(self.names())} (psdr-room-materials list)"
+            )
         if name not in self._cache:
             self._cache[name] = load_graph(self.files[name], self.node_types)
         return self._cache[name]

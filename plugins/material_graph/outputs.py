@@ -39,10 +39,12 @@ class OutputSpec:
 
 
 OUTPUTS: dict[str, OutputSpec] = {
-    "base_color": OutputSpec("base_color", 3, "#808080", lambda x: to_channels(x, 3).clamp(0, 1),
-                             "albedo, sRGB-encoded, [0, 1]"),
-    "roughness": OutputSpec("roughness", 1, 0.5, lambda x: to_channels(x, 1).clamp(0, 1),
-                            "principled roughness, [0, 1]"),
+    "base_color": OutputSpec(
+        "base_color", 3, "#808080", lambda x: to_channels(x, 3).clamp(0, 1), "albedo, sRGB-encoded, [0, 1]"
+    ),
+    "roughness": OutputSpec(
+        "roughness", 1, 0.5, lambda x: to_channels(x, 1).clamp(0, 1), "principled roughness, [0, 1]"
+    ),
     "metallic": OutputSpec("metallic", 1, 0.0, lambda x: to_channels(x, 1).clamp(0, 1), "metalness, [0, 1]"),
     "height": OutputSpec("height", 1, 0.5, lambda x: to_channels(x, 1).clamp(0, 1), "relief, [0, 1]"),
     "normal": OutputSpec("normal", 3, 0.0, _unit, "unit tangent-space normal (OpenGL: +y up), [−1, 1]"),

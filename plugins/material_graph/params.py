@@ -39,7 +39,7 @@ def parse_color(value: Any) -> list[float]:
         if not match:
             raise ParamError(f"colour {value!r} is not '#rrggbb' or [r, g, b]")
         digits = match.group(1)
-        return [int(digits[i:i + 2], 16) / 255.0 for i in (0, 2, 4)]
+        return [int(digits[i : i + 2], 16) / 255.0 for i in (0, 2, 4)]
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         return [float(value)] * 3
     if isinstance(value, Sequence) and len(value) == 3 and all(_is_number(v) for v in value):
@@ -231,9 +231,15 @@ class Floats(Continuous):
     min_len: int = 2
 
     def parse_value(self, raw: Any) -> torch.Tensor:
-        if (not isinstance(raw, Sequence) or isinstance(raw, str) or len(raw) < self.min_len
-                or not all(_is_number(v) for v in raw)):
-            raise ParamError(f"must be a list of at least {self.min_len} numbers in [{self.lo}, {self.hi}], got {raw!r}")
+        if (
+            not isinstance(raw, Sequence)
+            or isinstance(raw, str)
+            or len(raw) < self.min_len
+            or not all(_is_number(v) for v in raw)
+        ):
+            raise ParamError(
+                f"must be a list of at least {self.min_len} numbers in [{self.lo}, {self.hi}], got {raw!r}"
+            )
         return torch.tensor([float(v) for v in raw])
 
     def _range_end(self, raw: Any) -> torch.Tensor:
@@ -261,8 +267,7 @@ class Ramp(Continuous):
             raise ParamError(f"must be a list of at least two [position, colour] stops, got {raw!r}")
         rows = []
         for stop in raw:
-            if (not isinstance(stop, Sequence) or isinstance(stop, str) or len(stop) != 2
-                    or not _is_number(stop[0])):
+            if not isinstance(stop, Sequence) or isinstance(stop, str) or len(stop) != 2 or not _is_number(stop[0]):
                 raise ParamError(f"each stop must be [position, colour], got {stop!r}")
             rows.append([float(stop[0]), *parse_color(stop[1])])
         return torch.tensor(rows)

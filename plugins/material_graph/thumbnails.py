@@ -23,9 +23,14 @@ DEFAULT_LIGHT = (-0.45, 0.55, 0.70)
 """Direction towards the light in the patch's tangent frame (x right, y up the image, z out)."""
 
 
-def shade(maps: Mapping[str, torch.Tensor], light: Sequence[float] = DEFAULT_LIGHT, intensity: float = 2.6,
-          ambient: float = 0.35, light_colour: Sequence[float] = (1.0, 1.0, 1.0),
-          exposure: float = 1.0) -> torch.Tensor:
+def shade(
+    maps: Mapping[str, torch.Tensor],
+    light: Sequence[float] = DEFAULT_LIGHT,
+    intensity: float = 2.6,
+    ambient: float = 0.35,
+    light_colour: Sequence[float] = (1.0, 1.0, 1.0),
+    exposure: float = 1.0,
+) -> torch.Tensor:
     """An sRGB image [3, H, W] of the material seen head-on, lit from direction ``light`` (differentiable)."""
     base = srgb_to_linear(maps["base_color"])
     n = maps["normal"]
@@ -108,37 +113,70 @@ class ThumbnailRenderer:
             to_uv = mi.ScalarTransform4f().scale([uv_scale[0], uv_scale[1], 1.0])
 
             def tex(name: str) -> dict[str, Any]:
-                return {"type": "bitmap", "bitmap": mi.Bitmap(bitmaps[name]), "raw": True, "to_uv": to_uv,
-                        "wrap_mode": "repeat", "filter_type": "bilinear"}
+                return {
+                    "type": "bitmap",
+                    "bitmap": mi.Bitmap(bitmaps[name]),
+                    "raw": True,
+                    "to_uv": to_uv,
+                    "wrap_mode": "repeat",
+                    "filter_type": "bilinear",
+                }
 
-            return {"type": "normalmap", "normalmap": tex("normal"),
-                    "bsdf": {"type": "principled", "base_color": tex("base_color"), "roughness": tex("roughness"),
-                             "metallic": tex("metallic")}}
+            return {
+                "type": "normalmap",
+                "normalmap": tex("normal"),
+                "bsdf": {
+                    "type": "principled",
+                    "base_color": tex("base_color"),
+                    "roughness": tex("roughness"),
+                    "metallic": tex("metallic"),
+                },
+            }
 
         sky = np.zeros((32, 64, 3), np.float32)
         elevation = np.cos(np.linspace(0.0, math.pi, 32))[:, None, None]  # +1 at the zenith row
         sky[:] = np.where(elevation > 0, 0.55 + 0.35 * elevation, 0.25 + 0.1 * (1 + elevation)) * np.array(
-            [0.95, 1.0, 1.08], np.float32)
+            [0.95, 1.0, 1.08], np.float32
+        )
         camera = mi.ScalarTransform4f().look_at(origin=[0.0, 2.3, 3.4], target=[0.0, 0.55, 0.0], up=[0.0, 1.0, 0.0])
         scene = {
             "type": "scene",
             "integrator": {"type": "path", "max_depth": 4},
-            "sensor": {"type": "perspective", "fov": 36.0, "to_world": camera,
-                       "film": {"type": "hdrfilm", "width": self.size, "height": self.size, "pixel_format": "rgb",
-                                "rfilter": {"type": "gaussian"}},
-                       "sampler": {"type": "independent", "sample_count": self.spp}},
+            "sensor": {
+                "type": "perspective",
+                "fov": 36.0,
+                "to_world": camera,
+                "film": {
+                    "type": "hdrfilm",
+                    "width": self.size,
+                    "height": self.size,
+                    "pixel_format": "rgb",
+                    "rfilter": {"type": "gaussian"},
+                },
+                "sampler": {"type": "independent", "sample_count": self.spp},
+            },
             "sky": {"type": "envmap", "bitmap": mi.Bitmap(sky), "scale": 0.55},
-            "key": {"type": "rectangle",
-                    "to_world": mi.ScalarTransform4f().look_at(origin=[-2.2, 3.6, 2.0], target=[0.0, 0.4, 0.0],
-                                                              up=[0.0, 1.0, 0.0]).scale([1.1, 1.1, 1.0]),
-                    "emitter": {"type": "area", "radiance": {"type": "rgb", "value": [5.5, 5.3, 5.0]}}},
-            "floor": {"type": "rectangle",
-                      "to_world": mi.ScalarTransform4f().rotate([1.0, 0.0, 0.0], -90.0).scale([2.2, 2.2, 1.0]),
-                      "bsdf": bsdf((2.0, 2.0))},
-            "ball": {"type": "sphere",  # poles along y, so the camera sees the texture's equator band
-                     "to_world": mi.ScalarTransform4f().translate([0.0, 0.62, 0.0]).rotate([1.0, 0.0, 0.0], -90.0)
-                     .rotate([0.0, 0.0, 1.0], 60.0).scale(0.62),
-                     "bsdf": bsdf((3.0, 1.5))},
+            "key": {
+                "type": "rectangle",
+                "to_world": mi.ScalarTransform4f()
+                .look_at(origin=[-2.2, 3.6, 2.0], target=[0.0, 0.4, 0.0], up=[0.0, 1.0, 0.0])
+                .scale([1.1, 1.1, 1.0]),
+                "emitter": {"type": "area", "radiance": {"type": "rgb", "value": [5.5, 5.3, 5.0]}},
+            },
+            "floor": {
+                "type": "rectangle",
+                "to_world": mi.ScalarTransform4f().rotate([1.0, 0.0, 0.0], -90.0).scale([2.2, 2.2, 1.0]),
+                "bsdf": bsdf((2.0, 2.0)),
+            },
+            "ball": {
+                "type": "sphere",  # poles along y, so the camera sees the texture's equator band
+                "to_world": mi.ScalarTransform4f()
+                .translate([0.0, 0.62, 0.0])
+                .rotate([1.0, 0.0, 0.0], -90.0)
+                .rotate([0.0, 0.0, 1.0], 60.0)
+                .scale(0.62),
+                "bsdf": bsdf((3.0, 1.5)),
+            },
         }
         return mi.load_dict(scene, optimize=False)
 
@@ -151,8 +189,10 @@ class ThumbnailRenderer:
             self._shapes = {k: v.shape for k, v in bitmaps.items()}
             params = mi.traverse(self._scene)
             self._params = params
-            self._keys = {name: [k for k in params if k.endswith(f"{name}.data")]
-                          for name in ("base_color", "roughness", "metallic", "normalmap")}
+            self._keys = {
+                name: [k for k in params if k.endswith(f"{name}.data")]
+                for name in ("base_color", "roughness", "metallic", "normalmap")
+            }
         else:
             params = self._params
             for name, keys in self._keys.items():
@@ -177,9 +217,17 @@ def contact_sheet(images: Sequence[tuple[str, np.ndarray]], columns: int = 8, la
     for index, (name, image) in enumerate(images):
         r, c = divmod(index, columns)
         y, x = r * (h + label_height), c * w
-        sheet[y:y + h, x:x + w] = image[:, :, :3]
+        sheet[y : y + h, x : x + w] = image[:, :, :3]
         scale = 0.4 if w >= 160 else 0.3
         text = name if len(name) * 7 * scale / 0.4 < w else name[: int(w / (7 * scale / 0.4)) - 2] + ".."
-        cv2.putText(sheet, text, (x + 4, y + h + label_height - 5), cv2.FONT_HERSHEY_SIMPLEX, scale, (20, 20, 20), 1,
-                    cv2.LINE_AA)
+        cv2.putText(
+            sheet,
+            text,
+            (x + 4, y + h + label_height - 5),
+            cv2.FONT_HERSHEY_SIMPLEX,
+            scale,
+            (20, 20, 20),
+            1,
+            cv2.LINE_AA,
+        )
     return sheet

@@ -53,8 +53,13 @@ def _make_class() -> type:
             self.camera_origin = mi.Point3f(0.0)
             self.camera_axis = mi.Vector3f(0.0, 0.0, 1.0)
 
-        def configure(self, part_of_shape: list[float], channels: list[float],
-                      camera_origin: tuple[float, float, float], camera_axis: tuple[float, float, float]) -> None:
+        def configure(
+            self,
+            part_of_shape: list[float],
+            channels: list[float],
+            camera_origin: tuple[float, float, float],
+            camera_axis: tuple[float, float, float],
+        ) -> None:
             """Set the shape → part table (indexed by shape registry id), the channel codes (a part index,
             :data:`DEPTH` or :data:`ALPHA` each; at least 3, padded with :data:`UNUSED`), and the camera."""
             self.part_of_shape = mi.Float([float(p) for p in part_of_shape])
@@ -90,8 +95,20 @@ def _make_class() -> type:
                 out.append(dr.select(valid, v, 0.0))
             return out
 
-        def sample(self, mode: dr.ADMode, scene: mi.Scene, sampler: mi.Sampler, ray: mi.Ray3f, depth: mi.UInt32,
-                   δL, state_in, active: mi.Bool, project: bool = False, si_shade=None, **kwargs):
+        def sample(
+            self,
+            mode: dr.ADMode,
+            scene: mi.Scene,
+            sampler: mi.Sampler,
+            ray: mi.Ray3f,
+            depth: mi.UInt32,
+            δL,
+            state_in,
+            active: mi.Bool,
+            project: bool = False,
+            si_shade=None,
+            **kwargs,
+        ):
             primal = mode == dr.ADMode.Primal
             if si_shade is not None:
                 si = si_shade

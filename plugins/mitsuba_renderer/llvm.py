@@ -121,9 +121,7 @@ def resolve_variant(variant: str = "auto") -> str:
     """The Mitsuba variant to use: ``auto`` is ``cuda_ad_rgb`` when a CUDA device works, else
     ``llvm_ad_rgb``. Sets up LLVM first when the LLVM backend may be used; imports drjit."""
     if variant not in VARIANTS:
-        raise PsdrRoomError(
-            f"renderer.mitsuba.variant={variant!r} is not supported; use one of {', '.join(VARIANTS)}"
-        )
+        raise PsdrRoomError(f"renderer.mitsuba.variant={variant!r} is not supported; use one of {', '.join(VARIANTS)}")
     if variant in ("auto", "llvm_ad_rgb"):
         llvm_error: PsdrRoomError | None = None
         try:

@@ -65,7 +65,9 @@ class _Shape:
     """Texture coordinates of the welded vertices (float32, N'×2), for shapes with maps."""
 
 
-def weld_map(mesh: TriangleMesh, tolerance: float = 1e-6, uv: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def weld_map(
+    mesh: TriangleMesh, tolerance: float = 1e-6, uv: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """(first, faces): indices of the vertices kept when welding ``mesh`` (the first of each group of
     coincident vertices, as :func:`psdr_room_core.method.geometry.weld`; with ``uv``, of coincident position and
     texture coordinates), and the faces renumbered onto them with degenerate ones dropped. Split vertices
@@ -133,12 +135,20 @@ class MitsubaRenderer:
             ~1e-7 apart, and a result that differs in its last bits changes every later stage's cache key);
             false: every thread, faster. CUDA's atomics are never in a fixed order.
         """
-        for name, value, low in (("spp", spp, 1), ("spp_boundary", spp_boundary, 1), ("rgb_spp", rgb_spp, 1),
-                                 ("max_depth", max_depth, 1), ("rgb_sppi", rgb_sppi, 0), ("threads", threads, 0)):
+        for name, value, low in (
+            ("spp", spp, 1),
+            ("spp_boundary", spp_boundary, 1),
+            ("rgb_spp", rgb_spp, 1),
+            ("max_depth", max_depth, 1),
+            ("rgb_sppi", rgb_sppi, 0),
+            ("threads", threads, 0),
+        ):
             if int(value) != value or int(value) < low:
                 raise PsdrRoomError(f"renderer.mitsuba.{name}={value!r} must be an integer >= {low}")
         if variant not in VARIANTS:
-            raise PsdrRoomError(f"renderer.mitsuba.variant={variant!r} is not supported; use one of {', '.join(VARIANTS)}")
+            raise PsdrRoomError(
+                f"renderer.mitsuba.variant={variant!r} is not supported; use one of {', '.join(VARIANTS)}"
+            )
         self.requested_variant = str(variant)
         self.spp = int(spp)
         self.spp_boundary = int(spp_boundary)
@@ -217,8 +227,9 @@ class MitsubaRenderer:
         default grey) and ``emitters`` (name → (mesh, RGB radiance); emitting on the side its triangles face
         counter-clockwise) are used only by :meth:`MitsubaGeometryRenderer.render_rgb`.
         """
-        return MitsubaGeometryRenderer(self, camera, camera_to_world, meshes, parts, resolution_scale,
-                                       surfaces or {}, emitters or {})
+        return MitsubaGeometryRenderer(
+            self, camera, camera_to_world, meshes, parts, resolution_scale, surfaces or {}, emitters or {}
+        )
 
 
 class MitsubaGeometryRenderer:
@@ -250,8 +261,10 @@ class MitsubaGeometryRenderer:
             if name not in meshes:
                 raise PsdrRoomError(f"renderer.geometry: surface given for '{name}', which is not a mesh")
             if surface.mapped and (surface.uv is None or np.shape(surface.uv) != (len(meshes[name].vertices), 2)):
-                raise PsdrRoomError(f"renderer.geometry: surface of '{name}' has maps but no N×2 uv for its "
-                                    f"{len(meshes[name].vertices)} vertices")
+                raise PsdrRoomError(
+                    f"renderer.geometry: surface of '{name}' has maps but no N×2 uv for its "
+                    f"{len(meshes[name].vertices)} vertices"
+                )
         clash = sorted(set(emitters) & set(meshes))
         if clash:
             raise PsdrRoomError(f"renderer.geometry: emitter names clash with mesh names: {', '.join(clash)}")
@@ -290,14 +303,27 @@ class MitsubaGeometryRenderer:
             first, faces = weld_map(mesh, uv=uv)
             if len(faces) == 0:
                 raise PsdrRoomError(f"renderer.geometry: mesh '{name}' has no non-degenerate triangle")
-            self.shapes[name] = _Shape(name, vertices[first].astype(np.float32), faces.astype(np.uint32),
-                                       first.astype(np.int64), len(vertices),
-                                       None if uv is None else np.asarray(uv, np.float32)[first])
+            self.shapes[name] = _Shape(
+                name,
+                vertices[first].astype(np.float32),
+                faces.astype(np.uint32),
+                first.astype(np.int64),
+                len(vertices),
+                None if uv is None else np.asarray(uv, np.float32)[first],
+            )
         self.emitters = {}
         for name, (mesh, radiance) in emitters.items():
             first, faces = weld_map(mesh)
-            self.emitters[name] = (_Shape(name, np.asarray(mesh.vertices, np.float32)[first], faces.astype(np.uint32),
-                                          first, len(mesh.vertices)), _rgb(radiance, f"radiance of '{name}'"))
+            self.emitters[name] = (
+                _Shape(
+                    name,
+                    np.asarray(mesh.vertices, np.float32)[first],
+                    faces.astype(np.uint32),
+                    first,
+                    len(mesh.vertices),
+                ),
+                _rgb(radiance, f"radiance of '{name}'"),
+            )
 
         # Channels of the geometry render: P part masks, then depth and alpha (one pass: RGB + AOVs).
         self._channels: list[float | str] = [float(p) for p in range(self.n_parts)] + ["depth", "alpha"]
@@ -347,8 +373,9 @@ class MitsubaGeometryRenderer:
         return self._rgb
 
     # ---------------------------------------------------------------------------------------- renders
-    def render(self, vertices: Mapping[str, torch.Tensor] | None = None,
-               iteration: int = 0) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    def render(
+        self, vertices: Mapping[str, torch.Tensor] | None = None, iteration: int = 0
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """(masks [P,H,W], depth [H,W], alpha [H,W]) as float32 torch tensors.
 
         ``vertices`` maps shape names to N×3 world positions (the mesh's vertex order) replacing the
@@ -411,9 +438,13 @@ class MitsubaGeometryRenderer:
                 "vertices, or set renderer.mitsuba.rgb_geometry_gradients=true to accept the bias"
             )
         keys = [k for k, _ in inputs]
-        (image,) = _RenderFunction.apply(scene.with_mode("projective" if moving else "plain"), keys,
-                                         self._seed(iteration), (int(spp), int(grad_spp or spp)),
-                                         *[t for _, t in inputs])
+        (image,) = _RenderFunction.apply(
+            scene.with_mode("projective" if moving else "plain"),
+            keys,
+            self._seed(iteration),
+            (int(spp), int(grad_spp or spp)),
+            *[t for _, t in inputs],
+        )
         return image if image.dtype == torch.float32 else image.float()
 
     def render_guides(
@@ -433,12 +464,19 @@ class MitsubaGeometryRenderer:
         scene.set_inputs([k for k, _ in inputs], [t.detach().to("cpu").float().numpy() for _, t in inputs])
         if scene.guides is None:
             scene.guides = mi.load_dict(GUIDES)
-        image = np.array(scene.guides.render(scene.scene, sensor=0, seed=_opaque_seed(0), spp=int(spp)), dtype=np.float32)
+        image = np.array(
+            scene.guides.render(scene.scene, sensor=0, seed=_opaque_seed(0), spp=int(spp)), dtype=np.float32
+        )
         return image[..., :3], image[..., 3:6]
 
-    def _surface_inputs(self, scene: _MitsubaScene, base_color: Mapping[str, Any] | None,
-                        roughness: Mapping[str, Any] | None, specular: Mapping[str, Any] | None,
-                        radiance: Mapping[str, Any] | None) -> list[tuple[str, torch.Tensor]]:
+    def _surface_inputs(
+        self,
+        scene: _MitsubaScene,
+        base_color: Mapping[str, Any] | None,
+        roughness: Mapping[str, Any] | None,
+        specular: Mapping[str, Any] | None,
+        radiance: Mapping[str, Any] | None,
+    ) -> list[tuple[str, torch.Tensor]]:
         """(parameter key, tensor) of every surface and emitter value given, checked against the scene."""
         inputs = []
         for channel, values in (("base_color", base_color), ("roughness", roughness), ("specular", specular)):
@@ -464,7 +502,9 @@ def _as_input(value: Any, current: Any, what: str) -> torch.Tensor:
     expected = tuple(current.shape) if hasattr(current, "ndim") and current.ndim == 3 else None
     if expected is not None:
         if tuple(tensor.shape) != expected:
-            raise PsdrRoomError(f"renderer.render_rgb: {what} must be a map of shape {expected}, got {tuple(tensor.shape)}")
+            raise PsdrRoomError(
+                f"renderer.render_rgb: {what} must be a map of shape {expected}, got {tuple(tensor.shape)}"
+            )
         return tensor
     size = 3 if "Color" in type(current).__name__ else 1
     if tensor.numel() == 1 and size == 3:
@@ -477,8 +517,14 @@ def _as_input(value: Any, current: Any, what: str) -> torch.Tensor:
 class _MitsubaScene:
     """A loaded Mitsuba scene, its parameters and the integrator pass(es) that render it."""
 
-    def __init__(self, owner: MitsubaGeometryRenderer, mi: Any, scene: Any, passes: list[Any],
-                 projective: list[Any] | None = None) -> None:
+    def __init__(
+        self,
+        owner: MitsubaGeometryRenderer,
+        mi: Any,
+        scene: Any,
+        passes: list[Any],
+        projective: list[Any] | None = None,
+    ) -> None:
         self.owner = owner
         self.mi = mi
         self.scene = scene
@@ -539,8 +585,18 @@ class _MitsubaScene:
                 out = cls(owner, mi, scene, [mi.load_dict({"type": "path", "max_depth": r.max_depth})])
             else:
                 plain = [mi.load_dict({"type": "prb", "max_depth": r.max_depth})]
-                projective = [mi.load_dict({"type": "prb_projective", "max_depth": r.max_depth, "sppc": r.rgb_spp,
-                                            "sppp": r.spp_boundary, "sppi": r.rgb_sppi, "guiding": r.rgb_guiding})]
+                projective = [
+                    mi.load_dict(
+                        {
+                            "type": "prb_projective",
+                            "max_depth": r.max_depth,
+                            "sppc": r.rgb_spp,
+                            "sppp": r.spp_boundary,
+                            "sppi": r.rgb_sppi,
+                            "guiding": r.rgb_guiding,
+                        }
+                    )
+                ]
                 out = cls(owner, mi, scene, plain, projective)
             for name in owner.shapes:
                 out.surface_keys[name] = {
@@ -596,8 +652,9 @@ class _MitsubaScene:
     def render_pass(self, integrator: Any, seed: int, spp: int) -> Any:
         """``integrator``'s primal image of the scene with the parameters it now holds (``spp`` 0: the
         integrator's own count)."""
-        render = self._pass("render", integrator, lambda scene, seed, spp: integrator.render(
-            scene, sensor=0, seed=seed, spp=spp))
+        render = self._pass(
+            "render", integrator, lambda scene, seed, spp: integrator.render(scene, sensor=0, seed=seed, spp=spp)
+        )
         return render(self.scene, _opaque_seed(seed), int(spp))
 
     def backward_pass(self, integrator: Any, grad_in: Any, seed: int, spp: int) -> None:
@@ -694,8 +751,9 @@ def _make_function() -> Any:
         """Primal render of every pass; backward = ``render_backward`` of every pass on the same inputs."""
 
         @staticmethod
-        def forward(ctx: Any, scene: _MitsubaScene, keys: list[str], seed: int, spp: tuple[int, int],
-                    *tensors: torch.Tensor):
+        def forward(
+            ctx: Any, scene: _MitsubaScene, keys: list[str], seed: int, spp: tuple[int, int], *tensors: torch.Tensor
+        ):
             arrays = [t.detach().to("cpu", torch.float32).numpy().copy() for t in tensors]
             scene.owner.renderer.activate()
             scene.set_inputs(keys, arrays)
@@ -760,8 +818,9 @@ def _find_key(params: Any, prefix: str, suffixes: tuple[str, ...]) -> str:
 
 
 def _diffuse(mi: Any, rgb: tuple[float, float, float]) -> Any:
-    return mi.load_dict({"type": "twosided", "bsdf": {"type": "diffuse",
-                                                      "reflectance": {"type": "rgb", "value": list(rgb)}}})
+    return mi.load_dict(
+        {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": list(rgb)}}}
+    )
 
 
 def _principled(mi: Any, surface: Surface) -> Any:
@@ -770,14 +829,27 @@ def _principled(mi: Any, surface: Surface) -> Any:
     def texture(value: Any, channels: int) -> dict[str, Any]:
         array = np.asarray(value, dtype=np.float32)
         if array.ndim == 3:
-            return {"type": "bitmap", "data": mi.TensorXf(np.ascontiguousarray(array)), "raw": True,
-                    "filter_type": "bilinear", "wrap_mode": "repeat"}
+            return {
+                "type": "bitmap",
+                "data": mi.TensorXf(np.ascontiguousarray(array)),
+                "raw": True,
+                "filter_type": "bilinear",
+                "wrap_mode": "repeat",
+            }
         values = [float(v) for v in np.broadcast_to(array.reshape(-1), (channels,))]
         return {"type": "rgb", "value": values} if channels == 3 else {"type": "uniform", "value": values[0]}
 
-    return mi.load_dict({"type": "twosided", "bsdf": {
-        "type": "principled", "base_color": texture(surface.base_color, 3),
-        "roughness": texture(surface.roughness, 1), "specular": float(surface.specular)}})
+    return mi.load_dict(
+        {
+            "type": "twosided",
+            "bsdf": {
+                "type": "principled",
+                "base_color": texture(surface.base_color, 3),
+                "roughness": texture(surface.roughness, 1),
+                "specular": float(surface.specular),
+            },
+        }
+    )
 
 
 def _mesh(mi: Any, name: str, shape: _Shape, bsdf: Any, emitter: Any = None) -> Any:
@@ -786,15 +858,23 @@ def _mesh(mi: Any, name: str, shape: _Shape, bsdf: Any, emitter: Any = None) -> 
     props["bsdf"] = bsdf
     if emitter is not None:
         props["emitter"] = emitter
-    mesh = mi.Mesh(name, len(shape.vertices), len(shape.faces), props=props, has_vertex_normals=False,
-                   has_vertex_texcoords=shape.uv is not None)
+    mesh = mi.Mesh(
+        name,
+        len(shape.vertices),
+        len(shape.faces),
+        props=props,
+        has_vertex_normals=False,
+        has_vertex_texcoords=shape.uv is not None,
+    )
     params = mi.traverse(mesh)
     # The parameters' own types: mi.Float / mi.UInt32 in JIT variants, dynamic arrays in scalar ones.
     params["vertex_positions"] = type(params["vertex_positions"])(
-        np.ascontiguousarray(shape.vertices, dtype=np.float32).reshape(-1))
+        np.ascontiguousarray(shape.vertices, dtype=np.float32).reshape(-1)
+    )
     params["faces"] = type(params["faces"])(np.ascontiguousarray(shape.faces, dtype=np.uint32).reshape(-1))
     if shape.uv is not None:
         params["vertex_texcoords"] = type(params["vertex_texcoords"])(
-            np.ascontiguousarray(shape.uv, dtype=np.float32).reshape(-1))
+            np.ascontiguousarray(shape.uv, dtype=np.float32).reshape(-1)
+        )
     params.update()
     return mesh

@@ -38,42 +38,67 @@ BUILTIN_VERSION = 1
 
 KENNEY: dict[str, tuple[str, str]] = {
     # chairs
-    "chair": ("chair", "wooden chair"), "chairCushion": ("chair", "wooden chair with seat cushion"),
-    "chairDesk": ("chair", "office chair on a swivel base"), "chairModernCushion": ("chair", "modern chair with cushion"),
-    "chairModernFrameCushion": ("chair", "modern frame chair with cushion"), "chairRounded": ("chair", "rounded chair"),
-    "loungeChair": ("chair", "lounge armchair"), "loungeChairRelax": ("chair", "reclining lounge chair"),
-    "loungeDesignChair": ("chair", "design armchair"), "stoolBar": ("chair", "round bar stool"),
+    "chair": ("chair", "wooden chair"),
+    "chairCushion": ("chair", "wooden chair with seat cushion"),
+    "chairDesk": ("chair", "office chair on a swivel base"),
+    "chairModernCushion": ("chair", "modern chair with cushion"),
+    "chairModernFrameCushion": ("chair", "modern frame chair with cushion"),
+    "chairRounded": ("chair", "rounded chair"),
+    "loungeChair": ("chair", "lounge armchair"),
+    "loungeChairRelax": ("chair", "reclining lounge chair"),
+    "loungeDesignChair": ("chair", "design armchair"),
+    "stoolBar": ("chair", "round bar stool"),
     "stoolBarSquare": ("chair", "square bar stool"),
     # tables
-    "table": ("table", "dining table"), "tableCloth": ("table", "table with tablecloth"),
-    "tableCoffee": ("table", "coffee table"), "tableCoffeeGlass": ("table", "glass coffee table"),
-    "tableCoffeeSquare": ("table", "square coffee table"), "tableCross": ("table", "cross-legged table"),
-    "tableGlass": ("table", "glass table"), "tableRound": ("table", "round table"), "sideTable": ("table", "side table"),
+    "table": ("table", "dining table"),
+    "tableCloth": ("table", "table with tablecloth"),
+    "tableCoffee": ("table", "coffee table"),
+    "tableCoffeeGlass": ("table", "glass coffee table"),
+    "tableCoffeeSquare": ("table", "square coffee table"),
+    "tableCross": ("table", "cross-legged table"),
+    "tableGlass": ("table", "glass table"),
+    "tableRound": ("table", "round table"),
+    "sideTable": ("table", "side table"),
     "sideTableDrawers": ("table", "side table with drawers"),
     # desks
-    "desk": ("desk", "desk with a drawer"), "deskCorner": ("desk", "corner desk"),
+    "desk": ("desk", "desk with a drawer"),
+    "deskCorner": ("desk", "corner desk"),
     # sofas
-    "loungeSofa": ("sofa", "two-seat sofa"), "loungeSofaCorner": ("sofa", "corner sofa"),
-    "loungeSofaLong": ("sofa", "sofa with chaise"), "loungeSofaOttoman": ("sofa", "ottoman"),
-    "loungeDesignSofa": ("sofa", "design sofa"), "loungeDesignSofaCorner": ("sofa", "design corner sofa"),
+    "loungeSofa": ("sofa", "two-seat sofa"),
+    "loungeSofaCorner": ("sofa", "corner sofa"),
+    "loungeSofaLong": ("sofa", "sofa with chaise"),
+    "loungeSofaOttoman": ("sofa", "ottoman"),
+    "loungeDesignSofa": ("sofa", "design sofa"),
+    "loungeDesignSofaCorner": ("sofa", "design corner sofa"),
     "benchCushion": ("sofa", "bench with cushion"),
     # beds
-    "bedDouble": ("bed", "double bed"), "bedSingle": ("bed", "single bed"), "bedBunk": ("bed", "bunk bed"),
+    "bedDouble": ("bed", "double bed"),
+    "bedSingle": ("bed", "single bed"),
+    "bedBunk": ("bed", "bunk bed"),
     # storage
-    "bookcaseClosed": ("shelf", "bookcase"), "bookcaseClosedWide": ("shelf", "wide bookcase"),
-    "bookcaseOpen": ("shelf", "open shelving"), "bookcaseOpenLow": ("shelf", "low open shelving"),
-    "bookcaseClosedDoors": ("cabinet", "cabinet with doors"), "cabinetBed": ("cabinet", "nightstand"),
+    "bookcaseClosed": ("shelf", "bookcase"),
+    "bookcaseClosedWide": ("shelf", "wide bookcase"),
+    "bookcaseOpen": ("shelf", "open shelving"),
+    "bookcaseOpenLow": ("shelf", "low open shelving"),
+    "bookcaseClosedDoors": ("cabinet", "cabinet with doors"),
+    "cabinetBed": ("cabinet", "nightstand"),
     "cabinetBedDrawer": ("cabinet", "nightstand with drawer"),
     "cabinetBedDrawerTable": ("cabinet", "nightstand with drawer and shelf"),
-    "cabinetTelevision": ("cabinet", "TV stand"), "cabinetTelevisionDoors": ("cabinet", "TV stand with doors"),
+    "cabinetTelevision": ("cabinet", "TV stand"),
+    "cabinetTelevisionDoors": ("cabinet", "TV stand with doors"),
     "kitchenCabinet": ("cabinet", "kitchen cabinet"),
     # lamps
-    "lampRoundFloor": ("lamp", "round floor lamp"), "lampRoundTable": ("lamp", "round table lamp"),
-    "lampSquareCeiling": ("lamp", "square ceiling lamp"), "lampSquareFloor": ("lamp", "square floor lamp"),
-    "lampSquareTable": ("lamp", "square table lamp"), "lampWall": ("lamp", "wall lamp"),
+    "lampRoundFloor": ("lamp", "round floor lamp"),
+    "lampRoundTable": ("lamp", "round table lamp"),
+    "lampSquareCeiling": ("lamp", "square ceiling lamp"),
+    "lampSquareFloor": ("lamp", "square floor lamp"),
+    "lampSquareTable": ("lamp", "square table lamp"),
+    "lampWall": ("lamp", "wall lamp"),
     # other
-    "rugRectangle": ("rug", "rectangular rug"), "rugRound": ("rug", "round rug"),
-    "pottedPlant": ("plant", "potted plant"), "televisionModern": ("tv", "flat television"),
+    "rugRectangle": ("rug", "rectangular rug"),
+    "rugRound": ("rug", "round rug"),
+    "pottedPlant": ("plant", "potted plant"),
+    "televisionModern": ("tv", "flat television"),
 }
 """Every Kenney model shipped: name → (category, description)."""
 
@@ -89,8 +114,9 @@ POLYHAVEN: dict[str, tuple[str, str]] = {
 
 
 def _kenney_mesh(name: str) -> ObjectMesh:
-    return mesh_from_obj(KENNEY_DIR / f"{name}.obj", up_axis="+y", front_axis=KENNEY_FRONT,
-                         unit_scale=KENNEY_UNIT_SCALE)
+    return mesh_from_obj(
+        KENNEY_DIR / f"{name}.obj", up_axis="+y", front_axis=KENNEY_FRONT, unit_scale=KENNEY_UNIT_SCALE
+    )
 
 
 def _polyhaven_mesh(name: str) -> ObjectMesh:
@@ -120,8 +146,10 @@ def library_digest() -> str:
     """Digest of what the built-in library is made of: the Kenney files and the generators' code."""
     h = hashlib.sha256(f"builtin {BUILTIN_VERSION}\0".encode())
     here = Path(__file__).resolve().parent
-    sources = [*(here / n for n in ("builtin.py", "primitives.py", "database.py", "objio.py")),
-               *sorted((here / "parametric").glob("*.py"))]
+    sources = [
+        *(here / n for n in ("builtin.py", "primitives.py", "database.py", "objio.py")),
+        *sorted((here / "parametric").glob("*.py")),
+    ]
     for path in [*sources, *sorted(KENNEY_DIR.iterdir()), *sorted(POLYHAVEN_DIR.iterdir())]:
         h.update(path.name.encode() + b"\0" + path.read_bytes())
     return h.hexdigest()
@@ -138,20 +166,44 @@ def builtin_records() -> list[ModelRecord]:
     records = []
     for name, (category, description) in KENNEY.items():
         mesh = _kenney_mesh(name)
-        records.append(ModelRecord(id=f"kenney/{name}", category=category, name=f"{description} (Kenney {name})",
-                                   source=f"library/kenney/{name}.obj", licence=KENNEY_LICENCE, groups=mesh.groups,
-                                   extent=_extent(mesh)))
+        records.append(
+            ModelRecord(
+                id=f"kenney/{name}",
+                category=category,
+                name=f"{description} (Kenney {name})",
+                source=f"library/kenney/{name}.obj",
+                licence=KENNEY_LICENCE,
+                groups=mesh.groups,
+                extent=_extent(mesh),
+            )
+        )
     for name, (category, description) in POLYHAVEN.items():
         mesh = _polyhaven_mesh(name)
-        records.append(ModelRecord(id=f"polyhaven/{name}", category=category, name=f"{description} (Poly Haven {name})",
-                                   source=f"library/polyhaven/{name}.obj", licence=POLYHAVEN_LICENCE, groups=mesh.groups,
-                                   extent=_extent(mesh)))
+        records.append(
+            ModelRecord(
+                id=f"polyhaven/{name}",
+                category=category,
+                name=f"{description} (Poly Haven {name})",
+                source=f"library/polyhaven/{name}.obj",
+                licence=POLYHAVEN_LICENCE,
+                groups=mesh.groups,
+                extent=_extent(mesh),
+            )
+        )
     for variant in _variants().values():
         mesh = variant.build()
         params = ", ".join(f"{k}={v!r}" for k, v in variant.params.items())
-        records.append(ModelRecord(id=variant.id, category=variant.category, name=variant.name,
-                                   source=f"parametric.{variant.generator}({params})", licence=PARAMETRIC_LICENCE,
-                                   groups=mesh.groups, extent=_extent(mesh)))
+        records.append(
+            ModelRecord(
+                id=variant.id,
+                category=variant.category,
+                name=variant.name,
+                source=f"parametric.{variant.generator}({params})",
+                licence=PARAMETRIC_LICENCE,
+                groups=mesh.groups,
+                extent=_extent(mesh),
+            )
+        )
     return records
 
 

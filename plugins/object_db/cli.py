@@ -32,8 +32,13 @@ def _parser() -> argparse.ArgumentParser:
     group = source.add_argument_group("database (default: the built-in library)")
     where = group.add_mutually_exclusive_group()
     where.add_argument("--root", type=Path, metavar="DIR", help="a database in psdr-room's format (index.json)")
-    where.add_argument("--3d-future", dest="future", type=Path, metavar="DIR",
-                       help="a 3D-FUTURE folder (model_info.json, 3D-FUTURE-model/)")
+    where.add_argument(
+        "--3d-future",
+        dest="future",
+        type=Path,
+        metavar="DIR",
+        help="a 3D-FUTURE folder (model_info.json, 3D-FUTURE-model/)",
+    )
     group.add_argument("--subset", type=float, default=None, metavar="F", help="keep this fraction per category")
     group.add_argument("--seed", type=int, default=0, help="seed of --subset (default 0)")
     parser = argparse.ArgumentParser(prog=PROG, description="Object model databases of psdr-room.")
@@ -56,8 +61,9 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def open_database(root: Path | None = None, future: Path | None = None, subset: float | None = None,
-                  seed: int = 0) -> ObjectDatabase:  # noqa: F821
+def open_database(
+    root: Path | None = None, future: Path | None = None, subset: float | None = None, seed: int = 0
+) -> ObjectDatabase:  # noqa: F821
     from .builtin import builtin_database
     from .database import ObjectDatabase
 
@@ -75,8 +81,15 @@ def open_database(root: Path | None = None, future: Path | None = None, subset: 
 def _progress(total: int, what: str):  # type: ignore[no-untyped-def]
     from tqdm import tqdm
 
-    return lambda items: tqdm(items, total=total, desc=what, unit="model", file=sys.stderr,
-                              disable=None if sys.stderr.isatty() else False, mininterval=1.0)
+    return lambda items: tqdm(
+        items,
+        total=total,
+        desc=what,
+        unit="model",
+        file=sys.stderr,
+        disable=None if sys.stderr.isatty() else False,
+        mininterval=1.0,
+    )
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -111,14 +124,12 @@ def _run(args: argparse.Namespace) -> int:
     if args.command == "build":
         start = time.perf_counter()
         rendered, cached = build_thumbnails(db, progress=_progress(len(db), "thumbnails"))
-        print(f"{rendered} rendered, {cached} already cached, in {cache_dir(db)} "
-              f"({time.perf_counter() - start:.0f} s)")
+        print(f"{rendered} rendered, {cached} already cached, in {cache_dir(db)} ({time.perf_counter() - start:.0f} s)")
         return 0
     if args.command == "show":
         record = db.record(args.id)
         views = db.thumbnails(record.id)
-        write_png(args.out, contact_sheet([(f"{record.id} #{k}", v) for k, v in enumerate(views)],
-                                           columns=len(views)))
+        write_png(args.out, contact_sheet([(f"{record.id} #{k}", v) for k, v in enumerate(views)], columns=len(views)))
         print(f"{record.id} ({record.category}, groups {', '.join(record.groups)}): {args.out}")
         return 0
     if args.command == "sheet":

@@ -40,8 +40,26 @@ from psdr_room_core.method.artifacts import ObjectMesh
 
 from .objio import group_colors, read_obj, write_obj
 
-CATEGORIES = ("chair", "table", "sofa", "bed", "cabinet", "shelf", "desk", "lamp", "rug", "pillow", "plant", "tv",
-              "ottoman", "refrigerator", "appliance", "frame", "box", "other")
+CATEGORIES = (
+    "chair",
+    "table",
+    "sofa",
+    "bed",
+    "cabinet",
+    "shelf",
+    "desk",
+    "lamp",
+    "rug",
+    "pillow",
+    "plant",
+    "tv",
+    "ottoman",
+    "refrigerator",
+    "appliance",
+    "frame",
+    "box",
+    "other",
+)
 """Object categories: those of the built-in library (``tv`` holds monitors, ``cabinet`` kitchen units,
 ``appliance`` microwaves, ovens and washing machines, ``frame`` pictures, mirrors and boards, ``box`` boxes,
 bins and baskets); ``other`` takes whatever a foreign database has that maps onto none of them."""
@@ -49,8 +67,19 @@ bins and baskets); ``other`` takes whatever a foreign database has that maps ont
 FORMAT = "psdr-room-object-db"
 VERSION = 1
 AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
-MODEL_KEYS = ("id", "category", "name", "source", "licence", "groups", "extent", "mesh", "up_axis", "front_axis",
-              "unit_scale")
+MODEL_KEYS = (
+    "id",
+    "category",
+    "name",
+    "source",
+    "licence",
+    "groups",
+    "extent",
+    "mesh",
+    "up_axis",
+    "front_axis",
+    "unit_scale",
+)
 """Keys of ``model.json``: the record's, then ``mesh`` (file name, default ``mesh.obj``), ``up_axis`` and
 ``front_axis`` (the file's axes pointing up and towards the object's front, defaults ``+y``/``+z``) and
 ``unit_scale`` (metres per file unit, default 1)."""
@@ -81,8 +110,15 @@ class ModelRecord:
     """Bounding-box size in metres (x, y, z) in the canonical frame."""
 
     def to_json(self) -> dict[str, Any]:
-        return {"id": self.id, "category": self.category, "name": self.name, "source": self.source,
-                "licence": self.licence, "groups": list(self.groups), "extent": [round(float(e), 6) for e in self.extent]}
+        return {
+            "id": self.id,
+            "category": self.category,
+            "name": self.name,
+            "source": self.source,
+            "licence": self.licence,
+            "groups": list(self.groups),
+            "extent": [round(float(e), 6) for e in self.extent],
+        }
 
     @classmethod
     def from_json(cls, data: Any, where: str) -> ModelRecord:
@@ -92,24 +128,37 @@ class ModelRecord:
         model_id = _field(data, "id", str, where)
         where = f"{where} (model {model_id!r})" if "model.json" not in where else where
         if not _ID.match(model_id) or ".." in model_id.split("/"):
-            raise PsdrRoomError(f"{where}: field 'id' = {model_id!r} is not a valid model id; use letters, digits, "
-                                "'_', '-', '.' and '/' between parts")
+            raise PsdrRoomError(
+                f"{where}: field 'id' = {model_id!r} is not a valid model id; use letters, digits, "
+                "'_', '-', '.' and '/' between parts"
+            )
         category = _field(data, "category", str, where)
         if category not in CATEGORIES:
-            raise PsdrRoomError(f"{where}: field 'category' = {category!r} is not a known category; use one of "
-                                f"{', '.join(CATEGORIES)}")
+            raise PsdrRoomError(
+                f"{where}: field 'category' = {category!r} is not a known category; use one of {', '.join(CATEGORIES)}"
+            )
         groups = _field(data, "groups", list, where)
-        if not groups or not all(isinstance(g, str) and g.strip() == g and g for g in groups) or \
-                len(set(groups)) != len(groups):
-            raise PsdrRoomError(f"{where}: field 'groups' must be a non-empty list of distinct names without "
-                                f"spaces at the ends, got {groups!r}")
+        if (
+            not groups
+            or not all(isinstance(g, str) and g.strip() == g and g for g in groups)
+            or len(set(groups)) != len(groups)
+        ):
+            raise PsdrRoomError(
+                f"{where}: field 'groups' must be a non-empty list of distinct names without "
+                f"spaces at the ends, got {groups!r}"
+            )
         extent = _field(data, "extent", list, where)
         if len(extent) != 3 or not all(isinstance(e, (int, float)) and math.isfinite(e) and e >= 0 for e in extent):
             raise PsdrRoomError(f"{where}: field 'extent' must be three sizes in metres (x, y, z), got {extent!r}")
-        return cls(id=model_id, category=category, name=_field(data, "name", str, where, default=model_id),
-                   source=_field(data, "source", str, where, default=""),
-                   licence=_field(data, "licence", str, where), groups=tuple(groups),
-                   extent=(float(extent[0]), float(extent[1]), float(extent[2])))
+        return cls(
+            id=model_id,
+            category=category,
+            name=_field(data, "name", str, where, default=model_id),
+            source=_field(data, "source", str, where, default=""),
+            licence=_field(data, "licence", str, where),
+            groups=tuple(groups),
+            extent=(float(extent[0]), float(extent[1]), float(extent[2])),
+        )
 
 
 def _field(data: Mapping[str, Any], key: str, kind: type, where: str, default: Any = None) -> Any:
@@ -131,20 +180,23 @@ def _field(data: Mapping[str, Any], key: str, kind: type, where: str, default: A
 def axis_rotation(up_axis: str = "+y", front_axis: str = "+z") -> np.ndarray:
     """The rotation taking a file's ``up_axis`` to +Y and ``front_axis`` to +Z (a proper rotation, so
     triangle winding is kept)."""
+
     def unit(axis: str) -> np.ndarray:
         vector = np.zeros(3)
         vector["xyz".index(axis[1])] = 1.0 if axis[0] == "+" else -1.0
         return vector
 
     if up_axis not in AXES or front_axis not in AXES or up_axis[1] == front_axis[1]:
-        raise PsdrRoomError(f"up_axis={up_axis!r}, front_axis={front_axis!r}: each must be one of "
-                            f"{', '.join(AXES)}, on different axes")
+        raise PsdrRoomError(
+            f"up_axis={up_axis!r}, front_axis={front_axis!r}: each must be one of {', '.join(AXES)}, on different axes"
+        )
     up, front = unit(up_axis), unit(front_axis)
     return np.stack([np.cross(up, front), up, front])
 
 
-def canonical_vertices(vertices: np.ndarray, up_axis: str = "+y", front_axis: str = "+z",
-                       unit_scale: float = 1.0) -> np.ndarray:
+def canonical_vertices(
+    vertices: np.ndarray, up_axis: str = "+y", front_axis: str = "+z", unit_scale: float = 1.0
+) -> np.ndarray:
     """Vertices in the canonical frame: rotated (file axes → +Y up, +Z front), scaled to metres, bottom at
     y = 0 and the bounding box centred on x = z = 0."""
     v = (np.asarray(vertices, dtype=np.float64) @ axis_rotation(up_axis, front_axis).T) * float(unit_scale)
@@ -162,8 +214,14 @@ def clean_faces(vertices: np.ndarray, faces: np.ndarray, face_group: np.ndarray)
     return faces[keep], face_group[keep]
 
 
-def mesh_from_obj(path: Path, up_axis: str = "+y", front_axis: str = "+z", unit_scale: float = 1.0,
-                  mtl_names: Sequence[str] = (), colors: Mapping[str, Sequence[float]] | None = None) -> ObjectMesh:
+def mesh_from_obj(
+    path: Path,
+    up_axis: str = "+y",
+    front_axis: str = "+z",
+    unit_scale: float = 1.0,
+    mtl_names: Sequence[str] = (),
+    colors: Mapping[str, Sequence[float]] | None = None,
+) -> ObjectMesh:
     """Read an OBJ file (and its MTL colours) into a canonical :class:`ObjectMesh`.
 
     Vertices no face uses are dropped, so that the bounding box is that of the surface."""
@@ -198,12 +256,16 @@ def mesh_from_obj(path: Path, up_axis: str = "+y", front_axis: str = "+z", unit_
 def check_extent(record: ModelRecord, mesh: ObjectMesh, where: str) -> None:
     """The record must describe the mesh: same groups, same extent (within :data:`EXTENT_TOLERANCE`)."""
     if tuple(mesh.groups) != tuple(record.groups):
-        raise PsdrRoomError(f"{where}: field 'groups' = {list(record.groups)} but the mesh has groups "
-                            f"{list(mesh.groups)}; rebuild the index (psdr-room-db index --root DIR)")
+        raise PsdrRoomError(
+            f"{where}: field 'groups' = {list(record.groups)} but the mesh has groups "
+            f"{list(mesh.groups)}; rebuild the index (psdr-room-db index --root DIR)"
+        )
     actual = np.array(mesh.extent)
     if np.any(np.abs(actual - np.array(record.extent)) > EXTENT_TOLERANCE * np.maximum(1.0, actual)):
-        raise PsdrRoomError(f"{where}: field 'extent' = {list(record.extent)} but the mesh measures "
-                            f"{[round(float(e), 4) for e in actual]} m; rebuild the index (psdr-room-db index --root DIR)")
+        raise PsdrRoomError(
+            f"{where}: field 'extent' = {list(record.extent)} but the mesh measures "
+            f"{[round(float(e), 4) for e in actual]} m; rebuild the index (psdr-room-db index --root DIR)"
+        )
 
 
 # -------------------------------------------------------------------------------------------- database
@@ -235,15 +297,23 @@ class ObjectDatabase:
     ``digest`` identifies the content (it keys the thumbnail cache); subsets keep their parent's.
     ``images`` maps model ids to renderings the database ships (3D-FUTURE's ``image.jpg``)."""
 
-    def __init__(self, records: Iterable[ModelRecord], loader: Callable[[str], ObjectMesh], digest: str,
-                 label: str = "", images: Mapping[str, Path] | None = None, cache_size: int = 512,
-                 _cache: _MeshCache | None = None) -> None:
+    def __init__(
+        self,
+        records: Iterable[ModelRecord],
+        loader: Callable[[str], ObjectMesh],
+        digest: str,
+        label: str = "",
+        images: Mapping[str, Path] | None = None,
+        cache_size: int = 512,
+        _cache: _MeshCache | None = None,
+    ) -> None:
         self.records: list[ModelRecord] = list(records)
         self._by_id: dict[str, ModelRecord] = {}
         for record in self.records:
             if record.id in self._by_id:
-                raise PsdrRoomError(f"{label or 'object database'}: model id {record.id!r} appears twice; ids "
-                                    "must be unique")
+                raise PsdrRoomError(
+                    f"{label or 'object database'}: model id {record.id!r} appears twice; ids must be unique"
+                )
             self._by_id[record.id] = record
         self.digest = digest
         self.label = label
@@ -259,25 +329,34 @@ class ObjectDatabase:
         try:
             raw = index.read_bytes()
         except OSError as exc:
-            raise PsdrRoomError(f"{index}: cannot read the database index ({exc.strerror}); point --root at a "
-                                "folder written by `psdr-room-db export` or run `psdr-room-db index --root DIR`") from None
+            raise PsdrRoomError(
+                f"{index}: cannot read the database index ({exc.strerror}); point --root at a "
+                "folder written by `psdr-room-db export` or run `psdr-room-db index --root DIR`"
+            ) from None
         try:
             data = json.loads(raw)
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise PsdrRoomError(f"{index}: not valid JSON ({exc}); rebuild it with `psdr-room-db index --root "
-                                f"{root}`") from None
+            raise PsdrRoomError(
+                f"{index}: not valid JSON ({exc}); rebuild it with `psdr-room-db index --root {root}`"
+            ) from None
         if isinstance(data, Mapping):
             if data.get("format", FORMAT) != FORMAT or data.get("version", VERSION) != VERSION:
-                raise PsdrRoomError(f"{index}: field 'format'/'version' = {data.get('format')!r}/"
-                                    f"{data.get('version')!r}; this reader needs {FORMAT!r} version {VERSION}")
+                raise PsdrRoomError(
+                    f"{index}: field 'format'/'version' = {data.get('format')!r}/"
+                    f"{data.get('version')!r}; this reader needs {FORMAT!r} version {VERSION}"
+                )
             models = data.get("models")
         else:
             models = data
         if not isinstance(models, list):
             raise PsdrRoomError(f"{index}: field 'models' must be a list of model records")
         records = [ModelRecord.from_json(item, f"{index} models[{i}]") for i, item in enumerate(models)]
-        return cls(records, _FolderLoader(root, {r.id: r for r in records}),
-                   digest=hashlib.sha256(b"folder\0" + raw).hexdigest(), label=str(root / "index.json"))
+        return cls(
+            records,
+            _FolderLoader(root, {r.id: r for r in records}),
+            digest=hashlib.sha256(b"folder\0" + raw).hexdigest(),
+            label=str(root / "index.json"),
+        )
 
     # -- queries
     def __len__(self) -> int:
@@ -292,8 +371,9 @@ class ObjectDatabase:
         except KeyError:
             close = [r.id for r in self.records if model_id.split("/")[-1].lower() in r.id.lower()][:5]
             hint = f" (similar: {', '.join(close)})" if close else ""
-            raise PsdrRoomError(f"{self.label or 'object database'}: no model {model_id!r}{hint}; list them with "
-                                "`psdr-room-db list`") from None
+            raise PsdrRoomError(
+                f"{self.label or 'object database'}: no model {model_id!r}{hint}; list them with `psdr-room-db list`"
+            ) from None
 
     def categories(self) -> dict[str, int]:
         """Model count per category present, in :data:`CATEGORIES` order."""
@@ -324,14 +404,21 @@ class ObjectDatabase:
             if ids:
                 count = max(1, int(round(fraction * len(ids))))
                 keep.update(ids[i] for i in rng.permutation(len(ids))[:count])
-        return self.only([r.id for r in self.records if r.id in keep],
-                         label=f"{self.label} (subset {fraction:g}, seed {seed})")
+        return self.only(
+            [r.id for r in self.records if r.id in keep], label=f"{self.label} (subset {fraction:g}, seed {seed})"
+        )
 
     def only(self, model_ids: Iterable[str], label: str | None = None) -> ObjectDatabase:
         """The database restricted to ``model_ids`` (same digest, so same thumbnails; shared mesh cache)."""
         records = [self.record(i) for i in model_ids]
-        return ObjectDatabase(records, self._cache.loader, self.digest, label=self.label if label is None else label,
-                              images=self.images, _cache=self._cache)
+        return ObjectDatabase(
+            records,
+            self._cache.loader,
+            self.digest,
+            label=self.label if label is None else label,
+            images=self.images,
+            _cache=self._cache,
+        )
 
     def thumbnails(self, model_id: str, views: Sequence[int] | None = None) -> list[np.ndarray]:
         """uint8 RGB views (indices into ``thumbnails.VIEWS``; default all) from the thumbnail cache, rendered
@@ -342,7 +429,9 @@ class ObjectDatabase:
         return thumbnails_for(self, model_id, views=views)
 
     # -- writing
-    def save(self, root: Path, progress: Callable[[Iterable[ModelRecord]], Iterable[ModelRecord]] | None = None) -> Path:
+    def save(
+        self, root: Path, progress: Callable[[Iterable[ModelRecord]], Iterable[ModelRecord]] | None = None
+    ) -> Path:
         """Write every model in our format under ``root`` (canonical frame, metres) and the index; returns
         the index path."""
         root = Path(root)
@@ -378,8 +467,9 @@ def build_index(root: Path) -> Path:
         data = _read_json(path)
         data.setdefault("id", model_id)
         if data["id"] != model_id:
-            raise PsdrRoomError(f"{path}: field 'id' = {data['id']!r} but the folder says {model_id!r}; rename "
-                                "one of them")
+            raise PsdrRoomError(
+                f"{path}: field 'id' = {data['id']!r} but the folder says {model_id!r}; rename one of them"
+            )
         mesh = _FolderLoader.read_mesh(path, data)
         data.setdefault("groups", list(mesh.groups))
         data.setdefault("extent", list(mesh.extent))
@@ -402,8 +492,10 @@ class _FolderLoader:
         path = self.root / model_id / "model.json"
         data = _read_json(path)
         if data.get("id", model_id) != model_id:
-            raise PsdrRoomError(f"{path}: field 'id' = {data.get('id')!r} but the index says {model_id!r}; rebuild "
-                                f"the index (psdr-room-db index --root {self.root})")
+            raise PsdrRoomError(
+                f"{path}: field 'id' = {data.get('id')!r} but the index says {model_id!r}; rebuild "
+                f"the index (psdr-room-db index --root {self.root})"
+            )
         mesh = self.read_mesh(path, data)
         check_extent(self.records[model_id], mesh, str(path))
         return mesh
@@ -420,12 +512,14 @@ class _FolderLoader:
             if value not in AXES:
                 raise PsdrRoomError(f"{where}: field {key!r} = {value!r}; use one of {', '.join(AXES)}")
         if up_axis[1] == front_axis[1]:
-            raise PsdrRoomError(f"{where}: fields 'up_axis' and 'front_axis' ({up_axis}, {front_axis}) must be "
-                                "different axes")
+            raise PsdrRoomError(
+                f"{where}: fields 'up_axis' and 'front_axis' ({up_axis}, {front_axis}) must be different axes"
+            )
         scale = _field(data, "unit_scale", float, where, default=1.0)
         if not math.isfinite(scale) or scale <= 0:
-            raise PsdrRoomError(f"{where}: field 'unit_scale' = {scale!r} must be a positive number (metres per "
-                                "file unit)")
+            raise PsdrRoomError(
+                f"{where}: field 'unit_scale' = {scale!r} must be a positive number (metres per file unit)"
+            )
         return mesh_from_obj(path.parent / mesh_name, up_axis, front_axis, scale)
 
 

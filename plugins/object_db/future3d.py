@@ -40,27 +40,65 @@ LICENCE = "3D-FUTURE terms of use (Alibaba Tianchi; non-commercial research only
 READER_VERSION = 1
 
 CATEGORY_MAP: dict[str, str] = {
-    "children cabinet": "cabinet", "nightstand": "cabinet", "bookcase / jewelry armoire": "shelf",
-    "wardrobe": "cabinet", "coffee table": "table", "corner/side table": "table",
-    "sideboard / side cabinet / console table": "cabinet", "wine cabinet": "cabinet", "tv stand": "cabinet",
-    "drawer chest / corner cabinet": "cabinet", "shelf": "shelf", "round end table": "table",
-    "king-size bed": "bed", "bunk bed": "bed", "bed frame": "bed", "single bed": "bed", "kids bed": "bed",
-    "double bed": "bed", "couch bed": "sofa",
-    "dining chair": "chair", "lounge chair / cafe chair / office chair": "chair",
-    "lounge chair / book-chair / computer chair": "chair", "dressing chair": "chair", "classic chinese chair": "chair",
-    "barstool": "chair", "armchair": "chair", "hanging chair": "chair", "folding chair": "chair",
-    "dressing table": "desk", "dining table": "table", "desk": "desk", "tea table": "table", "bar": "table",
-    "three-seat / multi-seat sofa": "sofa", "three-seat / multi-person sofa": "sofa", "two-seat sofa": "sofa",
-    "loveseat sofa": "sofa", "l-shaped sofa": "sofa", "u-shaped sofa": "sofa", "lazy sofa": "sofa",
-    "chaise longue sofa": "sofa", "footstool / sofastool / bed end stool / stool": "ottoman",
-    "pendant lamp": "lamp", "ceiling lamp": "lamp", "floor lamp": "lamp", "wall lamp": "lamp",
-    "shoe cabinet": "cabinet", "electronics": "tv",
+    "children cabinet": "cabinet",
+    "nightstand": "cabinet",
+    "bookcase / jewelry armoire": "shelf",
+    "wardrobe": "cabinet",
+    "coffee table": "table",
+    "corner/side table": "table",
+    "sideboard / side cabinet / console table": "cabinet",
+    "wine cabinet": "cabinet",
+    "tv stand": "cabinet",
+    "drawer chest / corner cabinet": "cabinet",
+    "shelf": "shelf",
+    "round end table": "table",
+    "king-size bed": "bed",
+    "bunk bed": "bed",
+    "bed frame": "bed",
+    "single bed": "bed",
+    "kids bed": "bed",
+    "double bed": "bed",
+    "couch bed": "sofa",
+    "dining chair": "chair",
+    "lounge chair / cafe chair / office chair": "chair",
+    "lounge chair / book-chair / computer chair": "chair",
+    "dressing chair": "chair",
+    "classic chinese chair": "chair",
+    "barstool": "chair",
+    "armchair": "chair",
+    "hanging chair": "chair",
+    "folding chair": "chair",
+    "dressing table": "desk",
+    "dining table": "table",
+    "desk": "desk",
+    "tea table": "table",
+    "bar": "table",
+    "three-seat / multi-seat sofa": "sofa",
+    "three-seat / multi-person sofa": "sofa",
+    "two-seat sofa": "sofa",
+    "loveseat sofa": "sofa",
+    "l-shaped sofa": "sofa",
+    "u-shaped sofa": "sofa",
+    "lazy sofa": "sofa",
+    "chaise longue sofa": "sofa",
+    "footstool / sofastool / bed end stool / stool": "ottoman",
+    "pendant lamp": "lamp",
+    "ceiling lamp": "lamp",
+    "floor lamp": "lamp",
+    "wall lamp": "lamp",
+    "shoe cabinet": "cabinet",
+    "electronics": "tv",
 }
 """3D-FUTURE fine category (lower case) → ours."""
 
 SUPER_CATEGORY_MAP: dict[str, str] = {
-    "sofa": "sofa", "chair": "chair", "table": "table", "bed": "bed", "cabinet/shelf/desk": "cabinet",
-    "pier/stool": "chair", "lighting": "lamp",
+    "sofa": "sofa",
+    "chair": "chair",
+    "table": "table",
+    "bed": "bed",
+    "cabinet/shelf/desk": "cabinet",
+    "pier/stool": "chair",
+    "lighting": "lamp",
 }
 """3D-FUTURE super-category (lower case) → ours, for fine categories not in :data:`CATEGORY_MAP`."""
 
@@ -85,8 +123,9 @@ class Future3dLoader:
         return self.models_dir / model_id.partition("/")[2] / MESH_FILE
 
     def __call__(self, model_id: str) -> ObjectMesh:
-        return mesh_from_obj(self.path(model_id), up_axis="+y", front_axis=self.front_axis, unit_scale=1.0,
-                             mtl_names=(MTL_FILE,))
+        return mesh_from_obj(
+            self.path(model_id), up_axis="+y", front_axis=self.front_axis, unit_scale=1.0, mtl_names=(MTL_FILE,)
+        )
 
 
 def _measure(args: tuple[str, str, str]) -> tuple[str, list[str], list[float]] | tuple[str, str]:
@@ -103,24 +142,29 @@ def _read_info(path: Path) -> list[dict[str, Any]]:
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except OSError as exc:
-        raise PsdrRoomError(f"{path}: cannot read it ({exc.strerror}); point --3d-future at the folder holding "
-                            f"model_info.json and {MODELS_DIR}/") from None
+        raise PsdrRoomError(
+            f"{path}: cannot read it ({exc.strerror}); point --3d-future at the folder holding "
+            f"model_info.json and {MODELS_DIR}/"
+        ) from None
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise PsdrRoomError(f"{path}: not valid JSON ({exc}); download model_info.json again") from None
     if not isinstance(data, list):
-        raise PsdrRoomError(f"{path}: must be a list of models (the 3D-FUTURE model_info.json), got "
-                            f"{type(data).__name__}")
+        raise PsdrRoomError(
+            f"{path}: must be a list of models (the 3D-FUTURE model_info.json), got {type(data).__name__}"
+        )
     for i, item in enumerate(data):
         if not isinstance(item, Mapping) or not isinstance(item.get("model_id"), str) or not item["model_id"]:
-            raise PsdrRoomError(f"{path}: entry [{i}] has no field 'model_id' (a string); is this 3D-FUTURE's "
-                                "model_info.json?")
+            raise PsdrRoomError(
+                f"{path}: entry [{i}] has no field 'model_id' (a string); is this 3D-FUTURE's model_info.json?"
+            )
         if "/" in item["model_id"] or item["model_id"].startswith("."):
             raise PsdrRoomError(f"{path}: entry [{i}] field 'model_id' = {item['model_id']!r} is not a folder name")
     return [dict(item) for item in data]
 
 
-def read_3dfuture(root: Path, front_axis: str = "+z", workers: int | None = None, strict: bool = False,
-                  progress: bool | None = None) -> ObjectDatabase:
+def read_3dfuture(
+    root: Path, front_axis: str = "+z", workers: int | None = None, strict: bool = False, progress: bool | None = None
+) -> ObjectDatabase:
     """The 3D-FUTURE models under ``root`` as an :class:`ObjectDatabase` (ids ``3dfuture/<model_id>``).
 
     Models listed in ``model_info.json`` whose ``raw_model.obj`` is missing or unreadable are skipped with
@@ -185,8 +229,13 @@ def read_3dfuture(root: Path, front_axis: str = "+z", workers: int | None = None
                 model_id, groups, extent = result  # type: ignore[misc]
                 known[model_id] = {"stamp": stamps[model_id], "groups": groups, "extent": extent}
         with contextlib.suppress(OSError):
-            write_whole(cache_path, json.dumps({"version": READER_VERSION, "front_axis": front_axis,
-                                                "root": str(root.resolve()), "models": known}) + "\n")
+            write_whole(
+                cache_path,
+                json.dumps(
+                    {"version": READER_VERSION, "front_axis": front_axis, "root": str(root.resolve()), "models": known}
+                )
+                + "\n",
+            )
     if missing:
         message = f"{root}: {len(missing)} of {len(info)} models in model_info.json cannot be read, e.g. {missing[0]}"
         if strict:
@@ -202,15 +251,29 @@ def read_3dfuture(root: Path, front_axis: str = "+z", workers: int | None = None
         details = [str(item[k]) for k in ("style", "theme", "material") if item.get(k) not in (None, "", "Others")]
         label = item.get("category") or item.get("super-category") or "model"
         name = f"{label} ({', '.join(details)})" if details else str(label)
-        records.append(ModelRecord(id=model_id, category=category, name=" ".join(name.split()),
-                                   source=f"{MODELS_DIR}/{item['model_id']}/{MESH_FILE}", licence=LICENCE,
-                                   groups=tuple(entry["groups"]), extent=tuple(entry["extent"])))  # type: ignore[arg-type]
+        records.append(
+            ModelRecord(
+                id=model_id,
+                category=category,
+                name=" ".join(name.split()),
+                source=f"{MODELS_DIR}/{item['model_id']}/{MESH_FILE}",
+                licence=LICENCE,
+                groups=tuple(entry["groups"]),
+                extent=tuple(entry["extent"]),
+            )
+        )  # type: ignore[arg-type]
         image = models_dir / item["model_id"] / IMAGE_FILE
         if image.is_file():
             images[model_id] = image
     if not records:
-        raise PsdrRoomError(f"{root}: none of the {len(info)} models in model_info.json has a readable "
-                            f"{MODELS_DIR}/<model_id>/{MESH_FILE}; check the folder")
-    digest = hashlib.sha256(b"3dfuture\0" + info_path.read_bytes() + f"\0{front_axis}\0{READER_VERSION}\0".encode()
-                            + json.dumps(sorted(stamps.items())).encode()).hexdigest()
+        raise PsdrRoomError(
+            f"{root}: none of the {len(info)} models in model_info.json has a readable "
+            f"{MODELS_DIR}/<model_id>/{MESH_FILE}; check the folder"
+        )
+    digest = hashlib.sha256(
+        b"3dfuture\0"
+        + info_path.read_bytes()
+        + f"\0{front_axis}\0{READER_VERSION}\0".encode()
+        + json.dumps(sorted(stamps.items())).encode()
+    ).hexdigest()
     return ObjectDatabase(records, loader, digest=digest, label=f"3D-FUTURE ({root})", images=images)

@@ -84,14 +84,14 @@ def read_obj(path: Path) -> ObjData:
                     faces.append((corners[0], corners[k], corners[k + 1]))
                     face_group.append(current)
             elif key == "usemtl":
-                name = line[len("usemtl"):].strip() or DEFAULT_GROUP
+                name = line[len("usemtl") :].strip() or DEFAULT_GROUP
                 current = groups.setdefault(name, len(groups))
             elif key == "mtllib":
                 mtllib.extend(parts[1:])
         except IndexError:
             raise PsdrRoomError(
-                f"{path}:{number}: face refers to a vertex that is not defined ({line.strip()!r}); "
-                "re-export the mesh") from None
+                f"{path}:{number}: face refers to a vertex that is not defined ({line.strip()!r}); re-export the mesh"
+            ) from None
         except ValueError:
             raise PsdrRoomError(f"{path}:{number}: cannot parse {line.strip()!r}; re-export the mesh as OBJ") from None
     if not faces:
@@ -125,7 +125,7 @@ def read_mtl(path: Path) -> dict[str, tuple[float, float, float]]:
         if not parts:
             continue
         if parts[0] == "newmtl":
-            current = line.strip()[len("newmtl"):].strip()
+            current = line.strip()[len("newmtl") :].strip()
             colors[current] = DEFAULT_COLOR
         elif parts[0] == "Kd" and current is not None:
             try:
@@ -152,8 +152,15 @@ def group_colors(obj: ObjData, folder: Path, mtl_names: Sequence[str] = ()) -> n
     return np.array([colors.get(g, DEFAULT_COLOR) for g in obj.groups], dtype=np.float64).reshape(-1, 3)
 
 
-def write_obj(path: Path, vertices: np.ndarray, faces: np.ndarray, face_group: np.ndarray, groups: Sequence[str],
-              colors: np.ndarray, header: str = "") -> None:
+def write_obj(
+    path: Path,
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    face_group: np.ndarray,
+    groups: Sequence[str],
+    colors: np.ndarray,
+    header: str = "",
+) -> None:
     """Write ``path`` (OBJ, faces sorted into one ``usemtl`` block per group) and the MTL beside it (same
     stem, ``.mtl``), each atomically."""
     path = Path(path)

@@ -32,8 +32,22 @@ def box(center: Vec, size: Vec) -> tuple[np.ndarray, np.ndarray]:
     """An axis-aligned box (8 vertices, 12 triangles)."""
     signs = np.array([[(i >> 0) & 1, (i >> 1) & 1, (i >> 2) & 1] for i in range(8)]) * 2.0 - 1.0
     vertices = np.asarray(center, dtype=np.float64) + signs * np.asarray(size, dtype=np.float64) / 2
-    faces = np.array([[0, 4, 6], [0, 6, 2], [1, 3, 7], [1, 7, 5], [0, 1, 5], [0, 5, 4],
-                      [2, 6, 7], [2, 7, 3], [0, 2, 3], [0, 3, 1], [4, 5, 7], [4, 7, 6]])
+    faces = np.array(
+        [
+            [0, 4, 6],
+            [0, 6, 2],
+            [1, 3, 7],
+            [1, 7, 5],
+            [0, 1, 5],
+            [0, 5, 4],
+            [2, 6, 7],
+            [2, 7, 3],
+            [0, 2, 3],
+            [0, 3, 1],
+            [4, 5, 7],
+            [4, 7, 6],
+        ]
+    )
     return vertices, faces
 
 
@@ -45,8 +59,9 @@ def _axis_samples(half: float, radius: float, flat: int, arc: int) -> np.ndarray
     return np.concatenate([-tangent[::-1], span, tangent])
 
 
-def rounded_box(center: Vec, size: Vec, radius: float, arc: int = 3, flat: Sequence[int] = (1, 1, 1),
-                puff: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+def rounded_box(
+    center: Vec, size: Vec, radius: float, arc: int = 3, flat: Sequence[int] = (1, 1, 1), puff: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
     """A box with edges and corners rounded to ``radius`` (``arc`` segments per eighth of a circle).
 
     ``flat`` subdivides the flat spans (x, y, z), for smooth ``puff``: a cushion bulge that pushes each
@@ -88,8 +103,14 @@ def rounded_box(center: Vec, size: Vec, radius: float, arc: int = 3, flat: Seque
     return vertices_out + np.asarray(center, dtype=np.float64), faces_out
 
 
-def lathe(profile: Sequence[tuple[float, float]], segments: int = 24, center: Vec = (0.0, 0.0, 0.0),
-          scale_z: float = 1.0, twist: float = 0.0, caps: bool = True) -> tuple[np.ndarray, np.ndarray]:
+def lathe(
+    profile: Sequence[tuple[float, float]],
+    segments: int = 24,
+    center: Vec = (0.0, 0.0, 0.0),
+    scale_z: float = 1.0,
+    twist: float = 0.0,
+    caps: bool = True,
+) -> tuple[np.ndarray, np.ndarray]:
     """A surface of revolution about the vertical axis through ``center``: ``profile`` is (radius, height)
     points with the solid on their left (bottom to top for an outer wall); with ``caps``, ends with
     radius > 0 are closed by flat discs. ``scale_z`` makes it elliptical; ``twist`` rotates the start
@@ -129,14 +150,17 @@ def lathe(profile: Sequence[tuple[float, float]], segments: int = 24, center: Ve
     return vertices + np.asarray(center, dtype=np.float64), faces_array
 
 
-def cylinder(bottom: Vec, radius: float, height: float, segments: int = 20, radius_top: float | None = None,
-             scale_z: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+def cylinder(
+    bottom: Vec, radius: float, height: float, segments: int = 20, radius_top: float | None = None, scale_z: float = 1.0
+) -> tuple[np.ndarray, np.ndarray]:
     """A vertical (possibly tapered or elliptical) cylinder standing on ``bottom``."""
     top = radius if radius_top is None else radius_top
     return lathe([(radius, 0.0), (top, height)], segments, bottom, scale_z=scale_z)
 
 
-def sphere(center: Vec, radius: float, segments: int = 16, scale: Vec = (1.0, 1.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
+def sphere(
+    center: Vec, radius: float, segments: int = 16, scale: Vec = (1.0, 1.0, 1.0)
+) -> tuple[np.ndarray, np.ndarray]:
     """A UV sphere (``scale`` makes an ellipsoid)."""
     rings = max(4, segments // 2)
     theta = np.linspace(0.0, math.pi, rings + 1)
@@ -155,15 +179,17 @@ def torus(center: Vec, radius: float, tube: float, segments: int = 32, sides: in
     return vertices + np.asarray(center, dtype=np.float64), faces
 
 
-def tube(p0: Vec, p1: Vec, radius: float, segments: int = 12, radius1: float | None = None,
-         square: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def tube(
+    p0: Vec, p1: Vec, radius: float, segments: int = 12, radius1: float | None = None, square: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
     """A round (or, with ``square``, square) strut from ``p0`` to ``p1``, e.g. a splayed leg."""
     p0, p1 = np.asarray(p0, dtype=np.float64), np.asarray(p1, dtype=np.float64)
     axis = p1 - p0
     length = float(np.linalg.norm(axis))
     if square:
-        vertices, faces = lathe([(radius * math.sqrt(2), 0.0), ((radius1 or radius) * math.sqrt(2), length)], 4,
-                                twist=math.pi / 4)
+        vertices, faces = lathe(
+            [(radius * math.sqrt(2), 0.0), ((radius1 or radius) * math.sqrt(2), length)], 4, twist=math.pi / 4
+        )
     else:
         vertices, faces = lathe([(radius, 0.0), (radius if radius1 is None else radius1, length)], segments)
     y = axis / max(length, 1e-12)
@@ -182,8 +208,12 @@ def polyline_tube(points: Sequence[Vec], radius: float, segments: int = 10) -> l
     return parts
 
 
-def transform(part: tuple[np.ndarray, np.ndarray], rotation: np.ndarray, pivot: Vec = (0.0, 0.0, 0.0),
-              translate: Vec = (0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+def transform(
+    part: tuple[np.ndarray, np.ndarray],
+    rotation: np.ndarray,
+    pivot: Vec = (0.0, 0.0, 0.0),
+    translate: Vec = (0.0, 0.0, 0.0),
+) -> tuple[np.ndarray, np.ndarray]:
     """``part`` rotated about ``pivot`` by a proper rotation (winding kept), then translated."""
     pivot = np.asarray(pivot, dtype=np.float64)
     vertices = (part[0] - pivot) @ np.asarray(rotation, dtype=np.float64).T + pivot + np.asarray(translate)
@@ -256,6 +286,10 @@ class MeshBuilder:
                     groups.append(np.full(len(f), index[name], dtype=np.int64))
                     offset += len(v)
         all_vertices = canonical_vertices(np.concatenate(vertices))
-        return ObjectMesh(vertices=all_vertices, faces=np.concatenate(faces).astype(np.int64),
-                           face_group=np.concatenate(groups), groups=tuple(names),
-                           colors=np.array([self._colors[n] for n in names], dtype=np.float64))
+        return ObjectMesh(
+            vertices=all_vertices,
+            faces=np.concatenate(faces).astype(np.int64),
+            face_group=np.concatenate(groups),
+            groups=tuple(names),
+            colors=np.array([self._colors[n] for n in names], dtype=np.float64),
+        )

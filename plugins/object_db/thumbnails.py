@@ -35,8 +35,9 @@ RENDER_VERSION = 1
 """Bump when the look of the thumbnails changes (it is part of the cache key)."""
 
 
-def camera_for(extent: Sequence[float], azimuth: float, elevation: float, fov: float,
-               margin: float = 0.92) -> tuple[np.ndarray, np.ndarray]:
+def camera_for(
+    extent: Sequence[float], azimuth: float, elevation: float, fov: float, margin: float = 0.92
+) -> tuple[np.ndarray, np.ndarray]:
     """(origin, target) of a camera looking at the canonical bounding box from (azimuth, elevation),
     at the distance where every box corner is inside ``margin`` of the half field of view."""
     ex, ey, ez = (max(float(e), 1e-3) for e in extent)
@@ -55,8 +56,14 @@ def camera_for(extent: Sequence[float], azimuth: float, elevation: float, fov: f
 class ThumbnailRenderer:
     """Renders a :class:`~.database.ObjectMesh` from :data:`VIEWS` (H×W×3 uint8 sRGB each, on white)."""
 
-    def __init__(self, size: int = SIZE, spp: int = SPP, views: Sequence[tuple[float, float]] = VIEWS,
-                 fov: float = 30.0, variant: str = "auto") -> None:
+    def __init__(
+        self,
+        size: int = SIZE,
+        spp: int = SPP,
+        views: Sequence[tuple[float, float]] = VIEWS,
+        fov: float = 30.0,
+        variant: str = "auto",
+    ) -> None:
         self.size, self.spp, self.fov = int(size), int(spp), float(fov)
         self.views = tuple((float(a), float(e)) for a, e in views)
         self.variant = variant
@@ -79,8 +86,12 @@ class ThumbnailRenderer:
         views = range(len(self.views)) if views is None else views
         mi = self._mi()
         props = mi.Properties()
-        props["bsdf"] = mi.load_dict({"type": "twosided", "bsdf": {
-            "type": "diffuse", "reflectance": {"type": "mesh_attribute", "name": "face_color"}}})
+        props["bsdf"] = mi.load_dict(
+            {
+                "type": "twosided",
+                "bsdf": {"type": "diffuse", "reflectance": {"type": "mesh_attribute", "name": "face_color"}},
+            }
+        )
         corners = mesh.vertices[mesh.faces].reshape(-1, 3).astype(np.float32)  # unshared: flat shading
         count = len(mesh.faces)
         shape = mi.Mesh("object", 3 * count, count, props=props, has_vertex_normals=False, has_vertex_texcoords=False)
@@ -94,19 +105,29 @@ class ThumbnailRenderer:
             "type": "scene",
             "integrator": {"type": "path", "max_depth": 3, "hide_emitters": True},
             "sky": {"type": "constant", "radiance": {"type": "rgb", "value": [0.62, 0.64, 0.68]}},
-            "sun": {"type": "directional", "direction": [0.35, -1.0, -0.55],
-                    "irradiance": {"type": "rgb", "value": [2.1, 2.0, 1.9]}},
+            "sun": {
+                "type": "directional",
+                "direction": [0.35, -1.0, -0.55],
+                "irradiance": {"type": "rgb", "value": [2.1, 2.0, 1.9]},
+            },
             "object": shape,
         }
         for sensor, k in enumerate(views):
             azimuth, elevation = self.views[k]
             origin, target = camera_for(mesh.extent, azimuth, elevation, self.fov)
             scene[f"sensor{sensor}"] = {
-                "type": "perspective", "fov": self.fov,
-                "to_world": mi.ScalarTransform4f().look_at(origin=origin.tolist(), target=target.tolist(),
-                                                           up=[0.0, 1.0, 0.0]),
-                "film": {"type": "hdrfilm", "width": self.size, "height": self.size, "pixel_format": "rgba",
-                         "rfilter": {"type": "gaussian"}},
+                "type": "perspective",
+                "fov": self.fov,
+                "to_world": mi.ScalarTransform4f().look_at(
+                    origin=origin.tolist(), target=target.tolist(), up=[0.0, 1.0, 0.0]
+                ),
+                "film": {
+                    "type": "hdrfilm",
+                    "width": self.size,
+                    "height": self.size,
+                    "pixel_format": "rgba",
+                    "rfilter": {"type": "gaussian"},
+                },
                 "sampler": {"type": "independent", "sample_count": self.spp},
             }
         loaded = mi.load_dict(scene)
@@ -158,8 +179,9 @@ def _read_png(path: Path) -> np.ndarray | None:
     return None if image is None else np.ascontiguousarray(image[:, :, ::-1])
 
 
-def cached_thumbnails(db: ObjectDatabase, model_id: str, renderer: ThumbnailRenderer | None = None
-                      ) -> list[np.ndarray] | None:
+def cached_thumbnails(
+    db: ObjectDatabase, model_id: str, renderer: ThumbnailRenderer | None = None
+) -> list[np.ndarray] | None:
     """The cached views of a model, or None if any is missing."""
     renderer = renderer or default_renderer()
     folder = cache_dir(db, renderer)
@@ -167,8 +189,9 @@ def cached_thumbnails(db: ObjectDatabase, model_id: str, renderer: ThumbnailRend
     return None if any(image is None for image in images) else images  # type: ignore[return-value]
 
 
-def thumbnails_for(db: ObjectDatabase, model_id: str, renderer: ThumbnailRenderer | None = None,
-                   views: Sequence[int] | None = None) -> list[np.ndarray]:
+def thumbnails_for(
+    db: ObjectDatabase, model_id: str, renderer: ThumbnailRenderer | None = None, views: Sequence[int] | None = None
+) -> list[np.ndarray]:
     """The model's ``views`` (indices into the renderer's; default all) from the cache; the missing ones are
     rendered, in one scene, and stored there first (a contact sheet needs one view: it renders only that)."""
     renderer = renderer or default_renderer()
@@ -183,8 +206,11 @@ def thumbnails_for(db: ObjectDatabase, model_id: str, renderer: ThumbnailRendere
     return [images[k] for k in views]  # type: ignore[misc]
 
 
-def build_thumbnails(db: ObjectDatabase, renderer: ThumbnailRenderer | None = None,
-                     progress: Callable[[Iterable[Any]], Iterable[Any]] | None = None) -> tuple[int, int]:
+def build_thumbnails(
+    db: ObjectDatabase,
+    renderer: ThumbnailRenderer | None = None,
+    progress: Callable[[Iterable[Any]], Iterable[Any]] | None = None,
+) -> tuple[int, int]:
     """Render every missing thumbnail of ``db``; returns (models rendered, models already cached)."""
     renderer = renderer or default_renderer()
     rendered = cached = 0
@@ -229,9 +255,17 @@ def contact_sheet(images: Sequence[tuple[str, np.ndarray]], columns: int = 8, fo
     for index, ((_, image), lines) in enumerate(zip(images, labels)):
         r, c = divmod(index, columns)
         y, x = r * (h + label_height), c * w
-        sheet[y:y + h, x:x + w] = image[:, :, :3]
+        sheet[y : y + h, x : x + w] = image[:, :, :3]
         cv2.rectangle(sheet, (x, y), (x + w - 1, y + h - 1), (225, 225, 225), 1)
         for k, text in enumerate(lines):
-            cv2.putText(sheet, text, (x + 2, y + h + line * (k + 1) - 2), cv2.FONT_HERSHEY_SIMPLEX, font_scale,
-                        (20, 20, 20), 1, cv2.LINE_AA)
+            cv2.putText(
+                sheet,
+                text,
+                (x + 2, y + h + line * (k + 1) - 2),
+                cv2.FONT_HERSHEY_SIMPLEX,
+                font_scale,
+                (20, 20, 20),
+                1,
+                cv2.LINE_AA,
+            )
     return sheet

@@ -24,8 +24,9 @@ from psdr_room_core.method.objects import ObjectQuery
 from .network import InputSpec, ModelFile, OnnxNetwork, missing_reason, resolve_model, to_network
 
 FAMILIES = ("clip_vit_b32_image", "clip_vit_l14_image")
-CLIP_SPEC = InputSpec(224, False, 1, (0.48145466, 0.4578275, 0.40821073), (0.26862954, 0.26130258, 0.27577711),
-                      cv2.INTER_CUBIC)
+CLIP_SPEC = InputSpec(
+    224, False, 1, (0.48145466, 0.4578275, 0.40821073), (0.26862954, 0.26130258, 0.27577711), cv2.INTER_CUBIC
+)
 
 
 def clip_input(rgb8: np.ndarray) -> np.ndarray:
@@ -35,17 +36,28 @@ def clip_input(rgb8: np.ndarray) -> np.ndarray:
     size = (max(224, round(width * scale)), max(224, round(height * scale)))
     resized = cv2.resize(rgb8, size, interpolation=cv2.INTER_CUBIC if scale > 1 else cv2.INTER_AREA)
     y0, x0 = (size[1] - 224) // 2, (size[0] - 224) // 2
-    crop = resized[y0:y0 + 224, x0:x0 + 224].astype(np.float32) / 255.0
+    crop = resized[y0 : y0 + 224, x0 : x0 + 224].astype(np.float32) / 255.0
     return to_network(crop, CLIP_SPEC, (224, 224))
 
 
 class ClipRetrieval:
     """Rank models by cosine similarity of CLIP embeddings of the object crop and the model thumbnails."""
 
-    def __init__(self, model: str | None = "clip_vit_b32_image", path: str | None = None, family: str | None = None,
-                 models_dir: str | None = None, database: str = "builtin", fraction: float = 1.0, seed: int = 0,
-                 category_filter: bool = True, batch: int = 16, intra_op_threads: int = 0,
-                 providers: Sequence[str] = ("CPUExecutionProvider",), cache_dir: str | None = None) -> None:
+    def __init__(
+        self,
+        model: str | None = "clip_vit_b32_image",
+        path: str | None = None,
+        family: str | None = None,
+        models_dir: str | None = None,
+        database: str = "builtin",
+        fraction: float = 1.0,
+        seed: int = 0,
+        category_filter: bool = True,
+        batch: int = 16,
+        intra_op_threads: int = 0,
+        providers: Sequence[str] = ("CPUExecutionProvider",),
+        cache_dir: str | None = None,
+    ) -> None:
         self._params = dict(model=model, path=path, family=family, models_dir=models_dir)
         self.spec = (str(database), float(fraction), int(seed))
         self.category_filter = bool(category_filter)
@@ -100,7 +112,7 @@ class ClipRetrieval:
         net.image_input()
         out = []
         for start in range(0, len(images), self.batch):
-            pixels = np.concatenate([clip_input(im) for im in images[start:start + self.batch]])
+            pixels = np.concatenate([clip_input(im) for im in images[start : start + self.batch]])
             values = net.run(pixels)
             if "image_embeds" not in values or values["image_embeds"].ndim != 2:
                 raise net.signature_error("expected an output image_embeds [N,D]")
@@ -111,7 +123,9 @@ class ClipRetrieval:
     def _thumbnail_embeddings(self, model_ids: Sequence[str]) -> dict[str, np.ndarray]:
         """Model id → [V,D] embeddings of its thumbnails, cached in ``<cache>/clip/<model file>.npz``."""
         stat = self.model_file.path.stat()
-        identity = hashlib.sha256(f"{self.model_file.path.name}:{stat.st_size}:{stat.st_mtime_ns}".encode()).hexdigest()[:16]
+        identity = hashlib.sha256(
+            f"{self.model_file.path.name}:{stat.st_size}:{stat.st_mtime_ns}".encode()
+        ).hexdigest()[:16]
         store = self.cache_dir / "clip" / f"{identity}.npz"
         cached = dict(np.load(store)) if store.is_file() else {}
         found, todo = {}, {}
@@ -127,7 +141,7 @@ class ClipRetrieval:
             embeds = self.embed(flat)
             start = 0
             for model_id, (key, views) in todo.items():
-                found[model_id] = cached[key] = embeds[start:start + len(views)]
+                found[model_id] = cached[key] = embeds[start : start + len(views)]
                 start += len(views)
             store.parent.mkdir(parents=True, exist_ok=True)
             partial = store.with_name(f".{store.name}.{os.getpid()}.tmp.npz")

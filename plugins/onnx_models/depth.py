@@ -45,10 +45,17 @@ def disparity_to_depth(disparity: np.ndarray, eps: float) -> tuple[np.ndarray, n
 class OnnxDepth:
     """Relative depth from an ONNX depth network (Depth-Anything-V2, DPT, MiDaS), normalised to unit range."""
 
-    def __init__(self, model: str | None = "depth_anything_v2_small", path: str | None = None,
-                 family: str | None = None, models_dir: str | None = None, input_size: int | None = None,
-                 intra_op_threads: int = 0, providers: Sequence[str] = ("CPUExecutionProvider",),
-                 disparity_eps: float = 0.02) -> None:
+    def __init__(
+        self,
+        model: str | None = "depth_anything_v2_small",
+        path: str | None = None,
+        family: str | None = None,
+        models_dir: str | None = None,
+        input_size: int | None = None,
+        intra_op_threads: int = 0,
+        providers: Sequence[str] = ("CPUExecutionProvider",),
+        disparity_eps: float = 0.02,
+    ) -> None:
         self._params = dict(model=model, path=path, family=family, models_dir=models_dir)
         self.input_size = int(input_size) if input_size else None
         self.threads = int(intra_op_threads)
@@ -73,18 +80,22 @@ class OnnxDepth:
         net = self.network
         spec = INPUTS[net.model.family]
         net.image_input()
-        if not net.outputs or not (net.outputs[0].rank == 3 or (net.outputs[0].rank == 4
-                                                                and net.outputs[0].shape[1] in (None, 1))):
+        if not net.outputs or not (
+            net.outputs[0].rank == 3 or (net.outputs[0].rank == 4 and net.outputs[0].shape[1] in (None, 1))
+        ):
             raise net.signature_error("expected a depth output [N,H,W] or [N,1,H,W] first")
         hw = network_size(image.height, image.width, spec, self.input_size, net.fixed_size())
         output = next(iter(net.run(to_network(image.rgb, spec, hw)).values()))
         disparity = output.reshape(output.shape[0], *output.shape[-2:])[0] if output.ndim in (3, 4) else output
         if disparity.ndim != 2 or min(disparity.shape) < 1:
             raise net.signature_error(f"the depth output came back with shape {list(output.shape)}")
-        disparity = cv2.resize(disparity.astype(np.float32), (image.width, image.height),
-                               interpolation=cv2.INTER_LINEAR)
+        disparity = cv2.resize(
+            disparity.astype(np.float32), (image.width, image.height), interpolation=cv2.INTER_LINEAR
+        )
         depth, valid = disparity_to_depth(disparity, self.disparity_eps)
         if not valid.any():
-            raise net.error("the network predicted no positive disparity for this photo; check the family "
-                            f"('{net.model.family}') matches the model")
+            raise net.error(
+                "the network predicted no positive disparity for this photo; check the family "
+                f"('{net.model.family}') matches the model"
+            )
         return DepthMap(depth=depth, valid=valid, metric=False, source=f"onnx:{net.model.name} ({net.model.path.name})")

@@ -56,8 +56,9 @@ INPUTS: dict[str, InputSpec] = {
 }
 
 
-def network_size(height: int, width: int, spec: InputSpec, size: int | None = None,
-                 fixed: tuple[int, int] | None = None) -> tuple[int, int]:
+def network_size(
+    height: int, width: int, spec: InputSpec, size: int | None = None, fixed: tuple[int, int] | None = None
+) -> tuple[int, int]:
     """(height, width) of the network input for a ``height`` x ``width`` image."""
     if fixed is not None:
         return fixed
@@ -74,8 +75,11 @@ def to_network(rgb: np.ndarray, spec: InputSpec, hw: tuple[int, int]) -> np.ndar
     """The NCHW float32 network input for an HxWx3 sRGB image in [0, 1]."""
     height, width = hw
     downscale = height <= rgb.shape[0] and width <= rgb.shape[1]
-    resized = cv2.resize(np.ascontiguousarray(rgb, dtype=np.float32), (width, height),
-                         interpolation=cv2.INTER_AREA if downscale else spec.interpolation)
+    resized = cv2.resize(
+        np.ascontiguousarray(rgb, dtype=np.float32),
+        (width, height),
+        interpolation=cv2.INTER_AREA if downscale else spec.interpolation,
+    )
     resized = np.clip(resized, 0.0, 1.0)  # bicubic overshoot
     normalised = (resized - np.asarray(spec.mean, np.float32)) / np.asarray(spec.std, np.float32)
     return np.ascontiguousarray(normalised.transpose(2, 0, 1)[None], dtype=np.float32)
@@ -86,9 +90,9 @@ def resize_channels(array: np.ndarray, hw: tuple[int, int], interpolation: int =
     height, width = hw
     out = np.empty((array.shape[0], height, width), np.float32)
     for start in range(0, array.shape[0], 32):
-        chunk = np.ascontiguousarray(array[start:start + 32].transpose(1, 2, 0), dtype=np.float32)
+        chunk = np.ascontiguousarray(array[start : start + 32].transpose(1, 2, 0), dtype=np.float32)
         resized = cv2.resize(chunk, (width, height), interpolation=interpolation)
-        out[start:start + 32] = resized.reshape(height, width, -1).transpose(2, 0, 1)
+        out[start : start + 32] = resized.reshape(height, width, -1).transpose(2, 0, 1)
     return out
 
 
@@ -103,8 +107,15 @@ class ModelFile:
     fix: str
 
 
-def resolve_model(capability: str, families: Sequence[str], *, model: str | None, path: str | None,
-                  family: str | None, models_dir: str | None) -> ModelFile:
+def resolve_model(
+    capability: str,
+    families: Sequence[str],
+    *,
+    model: str | None,
+    path: str | None,
+    family: str | None,
+    models_dir: str | None,
+) -> ModelFile:
     """Find the file and family from the implementation's parameters (see the module docstring)."""
     key = f"{capability}.onnx"
     entry = None
@@ -117,18 +128,26 @@ def resolve_model(capability: str, families: Sequence[str], *, model: str | None
     elif entry is not None:
         file = entry.path(models.resolve_models_dir(models_dir))
         name = entry.name
-        fix = (f"run `psdr-room-models download {entry.name}`" if entry.url
-               else f"export it as `psdr-room-models info {entry.name}` explains")
+        fix = (
+            f"run `psdr-room-models download {entry.name}`"
+            if entry.url
+            else f"export it as `psdr-room-models info {entry.name}` explains"
+        )
     else:
-        raise PsdrRoomError(f"{key}: no model selected; set {key}.model=NAME (psdr-room-models list) "
-                            f"or {key}.path=FILE with {key}.family")
+        raise PsdrRoomError(
+            f"{key}: no model selected; set {key}.model=NAME (psdr-room-models list) "
+            f"or {key}.path=FILE with {key}.family"
+        )
     chosen = family or (entry.family if entry else None)
     if chosen is None:
-        raise PsdrRoomError(f"{key}.path={file}: the model family is unknown; set {key}.family to one of "
-                            f"{', '.join(families)}")
+        raise PsdrRoomError(
+            f"{key}.path={file}: the model family is unknown; set {key}.family to one of {', '.join(families)}"
+        )
     if chosen not in families:
-        raise PsdrRoomError(f"{key}: family '{chosen}' is not a {capability} family this implementation "
-                            f"reads; use one of {', '.join(families)}")
+        raise PsdrRoomError(
+            f"{key}: family '{chosen}' is not a {capability} family this implementation "
+            f"reads; use one of {', '.join(families)}"
+        )
     return ModelFile(path=file, family=chosen, name=name, fix=fix)
 
 
@@ -186,8 +205,10 @@ class OnnxNetwork:
             raise PsdrRoomError(f"onnxruntime is not importable ({exc}); pip install onnxruntime") from None
         path = self.model.path
         if not path.is_file():
-            raise self.error(f"model file of '{self.model.name}' not found; {self.model.fix}, "
-                             "or set models_dir to the directory that holds it")
+            raise self.error(
+                f"model file of '{self.model.name}' not found; {self.model.fix}, "
+                "or set models_dir to the directory that holds it"
+            )
         options = ort.SessionOptions()
         options.intra_op_num_threads = self.threads or run_threads.count()
         options.inter_op_num_threads = 1
@@ -200,8 +221,9 @@ class OnnxNetwork:
             reason = " ".join(str(exc).split())
             reason = reason.split(" : ")[-1].replace(f"Load model from {path} failed:", "").strip()[:200]
             reason = reason or type(exc).__name__
-            raise self.error(f"not a loadable ONNX model ({reason}); the file is damaged, incomplete or not "
-                             f"ONNX: {self.model.fix}") from None
+            raise self.error(
+                f"not a loadable ONNX model ({reason}); the file is damaged, incomplete or not ONNX: {self.model.fix}"
+            ) from None
 
     @functools.cached_property
     def inputs(self) -> list[Port]:
@@ -240,7 +262,9 @@ class OnnxNetwork:
             values = self.session.run(None, feeds)
         except Exception as exc:
             reason = " ".join(str(exc).split())[:300]
-            raise self.error(f"inference failed on a {pixel_values.shape[3]}x{pixel_values.shape[2]} input "
-                             f"({reason}); check the family and input_size fit this model, "
-                             f"or {self.model.fix}") from None
+            raise self.error(
+                f"inference failed on a {pixel_values.shape[3]}x{pixel_values.shape[2]} input "
+                f"({reason}); check the family and input_size fit this model, "
+                f"or {self.model.fix}"
+            ) from None
         return {port.name: np.asarray(value) for port, value in zip(self.outputs, values)}

@@ -72,10 +72,17 @@ def _softmax(x: np.ndarray, axis: int) -> np.ndarray:
 class OnnxSegmentation:
     """Panoptic segmentation from an ONNX ADE20K network (SegFormer, Mask2Former/MaskFormer)."""
 
-    def __init__(self, model: str | None = "segformer_b0_ade20k", path: str | None = None,
-                 family: str | None = None, models_dir: str | None = None, input_size: int | None = None,
-                 intra_op_threads: int = 0, providers: Sequence[str] = ("CPUExecutionProvider",),
-                 min_segment_fraction: float = 0.0005) -> None:
+    def __init__(
+        self,
+        model: str | None = "segformer_b0_ade20k",
+        path: str | None = None,
+        family: str | None = None,
+        models_dir: str | None = None,
+        input_size: int | None = None,
+        intra_op_threads: int = 0,
+        providers: Sequence[str] = ("CPUExecutionProvider",),
+        min_segment_fraction: float = 0.0005,
+    ) -> None:
         self._params = dict(model=model, path=path, family=family, models_dir=models_dir)
         self.input_size = int(input_size) if input_size else None
         self.threads = int(intra_op_threads)
@@ -86,8 +93,9 @@ class OnnxSegmentation:
     @property
     def network(self) -> OnnxNetwork:
         if self._network is None:
-            self._network = OnnxNetwork(resolve_model("segmentation", FAMILIES, **self._params), self.threads,
-                                        self.providers)
+            self._network = OnnxNetwork(
+                resolve_model("segmentation", FAMILIES, **self._params), self.threads, self.providers
+            )
         return self._network
 
     def external_files(self, photo: Path) -> list[Path]:
@@ -117,8 +125,9 @@ class OnnxSegmentation:
             raise net.signature_error(f"expected {N_CLASSES} ADE20K classes in {port}")
         logits = net.run(pixel_values)[port.name]
         if logits.ndim != 4 or logits.shape[1] != N_CLASSES:
-            raise net.signature_error(f"the logits came back with shape {list(logits.shape)}, "
-                                      f"expected [N,{N_CLASSES},h,w]")
+            raise net.signature_error(
+                f"the logits came back with shape {list(logits.shape)}, expected [N,{N_CLASSES},h,w]"
+            )
         return logits[0].astype(np.float32)
 
     @staticmethod
@@ -130,12 +139,17 @@ class OnnxSegmentation:
             raise net.signature_error(f"expected {N_CLASSES} ADE20K classes plus 'no object' in {cls_port}")
         out = net.run(pixel_values)
         class_logits, mask_logits = out[cls_port.name], out[mask_port.name]
-        if (class_logits.ndim != 3 or class_logits.shape[2] != N_CLASSES + 1 or mask_logits.ndim != 4
-                or mask_logits.shape[1] != class_logits.shape[1]):
-            raise net.signature_error(f"the outputs came back with shapes {list(class_logits.shape)} and "
-                                      f"{list(mask_logits.shape)}; {detail}")
-        probs = _softmax(class_logits[0].astype(np.float64), axis=-1)[:, :N_CLASSES]      # Q x C
-        masks = 1.0 / (1.0 + np.exp(-mask_logits[0].astype(np.float64)))                  # Q x h x w
+        if (
+            class_logits.ndim != 3
+            or class_logits.shape[2] != N_CLASSES + 1
+            or mask_logits.ndim != 4
+            or mask_logits.shape[1] != class_logits.shape[1]
+        ):
+            raise net.signature_error(
+                f"the outputs came back with shapes {list(class_logits.shape)} and {list(mask_logits.shape)}; {detail}"
+            )
+        probs = _softmax(class_logits[0].astype(np.float64), axis=-1)[:, :N_CLASSES]  # Q x C
+        masks = 1.0 / (1.0 + np.exp(-mask_logits[0].astype(np.float64)))  # Q x h x w
         return np.einsum("qc,qhw->chw", probs, masks).astype(np.float32)
 
 

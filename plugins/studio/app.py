@@ -56,8 +56,12 @@ def plain(text: str) -> str:
     return "".join(f"\\{c}" if c in "\\`*_[]<>#|" else c for c in text)
 
 
-def draw_boxes(photo: np.ndarray, boxes: list[tuple[str, Box]], colour: tuple[int, int, int] = (255, 200, 0),
-               text_scale: float = 0.45) -> np.ndarray:
+def draw_boxes(
+    photo: np.ndarray,
+    boxes: list[tuple[str, Box]],
+    colour: tuple[int, int, int] = (255, 200, 0),
+    text_scale: float = 0.45,
+) -> np.ndarray:
     """``photo`` with each (caption, box in its pixels) drawn in ``colour`` and captioned (OpenCV's ``text_scale``)."""
     out = photo.copy()
     grow = text_scale / 0.45
@@ -86,13 +90,21 @@ def score_table(ranked: list[Candidate]) -> str:
     names = [n for n in ("iou", *ERROR_TERMS) if n in given] + sorted(given - {"iou", *ERROR_TERMS})
     if not names:
         return ""
-    rows = [f"| {name} | " + " | ".join(f"{c.terms[name]:.2f}" if name in c.terms else "" for c in ranked) + " |"
-            for name in names]
-    return "\n".join([
-        "Score = 1 / (1 + the terms below `iou`, lower is better); `iou`: how much of the mask the posed model "
-        "covers; " + "; ".join(f"`{n}`: {ERROR_TERMS[n]}" for n in names if n in ERROR_TERMS) + ".", "",
-        "| rank | " + " | ".join(str(rank) for rank in range(len(ranked))) + " |", "|---" * (1 + len(ranked)) + "|",
-        "| score | " + " | ".join(f"{c.score:.3f}" for c in ranked) + " |", *rows])
+    rows = [
+        f"| {name} | " + " | ".join(f"{c.terms[name]:.2f}" if name in c.terms else "" for c in ranked) + " |"
+        for name in names
+    ]
+    return "\n".join(
+        [
+            "Score = 1 / (1 + the terms below `iou`, lower is better); `iou`: how much of the mask the posed model "
+            "covers; " + "; ".join(f"`{n}`: {ERROR_TERMS[n]}" for n in names if n in ERROR_TERMS) + ".",
+            "",
+            "| rank | " + " | ".join(str(rank) for rank in range(len(ranked))) + " |",
+            "|---" * (1 + len(ranked)) + "|",
+            "| score | " + " | ".join(f"{c.score:.3f}" for c in ranked) + " |",
+            *rows,
+        ]
+    )
 
 
 def slider_step(lo: float, hi: float) -> float:
@@ -129,28 +141,46 @@ class StudioApp:
             self.stages = gui.add_markdown("")
             self.command = gui.add_markdown("")
         with gui.add_folder("In the 3D view"):
-            self.exported = gui.add_checkbox("Exported scene", initial_value=False, disabled=True,
-                                             hint="after a full fit: the glTF scene, or the objects and points")
-            self.plane = gui.add_checkbox("Photo on its camera", initial_value=False,
-                                          hint="the photo on the camera's image plane (in front of what it became)")
+            self.exported = gui.add_checkbox(
+                "Exported scene",
+                initial_value=False,
+                disabled=True,
+                hint="after a full fit: the glTF scene, or the objects and points",
+            )
+            self.plane = gui.add_checkbox(
+                "Photo on its camera",
+                initial_value=False,
+                hint="the photo on the camera's image plane (in front of what it became)",
+            )
             self.objects = gui.add_markdown("")
         with gui.add_folder("Photo"):
-            self.photo = gui.add_image(np.zeros((8, 8, 3), np.uint8),
-                                       label="segmentation and object boxes (hover: expand)")
+            self.photo = gui.add_image(
+                np.zeros((8, 8, 3), np.uint8), label="segmentation and object boxes (hover: expand)"
+            )
             self.overlay = gui.add_checkbox("Show segmentation", initial_value=True)
-            self.show_crops = gui.add_checkbox("Show crop windows", initial_value=False,
-                                               hint="after a full fit: the windows material retrieval compares")
+            self.show_crops = gui.add_checkbox(
+                "Show crop windows",
+                initial_value=False,
+                hint="after a full fit: the windows material retrieval compares",
+            )
         with gui.add_folder("Segments"):
             self.region = gui.add_dropdown("Segment", ["(none)"])
             self.category = gui.add_dropdown("Is a", list(CATEGORIES), initial_value="wall")
-            self.mark_button = gui.add_button("Mark segment", hint="writes the studio's copy of the segmentation, so "
-                                              "marked, beside the photo")
-            self.reset_button = gui.add_button("Reset segmentation", hint="deletes the studio's copy: back to your "
-                                               "segmentation file, or the automatic one")
+            self.mark_button = gui.add_button(
+                "Mark segment", hint="writes the studio's copy of the segmentation, so marked, beside the photo"
+            )
+            self.reset_button = gui.add_button(
+                "Reset segmentation",
+                hint="deletes the studio's copy: back to your segmentation file, or the automatic one",
+            )
         with gui.add_folder("Object boxes"):
             self.box = gui.add_dropdown("Box", ["(none)"])
-            self.label = gui.add_dropdown("Label", ["object", *DB_CATEGORIES], initial_value="object",
-                                          hint="a database category steers retrieval to its models")
+            self.label = gui.add_dropdown(
+                "Label",
+                ["object", *DB_CATEGORIES],
+                initial_value="object",
+                hint="a database category steers retrieval to its models",
+            )
             self.relabel_button = gui.add_button("Relabel box")
             self.delete_button = gui.add_button("Delete box")
             self.draw_button = gui.add_button("Draw a box", hint="then drag a rectangle over the photo in the 3D view")
@@ -177,11 +207,14 @@ class StudioApp:
             with self.parameters:
                 self.parameters_note = gui.add_markdown("")
             self.light_scale = gui.add_slider("Light scale", min=0.0, max=4.0, step=0.05, initial_value=1.0)
-            self.light_colour = gui.add_rgb("Light colour", initial_value=(255, 255, 255),
-                                            hint="a colour filter on every light (white: none)")
+            self.light_colour = gui.add_rgb(
+                "Light colour", initial_value=(255, 255, 255), hint="a colour filter on every light (white: none)"
+            )
             self.fov = gui.add_slider("FoV (degrees)", min=20.0, max=120.0, step=0.5, initial_value=60.0)
             self.edits_text = gui.add_markdown("")
-            self.render_button = gui.add_button("Render edit", hint="writes scene-edited/ (with render.png) in the run folder")
+            self.render_button = gui.add_button(
+                "Render edit", hint="writes scene-edited/ (with render.png) in the run folder"
+            )
             self.render = gui.add_image(np.zeros((8, 8, 3), np.uint8), label="edited render")
         self.material_edits: dict[str, str] = {}
         self.param_edits: dict[str, dict[str, float | list[float]]] = {}
@@ -192,21 +225,32 @@ class StudioApp:
         self.overlay.on_update(lambda _: self.refresh_photo())
         self.exported.on_update(lambda _: self.view.exported(self.exported.value))
         self.plane.on_update(lambda _: self.view.photo_plane(self.plane.value))
-        self.relabel_button.on_click(lambda _: self.act(lambda: self.session.relabel_box(self._box_index(),
-                                                                                          self.label.value)))
+        self.relabel_button.on_click(
+            lambda _: self.act(lambda: self.session.relabel_box(self._box_index(), self.label.value))
+        )
         self.delete_button.on_click(lambda _: self.act(lambda: self.session.delete_box(self._box_index())))
-        self.draw_button.on_click(lambda event: self._draw_mode(event, lambda: "a rectangle around the object",
-                                                                self.add_box_from_screen))
+        self.draw_button.on_click(
+            lambda event: self._draw_mode(event, lambda: "a rectangle around the object", self.add_box_from_screen)
+        )
         self.show_crops.on_update(lambda _: self.refresh_photo())
-        self.move_crop_button.on_click(lambda event: self._draw_mode(
-            event, lambda: f"crop {self._crop_index()}'s new window",
-            lambda *screen: self.session.move_crop(self._crop_index(), self.photo_box(*screen))))
+        self.move_crop_button.on_click(
+            lambda event: self._draw_mode(
+                event,
+                lambda: f"crop {self._crop_index()}'s new window",
+                lambda *screen: self.session.move_crop(self._crop_index(), self.photo_box(*screen)),
+            )
+        )
         self.delete_crop_button.on_click(lambda _: self.act(lambda: self.session.delete_crop(self._crop_index())))
-        self.add_crop_button.on_click(lambda event: self._draw_mode(
-            event, lambda: f"a window over {self._crop_part()}'s plain surface",
-            lambda *screen: self.session.add_crop(self._crop_part(), self.photo_box(*screen))))
-        self.mark_button.on_click(lambda _: self.act(lambda: self.session.mark_segment(self._region_id(),
-                                                                                       self.category.value)))
+        self.add_crop_button.on_click(
+            lambda event: self._draw_mode(
+                event,
+                lambda: f"a window over {self._crop_part()}'s plain surface",
+                lambda *screen: self.session.add_crop(self._crop_part(), self.photo_box(*screen)),
+            )
+        )
+        self.mark_button.on_click(
+            lambda _: self.act(lambda: self.session.mark_segment(self._region_id(), self.category.value))
+        )
         self.reset_button.on_click(lambda _: self.act(self.session.reset_segmentation))
         self.segment.on_update(lambda _: self.refresh_candidates())
         self.pick_button.on_click(lambda _: self.act(self._pick))
@@ -245,11 +289,13 @@ class StudioApp:
         except PsdrRoomError as exc:
             self.say(f"**Not changed:** {plain(str(exc))}")
             return
-        self.say("Changed; run the preview or the full fit to see it. Files: "
-                 f"`{self.session.boxes_file}` (boxes), `{self.session.segmentation_file}` (the studio's copy of the "
-                 "segmentation: marks, and boxes where the segments come from a file), "
-                 f"`{self.session.crops_file}` (crop windows), "
-                 f"`{self.session.run_dir / 'studio.yaml'}` (picks, marks).")
+        self.say(
+            "Changed; run the preview or the full fit to see it. Files: "
+            f"`{self.session.boxes_file}` (boxes), `{self.session.segmentation_file}` (the studio's copy of the "
+            "segmentation: marks, and boxes where the segments come from a file), "
+            f"`{self.session.crops_file}` (crop windows), "
+            f"`{self.session.run_dir / 'studio.yaml'}` (picks, marks)."
+        )
         self.refresh_lists()
         self.refresh_photo()
 
@@ -274,14 +320,18 @@ class StudioApp:
             self.say(f"**Run {self.runs} failed:** {plain(str(exc))}")
             return
         cached = sum(r.cached for r in record.stages)
-        self.say(f"Run {self.runs} ({what}) done in {time.perf_counter() - started:.1f} s: {len(record.stages)} "
-                 f"stages, {cached} from the cache.")
+        self.say(
+            f"Run {self.runs} ({what}) done in {time.perf_counter() - started:.1f} s: {len(record.stages)} "
+            f"stages, {cached} from the cache."
+        )
         self.refresh()
 
     def _on_stage(self, event: StageEvent) -> None:
         self.progress[event.stage] = event
-        rows = [f"| {e.stage} | {e.state} | {e.seconds:.2f} |" if e.state != "running" else f"| {e.stage} | running… | |"
-                for e in self.progress.values()]
+        rows = [
+            f"| {e.stage} | {e.state} | {e.seconds:.2f} |" if e.state != "running" else f"| {e.stage} | running… | |"
+            for e in self.progress.values()
+        ]
         self.stages.content = "\n".join(["| stage | | s |", "|---|---|---|", *rows])
 
     # -- views --------------------------------------------------------------------------------------------------
@@ -304,8 +354,12 @@ class StudioApp:
             self._greet(client)
         placements: Placements | None = latest(record.artifacts, "placements_fit", "placements")
         self.objects.content = "\n".join(
-            ["| segment | label | model |", "|---|---|---|",
-             *(f"| {p.segment_id} | {p.label} | {p.model_id} |" for p in (placements.objects if placements else []))])
+            [
+                "| segment | label | model |",
+                "|---|---|---|",
+                *(f"| {p.segment_id} | {p.label} | {p.model_id} |" for p in (placements.objects if placements else [])),
+            ]
+        )
         self.command.content = f"Reproduce with:\n\n```\n{self.session.command()}\n```"
         self.refresh_lists()
         self.refresh_photo()
@@ -331,21 +385,28 @@ class StudioApp:
     def edits(self) -> list[str]:
         """The ``psdr-room-edit`` edits the Edit controls describe."""
         out = [f"material.{part}={name}" for part, name in self.material_edits.items()]
-        out += [f"material.{part}.{key}={json.dumps(value, separators=(',', ':'))}"
-                for part, values in self.param_edits.items() for key, value in values.items()]
+        out += [
+            f"material.{part}.{key}={json.dumps(value, separators=(',', ':'))}"
+            for part, values in self.param_edits.items()
+            for key, value in values.items()
+        ]
         colour = srgb_to_linear(np.asarray(self.light_colour.value, np.float64) / 255.0)
         light = [round(float(self.light_scale.value) * float(c), 4) for c in colour]
         if any(abs(c - 1.0) > 1e-9 for c in light):
-            out.append(f"light.scale={light[0]:g}" if len(set(light)) == 1
-                       else f"light.scale={json.dumps(light, separators=(',', ':'))}")
+            out.append(
+                f"light.scale={light[0]:g}"
+                if len(set(light)) == 1
+                else f"light.scale={json.dumps(light, separators=(',', ':'))}"
+            )
         if abs(float(self.fov.value) - self.initial_fov) > 1e-9:
             out.append(f"camera.fov={float(self.fov.value):g}")
         return out
 
     def _show_edits(self) -> None:
         scene = self.session.run_dir / "scene"
-        self.edits_text.content = (f"```\npsdr-room-edit {scene} {' '.join(self.edits())} --out "
-                                   f"{self.session.run_dir / EDITED}\n```")
+        self.edits_text.content = (
+            f"```\npsdr-room-edit {scene} {' '.join(self.edits())} --out {self.session.run_dir / EDITED}\n```"
+        )
 
     def _add_material(self) -> None:
         if self.part.value == "(none)":
@@ -382,7 +443,7 @@ class StudioApp:
         part = str(self.part.value)
         name, values = self.part_material(part)
         if name is None:
-            self.parameters_note.content = ("homogeneous: no graph parameters" if part in self.scene_parts else "")
+            self.parameters_note.content = "homogeneous: no graph parameters" if part in self.scene_parts else ""
             self._show_part_look()
             return
         gui, others = self.server.gui, []
@@ -390,25 +451,40 @@ class StudioApp:
             for key, bound in self.library.material(name).bounds.items():
                 value, lo, hi = (np.asarray(v, np.float64) for v in (values[key], bound.lo, bound.hi))
                 if value.size == 1:
-                    handle = gui.add_slider(key, min=float(lo), max=float(hi), step=slider_step(float(lo), float(hi)),
-                                            initial_value=float(value))
+                    handle = gui.add_slider(
+                        key,
+                        min=float(lo),
+                        max=float(hi),
+                        step=slider_step(float(lo), float(hi)),
+                        initial_value=float(value),
+                    )
                 elif value.shape == (3,):
                     lo, hi = np.broadcast_to(lo, (3,)), np.broadcast_to(hi, (3,))
-                    handle = gui.add_vector3(key, tuple(value), min=tuple(lo), max=tuple(hi),
-                                             step=slider_step(float(lo.min()), float(hi.max())))
+                    handle = gui.add_vector3(
+                        key,
+                        tuple(value),
+                        min=tuple(lo),
+                        max=tuple(hi),
+                        step=slider_step(float(lo.min()), float(hi.max())),
+                    )
                 else:
                     others.append(key)
                     continue
-                handle.on_update(lambda _, part=part, key=key, handle=handle: self._set_parameter(part, key, handle.value))
+                handle.on_update(
+                    lambda _, part=part, key=key, handle=handle: self._set_parameter(part, key, handle.value)
+                )
                 self.param_handles.append(handle)
-        self.parameters_note.content = (f"**{plain(name)}**" + (f"; edit {', '.join(plain(k) for k in others)} with "
-                                                                 f"`psdr-room-edit material.{part}.<param>=...`"
-                                                                 if others else ""))
+        self.parameters_note.content = f"**{plain(name)}**" + (
+            f"; edit {', '.join(plain(k) for k in others)} with `psdr-room-edit material.{part}.<param>=...`"
+            if others
+            else ""
+        )
         self._show_part_look()
 
     def _set_parameter(self, part: str, key: str, value: Any) -> None:
-        self.param_edits.setdefault(part, {})[key] = (round(float(value), 6) if np.isscalar(value)
-                                                      else [round(float(v), 6) for v in value])
+        self.param_edits.setdefault(part, {})[key] = (
+            round(float(value), 6) if np.isscalar(value) else [round(float(v), 6) for v in value]
+        )
         self._show_edits()
         self._show_part_look()
 
@@ -428,7 +504,9 @@ class StudioApp:
             self.part_look.image = to_uint8(self.library.appearance(name, LOOK, values))
         elif part in self.scene_parts:
             colour = linear_to_srgb(torch.tensor(self.scene_parts[part]["base_color"], dtype=torch.float32))
-            self.part_look.image = np.broadcast_to(np.round(colour.numpy() * 255).astype(np.uint8), (LOOK, LOOK, 3)).copy()
+            self.part_look.image = np.broadcast_to(
+                np.round(colour.numpy() * 255).astype(np.uint8), (LOOK, LOOK, 3)
+            ).copy()
 
     def _start_edit(self) -> None:
         threading.Thread(target=self._edit, daemon=True, name="psdr-room-studio-edit").start()
@@ -443,7 +521,9 @@ class StudioApp:
             return
         self.render.image = cv2.cvtColor(cv2.imread(str(out / "render.png")), cv2.COLOR_BGR2RGB)
         self.view.show_scene(out / "scene.glb")
-        self.say(f"Edited ({len(edits)} edit{'' if len(edits) == 1 else 's'}): `{out}` (render.png, scene.glb, scene.xml).")
+        self.say(
+            f"Edited ({len(edits)} edit{'' if len(edits) == 1 else 's'}): `{out}` (render.png, scene.glb, scene.xml)."
+        )
 
     def refresh_lists(self) -> None:
         try:
@@ -452,12 +532,15 @@ class StudioApp:
             boxes = []
         self.box.options = [f"{i}: {b.label}" for i, b in enumerate(boxes)] or ["(none)"]
         panoptic: Panoptic | None = self.session.artifact("panoptic")
-        self.region.options = [f"{s.id}: {s.label} ({s.category})"
-                               for s in (panoptic.segments if panoptic is not None else [])] or ["(none)"]
+        self.region.options = [
+            f"{s.id}: {s.label} ({s.category})" for s in (panoptic.segments if panoptic is not None else [])
+        ] or ["(none)"]
         candidates: ObjectCandidates | None = self.session.artifact("object_candidates")
         segments = sorted(candidates.ranked) if candidates is not None else []
         self.segment.options = [f"{s}: {candidates.labels.get(s, '')}" for s in segments] or ["(none)"]
-        self.crop.options = [f"{i}: {c.get('part', 'render window')}" for i, c in enumerate(self._crops())] or ["(none)"]
+        self.crop.options = [f"{i}: {c.get('part', 'render window')}" for i, c in enumerate(self._crops())] or [
+            "(none)"
+        ]
         self.crop_part.options = self.session.crop_parts() or ["(none)"]
         self.refresh_candidates()
 
@@ -490,11 +573,19 @@ class StudioApp:
             boxes = self.session.boxes()
         except PsdrRoomError:
             boxes = []
-        photo = draw_boxes(photo, [(f"{i}: {b.label}", scaled(b.box, sx, sy)) for i, b in enumerate(boxes)],
-                           text_scale=PHOTO_TEXT)
+        photo = draw_boxes(
+            photo, [(f"{i}: {b.label}", scaled(b.box, sx, sy)) for i, b in enumerate(boxes)], text_scale=PHOTO_TEXT
+        )
         if self.show_crops.value:
-            photo = draw_boxes(photo, [(f"crop {i}: {c.get('part', 'render window')}", scaled(c["image"], sx, sy))
-                                       for i, c in enumerate(self._crops())], colour=(0, 220, 255), text_scale=PHOTO_TEXT)
+            photo = draw_boxes(
+                photo,
+                [
+                    (f"crop {i}: {c.get('part', 'render window')}", scaled(c["image"], sx, sy))
+                    for i, c in enumerate(self._crops())
+                ],
+                colour=(0, 220, 255),
+                text_scale=PHOTO_TEXT,
+            )
         self.photo.image = photo
 
     def refresh_candidates(self) -> None:
@@ -505,8 +596,10 @@ class StudioApp:
             return
         ranked = candidates.ranked[segment]
         chosen = self.session.picks.get(segment)
-        self.candidate.options = [f"{rank}: {c.model_id} ({c.score:.3f})" + (" ← picked" if chosen == rank else "")
-                                  for rank, c in enumerate(ranked)]
+        self.candidate.options = [
+            f"{rank}: {c.model_id} ({c.score:.3f})" + (" ← picked" if chosen == rank else "")
+            for rank, c in enumerate(ranked)
+        ]
         images = [self.database.thumbnails(c.model_id, views=[0])[0] for c in ranked]
         self.thumbs.image = thumbnail_strip(images, [f"{rank}: {c.score:.2f}" for rank, c in enumerate(ranked)])
         self.scores.content = score_table(ranked)
@@ -550,8 +643,12 @@ class StudioApp:
             raise PsdrRoomError("no scene part to crop; run the full fit first")
         return str(self.crop_part.value)
 
-    def _draw_mode(self, event: viser.GuiEvent, what: Callable[[], str],
-                   take: Callable[[Any, tuple[float, float], tuple[float, float]], None]) -> None:
+    def _draw_mode(
+        self,
+        event: viser.GuiEvent,
+        what: Callable[[], str],
+        take: Callable[[Any, tuple[float, float], tuple[float, float]], None],
+    ) -> None:
         """Put the browser's view at the photo's camera and give the next rectangle dragged on the canvas to ``take``
         (the browser's camera and the rectangle's screen corners); ``what`` names what to drag (or refuses)."""
         if event.client is None or self.session.record is None:
@@ -596,8 +693,9 @@ class StudioApp:
         room: RoomBox | None = latest(artifacts, "room_box_objects", "room_box_fit", "room_box")
         if image is None or camera is None or room is None:
             raise PsdrRoomError("run the preview first: a rectangle is drawn on the photo's camera")
-        corners = [screen_to_photo(client_camera, corner, camera, room.camera_to_world)
-                   for corner in (screen_min, screen_max)]
+        corners = [
+            screen_to_photo(client_camera, corner, camera, room.camera_to_world) for corner in (screen_min, screen_max)
+        ]
         if any(c is None for c in corners):
             raise PsdrRoomError("the rectangle is not on the photo; press the button again and drag over the photo")
         (x0, y0), (x1, y1) = corners  # type: ignore[misc]
@@ -607,8 +705,9 @@ class StudioApp:
             raise PsdrRoomError("the rectangle covers less than 4 pixels of the photo; drag a larger one")
         return x0, y0, x1, y1
 
-    def add_box_from_screen(self, client_camera: Any, screen_min: tuple[float, float],
-                            screen_max: tuple[float, float]) -> None:
+    def add_box_from_screen(
+        self, client_camera: Any, screen_min: tuple[float, float], screen_max: tuple[float, float]
+    ) -> None:
         """Add the box a rectangle on the canvas covers on the photo, and show its GrabCut mask."""
         working = self._working_box(client_camera, screen_min, screen_max)
         image: Image = self.session.record.artifacts["image"]  # type: ignore[union-attr]

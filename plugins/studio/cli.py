@@ -28,8 +28,9 @@ from .session import PREVIEW, Session, studio_plugins
 HOST = "127.0.0.1"
 STOP_S = 20.0  # the longest a Ctrl-C may take: past it the studio prints every thread's stack and exits (status 1)
 SETTINGS = {"port": "a free port", "run_dir": "outputs/studio/<photo stem>"}
-USAGE = ("usage: psdr-room-studio image=PHOTO [psdr-room overrides...] "
-         + " ".join(f"[studio.{key}=...]" for key in SETTINGS))
+USAGE = "usage: psdr-room-studio image=PHOTO [psdr-room overrides...] " + " ".join(
+    f"[studio.{key}=...]" for key in SETTINGS
+)
 
 
 def _fail(message: str) -> NoReturn:
@@ -72,8 +73,9 @@ def open_session(argv: list[str]) -> tuple[Session, dict[str, str], object]:
     retrieval = data.get("retrieval") or {}
     implementation = retrieval.get("impl")
     order = [implementation] if implementation != "auto" else list(retrieval.get("auto", {}).get("order") or [])
-    source = next((retrieval[name]["database"] for name in order if "database" in (retrieval.get(name) or {})),
-                  "builtin")
+    source = next(
+        (retrieval[name]["database"] for name in order if "database" in (retrieval.get(name) or {})), "builtin"
+    )
     return session, settings, open_database(str(source), 1.0, 0)
 
 
@@ -86,7 +88,9 @@ def main(argv: list[str] | None = None) -> None:
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     faulthandler.register(signal.SIGUSR1, all_threads=True)  # `kill -USR1 PID` prints every thread's stack
     for stop in (signal.SIGINT, signal.SIGTERM):  # Ctrl-C and kill stop it, even started as a background job (SIGINT
-        signal.signal(stop, signal.default_int_handler)  # ignored there, and Python then installs no handler of its own)
+        signal.signal(
+            stop, signal.default_int_handler
+        )  # ignored there, and Python then installs no handler of its own)
     try:
         session, settings, database = open_session(args)
         threads.apply(threads.allotment(None)[0])
@@ -116,8 +120,11 @@ def serve_until_interrupted(server: Any, session: Session, make_app: Callable[[]
     system's temporary folder)."""
     try:
         make_app().start_run(PREVIEW)
-        print(f"psdr-room-studio: http://{HOST}:{server.get_port()}  (photo {session.photo}, run folder "
-              f"{session.run_dir}; Ctrl-C stops)", flush=True)
+        print(
+            f"psdr-room-studio: http://{HOST}:{server.get_port()}  (photo {session.photo}, run folder "
+            f"{session.run_dir}; Ctrl-C stops)",
+            flush=True,
+        )
         while True:
             time.sleep(1.0)
     except KeyboardInterrupt:
@@ -125,7 +132,9 @@ def serve_until_interrupted(server: Any, session: Session, make_app: Callable[[]
     faulthandler.dump_traceback_later(STOP_S, exit=True)
     abandoned = session.running
     server.stop()
-    print("psdr-room-studio: stopped" + (" (the run or edit in progress was abandoned)" if abandoned else ""), flush=True)
+    print(
+        "psdr-room-studio: stopped" + (" (the run or edit in progress was abandoned)" if abandoned else ""), flush=True
+    )
     logging.shutdown()
     sys.stderr.flush()
     os._exit(0)

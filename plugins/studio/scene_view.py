@@ -67,18 +67,27 @@ class SceneView:
             return
         c2w = np.asarray(room.camera_to_world, dtype=np.float64)
         scene = self.server.scene
-        frustum = dict(fov=math.radians(camera.vfov_deg), aspect=camera.width / camera.height, scale=0.3,
-                       wxyz=wxyz(c2w[:3, :3]), position=c2w[:3, 3], color=(240, 120, 20), thickness=0.006)
+        frustum = dict(
+            fov=math.radians(camera.vfov_deg),
+            aspect=camera.width / camera.height,
+            scale=0.3,
+            wxyz=wxyz(c2w[:3, :3]),
+            position=c2w[:3, 3],
+            color=(240, 120, 20),
+            thickness=0.006,
+        )
         self.nodes["/photo"] = scene.add_camera_frustum("/photo", **frustum)
-        self.nodes["/photo_plane"] = scene.add_camera_frustum("/photo_plane", image=image.to_uint8(),
-                                                              visible=self.plane_visible, **frustum)
+        self.nodes["/photo_plane"] = scene.add_camera_frustum(
+            "/photo_plane", image=image.to_uint8(), visible=self.plane_visible, **frustum
+        )
         self.nodes["/room"] = scene.add_line_segments("/room", box_edges(room), colors=(40, 40, 40), thickness=0.015)
         cloud: PointCloud | None = artifacts.get("point_cloud")
         if cloud is not None and len(cloud.points):
             keep = np.random.default_rng(0).permutation(len(cloud.points))[:MAX_POINTS]
             points = cloud.points[keep] @ c2w[:3, :3].T + c2w[:3, 3]
-            self.nodes["/cloud"] = scene.add_point_cloud("/cloud", points.astype(np.float32),
-                                                         np.asarray(cloud.colors, np.uint8)[keep], point_size=0.008)
+            self.nodes["/cloud"] = scene.add_point_cloud(
+                "/cloud", points.astype(np.float32), np.asarray(cloud.colors, np.uint8)[keep], point_size=0.008
+            )
         glb = scene_dir / "scene.glb" if scene_dir is not None else None
         if glb is not None and glb.is_file():
             self.show_scene(glb)
@@ -88,8 +97,12 @@ class SceneView:
             colors = np.asarray(placement.mesh.colors, dtype=np.float64).reshape(-1, 3)
             colour = tuple(int(c) for c in np.clip(colors.mean(axis=0) if len(colors) else (0.6, 0.6, 0.6), 0, 1) * 255)
             self.nodes[name] = scene.add_mesh_simple(
-                name, placement.world_vertices().astype(np.float32), np.asarray(placement.mesh.faces, np.int32),
-                color=colour, flat_shading=True)
+                name,
+                placement.world_vertices().astype(np.float32),
+                np.asarray(placement.mesh.faces, np.int32),
+                color=colour,
+                flat_shading=True,
+            )
 
     def photo_plane(self, visible: bool) -> None:
         """Show or hide the photo on its camera's image plane."""
@@ -150,13 +163,16 @@ def overview(client: viser.ClientHandle, artifacts: dict[str, Any]) -> None:
         client.camera.fov = math.radians(75.0)
 
 
-def screen_to_photo(client_camera: Any, screen: tuple[float, float], camera: Camera,
-                    camera_to_world: np.ndarray) -> tuple[float, float] | None:
+def screen_to_photo(
+    client_camera: Any, screen: tuple[float, float], camera: Camera, camera_to_world: np.ndarray
+) -> tuple[float, float] | None:
     """Where on the working image the photo is seen at ``screen`` (viser's 0..1 canvas coordinates, OpenCV axes) by a
     browser camera at the photo's centre of projection, in box coordinates (pixel ``i`` spans ``[i, i + 1)``);
     None when that direction is behind the photo's camera."""
     half = math.tan(float(client_camera.fov) / 2.0)
-    local = np.array([(screen[0] - 0.5) * 2.0 * half * float(client_camera.aspect), (screen[1] - 0.5) * 2.0 * half, 1.0])
+    local = np.array(
+        [(screen[0] - 0.5) * 2.0 * half * float(client_camera.aspect), (screen[1] - 0.5) * 2.0 * half, 1.0]
+    )
     world = vtf.SO3(np.asarray(client_camera.wxyz, dtype=np.float64)).as_matrix() @ local
     ray = np.asarray(camera_to_world, dtype=np.float64)[:3, :3].T @ world
     if ray[2] <= 1e-9:

@@ -119,8 +119,9 @@ class Session:
     """The photo, its run folder, its corrections and its latest run. Methods that change a correction check it
     first and raise :class:`PsdrRoomError` with one line (changing nothing) when it is wrong."""
 
-    def __init__(self, photo: Path, overrides: list[str], run_dir: Path, plugins: PluginSystem,
-                 events: StageEvents) -> None:
+    def __init__(
+        self, photo: Path, overrides: list[str], run_dir: Path, plugins: PluginSystem, events: StageEvents
+    ) -> None:
         self.photo = photo.expanduser().absolute()
         self.overrides = list(overrides)
         self.run_dir = run_dir.expanduser().absolute()
@@ -135,10 +136,16 @@ class Session:
 
     def arguments(self, until: str | None = None) -> list[str]:
         """The ``psdr-room`` overrides of a run: the photo, the user's overrides, the picks, the stop stage."""
-        picks = [f"+place_objects.pick.{segment}={choice if isinstance(choice, int) else hydra_quote(choice)}"
-                 for segment, choice in sorted(self.picks.items())]
-        return [f"image={hydra_quote(str(self.photo))}", *self.overrides, *picks,
-                *([f"run.until={until}"] if until else [])]
+        picks = [
+            f"+place_objects.pick.{segment}={choice if isinstance(choice, int) else hydra_quote(choice)}"
+            for segment, choice in sorted(self.picks.items())
+        ]
+        return [
+            f"image={hydra_quote(str(self.photo))}",
+            *self.overrides,
+            *picks,
+            *([f"run.until={until}"] if until else []),
+        ]
 
     def command(self, until: str | None = None) -> str:
         """The command line that reproduces the run (with the boxes file beside the photo)."""
@@ -198,34 +205,49 @@ class Session:
         sx, sy = photo_scale(image)
         if self.from_file():
             panoptic = self._editable()
-            return [Detection(label=s.label, category=s.category, box=scaled(_segment_box(panoptic.ids, s.id), 1 / sx,
-                                                                              1 / sy)) for s in _objects(panoptic)]
+            return [
+                Detection(
+                    label=s.label, category=s.category, box=scaled(_segment_box(panoptic.ids, s.id), 1 / sx, 1 / sy)
+                )
+                for s in _objects(panoptic)
+            ]
         if self.boxes_file.is_file():
             return read_boxes(self.boxes_file, image.photo_size)
         detections: Detections | None = self.artifact("detections")
-        return [Detection(label=d.label, category=d.category, box=scaled(d.box, 1 / sx, 1 / sy))
-                for d in (detections.items if detections is not None else [])]
+        return [
+            Detection(label=d.label, category=d.category, box=scaled(d.box, 1 / sx, 1 / sy))
+            for d in (detections.items if detections is not None else [])
+        ]
 
     def _write_boxes(self, boxes: list[Detection]) -> None:
         """Check ``boxes`` as ``detector=boxes_file`` will read them, then write the boxes file (picks are keyed
         by segment, which new boxes renumber: they are dropped)."""
         if self.detector not in ("auto", "boxes_file"):
-            raise PsdrRoomError(f"detector={self.detector} ignores the boxes file {self.boxes_file}; restart the "
-                                "studio without detector= (auto takes the boxes file)")
+            raise PsdrRoomError(
+                f"detector={self.detector} ignores the boxes file {self.boxes_file}; restart the "
+                "studio without detector= (auto takes the boxes file)"
+            )
         write_boxes(self.boxes_file, boxes, self._image().photo_size)
         self._drop_object_crops("object_")
         self._save_state({}, self.marks)
 
-    def add_box(self, box: tuple[float, float, float, float], label: str = "object", category: str = "object",
-                mask: np.ndarray | None = None) -> None:
+    def add_box(
+        self,
+        box: tuple[float, float, float, float],
+        label: str = "object",
+        category: str = "object",
+        mask: np.ndarray | None = None,
+    ) -> None:
         """Add an object box (photo pixels ``x0, y0, x1, y1``): to the boxes file, or, where the segments come
         from a file, as a new object segment of the studio's copy, ``mask`` (working pixels; default: the box's
         GrabCut cut) over what was there."""
         x0, y0, x1, y1 = (float(v) for v in box)
         _check_category(category)
         if not (x1 > x0 and y1 > y0):
-            raise PsdrRoomError(f"box {[x0, y0, x1, y1]} is inverted or empty; give [x0, y0, x1, y1] with x1 > x0 and "
-                                "y1 > y0 (drag from one corner to the opposite one)")
+            raise PsdrRoomError(
+                f"box {[x0, y0, x1, y1]} is inverted or empty; give [x0, y0, x1, y1] with x1 > x0 and "
+                "y1 > y0 (drag from one corner to the opposite one)"
+            )
         if not self.from_file():
             self._write_boxes([*self.boxes(), Detection(label=label, category=category, box=(x0, y0, x1, y1))])
             return
@@ -238,8 +260,10 @@ class Session:
         if mask is None:
             mask = grabcut_mask(image.to_uint8(), working, GrabCutParams())
         if mask is None or not mask.any():
-            raise PsdrRoomError(f"the box {[round(v) for v in (x0, y0, x1, y1)]} holds no object GrabCut can cut "
-                                "out; drag a box that fits the object more closely")
+            raise PsdrRoomError(
+                f"the box {[round(v) for v in (x0, y0, x1, y1)]} holds no object GrabCut can cut "
+                "out; drag a box that fits the object more closely"
+            )
         panoptic = self._editable()
         ids = panoptic.ids.copy()
         new = int(ids.max(initial=0)) + 1
@@ -253,12 +277,13 @@ class Session:
         boxes = self.boxes()
         self._check_index(index, boxes)
         if not self.from_file():
-            self._write_boxes(boxes[:index] + boxes[index + 1:])
+            self._write_boxes(boxes[:index] + boxes[index + 1 :])
             return
         panoptic = self._editable()
         gone = _objects(panoptic)[index].id
-        self._write_segmentation(np.where(panoptic.ids == gone, 0, panoptic.ids),
-                                 [s for s in panoptic.segments if s.id != gone], self.marks)
+        self._write_segmentation(
+            np.where(panoptic.ids == gone, 0, panoptic.ids), [s for s in panoptic.segments if s.id != gone], self.marks
+        )
 
     def relabel_box(self, index: int, label: str) -> None:
         """Name box ``index``'s object (a database category such as ``sofa`` steers retrieval to it)."""
@@ -273,8 +298,11 @@ class Session:
             return
         panoptic = self._editable()
         named = _objects(panoptic)[index].id
-        self._write_segmentation(panoptic.ids, [replace(s, label=label.strip()) if s.id == named else s
-                                                for s in panoptic.segments], self.marks)
+        self._write_segmentation(
+            panoptic.ids,
+            [replace(s, label=label.strip()) if s.id == named else s for s in panoptic.segments],
+            self.marks,
+        )
 
     @staticmethod
     def _check_index(index: int, boxes: list[Detection]) -> None:
@@ -295,8 +323,10 @@ class Session:
         if isinstance(choice, int) or str(choice).isdigit():
             rank = int(choice)
             if not 0 <= rank < len(candidates.ranked[segment_id]):
-                raise PsdrRoomError(f"rank {rank} is out of range; segment {segment_id} has "
-                                    f"{len(candidates.ranked[segment_id])} candidates")
+                raise PsdrRoomError(
+                    f"rank {rank} is out of range; segment {segment_id} has "
+                    f"{len(candidates.ranked[segment_id])} candidates"
+                )
             choice = rank
         else:
             database.record(str(choice))  # one line naming similar ids when it is unknown
@@ -336,8 +366,9 @@ class Session:
         present = set(np.unique(ids).tolist())
         png, meta = self.segmentation_file, panoptic_json_for(self.segmentation_file)
         with tempfile.TemporaryDirectory(dir=self.photo.parent, prefix=".studio-") as scratch:  # whole files only
-            write_coco_panoptic(Path(scratch) / png.name, Path(scratch) / meta.name, ids,
-                                [s for s in segments if s.id in present])
+            write_coco_panoptic(
+                Path(scratch) / png.name, Path(scratch) / meta.name, ids, [s for s in segments if s.id in present]
+            )
             os.replace(Path(scratch) / meta.name, meta)
             os.replace(Path(scratch) / png.name, png)
         self._drop_object_crops("object_")
@@ -352,10 +383,16 @@ class Session:
         if segment_id not in known:
             raise PsdrRoomError(f"no segment {segment_id}; the segments are {known}")
         if self._segmentation() not in ("layout", "file"):
-            raise PsdrRoomError(f"segmentation={self._segmentation()} ignores a segmentation file beside the photo; "
-                                "restart the studio with segmentation=file to use the marks")
-        segments = [replace(s, category=category, label=category if category != "object" else s.label)
-                    if s.id == segment_id else s for s in panoptic.segments]
+            raise PsdrRoomError(
+                f"segmentation={self._segmentation()} ignores a segmentation file beside the photo; "
+                "restart the studio with segmentation=file to use the marks"
+            )
+        segments = [
+            replace(s, category=category, label=category if category != "object" else s.label)
+            if s.id == segment_id
+            else s
+            for s in panoptic.segments
+        ]
         self._write_segmentation(panoptic.ids, segments, {**self.marks, segment_id: category})
 
     def reset_segmentation(self) -> None:
@@ -383,8 +420,11 @@ class Session:
             return list(data["crops"])
         materials: MaterialAssignment | None = self.artifact("materials")
         sx, sy = photo_scale(image)
-        return [{"image": [round(v, 1) for v in scaled(rect, 1 / sx, 1 / sy)], "part": p.part}
-                for p in (materials.parts if materials is not None else []) for rect in p.crops]
+        return [
+            {"image": [round(v, 1) for v in scaled(rect, 1 / sx, 1 / sy)], "part": p.part}
+            for p in (materials.parts if materials is not None else [])
+            for rect in p.crops
+        ]
 
     def crop_parts(self) -> list[str]:
         """The scene parts a crop can show (those of the latest full run's material assignment)."""
@@ -429,7 +469,7 @@ class Session:
         """Remove crop ``index``; a part left with no crop becomes homogeneous (its clean pixels' median colour)."""
         entries = self._full_fit_crops()
         self._check_crop(index, entries)
-        self._write_crops(entries[:index] + entries[index + 1:])
+        self._write_crops(entries[:index] + entries[index + 1 :])
 
     @staticmethod
     def _check_crop(index: int, entries: list[dict[str, Any]]) -> None:
@@ -448,13 +488,17 @@ class Session:
         picks = data.get("picks") if isinstance(data, dict) else None
         marks = data.get("marks", {}) if isinstance(data, dict) else None
         if not isinstance(picks, dict) or not isinstance(marks, dict):
-            raise PsdrRoomError(f"{path}: expected 'picks: {{segment: rank or model id}}' and 'marks: {{segment: "
-                                "category}'; delete the file to start over")
+            raise PsdrRoomError(
+                f"{path}: expected 'picks: {{segment: rank or model id}}' and 'marks: {{segment: "
+                "category}'; delete the file to start over"
+            )
         return {int(k): v for k, v in picks.items()}, {int(k): str(v) for k, v in marks.items()}
 
     def _save_state(self, picks: dict[int, int | str], marks: dict[int, str]) -> None:
         """Keep ``picks`` and ``marks`` and write them, with the command line that reproduces the run, to
         ``studio.yaml``."""
         self.picks, self.marks = picks, marks
-        write_whole(self.run_dir / STATE_FILE,
-                    yaml.safe_dump({"picks": picks, "marks": marks, "command": self.command()}, sort_keys=False))
+        write_whole(
+            self.run_dir / STATE_FILE,
+            yaml.safe_dump({"picks": picks, "marks": marks, "command": self.command()}, sort_keys=False),
+        )

@@ -74,8 +74,12 @@ def main() -> None:
     parser.add_argument("--width", type=int, default=320)
     parser.add_argument("--height", type=int, default=240)
     parser.add_argument("--spp", type=int, default=64)
-    parser.add_argument("--depth-noise", type=float, default=0.0,
-                        help="relative error of an estimator-like depth sidecar (0: exact depth)")
+    parser.add_argument(
+        "--depth-noise",
+        type=float,
+        default=0.0,
+        help="relative error of an estimator-like depth sidecar (0: exact depth)",
+    )
     parser.add_argument("--objects", type=int, help="pieces of furniture (as many as fit; default: 3-5 at random)")
     args = parser.parse_args()
     for seed in parse_seeds(args.seeds):

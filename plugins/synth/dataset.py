@@ -71,10 +71,22 @@ class Looks:
     def colour(self, kind: str) -> tuple[float, float, float]:
         """A linear base colour: pale paints for walls and ceilings, anything for the rest."""
         if kind in ("wall", "ceiling"):
-            hsv = np.array([[[self.rng.uniform(0, 180), self.rng.uniform(0, 90 if kind == "wall" else 20),
-                              self.rng.uniform(170, 250)]]], np.uint8)
+            hsv = np.array(
+                [
+                    [
+                        [
+                            self.rng.uniform(0, 180),
+                            self.rng.uniform(0, 90 if kind == "wall" else 20),
+                            self.rng.uniform(170, 250),
+                        ]
+                    ]
+                ],
+                np.uint8,
+            )
         else:
-            hsv = np.array([[[self.rng.uniform(0, 180), self.rng.uniform(0, 255), self.rng.uniform(30, 240)]]], np.uint8)
+            hsv = np.array(
+                [[[self.rng.uniform(0, 180), self.rng.uniform(0, 255), self.rng.uniform(30, 240)]]], np.uint8
+            )
         rgb = cv2.cvtColor(hsv, cv2.COLOR_HSV2RGB)[0, 0] / 255.0
         return tuple(float(v) for v in srgb_to_linear(rgb))
 
@@ -138,8 +150,9 @@ def _light_colour(rng: np.random.Generator, daylight: bool) -> np.ndarray:
     return np.array([1.0, 1.0 - 0.15 * warm, 1.0 - 0.4 * warm]) * (np.array([0.9, 0.95, 1.0]) if daylight else 1.0)
 
 
-def sample_room(seed: int, database: object, library: object, textures: Sequence[Path], width: int = 320,
-                height: int = 240) -> Sample:
+def sample_room(
+    seed: int, database: object, library: object, textures: Sequence[Path], width: int = 320, height: int = 240
+) -> Sample:
     """A random furnished room and camera for ``seed``: room size and shape (corridors too), camera height,
     pitch, roll and FoV, a theme's furniture arrangement, materials, windows, a door and lights."""
     rng = np.random.default_rng(seed)
@@ -194,8 +207,12 @@ def sample_room(seed: int, database: object, library: object, textures: Sequence
         tangent = np.array([1.0, 0.0, 0.0]) if wall == 0 else np.array([0.0, 0.0, 1.0])
         base = direction * (half[2] if wall == 0 else half[0]) - direction * inset + tangent * along
         base[1] = (bottom + top) / 2
-        return _rectangle(local_to_world(base), axis_to_world(tangent * half_width),
-                          np.array([0.0, (top - bottom) / 2, 0.0]), axis_to_world(-direction))
+        return _rectangle(
+            local_to_world(base),
+            axis_to_world(tangent * half_width),
+            np.array([0.0, (top - bottom) / 2, 0.0]),
+            axis_to_world(-direction),
+        )
 
     for k in range(int(rng.choice([0, 1, 1, 2, 3]))):  # windows, daylight
         wall, half_width = int(rng.integers(3)), float(rng.uniform(0.4, 1.1))
@@ -212,8 +229,9 @@ def sample_room(seed: int, database: object, library: object, textures: Sequence
         wall, half_width = int(rng.integers(3)), float(rng.uniform(0.4, 0.5))
         along = opening(wall, half_width)
         if along is not None:
-            mesh, look = looks.surface("door", wall_rect(wall, along, 0.0, min(2.05, 2 * half[1] - 0.1), half_width,
-                                                         0.008), 0.5)
+            mesh, look = looks.surface(
+                "door", wall_rect(wall, along, 0.0, min(2.05, 2 * half[1] - 0.1), half_width, 0.008), 0.5
+            )
             sample.meshes["door"], sample.surfaces["door"] = mesh, look
             sample.labels["door"] = (5, 0, 0)
 
@@ -235,9 +253,15 @@ def sample_room(seed: int, database: object, library: object, textures: Sequence
         spot = np.array([rng.uniform(-0.7, 0.7) * half[0], 2 * half[1] - 0.01, rng.uniform(-0.6, 0.8) * half[2]])
         name = f"light_{k}"
         radiance = _light_colour(rng, False) * rng.uniform(5.0, 30.0) * (0.1 / (size[0] * size[1])) ** 0.5
-        sample.emitters[name] = (_rectangle(local_to_world(spot), axis_to_world(np.array([size[0], 0, 0])),
-                                            axis_to_world(np.array([0, 0, size[1]])), np.array([0.0, -1.0, 0.0])),
-                                 tuple(map(float, radiance)))
+        sample.emitters[name] = (
+            _rectangle(
+                local_to_world(spot),
+                axis_to_world(np.array([size[0], 0, 0])),
+                axis_to_world(np.array([0, 0, size[1]])),
+                np.array([0.0, -1.0, 0.0]),
+            ),
+            tuple(map(float, radiance)),
+        )
         sample.labels[name] = (OBJECT, CATEGORIES.index("lamp") + 1, 1000 + k)
     return sample
 
@@ -250,25 +274,38 @@ def label_maps(sample: Sample, renderer: object) -> dict[str, np.ndarray]:
 
     meshes = {**sample.meshes, **{name: mesh for name, (mesh, _) in sample.emitters.items()}}
     names = list(meshes)
-    geometry = renderer.geometry(sample.camera, sample.camera_to_world, meshes,  # type: ignore[attr-defined]
-                                 {n: i for i, n in enumerate(names)})
+    geometry = renderer.geometry(
+        sample.camera,
+        sample.camera_to_world,
+        meshes,  # type: ignore[attr-defined]
+        {n: i for i, n in enumerate(names)},
+    )
     with torch.no_grad():
         masks, depth, alpha = (t.numpy() for t in geometry.render())
     part = np.where(alpha > 0.5, masks.argmax(axis=0), -1)
     table = np.array([(0, 0, 0)] + [sample.labels[n] for n in names], dtype=np.int64)
     values = table[part + 1]
     single = masks.max(axis=0) > PURE_PIXEL  # a pixel across an edge mixes two depths: no depth label
-    return {"surface": values[..., 0].astype(np.uint8), "category": values[..., 1].astype(np.uint8),
-            "instance": values[..., 2].astype(np.uint16),
-            "depth": np.where(single, depth / np.maximum(alpha, 1e-6), 0.0).astype(np.float16)}
+    return {
+        "surface": values[..., 0].astype(np.uint8),
+        "category": values[..., 1].astype(np.uint8),
+        "instance": values[..., 2].astype(np.uint16),
+        "depth": np.where(single, depth / np.maximum(alpha, 1e-6), 0.0).astype(np.float16),
+    }
 
 
 def render_photo(sample: Sample, renderer: object, denoiser: object, spp: int) -> np.ndarray:
     """The sample's photo: path traced at ``spp``, denoised, auto-exposed to a random brightness, sRGB uint8."""
     import torch
 
-    geometry = renderer.geometry(sample.camera, sample.camera_to_world, sample.meshes, {},  # type: ignore[attr-defined]
-                                 surfaces=sample.surfaces, emitters=sample.emitters)
+    geometry = renderer.geometry(
+        sample.camera,
+        sample.camera_to_world,
+        sample.meshes,
+        {},  # type: ignore[attr-defined]
+        surfaces=sample.surfaces,
+        emitters=sample.emitters,
+    )
     with torch.no_grad():
         noisy = geometry.render_rgb(spp=spp).numpy()
     clean = denoiser.denoise(noisy, *geometry.render_guides(spp=4))  # type: ignore[attr-defined]
@@ -291,9 +328,13 @@ def write_sample(seed: int, out: Path, spp: int, width: int, height: int, textur
     maps = label_maps(sample, made["renderer"])
     image = render_photo(sample, made["renderer"], made["denoiser"], spp)
     partial = labels.with_suffix(".part.npz")
-    np.savez_compressed(partial, **maps, room=np.r_[sample.room.center, sample.room.half_size, sample.room.yaw],
-                        camera=np.array([sample.camera.fx, sample.camera.fy, sample.camera.cx, sample.camera.cy]),
-                        camera_to_world=sample.camera_to_world)
+    np.savez_compressed(
+        partial,
+        **maps,
+        room=np.r_[sample.room.center, sample.room.half_size, sample.room.yaw],
+        camera=np.array([sample.camera.fx, sample.camera.fy, sample.camera.cx, sample.camera.cy]),
+        camera_to_world=sample.camera_to_world,
+    )
     cv2.imwrite(str(photo.with_suffix(".part.jpg")), image[..., ::-1], [cv2.IMWRITE_JPEG_QUALITY, 95])
     os.replace(partial, labels)
     os.replace(photo.with_suffix(".part.jpg"), photo)
@@ -308,11 +349,14 @@ def tools(registry: object) -> dict[str, object]:
     if not TOOLS:
         from psdr_room_plugins.object_db.builtin import builtin_database
 
-        TOOLS.update(database=builtin_database(),
-                      library=registry.implementation("material_graph", "torch_graph").factory(),  # type: ignore[attr-defined]
-                      renderer=registry.implementation("renderer", "mitsuba").factory(  # type: ignore[attr-defined]
-                          variant="llvm_ad_rgb", max_depth=4, threads=1),
-                      denoiser=registry.implementation("denoiser", "oidn").factory())  # type: ignore[attr-defined]
+        TOOLS.update(
+            database=builtin_database(),
+            library=registry.implementation("material_graph", "torch_graph").factory(),  # type: ignore[attr-defined]
+            renderer=registry.implementation("renderer", "mitsuba").factory(  # type: ignore[attr-defined]
+                variant="llvm_ad_rgb", max_depth=4, threads=1
+            ),
+            denoiser=registry.implementation("denoiser", "oidn").factory(),
+        )  # type: ignore[attr-defined]
     return TOOLS
 
 
@@ -322,8 +366,10 @@ def main(argv: Sequence[str] | None = None) -> None:
 
     from . import parse_seeds
 
-    parser = argparse.ArgumentParser(description="Render randomised furnished rooms with exact labels (a data set "
-                                                 "for the eyes network; samples already there are kept).")
+    parser = argparse.ArgumentParser(
+        description="Render randomised furnished rooms with exact labels (a data set "
+        "for the eyes network; samples already there are kept)."
+    )
     parser.add_argument("--out", type=Path, required=True, help="data set folder (<seed>.jpg + <seed>.npz)")
     parser.add_argument("--seeds", default="0-4999", help="e.g. 0-4999 or 1,5,7")
     parser.add_argument("--spp", type=int, default=16, help="path tracer samples per pixel (denoised after)")
@@ -346,8 +392,11 @@ def main(argv: Sequence[str] | None = None) -> None:
     textures = photo_textures(args.textures)
     start = time.monotonic()
     times = Parallel(n_jobs=args.jobs, batch_size=4)(
-        delayed(write_sample)(seed, args.out, args.spp, args.width, args.height, textures) for seed in seeds)
+        delayed(write_sample)(seed, args.out, args.spp, args.width, args.height, textures) for seed in seeds
+    )
     made = sum(t > 0 for t in times)
     minutes = (time.monotonic() - start) / 60.0
-    print(f"psdr-room-synth-data: {made} samples made ({len(seeds) - made} already there) in {minutes:.1f} min: "
-          f"{made / max(minutes, 1e-9):.1f} images/min with {args.jobs} process(es) into {args.out}")
+    print(
+        f"psdr-room-synth-data: {made} samples made ({len(seeds) - made} already there) in {minutes:.1f} min: "
+        f"{made / max(minutes, 1e-9):.1f} images/min with {args.jobs} process(es) into {args.out}"
+    )

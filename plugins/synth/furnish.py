@@ -57,8 +57,9 @@ class Furnisher:
                 return record.id, size
         return None
 
-    def _add(self, model_id: str, size: np.ndarray, x: float, z: float, yaw: float, y: float = 0.0,
-             floor: bool = True) -> Placement | None:
+    def _add(
+        self, model_id: str, size: np.ndarray, x: float, z: float, yaw: float, y: float = 0.0, floor: bool = True
+    ) -> Placement | None:
         """Put the model (room-frame yaw, a multiple of 90° plus noise) at (x, y, z) if its footprint is free
         and inside the room (``floor``: it takes floor space; a rug never does); its room-frame placement, or
         None."""
@@ -73,16 +74,25 @@ class Furnisher:
             return None
         mesh = self.database.mesh(model_id)  # type: ignore[attr-defined]
         scale = float(size[1] / max(mesh.extent[1], 1e-6))
-        placement = Placement(segment_id=len(self.placed) + 1, label=record.category, model_id=model_id, mesh=mesh,
-                              position=(x, y, z), yaw=yaw, scale=scale, category=record.category)
+        placement = Placement(
+            segment_id=len(self.placed) + 1,
+            label=record.category,
+            model_id=model_id,
+            mesh=mesh,
+            position=(x, y, z),
+            yaw=yaw,
+            scale=scale,
+            category=record.category,
+        )
         if floor:
             self.taken.append(box)
         self.placed.append((placement, y + size[1]))
         return placement
 
     # -- positions ----------------------------------------------------------------------------------------
-    def wall_spot(self, size: np.ndarray, wall: int | None = None, along: float | None = None
-                  ) -> tuple[float, float, float]:
+    def wall_spot(
+        self, size: np.ndarray, wall: int | None = None, along: float | None = None
+    ) -> tuple[float, float, float]:
         """(x, z, yaw) of a model with its back against wall ``wall`` (0 = +z, the far wall; 1 = -x; 2 = +x;
         3 = -z, behind the camera) at ``along`` (room-frame coordinate along the wall; random when None)."""
         wall = int(self.rng.choice([0, 0, 1, 2])) if wall is None else wall
@@ -115,13 +125,25 @@ class Furnisher:
         if chosen is None:
             return None
         model_id, size = chosen
-        x, z = self._ahead(parent.position[0], parent.position[2], parent.yaw, 0.0,
-                           float(self.rng.uniform(-0.3, 0.3) * (parent_size[0] - size[0])))
+        x, z = self._ahead(
+            parent.position[0],
+            parent.position[2],
+            parent.yaw,
+            0.0,
+            float(self.rng.uniform(-0.3, 0.3) * (parent_size[0] - size[0])),
+        )
         return self._add(model_id, size, x, z, parent.yaw + float(self.rng.normal(0, 0.15)), y=top, floor=False)
 
     # -- arrangements -------------------------------------------------------------------------------------
-    def piece(self, category: str, wall: int | None = None, along: float | None = None, free: bool = False,
-              fits: Callable[[np.ndarray], bool] | None = None, tries: int = 8) -> tuple[Placement, np.ndarray] | None:
+    def piece(
+        self,
+        category: str,
+        wall: int | None = None,
+        along: float | None = None,
+        free: bool = False,
+        fits: Callable[[np.ndarray], bool] | None = None,
+        tries: int = 8,
+    ) -> tuple[Placement, np.ndarray] | None:
         """One model of ``category`` against a wall (or on the open floor when ``free``); it and its size."""
         for _ in range(tries):
             chosen = self.model(category, fits)
@@ -135,8 +157,13 @@ class Furnisher:
             along = None
         return None
 
-    def beside(self, anchor: tuple[Placement, np.ndarray], category: str, side: int,
-               fits: Callable[[np.ndarray], bool] | None = None) -> tuple[Placement, np.ndarray] | None:
+    def beside(
+        self,
+        anchor: tuple[Placement, np.ndarray],
+        category: str,
+        side: int,
+        fits: Callable[[np.ndarray], bool] | None = None,
+    ) -> tuple[Placement, np.ndarray] | None:
         """A model of ``category`` against the same wall as ``anchor``, next to it on ``side`` (±1)."""
         chosen = self.model(category, fits)
         if chosen is None:
@@ -149,9 +176,16 @@ class Furnisher:
         placed = self._add(model_id, size, x, z, placement.yaw)
         return None if placed is None else (placed, size)
 
-    def facing(self, anchor: tuple[Placement, np.ndarray], category: str, distance: float, side: float = 0.0,
-               turn: float = 0.0, fits: Callable[[np.ndarray], bool] | None = None,
-               back: bool = False) -> Placement | None:
+    def facing(
+        self,
+        anchor: tuple[Placement, np.ndarray],
+        category: str,
+        distance: float,
+        side: float = 0.0,
+        turn: float = 0.0,
+        fits: Callable[[np.ndarray], bool] | None = None,
+        back: bool = False,
+    ) -> Placement | None:
         """A model of ``category`` ``distance`` m in front of ``anchor``'s front (its back when ``back``),
         ``side`` m to the left, turned ``turn`` from that direction (π: facing the anchor)."""
         chosen = self.model(category, fits)
@@ -160,8 +194,9 @@ class Furnisher:
         model_id, size = chosen
         placement, anchor_size = anchor
         direction = placement.yaw + (math.pi if back else 0.0)
-        x, z = self._ahead(placement.position[0], placement.position[2], direction,
-                           anchor_size[2] / 2 + distance + size[2] / 2, side)
+        x, z = self._ahead(
+            placement.position[0], placement.position[2], direction, anchor_size[2] / 2 + distance + size[2] / 2, side
+        )
         return self._add(model_id, size, x, z, direction + turn + float(self.rng.normal(0, 0.04)))
 
     def bedroom(self) -> None:
@@ -190,8 +225,12 @@ class Furnisher:
             if self.rng.random() < 0.5:
                 self.beside(sofa, "table", side, lambda s: s[1] < 0.75 and s[0] < 0.7)
         if self.rng.random() < 0.5:
-            self.facing(sofa, str(self.rng.choice(["sofa", "chair", "ottoman"])), float(self.rng.uniform(1.2, 2.0)),
-                        turn=math.pi)
+            self.facing(
+                sofa,
+                str(self.rng.choice(["sofa", "chair", "ottoman"])),
+                float(self.rng.uniform(1.2, 2.0)),
+                turn=math.pi,
+            )
         stand = self.piece("cabinet", fits=lambda s: s[1] < 1.0)
         if stand is not None and self.rng.random() < 0.7:
             self.on_top(stand[0], stand[1][1], "tv", stand[1])
@@ -257,8 +296,11 @@ class Furnisher:
 
     def mixed(self) -> None:
         for _ in range(int(self.rng.integers(3, 8))):
-            category = str(self.rng.choice(["chair", "table", "sofa", "cabinet", "shelf", "desk", "lamp", "plant",
-                                            "ottoman", "box", "bed"]))
+            category = str(
+                self.rng.choice(
+                    ["chair", "table", "sofa", "cabinet", "shelf", "desk", "lamp", "plant", "ottoman", "box", "bed"]
+                )
+            )
             self.piece(category, free=self.rng.random() < 0.4)
 
     def frames(self) -> None:
@@ -290,5 +332,13 @@ def to_world(placement: Placement, center: np.ndarray, yaw: float) -> Placement:
     """A room-frame placement in a room box centred at ``center`` (its floor at y = 0) turned by ``yaw``."""
     local = np.array([placement.position[0], placement.position[1], placement.position[2]])
     world = np.asarray(center, dtype=float) * np.array([1.0, 0.0, 1.0]) + rotation_y(yaw) @ local
-    return Placement(placement.segment_id, placement.label, placement.model_id, placement.mesh,
-                     tuple(float(v) for v in world), placement.yaw + yaw, placement.scale, category=placement.category)
+    return Placement(
+        placement.segment_id,
+        placement.label,
+        placement.model_id,
+        placement.mesh,
+        tuple(float(v) for v in world),
+        placement.yaw + yaw,
+        placement.scale,
+        category=placement.category,
+    )

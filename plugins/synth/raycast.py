@@ -12,8 +12,14 @@ from psdr_room_core.method.artifacts import Segment, rotation_y
 
 from .room import Box, SyntheticRoom
 
-ROOM_SIDES = {1: ("floor", "floor"), 2: ("ceiling", "ceiling"), 3: ("wall", "wall -x"), 4: ("wall", "wall +x"),
-              5: ("wall", "wall -z"), 6: ("wall", "wall +z")}
+ROOM_SIDES = {
+    1: ("floor", "floor"),
+    2: ("ceiling", "ceiling"),
+    3: ("wall", "wall -x"),
+    4: ("wall", "wall +x"),
+    5: ("wall", "wall -z"),
+    6: ("wall", "wall +z"),
+}
 FURNITURE_ID0 = 10
 LIGHT_ID0 = 100
 LIGHT_THICKNESS = 0.01
@@ -22,7 +28,9 @@ LIGHT_THICKNESS = 0.01
 def pixel_rays(room: SyntheticRoom) -> tuple[np.ndarray, np.ndarray]:
     """World ray origin (3) and directions (H·W×3) scaled so that t is z-depth."""
     u, v = np.meshgrid(np.arange(room.width) + 0.5, np.arange(room.height) + 0.5)
-    cam = np.stack([(u - room.width / 2) / room.fy, (v - room.height / 2) / room.fy, np.ones_like(u)], -1).reshape(-1, 3)
+    cam = np.stack([(u - room.width / 2) / room.fy, (v - room.height / 2) / room.fy, np.ones_like(u)], -1).reshape(
+        -1, 3
+    )
     pose = np.asarray(room.camera_to_world)
     return pose[:3, 3], cam @ pose[:3, :3].T
 

@@ -52,29 +52,44 @@ def scene_dict(room: SyntheticRoom, spp: int, max_depth: int) -> dict:
         },
         "ambient": {"type": "constant", "radiance": {"type": "rgb", "value": 0.02}},
     }
-    box = RoomBox(camera_to_world=np.eye(4), center=np.array(room.room.center), half_size=np.array(room.room.half),
-                  yaw=room.room.yaw)
+    box = RoomBox(
+        camera_to_world=np.eye(4),
+        center=np.array(room.room.center),
+        half_size=np.array(room.room.half),
+        yaw=room.room.yaw,
+    )
     tiles = {"floor": max(room.room.half[0], room.room.half[2]) * 2.0}
     for name, quad in room_quads(box).items():
         kind = name.split("_")[0]
         bsdf = diffuse(room.albedo[kind])
         if kind in tiles:  # floor tiles: straight edges for the FoV estimator, texture for appearance
             dark = tuple(0.6 * c for c in room.albedo[kind])
-            bsdf = {"type": "diffuse", "reflectance": {
-                "type": "checkerboard", "color0": {"type": "rgb", "value": list(room.albedo[kind])},
-                "color1": {"type": "rgb", "value": list(dark)},
-                "to_uv": mi.ScalarTransform4f().scale([tiles[kind], tiles[kind], 1.0])}}
+            bsdf = {
+                "type": "diffuse",
+                "reflectance": {
+                    "type": "checkerboard",
+                    "color0": {"type": "rgb", "value": list(room.albedo[kind])},
+                    "color1": {"type": "rgb", "value": list(dark)},
+                    "to_uv": mi.ScalarTransform4f().scale([tiles[kind], tiles[kind], 1.0]),
+                },
+            }
         scene[name] = {"type": "rectangle", "to_world": transform(_rectangle_frame(quad)), "bsdf": bsdf}
     for piece in room.furniture:
         for k, part in enumerate(piece.parts):
-            scene[f"object_{piece.id}_{k}"] = {"type": "cube", "to_world": transform(_box_frame(part)),
-                                               "bsdf": diffuse(piece.albedo)}
+            scene[f"object_{piece.id}_{k}"] = {
+                "type": "cube",
+                "to_world": transform(_box_frame(part)),
+                "bsdf": diffuse(piece.albedo),
+            }
     for k, light in enumerate(room.lights):
         frame = np.eye(4)  # a rectangle facing down (-y), at the light's height
         frame[:3, :3] = rotation_y(light.yaw) @ np.array([[light.half[0], 0, 0], [0, 0, -1], [0, light.half[1], 0]])
         frame[:3, 3] = light.center
-        scene[f"light_{k}"] = {"type": "rectangle", "to_world": transform(frame),
-                               "emitter": {"type": "area", "radiance": {"type": "rgb", "value": light.radiance}}}
+        scene[f"light_{k}"] = {
+            "type": "rectangle",
+            "to_world": transform(frame),
+            "emitter": {"type": "area", "radiance": {"type": "rgb", "value": light.radiance}},
+        }
     return scene
 
 
@@ -83,8 +98,9 @@ def exposure(linear: np.ndarray, percentile: float = 97.0, target: float = 0.85)
     return target / max(float(np.percentile(linear, percentile)), 1e-6)
 
 
-def render_photo(room: SyntheticRoom, spp: int = 64, max_depth: int = 5, variant: str = "llvm_ad_rgb"
-                 ) -> tuple[np.ndarray, float]:
+def render_photo(
+    room: SyntheticRoom, spp: int = 64, max_depth: int = 5, variant: str = "llvm_ad_rgb"
+) -> tuple[np.ndarray, float]:
     """Path-traced RGB photo (uint8 HxWx3, sRGB, auto-exposed) of the synthetic room, and its exposure: photo
     values are the sRGB encoding of exposure × radiance (the scale the light intensities are compared in)."""
     import mitsuba as mi

@@ -63,8 +63,14 @@ class SyntheticRoom:
 
     def to_json(self) -> dict:
         data = asdict(self)
-        data["intrinsics"] = {"fx": self.fy, "fy": self.fy, "cx": self.width / 2, "cy": self.height / 2,
-                              "width": self.width, "height": self.height}
+        data["intrinsics"] = {
+            "fx": self.fy,
+            "fy": self.fy,
+            "cx": self.width / 2,
+            "cy": self.height / 2,
+            "width": self.width,
+            "height": self.height,
+        }
         data["room"] = {"center": list(self.room.center), "half_size": list(self.room.half), "yaw": self.room.yaw}
         return data
 

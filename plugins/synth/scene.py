@@ -27,22 +27,31 @@ def _furniture_parts(kind: str, rng: np.random.Generator) -> tuple[tuple[float, 
         w, d, h = rng.uniform(0.5, 0.9), rng.uniform(0.4, 0.6), rng.uniform(0.7, 0.78)
         leg = 0.03
         parts = [((0, h - 0.02, 0), (w, 0.02, d))]
-        parts += [((sx * (w - leg), (h - 0.04) / 2, sz * (d - leg)), (leg, (h - 0.04) / 2, leg))
-                  for sx in (-1, 1) for sz in (-1, 1)]
+        parts += [
+            ((sx * (w - leg), (h - 0.04) / 2, sz * (d - leg)), (leg, (h - 0.04) / 2, leg))
+            for sx in (-1, 1)
+            for sz in (-1, 1)
+        ]
         return (w, h, d), parts
     if kind == "chair":
         w, seat = rng.uniform(0.2, 0.25), rng.uniform(0.42, 0.48)
         leg = 0.02
         parts = [((0, seat, 0), (w, 0.03, w)), ((0, seat + 0.25, -w + 0.02), (w, 0.25, 0.02))]
-        parts += [((sx * (w - leg), seat / 2, sz * (w - leg)), (leg, seat / 2, leg)) for sx in (-1, 1) for sz in (-1, 1)]
+        parts += [
+            ((sx * (w - leg), seat / 2, sz * (w - leg)), (leg, seat / 2, leg)) for sx in (-1, 1) for sz in (-1, 1)
+        ]
         return (w, seat + 0.5, w), parts
     if kind == "cabinet":
         w, h, d = rng.uniform(0.4, 0.8), rng.uniform(0.8, 1.9), rng.uniform(0.2, 0.3)
         return (w, h, d), [((0, h / 2, 0), (w, h / 2, d))]
     if kind == "sofa":
         w, d = rng.uniform(0.8, 1.1), rng.uniform(0.4, 0.5)
-        parts = [((0, 0.22, 0), (w, 0.22, d)), ((0, 0.6, -d + 0.1), (w, 0.2, 0.1)),
-                 ((-w + 0.1, 0.52, 0), (0.1, 0.1, d)), ((w - 0.1, 0.52, 0), (0.1, 0.1, d))]
+        parts = [
+            ((0, 0.22, 0), (w, 0.22, d)),
+            ((0, 0.6, -d + 0.1), (w, 0.2, 0.1)),
+            ((-w + 0.1, 0.52, 0), (0.1, 0.1, d)),
+            ((w - 0.1, 0.52, 0), (0.1, 0.1, d)),
+        ]
         return (w, 0.8, d), parts
     # bed
     w, d = rng.uniform(0.7, 0.9), rng.uniform(0.95, 1.05)
@@ -82,7 +91,11 @@ def _place_furniture(room: Box, rng: np.random.Generator, count: int) -> list[Fu
         yaw = room.yaw + turn * math.pi / 2 + rng.normal(0, 0.03)
         origin = np.array(room.center) + rotation_y(room.yaw) @ np.array([x, -room.half[1], z])
         boxes = tuple(
-            Box(center=tuple(float(v) for v in origin + rotation_y(yaw) @ np.array(c)), half=tuple(map(float, h)), yaw=yaw)
+            Box(
+                center=tuple(float(v) for v in origin + rotation_y(yaw) @ np.array(c)),
+                half=tuple(map(float, h)),
+                yaw=yaw,
+            )
             for c, h in parts
         )
         albedo = tuple(float(v) for v in rng.uniform(0.08, 0.75, 3))
@@ -90,9 +103,16 @@ def _place_furniture(room: Box, rng: np.random.Generator, count: int) -> list[Fu
     return result
 
 
-VISIBLE = {"random": (True, (3, 4), True), "no_ceiling": (True, (2, 4), False), "cut_wall": (True, (2, 4), None),
-           "strong_perspective": (True, (2, 4), None), "floor_only": (True, (0, 0), False),
-           "one_wall": (None, (1, 1), False), "ceiling_only": (False, (0, 0), True), "close_up": (None, (0, 4), None)}
+VISIBLE = {
+    "random": (True, (3, 4), True),
+    "no_ceiling": (True, (2, 4), False),
+    "cut_wall": (True, (2, 4), None),
+    "strong_perspective": (True, (2, 4), None),
+    "floor_only": (True, (0, 0), False),
+    "one_wall": (None, (1, 1), False),
+    "ceiling_only": (False, (0, 0), True),
+    "close_up": (None, (0, 4), None),
+}
 """Per case: whether the floor must (True), must not (False) or may (None) be seen, how many walls (least,
 most), and the same for the ceiling."""
 CLOSE_UP_FRACTION = 0.3
@@ -101,8 +121,9 @@ MIN_FRACTION = 0.02
 """A surface counts as seen when it covers at least this fraction of the photo."""
 
 
-def generate(seed: int, case: str = "random", width: int = 320, height: int = 240,
-             objects: int | None = None) -> SyntheticRoom:
+def generate(
+    seed: int, case: str = "random", width: int = 320, height: int = 240, objects: int | None = None
+) -> SyntheticRoom:
     """A random room for ``seed`` whose photo shows the floor, the walls and ceiling ``case`` asks for
     (``random`` or one of :data:`HARD_CASES`): an unseen side cannot be reconstructed, so default scenes
     are well observed and the hard cases are explicit. It holds 3-5 pieces of furniture, or as many of
@@ -117,15 +138,19 @@ def generate(seed: int, case: str = "random", width: int = 320, height: int = 24
         shares = {s.id: (ids == s.id).mean() for s in segments}
         categories = [s.category for s in segments if shares[s.id] >= MIN_FRACTION]
         furniture = max([shares[s.id] for s in segments if s.category not in ("wall", "floor", "ceiling")], default=0)
-        if (floor in (None, "floor" in categories) and least <= categories.count("wall") <= most
-                and ceiling in (None, "ceiling" in categories)
-                and (case != "close_up" or furniture >= CLOSE_UP_FRACTION)):
+        if (
+            floor in (None, "floor" in categories)
+            and least <= categories.count("wall") <= most
+            and ceiling in (None, "ceiling" in categories)
+            and (case != "close_up" or furniture >= CLOSE_UP_FRACTION)
+        ):
             return room
     raise RuntimeError(f"no {case} room satisfying the visibility rules for seed {seed}")
 
 
-def _sample(rng: np.random.Generator, seed: int, case: str, width: int, height: int,
-            objects: int | None = None) -> SyntheticRoom:
+def _sample(
+    rng: np.random.Generator, seed: int, case: str, width: int, height: int, objects: int | None = None
+) -> SyntheticRoom:
     """One candidate room, camera, furniture and lights."""
     size = np.array([rng.uniform(3.5, 6.5), rng.uniform(2.5, 3.1), rng.uniform(3.5, 6.5)])
     vfov = rng.uniform(45.0, 75.0)
@@ -151,7 +176,11 @@ def _sample(rng: np.random.Generator, seed: int, case: str, width: int, height: 
         back = size[2] - rng.uniform(1.2, 1.8)
     elif case == "close_up":  # one piece of furniture fills the frame
         pitch, vfov = -rng.uniform(25.0, 45.0), rng.uniform(40.0, 55.0)
-    if case in ("random", "cut_wall", "strong_perspective"):  # look down enough that the floor shows in front of the far wall
+    if case in (
+        "random",
+        "cut_wall",
+        "strong_perspective",
+    ):  # look down enough that the floor shows in front of the far wall
         floor_visible = math.degrees(math.atan(cam_height / (0.6 * (size[2] - back)))) - vfov / 2 + 2.0
         pitch = min(pitch, -floor_visible)
     half = size / 2
@@ -165,10 +194,29 @@ def _sample(rng: np.random.Generator, seed: int, case: str, width: int, height: 
     light_local = [np.array([0.0, half[1] - 0.01, 0.15 * half[2]])]
     if rng.random() < 0.5:
         light_local.append(np.array([0.0, half[1] - 0.01, 0.6 * half[2]]))
-    lights = [Light(center=tuple(map(float, center + rotation_y(room_yaw) @ p)), half=(0.3, 0.3), yaw=room_yaw,
-                    radiance=float(rng.uniform(8.0, 14.0))) for p in light_local]
-    albedo = {"wall": tuple(map(float, rng.uniform(0.45, 0.85, 3))), "floor": tuple(map(float, rng.uniform(0.15, 0.5, 3))),
-              "ceiling": (0.85, 0.85, 0.85)}
-    return SyntheticRoom(seed=seed, case=case, width=width, height=height, vfov_deg=float(vfov),
-                         camera_to_world=camera_pose(cam_height, pitch, roll).tolist(), room=room,
-                         furniture=furniture, lights=lights, albedo=albedo)
+    lights = [
+        Light(
+            center=tuple(map(float, center + rotation_y(room_yaw) @ p)),
+            half=(0.3, 0.3),
+            yaw=room_yaw,
+            radiance=float(rng.uniform(8.0, 14.0)),
+        )
+        for p in light_local
+    ]
+    albedo = {
+        "wall": tuple(map(float, rng.uniform(0.45, 0.85, 3))),
+        "floor": tuple(map(float, rng.uniform(0.15, 0.5, 3))),
+        "ceiling": (0.85, 0.85, 0.85),
+    }
+    return SyntheticRoom(
+        seed=seed,
+        case=case,
+        width=width,
+        height=height,
+        vfov_deg=float(vfov),
+        camera_to_world=camera_pose(cam_height, pitch, roll).tolist(),
+        room=room,
+        furniture=furniture,
+        lights=lights,
+        albedo=albedo,
+    )

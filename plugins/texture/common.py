@@ -21,8 +21,9 @@ def as_batch(images: torch.Tensor, what: str = "texture descriptor") -> tuple[to
     else:
         single = False
     if images.dim() != 4 or images.shape[1] != 3:
-        raise PsdrRoomError(f"{what}: expected an RGB image [3, H, W] or a batch [N, 3, H, W], got "
-                            f"shape {list(images.shape)}")
+        raise PsdrRoomError(
+            f"{what}: expected an RGB image [3, H, W] or a batch [N, 3, H, W], got shape {list(images.shape)}"
+        )
     return images.float(), single
 
 

@@ -26,8 +26,17 @@ from .common import GramDescriptor, as_batch, colour_stats, gram, resize_short_s
 class RandomCnnDescriptor(GramDescriptor):
     """Texture descriptor: Gram matrices of fixed random filters on an image pyramid, plus colour statistics."""
 
-    def __init__(self, seed: int = 0, channels: int = 32, kernel: int = 5, levels: int = 5, size: int | None = 256,
-                 power: float = 0.5, colour_weight: float = 0.5, device: str = "cpu") -> None:
+    def __init__(
+        self,
+        seed: int = 0,
+        channels: int = 32,
+        kernel: int = 5,
+        levels: int = 5,
+        size: int | None = 256,
+        power: float = 0.5,
+        colour_weight: float = 0.5,
+        device: str = "cpu",
+    ) -> None:
         """Parameters (``texture.random_cnn.*``):
 
         seed: seed of the random filters (the descriptor is a different one for another seed).
@@ -46,8 +55,10 @@ class RandomCnnDescriptor(GramDescriptor):
         if kernel % 2 == 0:
             raise PsdrRoomError(f"texture.random_cnn.kernel={kernel} must be odd")
         if size is not None and (int(size) != size or size < kernel * 2 ** (levels - 1)):
-            raise PsdrRoomError(f"texture.random_cnn.size={size!r} must be null or at least kernel·2^(levels−1) = "
-                                f"{kernel * 2 ** (levels - 1)} pixels")
+            raise PsdrRoomError(
+                f"texture.random_cnn.size={size!r} must be null or at least kernel·2^(levels−1) = "
+                f"{kernel * 2 ** (levels - 1)} pixels"
+            )
         if not 0 < power <= 2:
             raise PsdrRoomError(f"texture.random_cnn.power={power!r} must be in (0, 2]")
         self.seed, self.channels, self.kernel, self.levels = int(seed), int(channels), int(kernel), int(levels)

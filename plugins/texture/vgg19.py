@@ -62,8 +62,9 @@ def load_vgg19_features(path: Path, fix: str) -> list[tuple[torch.Tensor, torch.
         state = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as exc:  # pickle, zip and torch errors of every kind
         reason = " ".join(str(exc).split())[:160] or type(exc).__name__
-        raise PsdrRoomError(f"{path}: not a readable torch state dict ({reason}); the file is damaged or "
-                            f"incomplete: {fix}") from None
+        raise PsdrRoomError(
+            f"{path}: not a readable torch state dict ({reason}); the file is damaged or incomplete: {fix}"
+        ) from None
     if isinstance(state, Mapping) and "state_dict" in state and isinstance(state["state_dict"], Mapping):
         state = state["state_dict"]
     if not isinstance(state, Mapping):
@@ -80,14 +81,18 @@ def check_vgg19_state(state: Mapping[str, Any], where: str, fix: str) -> list[tu
         for key in (w_key, b_key):
             if key not in state:
                 found = sorted(k for k in state if str(k).startswith("features."))[:6]
-                raise PsdrRoomError(f"{where}: '{key}' is missing, so this is not a torchvision VGG19 state dict "
-                                    f"(features keys found: {', '.join(found) or 'none'}); {fix}")
+                raise PsdrRoomError(
+                    f"{where}: '{key}' is missing, so this is not a torchvision VGG19 state dict "
+                    f"(features keys found: {', '.join(found) or 'none'}); {fix}"
+                )
             if not isinstance(state[key], torch.Tensor):
                 raise PsdrRoomError(f"{where}: '{key}' is not a tensor; {fix}")
         w, b = state[w_key], state[b_key]
         if w.dim() != 4 or tuple(w.shape[2:]) != (3, 3) or w.shape[1] != previous:
-            raise PsdrRoomError(f"{where}: '{w_key}' has shape {list(w.shape)}, expected [out, {previous}, 3, 3] "
-                                f"(convolution {n + 1} of 16); {fix}")
+            raise PsdrRoomError(
+                f"{where}: '{w_key}' has shape {list(w.shape)}, expected [out, {previous}, 3, 3] "
+                f"(convolution {n + 1} of 16); {fix}"
+            )
         if tuple(b.shape) != (w.shape[0],):
             raise PsdrRoomError(f"{where}: '{b_key}' has shape {list(b.shape)}, expected [{w.shape[0]}]; {fix}")
         layers.append((w.float(), b.float()))
@@ -98,9 +103,16 @@ def check_vgg19_state(state: Mapping[str, Any], where: str, fix: str) -> list[tu
 class Vgg19Descriptor(GramDescriptor):
     """Texture descriptor of the paper: concatenated Gram matrices of five VGG19 layers (weights required)."""
 
-    def __init__(self, model: str = MODEL, path: str | None = None, models_dir: str | None = None,
-                 layers: Sequence[str] = DEFAULT_LAYERS, size: int | None = 512, colour_weight: float = 0.0,
-                 device: str = "cpu") -> None:
+    def __init__(
+        self,
+        model: str = MODEL,
+        path: str | None = None,
+        models_dir: str | None = None,
+        layers: Sequence[str] = DEFAULT_LAYERS,
+        size: int | None = 512,
+        colour_weight: float = 0.0,
+        device: str = "cpu",
+    ) -> None:
         """Parameters (``texture.vgg19.*``):
 
         model: the registry entry of the weights (``psdr-room-models list``).
@@ -114,8 +126,10 @@ class Vgg19Descriptor(GramDescriptor):
         known = layer_names()
         unknown = [name for name in layers if name not in known]
         if unknown or not layers:
-            raise PsdrRoomError(f"texture.vgg19.layers: unknown layer(s) {', '.join(unknown) or '(none given)'}; "
-                                f"use names like relu1_1, conv3_2, pool4")
+            raise PsdrRoomError(
+                f"texture.vgg19.layers: unknown layer(s) {', '.join(unknown) or '(none given)'}; "
+                f"use names like relu1_1, conv3_2, pool4"
+            )
         self.layers = tuple(layers)
         self.size = None if size is None else int(size)
         self.colour_weight = float(colour_weight)
@@ -126,8 +140,10 @@ class Vgg19Descriptor(GramDescriptor):
         else:
             entry = models.lookup(str(model), models.load_registry(), "texture")
             self.path = entry.path(models.resolve_models_dir(models_dir))
-            self.fix = (f"run `psdr-room-models download {entry.name}`, or set texture.vgg19.models_dir to the "
-                        f"directory that holds {entry.file}")
+            self.fix = (
+                f"run `psdr-room-models download {entry.name}`, or set texture.vgg19.models_dir to the "
+                f"directory that holds {entry.file}"
+            )
         self._last = max(known.index(name) for name in self.layers)
 
     def unavailable(self, photo: Path | None = None) -> str | None:

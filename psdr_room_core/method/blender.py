@@ -50,16 +50,42 @@ def check_scene(scene: Path) -> None:
     """Refuse a folder that is not an exported scene with glb (before Blender starts)."""
     for name in ("scene.glb", "appearance.json", "scene.xml"):
         if not (scene / name).is_file():
-            raise PsdrRoomError(f"{scene}: no {name}; pass the scene/ folder of a psdr-room run (export_scene.glb=true)")
+            raise PsdrRoomError(
+                f"{scene}: no {name}; pass the scene/ folder of a psdr-room run (export_scene.glb=true)"
+            )
 
 
-def build_blend(scene: Path, blend: Path, blender: str, render: Path | None = None, engine: str = "cycles",
-                spp: int = 64, width: int | None = None, timeout: float = 1800.0) -> None:
+def build_blend(
+    scene: Path,
+    blend: Path,
+    blender: str,
+    render: Path | None = None,
+    engine: str = "cycles",
+    spp: int = 64,
+    width: int | None = None,
+    timeout: float = 1800.0,
+) -> None:
     """Run Blender on the scene folder ``scene``: save ``blend`` and, with ``render``, a PNG of the camera's view."""
     check_scene(scene)
-    command = [blender, "-b", "--factory-startup", "--python-exit-code", "1", "--python", str(SCRIPT), "--",
-               str(scene), "--blend", str(blend), "--engine", engine, "--spp", str(spp),
-               *(["--render", str(render)] if render else []), *(["--width", str(width)] if width else [])]
+    command = [
+        blender,
+        "-b",
+        "--factory-startup",
+        "--python-exit-code",
+        "1",
+        "--python",
+        str(SCRIPT),
+        "--",
+        str(scene),
+        "--blend",
+        str(blend),
+        "--engine",
+        engine,
+        "--spp",
+        str(spp),
+        *(["--render", str(render)] if render else []),
+        *(["--width", str(width)] if width else []),
+    ]
     try:
         result = subprocess.run(command, capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
@@ -83,18 +109,25 @@ def denoise_png(png: Path, denoiser: Denoiser) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``psdr-room-blender``."""
-    parser = argparse.ArgumentParser(prog="psdr-room-blender", description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.RawDescriptionHelpFormatter,
-                                     epilog=__doc__.split("\n\n", 1)[1])
+    parser = argparse.ArgumentParser(
+        prog="psdr-room-blender",
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=__doc__.split("\n\n", 1)[1],
+    )
     parser.add_argument("scene", type=Path, help="a run's scene/ folder (or an edited one)")
     parser.add_argument("--out", type=Path, help="the .blend to write (default: <scene>/scene.blend)")
     parser.add_argument("--render", type=Path, help="also render the photo's camera to this PNG")
-    parser.add_argument("--engine", choices=("cycles", "eevee"), default="cycles",
-                        help="the scene's render engine (default cycles)")
+    parser.add_argument(
+        "--engine", choices=("cycles", "eevee"), default="cycles", help="the scene's render engine (default cycles)"
+    )
     parser.add_argument("--spp", type=int, default=64, help="samples per pixel (Cycles) or TAA samples (EEVEE)")
     parser.add_argument("--width", type=int, help="render width in pixels (default: the photo's; aspect kept)")
-    parser.add_argument("--denoiser", default="oidn", help="a denoiser implementation for a Cycles render "
-                        "(default oidn; none: Cycles' noisy image)")
+    parser.add_argument(
+        "--denoiser",
+        default="oidn",
+        help="a denoiser implementation for a Cycles render (default oidn; none: Cycles' noisy image)",
+    )
     parser.add_argument("--blender", help="the Blender executable (default: $PSDR_ROOM_BLENDER or blender)")
     args = parser.parse_args(argv)
     blend = args.out or args.scene / "scene.blend"

@@ -77,8 +77,14 @@ def add_light(scene: bpy.types.Scene, panel: bpy.types.Object, radiance: list[fl
     flat = mean_normal.length >= PLANAR
     if flat:
         normal = mean_normal.normalized()
-        rotation, width, height = min((_rectangle(vertices, centre, normal, v - vertices[0]) for v in vertices[1:]
-                                       if (v - vertices[0]).cross(normal).length > 1e-9), key=lambda r: r[1] * r[2])
+        rotation, width, height = min(
+            (
+                _rectangle(vertices, centre, normal, v - vertices[0])
+                for v in vertices[1:]
+                if (v - vertices[0]).cross(normal).length > 1e-9
+            ),
+            key=lambda r: r[1] * r[2],
+        )
         light = bpy.data.lights.new(f"{panel.name}_light", type="AREA")
         light.shape = "RECTANGLE"
         light.size, light.size_y = max(width, 1e-4), max(height, 1e-4)
@@ -104,7 +110,11 @@ def _rectangle(vertices: list[Vector], centre: Vector, normal: Vector, edge: Vec
     z_axis = -normal  # an area light emits along its local -Z
     rotation = Matrix((x_axis, z_axis.cross(x_axis), z_axis)).transposed()
     local = [rotation.transposed() @ (v - centre) for v in vertices]
-    return rotation, max(p.x for p in local) - min(p.x for p in local), max(p.y for p in local) - min(p.y for p in local)
+    return (
+        rotation,
+        max(p.x for p in local) - min(p.x for p in local),
+        max(p.y for p in local) - min(p.y for p in local),
+    )
 
 
 def camera_only(panel: bpy.types.Object, flat: bool) -> None:
@@ -165,7 +175,7 @@ def setup_render(scene: bpy.types.Scene, max_depth: int, spp: int) -> None:
 
 
 def main() -> None:
-    args = parse(sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else [])
+    args = parse(sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else [])
     state = json.loads((args.scene / "appearance.json").read_text())
     xml = (args.scene / "scene.xml").read_text()
     depth = re.search(r'<default name="max_depth" value="(\d+)"', xml)

@@ -135,22 +135,36 @@ class GeometryRenderer(Protocol):
 
     n_parts: int
 
-    def render(self, vertices: dict[str, torch.Tensor], iteration: int = 0) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    def render(
+        self, vertices: dict[str, torch.Tensor], iteration: int = 0
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """(masks [P,H,W] in [0,1], z-depth [H,W] (0 where empty), alpha [H,W]), differentiable with respect to
         the vertex tensors (N×3 world positions per mesh) including through visibility."""
         ...
 
-    def render_rgb(self, vertices: dict[str, torch.Tensor] | None = None,
-                   base_color: dict[str, torch.Tensor] | None = None, roughness: dict[str, torch.Tensor] | None = None,
-                   specular: dict[str, torch.Tensor] | None = None, radiance: dict[str, torch.Tensor] | None = None,
-                   iteration: int = 0, spp: int = 0, grad_spp: int = 0) -> torch.Tensor:
+    def render_rgb(
+        self,
+        vertices: dict[str, torch.Tensor] | None = None,
+        base_color: dict[str, torch.Tensor] | None = None,
+        roughness: dict[str, torch.Tensor] | None = None,
+        specular: dict[str, torch.Tensor] | None = None,
+        radiance: dict[str, torch.Tensor] | None = None,
+        iteration: int = 0,
+        spp: int = 0,
+        grad_spp: int = 0,
+    ) -> torch.Tensor:
         """Linear RGB [H,W,3] with global illumination, differentiable with respect to the surfaces'
         parameters (constant or maps, as given at construction) and the emitters' radiance."""
         ...
 
-    def render_guides(self, base_color: dict[str, torch.Tensor] | None = None,
-                      roughness: dict[str, torch.Tensor] | None = None, specular: dict[str, torch.Tensor] | None = None,
-                      radiance: dict[str, torch.Tensor] | None = None, spp: int = 16) -> tuple[np.ndarray, np.ndarray]:
+    def render_guides(
+        self,
+        base_color: dict[str, torch.Tensor] | None = None,
+        roughness: dict[str, torch.Tensor] | None = None,
+        specular: dict[str, torch.Tensor] | None = None,
+        radiance: dict[str, torch.Tensor] | None = None,
+        spp: int = 16,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """A denoiser's auxiliary images of what :meth:`render_rgb` shows with the same arguments: albedo and
         shading normal, float32 [H,W,3] each (not differentiable)."""
         ...
@@ -161,7 +175,9 @@ class Denoiser(Protocol):
     """``denoiser``: a finished linear render [H,W,3] without its Monte-Carlo noise, guided by the render's
     albedo and normal when given. Used on pictures and metric images only, never inside a loss."""
 
-    def denoise(self, rgb: np.ndarray, albedo: np.ndarray | None = None, normal: np.ndarray | None = None) -> np.ndarray: ...
+    def denoise(
+        self, rgb: np.ndarray, albedo: np.ndarray | None = None, normal: np.ndarray | None = None
+    ) -> np.ndarray: ...
 
     def describe(self) -> str:
         """What ran, in a few words (``oidn 2.5.1 (high)``, or ``none`` and why)."""
@@ -204,8 +220,9 @@ class ProceduralMaterial(Protocol):
         bounded reparameterisation, so any optimiser step keeps them valid. Discrete ones are not included."""
         ...
 
-    def evaluate(self, size: int | tuple[int, int], params: dict[str, torch.Tensor] | None = None
-                 ) -> dict[str, torch.Tensor]:
+    def evaluate(
+        self, size: int | tuple[int, int], params: dict[str, torch.Tensor] | None = None
+    ) -> dict[str, torch.Tensor]:
         """The output maps at ``size`` (side or (H, W)), differentiable with respect to ``params``."""
         ...
 

@@ -44,9 +44,9 @@ class Plateau:
         n = len(history)
         if self.window <= 0 or n < max(self.min_iterations, 2 * self.window):
             return False
-        losses = [h["loss"] for h in history[-2 * self.window:]]
-        before = sum(losses[:self.window]) / self.window
-        after = sum(losses[self.window:]) / self.window
+        losses = [h["loss"] for h in history[-2 * self.window :]]
+        before = sum(losses[: self.window]) / self.window
+        after = sum(losses[self.window :]) / self.window
         return before - after < self.tolerance * abs(before)
 
 

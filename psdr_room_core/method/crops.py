@@ -37,7 +37,7 @@ def largest_rectangle(mask: np.ndarray, min_side: int = 1) -> tuple[Rect, int]:
     if not len(ys):
         return (0, 0, 0, 0), 0
     oy, ox = int(ys.min()), int(xs.min())
-    box = mask[oy:ys.max() + 1, ox:xs.max() + 1]
+    box = mask[oy : ys.max() + 1, ox : xs.max() + 1]
     h, w = box.shape
     heights = np.zeros(w + 1, np.int64)  # a zero sentinel closes every run at the right
     best: tuple[Rect, int] = ((0, 0, 0, 0), 0)
@@ -96,27 +96,38 @@ def load_crops(path: Path) -> object:
     try:
         return yaml.safe_load(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
-        raise PsdrRoomError(f"{path}: unreadable crops file ({str(exc).splitlines()[0]}); fix the YAML or remove it") from None
+        raise PsdrRoomError(
+            f"{path}: unreadable crops file ({str(exc).splitlines()[0]}); fix the YAML or remove it"
+        ) from None
 
 
-def check_crops(path: Path, data: object, photo_size: tuple[int, int],
-                working_size: tuple[int, int]) -> list[UserCrop]:
+def check_crops(path: Path, data: object, photo_size: tuple[int, int], working_size: tuple[int, int]) -> list[UserCrop]:
     """The crops of a crops file's parsed YAML ``data``, checked against the photo's (width, height) and scaled
     to the working size; errors name ``path`` and the entry."""
     if not isinstance(data, dict) or not isinstance(data.get("crops"), list):
-        raise PsdrRoomError(f"{path}: expected a mapping with a 'crops:' list; see the format in psdr_room_core/method/crops.py")
+        raise PsdrRoomError(
+            f"{path}: expected a mapping with a 'crops:' list; see the format in psdr_room_core/method/crops.py"
+        )
     sx, sy = working_size[0] / photo_size[0], working_size[1] / photo_size[1]
 
     def rect(value: object, where: str) -> Rect:
-        if (not isinstance(value, list) or len(value) != 4
-                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)):
+        if (
+            not isinstance(value, list)
+            or len(value) != 4
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+        ):
             raise PsdrRoomError(f"{path}: {where} must be [x0, y0, x1, y1] in photo pixels")
         x0, y0, x1, y1 = (float(v) for v in value)
         if not (0 <= x0 < x1 <= photo_size[0] and 0 <= y0 < y1 <= photo_size[1]):
-            raise PsdrRoomError(f"{path}: {where} = {value} is not a non-empty window inside the "
-                                f"{photo_size[0]}x{photo_size[1]} photo")
-        return (int(round(x0 * sx)), int(round(y0 * sy)), max(int(round(x1 * sx)), int(round(x0 * sx)) + 1),
-                max(int(round(y1 * sy)), int(round(y0 * sy)) + 1))
+            raise PsdrRoomError(
+                f"{path}: {where} = {value} is not a non-empty window inside the {photo_size[0]}x{photo_size[1]} photo"
+            )
+        return (
+            int(round(x0 * sx)),
+            int(round(y0 * sy)),
+            max(int(round(x1 * sx)), int(round(x0 * sx)) + 1),
+            max(int(round(y1 * sy)), int(round(y0 * sy)) + 1),
+        )
 
     crops = []
     for i, entry in enumerate(data["crops"]):
@@ -126,8 +137,13 @@ def check_crops(path: Path, data: object, photo_size: tuple[int, int],
         part = entry.get("part")
         if part is not None and not isinstance(part, str):
             raise PsdrRoomError(f"{path}: {where}.part must be a part name such as floor or object_12_seat")
-        crops.append(UserCrop(image=rect(entry["image"], f"{where}.image"), part=part,
-                              render=rect(entry["render"], f"{where}.render") if "render" in entry else None))
+        crops.append(
+            UserCrop(
+                image=rect(entry["image"], f"{where}.image"),
+                part=part,
+                render=rect(entry["render"], f"{where}.render") if "render" in entry else None,
+            )
+        )
     return crops
 
 

@@ -78,8 +78,9 @@ def apply_edit(state: dict[str, Any], key: str, raw: str, library: Any) -> None:
     elif head == "material" and rest:
         _edit_material(state, key, rest, value, library)
     else:
-        raise PsdrRoomError(f"edit {key}: unknown; use material.<part>[.<param>], light.scale, light.<name>.radiance "
-                            "or camera.fov")
+        raise PsdrRoomError(
+            f"edit {key}: unknown; use material.<part>[.<param>], light.scale, light.<name>.radiance or camera.fov"
+        )
     check_state(state, library, f"edit {key}={raw}")
 
 
@@ -119,14 +120,15 @@ def _edit_material(state: dict[str, Any], key: str, rest: str, value: Any, libra
         raise PsdrRoomError(f"edit {key}: no part '{rest.split('.')[0]}'; parts: {', '.join(names)}")
     index = names.index(part_name)
     part = PartAppearance(**{**state["parts"][index], "base_color": tuple(state["parts"][index]["base_color"])})
-    field = rest[len(part_name) + 1:]
+    field = rest[len(part_name) + 1 :]
     if not field:
         if value == "homogeneous":
             part = replace(part, kind="homogeneous", material=None, params={})
         elif isinstance(value, str) and value in library.names():
             graph = library.material(value)
-            part = replace(part, kind="procedural", material=value,
-                           params={k: b.value.tolist() for k, b in graph.bounds.items()})
+            part = replace(
+                part, kind="procedural", material=value, params={k: b.value.tolist() for k, b in graph.bounds.items()}
+            )
         else:
             raise PsdrRoomError(f"edit {key}={value}: not a library material; `psdr-room-materials list` shows them")
     elif field in HOMOGENEOUS_KEYS:
@@ -143,7 +145,9 @@ def _edit_material(state: dict[str, Any], key: str, rest: str, value: Any, libra
         part = replace(part, **{field: number})
     else:
         if part.kind != "procedural":
-            raise PsdrRoomError(f"edit {key}: {part_name} is homogeneous; set material.{part_name}=<library graph> first")
+            raise PsdrRoomError(
+                f"edit {key}: {part_name} is homogeneous; set material.{part_name}=<library graph> first"
+            )
         bounds = library.material(part.material).bounds
         if field not in bounds:
             raise PsdrRoomError(f"edit {key}: {part.material} has no parameter '{field}'; it has {', '.join(bounds)}")
@@ -153,6 +157,7 @@ def _edit_material(state: dict[str, Any], key: str, rest: str, value: Any, libra
 
 def rebuild(scene_dir: Path, state: dict[str, Any], library: Any) -> Any:
     """The :class:`~psdr_room_core.method.rgb_scene.RgbScene` of a scene folder's meshes with ``state``'s materials."""
+
     def mesh(name: str) -> TriangleMesh:
         path = scene_dir / "meshes" / f"{name}.ply"
         if not path.is_file():
@@ -160,11 +165,14 @@ def rebuild(scene_dir: Path, state: dict[str, Any], library: Any) -> Any:
         return read_mesh_ply(path.read_bytes(), str(path))[0]
 
     fields = appearance_fields({"parts": state["parts"], "radiance": {}}, scene_dir / "appearance.json")
-    lights = [Light(l["name"], l["kind"], mesh(l["name"]), tuple(l["radiance"]), l.get("part")) for l in state["lights"]]
+    lights = [
+        Light(l["name"], l["kind"], mesh(l["name"]), tuple(l["radiance"]), l.get("part")) for l in state["lights"]
+    ]
     emitting = {l.part for l in lights if l.part}
     meshes = {p.part: mesh(p.part) for p in fields["parts"] if p.part not in emitting}
-    return build_scene(meshes, fields["parts"], lights, {n: mesh(n) for n in state["fixtures"]}, library,
-                       int(state["texture_size"]))
+    return build_scene(
+        meshes, fields["parts"], lights, {n: mesh(n) for n in state["fixtures"]}, library, int(state["texture_size"])
+    )
 
 
 def render_folder(folder: Path, spp: int, renderer: Any, denoiser: Any) -> np.ndarray:
@@ -173,8 +181,9 @@ def render_folder(folder: Path, spp: int, renderer: Any, denoiser: Any) -> np.nd
     return to_srgb8(denoiser.denoise(*renderer.render_file(folder / "scene.xml", spp)))
 
 
-def edit_scene(scene: Path, edits: list[str], out: Path, spp: int = 64, max_depth: int = 3,
-               denoiser: str = "oidn") -> Path:
+def edit_scene(
+    scene: Path, edits: list[str], out: Path, spp: int = 64, max_depth: int = 3, denoiser: str = "oidn"
+) -> Path:
     """Apply ``edits`` (``KEY=VALUE``) to the scene folder ``scene`` and write the edited scene, rendered to
     ``render.png``, as the folder ``out`` (which appears whole, and replaces only a folder of ours); return it."""
     registry = plugin_system().registry
@@ -211,15 +220,22 @@ def edit_scene(scene: Path, edits: list[str], out: Path, spp: int = 64, max_dept
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``psdr-room-edit``."""
-    parser = argparse.ArgumentParser(prog="psdr-room-edit", description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__.split("\n\n", 1)[1])
+    parser = argparse.ArgumentParser(
+        prog="psdr-room-edit",
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=__doc__.split("\n\n", 1)[1],
+    )
     parser.add_argument("scene", type=Path, help="a run's scene/ folder (or an edited one)")
     parser.add_argument("edits", nargs="*", metavar="KEY=VALUE")
     parser.add_argument("--out", type=Path, help="where the edited scene goes (default: <scene>-edited)")
     parser.add_argument("--spp", type=int, default=64, help="samples per pixel of render.png (default 64)")
     parser.add_argument("--max-depth", type=int, default=3, help="path length in the written scene.xml (default 3)")
-    parser.add_argument("--denoiser", default="oidn", help="a denoiser implementation for render.png (default oidn; "
-                        "none: the path tracer's noisy image)")
+    parser.add_argument(
+        "--denoiser",
+        default="oidn",
+        help="a denoiser implementation for render.png (default oidn; none: the path tracer's noisy image)",
+    )
     args = parser.parse_intermixed_args(argv)
     out = args.out or args.scene.with_name(args.scene.name + "-edited")
     try:

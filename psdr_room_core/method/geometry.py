@@ -40,12 +40,20 @@ def box_mesh(center: np.ndarray, half_size: np.ndarray, rotation: np.ndarray | N
     signs = np.array([[(i >> 0) & 1, (i >> 1) & 1, (i >> 2) & 1] for i in range(8)]) * 2.0 - 1.0
     rotation = np.eye(3) if rotation is None else rotation
     vertices = np.asarray(center) + (signs * np.asarray(half_size)) @ rotation.T
-    faces = np.array([
-        [0, 4, 6], [0, 6, 2],  # x-
-        [1, 3, 7], [1, 7, 5],  # x+
-        [0, 1, 5], [0, 5, 4],  # y-
-        [2, 6, 7], [2, 7, 3],  # y+
-        [0, 2, 3], [0, 3, 1],  # z-
-        [4, 5, 7], [4, 7, 6],  # z+
-    ])
+    faces = np.array(
+        [
+            [0, 4, 6],
+            [0, 6, 2],  # x-
+            [1, 3, 7],
+            [1, 7, 5],  # x+
+            [0, 1, 5],
+            [0, 5, 4],  # y-
+            [2, 6, 7],
+            [2, 7, 3],  # y+
+            [0, 2, 3],
+            [0, 3, 1],  # z-
+            [4, 5, 7],
+            [4, 7, 6],  # z+
+        ]
+    )
     return TriangleMesh(vertices=vertices, faces=faces)

@@ -44,8 +44,14 @@ class _Buffer:
     def view(self, payload: bytes, target: int | None = None) -> int:
         while len(self.data) % 4:
             self.data.append(0)
-        self.views.append({"buffer": 0, "byteOffset": len(self.data), "byteLength": len(payload),
-                           **({"target": target} if target else {})})
+        self.views.append(
+            {
+                "buffer": 0,
+                "byteOffset": len(self.data),
+                "byteLength": len(payload),
+                **({"target": target} if target else {}),
+            }
+        )
         self.data += payload
         return len(self.views) - 1
 
@@ -75,14 +81,20 @@ def scene_glb(scene: RgbScene, camera: Camera, camera_to_world: np.ndarray) -> b
         textures.append({"source": len(images) - 1, "sampler": 0})
         return len(textures) - 1
 
-    def add(name: str, vertices: np.ndarray, faces: np.ndarray, material: dict[str, Any], uv: np.ndarray | None) -> None:
+    def add(
+        name: str, vertices: np.ndarray, faces: np.ndarray, material: dict[str, Any], uv: np.ndarray | None
+    ) -> None:
         attributes = {"POSITION": buf.accessor(vertices.astype(np.float32), "VEC3", 5126, 34962, bounds=True)}
         if uv is not None:
             attributes["TEXCOORD_0"] = buf.accessor(uv.astype(np.float32), "VEC2", 5126, 34962)
         indices = buf.accessor(faces.astype(np.uint32).reshape(-1), "SCALAR", 5125, 34963)
         materials.append({"name": name, "doubleSided": True, **material})
-        meshes.append({"name": name, "primitives": [{"attributes": attributes, "indices": indices,
-                                                     "material": len(materials) - 1}]})
+        meshes.append(
+            {
+                "name": name,
+                "primitives": [{"attributes": attributes, "indices": indices, "material": len(materials) - 1}],
+            }
+        )
         nodes.append({"name": name, "mesh": len(meshes) - 1})
 
     for name, mesh in scene.meshes.items():
@@ -101,23 +113,47 @@ def scene_glb(scene: RgbScene, camera: Camera, camera_to_world: np.ndarray) -> b
         else:
             pbr["roughnessFactor"] = float(surface.roughness)
         f0_scale = float(surface.specular) * SPECULAR_F0 / GLTF_F0
-        add(name, np.asarray(mesh.vertices), np.asarray(mesh.faces), {
-            "pbrMetallicRoughness": pbr,
-            "extensions": {"KHR_materials_specular": {"specularColorFactor": [f0_scale] * 3}}},
-            surface.uv if surface.mapped else None)
+        add(
+            name,
+            np.asarray(mesh.vertices),
+            np.asarray(mesh.faces),
+            {
+                "pbrMetallicRoughness": pbr,
+                "extensions": {"KHR_materials_specular": {"specularColorFactor": [f0_scale] * 3}},
+            },
+            surface.uv if surface.mapped else None,
+        )
     lights = []
     for name, (mesh, radiance) in scene.emitters.items():
         strength = max(max(radiance), 1e-6)
-        add(name, np.asarray(mesh.vertices), np.asarray(mesh.faces), {
-            "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0},
-            "emissiveFactor": [float(c) / strength for c in radiance],
-            "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": float(strength)}}}, None)
+        add(
+            name,
+            np.asarray(mesh.vertices),
+            np.asarray(mesh.faces),
+            {
+                "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0},
+                "emissiveFactor": [float(c) / strength for c in radiance],
+                "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": float(strength)}},
+            },
+            None,
+        )
         centre, normal, area, _ = emitter_frame(mesh.vertices, mesh.faces)
-        lights.append({"name": f"{name}_stand_in", "type": "spot", "color": [float(c) / strength for c in radiance],
-                       "intensity": LUMENS_PER_WATT * strength * area / 2.0,
-                       "spot": {"innerConeAngle": 0.0, "outerConeAngle": math.pi / 2}})
-        nodes.append({"name": f"{name}_stand_in", "matrix": _facing(centre, normal),
-                      "extensions": {"KHR_lights_punctual": {"light": len(lights) - 1}}})
+        lights.append(
+            {
+                "name": f"{name}_stand_in",
+                "type": "spot",
+                "color": [float(c) / strength for c in radiance],
+                "intensity": LUMENS_PER_WATT * strength * area / 2.0,
+                "spot": {"innerConeAngle": 0.0, "outerConeAngle": math.pi / 2},
+            }
+        )
+        nodes.append(
+            {
+                "name": f"{name}_stand_in",
+                "matrix": _facing(centre, normal),
+                "extensions": {"KHR_lights_punctual": {"light": len(lights) - 1}},
+            }
+        )
 
     pose = np.asarray(camera_to_world, dtype=np.float64) @ CV_TO_GL
     nodes.append({"name": "camera", "camera": 0, "matrix": [float(v) for v in pose.T.reshape(-1)]})
@@ -130,8 +166,17 @@ def scene_glb(scene: RgbScene, camera: Camera, camera_to_world: np.ndarray) -> b
         "nodes": nodes,
         "meshes": meshes,
         "materials": materials,
-        "cameras": [{"type": "perspective", "name": "photo", "perspective": {
-            "yfov": math.radians(camera.vfov_deg), "aspectRatio": camera.width / camera.height, "znear": 0.01}}],
+        "cameras": [
+            {
+                "type": "perspective",
+                "name": "photo",
+                "perspective": {
+                    "yfov": math.radians(camera.vfov_deg),
+                    "aspectRatio": camera.width / camera.height,
+                    "znear": 0.01,
+                },
+            }
+        ],
         "buffers": [{"byteLength": 0}],
         "bufferViews": buf.views,
         "accessors": buf.accessors,
@@ -139,8 +184,11 @@ def scene_glb(scene: RgbScene, camera: Camera, camera_to_world: np.ndarray) -> b
     if lights:
         gltf["extensions"] = {"KHR_lights_punctual": {"lights": lights}}
     if textures:
-        gltf.update(textures=textures, images=images,
-                    samplers=[{"magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497}])
+        gltf.update(
+            textures=textures,
+            images=images,
+            samplers=[{"magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497}],
+        )
     while len(buf.data) % 4:
         buf.data.append(0)
     gltf["buffers"][0]["byteLength"] = len(buf.data)
@@ -160,9 +208,9 @@ def without_lights(glb: bytes) -> bytes:
     the scene itself and has no exposure for photometric intensities (viser: candela read as its own units washes
     the room out white); the emissive panels stay."""
     (length,) = struct.unpack_from("<I", glb, 12)
-    gltf = json.loads(glb[20:20 + length])
+    gltf = json.loads(glb[20 : 20 + length])
     (binary_length,) = struct.unpack_from("<I", glb, 20 + length)
-    binary = glb[28 + length:28 + length + binary_length]
+    binary = glb[28 + length : 28 + length + binary_length]
     gltf.get("extensions", {}).pop("KHR_lights_punctual", None)
     if not gltf.get("extensions"):
         gltf.pop("extensions", None)

@@ -103,8 +103,9 @@ def _stood_on(upper: Part, lower: Part, camera: Camera, camera_to_world: np.ndar
     rows = np.flatnonzero(upper.mask.any(axis=1))
     bottom = int(rows[-1])
     column = int(np.median(np.flatnonzero(upper.mask[bottom])))
-    ray = camera_to_world[:3, :3] @ np.array([(column + 0.5 - camera.cx) / camera.fx,
-                                              (bottom + 0.5 - camera.cy) / camera.fy, 1.0])
+    ray = camera_to_world[:3, :3] @ np.array(
+        [(column + 0.5 - camera.cx) / camera.fx, (bottom + 0.5 - camera.cy) / camera.fy, 1.0]
+    )
     if ray[1] >= -1e-6 or origin[1] <= top:
         return upper.points
     contact = origin + ray * (top - origin[1]) / ray[1]
@@ -122,7 +123,9 @@ def _fits(category: str, points: np.ndarray, room: RoomBox, slack: float) -> boo
     top = float(np.percentile(points[:, 1], 98))
     across = sorted((float(hi[0] - lo[0]), float(hi[2] - lo[2])), reverse=True)
     sizes = size_range(category)
-    return top <= sizes.height[1] * slack and across[0] <= sizes.length[1] * slack and across[1] <= sizes.width[1] * slack
+    return (
+        top <= sizes.height[1] * slack and across[0] <= sizes.length[1] * slack and across[1] <= sizes.width[1] * slack
+    )
 
 
 def _footprint_share(a: np.ndarray, b: np.ndarray, room: RoomBox, margin: float) -> float:
@@ -151,8 +154,9 @@ def _whole(a: Part, b: Part, params: GroupParams) -> str | None:
     return None
 
 
-def _candidate(a: Part, b: Part, camera: Camera, camera_to_world: np.ndarray, room: RoomBox, metric: bool,
-               params: GroupParams) -> tuple[str, np.ndarray, np.ndarray, str] | None:
+def _candidate(
+    a: Part, b: Part, camera: Camera, camera_to_world: np.ndarray, room: RoomBox, metric: bool, params: GroupParams
+) -> tuple[str, np.ndarray, np.ndarray, str] | None:
     """(whole's category, the union's world points, their cloud indices, why) where ``a`` and ``b`` may be one
     thing, else None (a resting part's points are stood on the part below, where the depth is not measured)."""
     if mask_distance(a.mask, b.mask) <= params.edge_px:
@@ -169,12 +173,24 @@ def _candidate(a: Part, b: Part, camera: Camera, camera_to_world: np.ndarray, ro
         whole = b.category if a.category == "object" else a.category
         union = np.vstack([a.points, b.points])
         if _fits(whole, union, room, params.slack):
-            return whole, union, np.concatenate([a.index, b.index]), f"{a.segment.id} and {b.segment.id} occupy the same space"
+            return (
+                whole,
+                union,
+                np.concatenate([a.index, b.index]),
+                f"{a.segment.id} and {b.segment.id} occupy the same space",
+            )
     return None
 
 
-def group_segments(panoptic: Panoptic, cloud: PointCloud, camera: Camera, room: RoomBox, metric: bool,
-                   params: GroupParams, judge: Judge) -> tuple[Panoptic, PointCloud, list[str]]:
+def group_segments(
+    panoptic: Panoptic,
+    cloud: PointCloud,
+    camera: Camera,
+    room: RoomBox,
+    metric: bool,
+    params: GroupParams,
+    judge: Judge,
+) -> tuple[Panoptic, PointCloud, list[str]]:
     """The segmentation and point cloud with each group of parts merged into one segment (module docstring);
     ``metric``: the depth is measured (its points are where the parts are). Also one line per pair judged.
 
@@ -198,7 +214,7 @@ def group_segments(panoptic: Panoptic, cloud: PointCloud, camera: Camera, room: 
         changed = False
         ids = sorted(parts)
         for i, a_id in enumerate(ids):
-            for b_id in ids[i + 1:]:
+            for b_id in ids[i + 1 :]:
                 if (a_id, b_id) in judged:
                     continue
                 a, b = parts[a_id], parts[b_id]
@@ -209,15 +225,25 @@ def group_segments(panoptic: Panoptic, cloud: PointCloud, camera: Camera, room: 
                 whole, points, index, why = found
                 keep, gone = sorted((a, b), key=lambda p: (p.category != whole, -int(p.mask.sum())))
                 boxes = [p.segment.box for p in (a, b)]
-                box = None if None in boxes else (min(x[0] for x in boxes), min(x[1] for x in boxes),  # type: ignore[index]
-                                                  max(x[2] for x in boxes), max(x[3] for x in boxes))  # type: ignore[index]
+                box = (
+                    None
+                    if None in boxes
+                    else (
+                        min(x[0] for x in boxes),
+                        min(x[1] for x in boxes),  # type: ignore[index]
+                        max(x[2] for x in boxes),
+                        max(x[3] for x in boxes),
+                    )
+                )  # type: ignore[index]
                 segment = replace(keep.segment, score=max(a.segment.score or 0.0, b.segment.score or 0.0), box=box)
                 union = Part(segment, whole, a.mask | b.mask, points, index)
                 together, apart = judge(whole, union, (a, b))
                 verdict = together >= params.keep_score * max(apart)
-                notes.append(f"{a.segment.id}:{a.segment.label} + {b.segment.id}:{b.segment.label}: {why}; one "
-                             f"{whole} scores {together:.3f} on both, {apart[0]:.3f} / {apart[1]:.3f} apart: "
-                             + ("merged" if verdict else "kept apart"))
+                notes.append(
+                    f"{a.segment.id}:{a.segment.label} + {b.segment.id}:{b.segment.label}: {why}; one "
+                    f"{whole} scores {together:.3f} on both, {apart[0]:.3f} / {apart[1]:.3f} apart: "
+                    + ("merged" if verdict else "kept apart")
+                )
                 if not verdict:
                     continue
                 parts[keep.segment.id] = union
@@ -240,8 +266,11 @@ def group_segments(panoptic: Panoptic, cloud: PointCloud, camera: Camera, room: 
         part = parts[keep]
         points[part.index] = ((part.points - to_world[:3, 3]) @ to_world[:3, :3]).astype(points.dtype)
     segments = [parts[s.id].segment if s.id in parts else s for s in panoptic.segments if s.id not in root]
-    return (Panoptic(ids=ids, segments=segments),
-            PointCloud(points=points, colors=cloud.colors, segment=labels, segments=segments), notes)
+    return (
+        Panoptic(ids=ids, segments=segments),
+        PointCloud(points=points, colors=cloud.colors, segment=labels, segments=segments),
+        notes,
+    )
 
 
 def _root(segment_id: int, merged_into: dict[int, int]) -> int:

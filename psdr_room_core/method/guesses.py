@@ -19,8 +19,10 @@ def fov_guesses(camera: Camera) -> list[str]:
     if camera.method.endswith("/fallback"):
         return [f"the vertical FoV is the fallback {camera.vfov_deg:.1f}°: the photo's lines give no vanishing points"]
     if camera.confidence < WEAK_FOV:
-        return [f"the vertical FoV {camera.vfov_deg:.1f}° is uncertain: the photo's vanishing points are weak "
-                f"(confidence {camera.confidence:.2f}; fov=fixed fov.fixed.vfov_deg=... gives the true one)"]
+        return [
+            f"the vertical FoV {camera.vfov_deg:.1f}° is uncertain: the photo's vanishing points are weak "
+            f"(confidence {camera.confidence:.2f}; fov=fixed fov.fixed.vfov_deg=... gives the true one)"
+        ]
     return []
 
 

@@ -29,7 +29,7 @@ def ssim_map(a: np.ndarray, b: np.ndarray, sigma: float = 1.5) -> np.ndarray:
     """The per-pixel structural similarity index [H, W] that :func:`ssim` averages."""
     weights = np.array([0.2126, 0.7152, 0.0722], np.float64)
     x, y = np.asarray(a, np.float64) @ weights, np.asarray(b, np.float64) @ weights
-    c1, c2 = 0.01 ** 2, 0.03 ** 2
+    c1, c2 = 0.01**2, 0.03**2
 
     def blur(z: np.ndarray) -> np.ndarray:
         return cv2.GaussianBlur(z, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)

@@ -30,8 +30,11 @@ def grid_cells(quad: np.ndarray, rows: int, cols: int) -> list[np.ndarray]:
     """The quad split into ``rows`` × ``cols`` cells, each in the quad's corner order."""
     a, b, d = quad[0], quad[1], quad[3]
     u, v = (b - a) / cols, (d - a) / rows
-    return [np.array([a + i * u + j * v, a + (i + 1) * u + j * v, a + (i + 1) * u + (j + 1) * v, a + i * u + (j + 1) * v])
-            for j in range(rows) for i in range(cols)]
+    return [
+        np.array([a + i * u + j * v, a + (i + 1) * u + j * v, a + (i + 1) * u + (j + 1) * v, a + i * u + (j + 1) * v])
+        for j in range(rows)
+        for i in range(cols)
+    ]
 
 
 def camera_points(points: np.ndarray, camera_to_world: np.ndarray) -> np.ndarray:
@@ -59,8 +62,9 @@ def behind_camera(quad: np.ndarray, camera_to_world: np.ndarray) -> bool:
     return bool(np.all(camera_points(quad, camera_to_world)[:, 2] <= 0.0))
 
 
-def ceiling_lights(ceiling: np.ndarray, camera: Camera, camera_to_world: np.ndarray, rows: int, cols: int,
-                   ratio: float, drop: float) -> list[Light]:
+def ceiling_lights(
+    ceiling: np.ndarray, camera: Camera, camera_to_world: np.ndarray, rows: int, cols: int, ratio: float, drop: float
+) -> list[Light]:
     """§4.4: the ceiling split into a grid, each cell scaled by ``ratio`` and lowered by ``drop`` metres;
     cells in the camera's view or wholly behind it are removed."""
     lights = []
@@ -97,8 +101,9 @@ def wall_window_light(name: str, wall: np.ndarray, ratio: float, drop: float) ->
     return Light(f"light_{name}", "invisible_wall", quad_mesh(offset(shrink(wall, ratio), drop)))
 
 
-def window_panel(mask: np.ndarray, wall: np.ndarray, camera: Camera, camera_to_world: np.ndarray,
-                 drop: float, frame_width: float) -> tuple[np.ndarray, list[TriangleMesh]] | None:
+def window_panel(
+    mask: np.ndarray, wall: np.ndarray, camera: Camera, camera_to_world: np.ndarray, drop: float, frame_width: float
+) -> tuple[np.ndarray, list[TriangleMesh]] | None:
     """A visible window as a panel on its wall: the mask's bounding box back-projected onto the wall plane,
     moved ``drop`` into the room, and a frame of four bars ``frame_width`` wide around it; None when the
     box's rays miss the wall plane."""

@@ -23,8 +23,13 @@ from . import models
 
 ALEXNET = "alexnet_imagenet"
 LINEAR = "lpips_alex_v01"
-CONVS = ((0, 3, 64, 11, 4, 2), (3, 64, 192, 5, 1, 2), (6, 192, 384, 3, 1, 1), (8, 384, 256, 3, 1, 1),
-         (10, 256, 256, 3, 1, 1))
+CONVS = (
+    (0, 3, 64, 11, 4, 2),
+    (3, 64, 192, 5, 1, 2),
+    (6, 192, 384, 3, 1, 1),
+    (8, 384, 256, 3, 1, 1),
+    (10, 256, 256, 3, 1, 1),
+)
 """(index in torchvision's ``alexnet().features``, in, out, kernel, stride, padding) of the convolutions."""
 SHIFT = (-0.030, -0.088, -0.188)
 SCALE = (0.458, 0.448, 0.450)
@@ -54,11 +59,20 @@ class Lpips:
     def __init__(self, alexnet: Path, linear: Path) -> None:
         fix = "download it again with psdr-room-models"
         features = _load(alexnet, "AlexNet", fix)
-        self.convs = [(_tensor(features, f"features.{i}.weight", (o, c, k, k), alexnet, fix),
-                       _tensor(features, f"features.{i}.bias", (o,), alexnet, fix), s, p) for i, c, o, k, s, p in CONVS]
+        self.convs = [
+            (
+                _tensor(features, f"features.{i}.weight", (o, c, k, k), alexnet, fix),
+                _tensor(features, f"features.{i}.bias", (o,), alexnet, fix),
+                s,
+                p,
+            )
+            for i, c, o, k, s, p in CONVS
+        ]
         heads = _load(linear, "LPIPS linear layers", fix)
-        self.heads = [_tensor(heads, f"lin{n}.model.1.weight", (1, o, 1, 1), linear, fix)
-                      for n, (_, _, o, _, _, _) in enumerate(CONVS)]
+        self.heads = [
+            _tensor(heads, f"lin{n}.model.1.weight", (1, o, 1, 1), linear, fix)
+            for n, (_, _, o, _, _, _) in enumerate(CONVS)
+        ]
 
     def features(self, x: torch.Tensor) -> list[torch.Tensor]:
         """The five ReLU outputs of AlexNet for [N, 3, H, W] inputs in the network's range."""

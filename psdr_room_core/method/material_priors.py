@@ -49,7 +49,9 @@ class PaintPrior:
     def __post_init__(self) -> None:
         low, high = self.albedo
         if not low < high:
-            raise PsdrRoomError(f"fit_appearance.paint.albedo={list(self.albedo)}: the lowest must be below the highest")
+            raise PsdrRoomError(
+                f"fit_appearance.paint.albedo={list(self.albedo)}: the lowest must be below the highest"
+            )
 
 
 def painted(part: str) -> bool:

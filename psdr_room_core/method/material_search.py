@@ -50,8 +50,11 @@ class MaterialIndex:
         with torch.no_grad():
             for name in names:
                 look = library.appearance(name, map_size)
-                views = [tiled_view(library, look, (INDEX_CROP, INDEX_CROP), s, r)
-                         for s in INDEX_SCALES for r in INDEX_ROTATIONS]
+                views = [
+                    tiled_view(library, look, (INDEX_CROP, INDEX_CROP), s, r)
+                    for s in INDEX_SCALES
+                    for r in INDEX_ROTATIONS
+                ]
                 blocks.append(descriptor.describe(torch.stack(views)))
             descriptors = torch.stack(blocks)
             apart = []
@@ -110,8 +113,9 @@ def vote(per_crop: list[list[tuple[str, float]]]) -> list[tuple[str, float]]:
 
 
 # --------------------------------------------------------------------------------- surface mapping
-def surface_coordinates(camera: Camera, camera_to_world: np.ndarray, depth: np.ndarray, rect: Rect
-                        ) -> tuple[torch.Tensor, torch.Tensor] | None:
+def surface_coordinates(
+    camera: Camera, camera_to_world: np.ndarray, depth: np.ndarray, rect: Rect
+) -> tuple[torch.Tensor, torch.Tensor] | None:
     """(u, v) metres in the planar frame of the surface seen in ``rect`` (see the module docstring), per
     pixel of the window, from the rendered z-depth at the camera's resolution; None without depth there."""
     x0, y0, x1, y1 = rect
@@ -127,12 +131,20 @@ def surface_coordinates(camera: Camera, camera_to_world: np.ndarray, depth: np.n
     if np.dot(normal, camera_to_world[:3, 3] - centre) < 0:  # the side the camera sees, as the mesh's normal
         normal = -normal
     tangent, bitangent = planar_frame(normal)
-    return (torch.from_numpy((world @ tangent).astype(np.float32)),
-            torch.from_numpy((world @ bitangent).astype(np.float32)))
+    return (
+        torch.from_numpy((world @ tangent).astype(np.float32)),
+        torch.from_numpy((world @ bitangent).astype(np.float32)),
+    )
 
 
-def surface_view(library: Any, look: torch.Tensor, coords: tuple[torch.Tensor, torch.Tensor], tile_size: float,
-                 scale: float, rotation: float) -> torch.Tensor:
+def surface_view(
+    library: Any,
+    look: torch.Tensor,
+    coords: tuple[torch.Tensor, torch.Tensor],
+    tile_size: float,
+    scale: float,
+    rotation: float,
+) -> torch.Tensor:
     """The material image laid on a crop's surface coordinates (``tile_size / scale`` metres per tile)."""
     u, v = rotate(coords[0] * (scale / tile_size), coords[1] * (scale / tile_size), rotation)
     step = float(torch.median(torch.hypot(u[:, 1:] - u[:, :-1], v[:, 1:] - v[:, :-1]))) if u.shape[1] > 1 else 0.0
@@ -151,9 +163,15 @@ class TransformFit:
     """The material in each crop at that transform (sRGB [3, h, w])."""
 
 
-def search_transform(library: Any, descriptor: Any, look: torch.Tensor, tile_size: float,
-                     crops: list[tuple[torch.Tensor, torch.Tensor, tuple[torch.Tensor, torch.Tensor]]],
-                     scales: Sequence[float], rotations: Sequence[float]) -> TransformFit:
+def search_transform(
+    library: Any,
+    descriptor: Any,
+    look: torch.Tensor,
+    tile_size: float,
+    crops: list[tuple[torch.Tensor, torch.Tensor, tuple[torch.Tensor, torch.Tensor]]],
+    scales: Sequence[float],
+    rotations: Sequence[float],
+) -> TransformFit:
     """The (scale, rotation) of §4.4's sweep whose views have the least mean descriptor distance to the
     photo crops; ``crops`` holds (photo crop [3, h, w], its descriptor, its surface coordinates). Each view is
     scaled to the photo crop's mean luminance: the stand-in for the scene's lighting at this stage."""

@@ -105,7 +105,7 @@ _OPTIONAL = tuple(f.name for f in fields(ModelEntry) if f.name not in _REQUIRED 
 def _check_entry(raw: Any, where: Path, index: int) -> ModelEntry:
     label = f"{where}: models[{index}]"
     if not isinstance(raw, dict):
-        raise PsdrRoomError(f"{label} is not a JSON object; each model is {{\"name\": ..., \"file\": ..., ...}}")
+        raise PsdrRoomError(f'{label} is not a JSON object; each model is {{"name": ..., "file": ..., ...}}')
     name = raw.get("name")
     if isinstance(name, str):
         label = f"{where}: model '{name}'"
@@ -154,7 +154,7 @@ def read_registry_file(path: Path) -> list[ModelEntry]:
     except json.JSONDecodeError as exc:
         raise PsdrRoomError(f"{path}: not valid JSON (line {exc.lineno}: {exc.msg}); fix the model registry") from None
     if not isinstance(data, dict) or data.get("format") != 1 or not isinstance(data.get("models"), list):
-        raise PsdrRoomError(f"{path}: not a psdr-room model registry; expected {{\"format\": 1, \"models\": [...]}}")
+        raise PsdrRoomError(f'{path}: not a psdr-room model registry; expected {{"format": 1, "models": [...]}}')
     return [_check_entry(raw, path, i) for i, raw in enumerate(data["models"])]
 
 
@@ -181,8 +181,12 @@ def load_registry(files: Iterable[Path] | None = None) -> dict[str, ModelEntry]:
     for path in registry_files() if files is None else files:
         for entry in read_registry_file(Path(path)):
             if entry.name in entries:
-                log.warning("psdr-room: model '%s' of %s is already listed by %s; left out",
-                            entry.name, path, entries[entry.name].registry)
+                log.warning(
+                    "psdr-room: model '%s' of %s is already listed by %s; left out",
+                    entry.name,
+                    path,
+                    entries[entry.name].registry,
+                )
                 continue
             entries[entry.name] = entry
     return entries
@@ -195,8 +199,10 @@ def lookup(name: str, registry: Mapping[str, ModelEntry], capability: str | None
         choices = sorted(n for n, e in registry.items() if capability is None or e.capability == capability)
         what = f"{capability} model" if capability else "model"
         found = f" ('{name}' is a {entry.capability} model)" if entry is not None else ""
-        raise PsdrRoomError(f"unknown {what} '{name}'{found}; known: {', '.join(choices) or '(none)'} "
-                            "(psdr-room-models list shows them)")
+        raise PsdrRoomError(
+            f"unknown {what} '{name}'{found}; known: {', '.join(choices) or '(none)'} "
+            "(psdr-room-models list shows them)"
+        )
     return entry
 
 
@@ -272,8 +278,12 @@ class FileStatus:
         return self.state in ("installed", "unverified")
 
     def describe(self) -> str:
-        text = {"installed": "installed (sha256 ok)", "unverified": "installed, unverified (no published checksum)",
-                "missing": "missing", "corrupt": "corrupt"}[self.state]
+        text = {
+            "installed": "installed (sha256 ok)",
+            "unverified": "installed, unverified (no published checksum)",
+            "missing": "missing",
+            "corrupt": "corrupt",
+        }[self.state]
         if self.state == "installed" and self.entry.sha256 is None:
             text = "installed (sha256 prefix ok)"
         return f"{text}: {self.detail}" if self.detail else text
@@ -321,16 +331,28 @@ def require(entry: ModelEntry, models_dir: Path) -> Path:
     """
     path = entry.path(models_dir)
     if not path.is_file():
-        how = (f"run `psdr-room-models download {entry.name}`" if entry.url
-               else f"export it as `psdr-room-models info {entry.name}` explains")
-        raise PsdrRoomError(f"{path}: model file of '{entry.name}' not found; {how}, "
-                            f"or set models_dir to the directory that holds {entry.file}")
+        how = (
+            f"run `psdr-room-models download {entry.name}`"
+            if entry.url
+            else f"export it as `psdr-room-models info {entry.name}` explains"
+        )
+        raise PsdrRoomError(
+            f"{path}: model file of '{entry.name}' not found; {how}, "
+            f"or set models_dir to the directory that holds {entry.file}"
+        )
     return path
 
 
 # -------------------------------------------------------------------------------------- download
-def download(name: str, models_dir: Path, registry: Mapping[str, ModelEntry] | None = None, *,
-             progress: bool = True, timeout: float = 30.0, force: bool = False) -> Path:
+def download(
+    name: str,
+    models_dir: Path,
+    registry: Mapping[str, ModelEntry] | None = None,
+    *,
+    progress: bool = True,
+    timeout: float = 30.0,
+    force: bool = False,
+) -> Path:
     """Download model ``name`` into ``models_dir`` and return its path.
 
     The file is streamed into a temporary file beside its final name, its size and checksum are checked
@@ -350,8 +372,10 @@ def download(name: str, models_dir: Path, registry: Mapping[str, ModelEntry] | N
     try:
         models_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise PsdrRoomError(f"{models_dir}: cannot create the models directory ({exc.strerror or exc}); "
-                            f"choose another with --models-dir or ${MODELS_DIR_ENV}") from None
+        raise PsdrRoomError(
+            f"{models_dir}: cannot create the models directory ({exc.strerror or exc}); "
+            f"choose another with --models-dir or ${MODELS_DIR_ENV}"
+        ) from None
     host = urllib.parse.urlsplit(entry.url).hostname or entry.url
     fd, tmp_name = tempfile.mkstemp(prefix=f".{entry.file}.", suffix=".part", dir=models_dir)
     tmp = Path(tmp_name)
@@ -363,15 +387,21 @@ def download(name: str, models_dir: Path, registry: Mapping[str, ModelEntry] | N
                 out.flush()
                 os.fsync(out.fileno())
         except OSError as exc:  # network errors are PsdrRoomErrors by now: this is the disk
-            raise PsdrRoomError(f"{models_dir}: cannot write {entry.file} ({exc.strerror or exc}); free some "
-                                "space or choose another directory with --models-dir") from None
+            raise PsdrRoomError(
+                f"{models_dir}: cannot write {entry.file} ({exc.strerror or exc}); free some "
+                "space or choose another directory with --models-dir"
+            ) from None
         if entry.size is not None and size != entry.size:
-            raise PsdrRoomError(f"{entry.url}: downloaded {size} bytes, expected {entry.size}; nothing was saved "
-                                f"in {models_dir}; try again, or get {entry.file} by hand ({entry.source})")
+            raise PsdrRoomError(
+                f"{entry.url}: downloaded {size} bytes, expected {entry.size}; nothing was saved "
+                f"in {models_dir}; try again, or get {entry.file} by hand ({entry.source})"
+            )
         if not _checksum_matches(entry, digest):
-            raise PsdrRoomError(f"{entry.url}: sha256 of the download is {digest}, expected {entry.checksum}; "
-                                f"nothing was saved in {models_dir}; try again, and if it persists the file "
-                                f"changed upstream: check {entry.source}")
+            raise PsdrRoomError(
+                f"{entry.url}: sha256 of the download is {digest}, expected {entry.checksum}; "
+                f"nothing was saved in {models_dir}; try again, and if it persists the file "
+                f"changed upstream: check {entry.source}"
+            )
         os.replace(tmp, target)
         done = True
         _remember_sha256(target, digest)
@@ -384,13 +414,16 @@ def download(name: str, models_dir: Path, registry: Mapping[str, ModelEntry] | N
     return target
 
 
-def _fetch(entry: ModelEntry, host: str, models_dir: Path, out: Any, *, progress: bool,
-           timeout: float) -> tuple[str, int]:
+def _fetch(
+    entry: ModelEntry, host: str, models_dir: Path, out: Any, *, progress: bool, timeout: float
+) -> tuple[str, int]:
     """Stream ``entry.url`` into ``out``; returns (sha256 hex, bytes)."""
     from tqdm import tqdm
 
-    by_hand = (f"download it on a connected machine ({entry.url}) and put it in {models_dir} as {entry.file}, "
-               "then `psdr-room-models verify`")
+    by_hand = (
+        f"download it on a connected machine ({entry.url}) and put it in {models_dir} as {entry.file}, "
+        "then `psdr-room-models verify`"
+    )
     request = urllib.request.Request(entry.url, headers={"User-Agent": "psdr-room-models"})
     digest = hashlib.sha256()
     size = 0
@@ -398,25 +431,37 @@ def _fetch(entry: ModelEntry, host: str, models_dir: Path, out: Any, *, progress
         with urllib.request.urlopen(request, timeout=timeout) as response:
             length = response.headers.get("Content-Length")
             total = int(length) if length and length.isdigit() else entry.size
-            with tqdm(total=total, unit="B", unit_scale=True, unit_divisor=1024, desc=entry.file,
-                      disable=not progress, leave=False, file=sys.stderr) as bar:
+            with tqdm(
+                total=total,
+                unit="B",
+                unit_scale=True,
+                unit_divisor=1024,
+                desc=entry.file,
+                disable=not progress,
+                leave=False,
+                file=sys.stderr,
+            ) as bar:
                 while chunk := response.read(_CHUNK):
                     out.write(chunk)
                     digest.update(chunk)
                     size += len(chunk)
                     bar.update(len(chunk))
     except urllib.error.HTTPError as exc:
-        raise PsdrRoomError(f"{host} answered HTTP {exc.code} ({exc.reason}) for {entry.file}; "
-                            f"the URL may have moved: {by_hand}") from None
+        raise PsdrRoomError(
+            f"{host} answered HTTP {exc.code} ({exc.reason}) for {entry.file}; the URL may have moved: {by_hand}"
+        ) from None
     except urllib.error.URLError as exc:
         reason = exc.reason.strerror if isinstance(exc.reason, OSError) and exc.reason.strerror else exc.reason
         raise PsdrRoomError(f"cannot reach {host} to download {entry.file}: {reason}; {by_hand}") from None
     except (TimeoutError, ConnectionError) as exc:
-        raise PsdrRoomError(f"cannot reach {host} to download {entry.file}: {exc or type(exc).__name__}; "
-                            f"{by_hand}") from None
+        raise PsdrRoomError(
+            f"cannot reach {host} to download {entry.file}: {exc or type(exc).__name__}; {by_hand}"
+        ) from None
     if length and length.isdigit() and size != int(length):
-        raise PsdrRoomError(f"cannot reach {host} to download {entry.file}: the connection closed after "
-                            f"{size} of {length} bytes; {by_hand}")
+        raise PsdrRoomError(
+            f"cannot reach {host} to download {entry.file}: the connection closed after "
+            f"{size} of {length} bytes; {by_hand}"
+        )
     return digest.hexdigest(), size
 
 

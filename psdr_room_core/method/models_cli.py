@@ -27,12 +27,23 @@ PROG = "psdr-room-models"
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog=PROG, description="List, download and verify model files for psdr-room.")
-    parser.add_argument("--registry", action="append", type=Path, default=[], metavar="FILE",
-                        help="an extra model-registry JSON file (repeatable)")
+    parser.add_argument(
+        "--registry",
+        action="append",
+        type=Path,
+        default=[],
+        metavar="FILE",
+        help="an extra model-registry JSON file (repeatable)",
+    )
     dir_option = argparse.ArgumentParser(add_help=False)
-    dir_option.add_argument("--models-dir", type=Path, default=None, metavar="DIR",
-                            help=f"models directory (default: ${models.MODELS_DIR_ENV}, else "
-                                 f"{models.user_data_dir() / 'psdr-room' / 'models'})")
+    dir_option.add_argument(
+        "--models-dir",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help=f"models directory (default: ${models.MODELS_DIR_ENV}, else "
+        f"{models.user_data_dir() / 'psdr-room' / 'models'})",
+    )
     commands = parser.add_subparsers(dest="command", required=True, metavar="{list,info,download,verify}")
     listing = commands.add_parser("list", parents=[dir_option], help="every model and whether it is installed")
     listing.add_argument("--capability", default=None, help="only models of this capability (depth, segmentation, ...)")
@@ -62,9 +73,18 @@ def _list(registry: dict[str, models.ModelEntry], models_dir: Path, capability: 
         state = {"unverified": "installed (unverified)"}.get(status.state, status.state)
         if status.state == "missing" and not entry.url:
             state = "missing (export by hand: info)"
-        rows.append([entry.capability, entry.name, entry.file, entry.size_text(),
-                     entry.checksum[:12] + ("…" if entry.sha256 else "") if entry.checksum else "-",
-                     entry.licence, state, entry.url or entry.source])
+        rows.append(
+            [
+                entry.capability,
+                entry.name,
+                entry.file,
+                entry.size_text(),
+                entry.checksum[:12] + ("…" if entry.sha256 else "") if entry.checksum else "-",
+                entry.licence,
+                state,
+                entry.url or entry.source,
+            ]
+        )
     print(text_table(rows))
     return 0
 
@@ -72,19 +92,29 @@ def _list(registry: dict[str, models.ModelEntry], models_dir: Path, capability: 
 def _info(entry: models.ModelEntry, models_dir: Path) -> int:
     status = models.check_file(entry, models_dir)
     lines = [
-        ("name", entry.name), ("capability", entry.capability), ("family", entry.family),
-        ("description", entry.description), ("file", str(status.path)), ("size", entry.size_text()),
-        ("sha256", entry.checksum or "unpublished"), ("checksum from", entry.checksum_source or "-"),
-        ("licence", entry.licence), ("source", entry.source), ("url", entry.url or "none (export by hand)"),
-        ("status", status.describe()), ("obtain", entry.obtain), ("registry", entry.registry),
+        ("name", entry.name),
+        ("capability", entry.capability),
+        ("family", entry.family),
+        ("description", entry.description),
+        ("file", str(status.path)),
+        ("size", entry.size_text()),
+        ("sha256", entry.checksum or "unpublished"),
+        ("checksum from", entry.checksum_source or "-"),
+        ("licence", entry.licence),
+        ("source", entry.source),
+        ("url", entry.url or "none (export by hand)"),
+        ("status", status.describe()),
+        ("obtain", entry.obtain),
+        ("registry", entry.registry),
     ]
     width = max(len(k) for k, _ in lines)
     print("\n".join(f"{k.ljust(width)}  {v}" for k, v in lines))
     return 0
 
 
-def _download(registry: dict[str, models.ModelEntry], models_dir: Path, names: Sequence[str], *, force: bool,
-              quiet: bool) -> int:
+def _download(
+    registry: dict[str, models.ModelEntry], models_dir: Path, names: Sequence[str], *, force: bool, quiet: bool
+) -> int:
     for name in names:  # all names first: a typo fails before anything is fetched
         models.lookup(name, registry)
     for name in names:
@@ -102,8 +132,9 @@ def _verify(registry: dict[str, models.ModelEntry], models_dir: Path, names: Seq
         bad |= status.state == "corrupt" or (bool(names) and status.state == "missing")
     for status in results:
         if status.state == "corrupt":
-            print(f"{PROG}: {status.path} is corrupt; run `{PROG} download {status.entry.name} --force`",
-                  file=sys.stderr)
+            print(
+                f"{PROG}: {status.path} is corrupt; run `{PROG} download {status.entry.name} --force`", file=sys.stderr
+            )
     return 1 if bad else 0
 
 

@@ -49,8 +49,9 @@ class ObjectQuery:
     """The room box the object stands in (its model must fit inside)."""
 
 
-def object_queries(image: Image, panoptic: Panoptic, cloud: PointCloud, room: RoomBox, min_points: int,
-                   min_pixels: int) -> list[ObjectQuery]:
+def object_queries(
+    image: Image, panoptic: Panoptic, cloud: PointCloud, room: RoomBox, min_points: int, min_pixels: int
+) -> list[ObjectQuery]:
     """A query per object segment with at least ``min_pixels`` pixels and ``min_points`` depth points whose label
     names something the database holds (:func:`~.labels.meaning`)."""
     to_world = np.asarray(room.camera_to_world)
@@ -68,8 +69,21 @@ def object_queries(image: Image, panoptic: Panoptic, cloud: PointCloud, room: Ro
         if mask.sum() < min_pixels or len(points) < min_points:
             continue
         guessed = segment.score is not None
-        queries.append(ObjectQuery(segment.id, segment.label, named.categories, mask, points, square_crop(rgb8, mask),
-                                   scene, segment.box, named.alternates if guessed else (), guessed, room))
+        queries.append(
+            ObjectQuery(
+                segment.id,
+                segment.label,
+                named.categories,
+                mask,
+                points,
+                square_crop(rgb8, mask),
+                scene,
+                segment.box,
+                named.alternates if guessed else (),
+                guessed,
+                room,
+            )
+        )
     return queries
 
 
@@ -112,8 +126,16 @@ def initial_pose(points: np.ndarray, vertices: np.ndarray, radius_factor: float)
     return centre - scale * box_centre, scale  # box_centre is on the vertical axis (x = z = 0)
 
 
-def best_yaw(camera: Camera, camera_to_world: np.ndarray, vertices: np.ndarray, faces: np.ndarray,
-             position: np.ndarray, scale: float, target: np.ndarray, n_yaw: int) -> tuple[float, float]:
+def best_yaw(
+    camera: Camera,
+    camera_to_world: np.ndarray,
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    position: np.ndarray,
+    scale: float,
+    target: np.ndarray,
+    n_yaw: int,
+) -> tuple[float, float]:
     """(yaw, mean L1) of the rotation about the vertical axis whose silhouette best matches ``target``
     (a mask at the camera's resolution), over ``n_yaw`` evenly spaced angles."""
     best = (0.0, np.inf)
@@ -181,8 +203,13 @@ Support = tuple[str, int | None]
 """(``floor`` | ``parent`` | ``wall`` | ``free``, the parent's segment id or the wall's index)."""
 
 
-def support_relations(queries: list[ObjectQuery], floor_mask: np.ndarray, room: RoomBox,
-                      params: SupportParams, categories: Mapping[int, str] | None = None) -> dict[int, list[Support]]:
+def support_relations(
+    queries: list[ObjectQuery],
+    floor_mask: np.ndarray,
+    room: RoomBox,
+    params: SupportParams,
+    categories: Mapping[int, str] | None = None,
+) -> dict[int, list[Support]]:
     """Segment id → the supports §4.3's rules allow it, the rules' choice first, by these rules in this order:
     on the floor; on a floor object whose mask touches its own from below, whose top is at its bottom and
     whose points' footprint holds its centre; an object of a ``grounded`` category whose bottom is hidden
@@ -195,8 +222,10 @@ def support_relations(queries: list[ObjectQuery], floor_mask: np.ndarray, room: 
     relations: dict[int, list[Support]] = {}
     bottoms = {q.segment_id: float(np.percentile(q.points[:, 1], params.bottom_percentile)) for q in queries}
     for q in queries:
-        if abs(bottoms[q.segment_id] - room.floor) < params.floor_distance and \
-                mask_distance(q.mask, floor_mask) < params.edge_px:
+        if (
+            abs(bottoms[q.segment_id] - room.floor) < params.floor_distance
+            and mask_distance(q.mask, floor_mask) < params.edge_px
+        ):
             relations[q.segment_id] = [("floor", None)]
     on_floor = [q for q in queries if q.segment_id in relations]
     for q in queries:
@@ -210,7 +239,9 @@ def support_relations(queries: list[ObjectQuery], floor_mask: np.ndarray, room: 
             p_rows = np.flatnonzero(p.mask.any(axis=1))
             lo, hi = np.percentile(p.points[:, [0, 2]], [2, 98], axis=0)
             over = bool(np.all((centre > lo - params.floor_distance) & (centre < hi + params.floor_distance)))
-            on_top = bottom > float(np.percentile(p.points[:, 1], 100 - params.bottom_percentile)) - params.floor_distance
+            on_top = (
+                bottom > float(np.percentile(p.points[:, 1], 100 - params.bottom_percentile)) - params.floor_distance
+            )
             distance = mask_distance(q.mask, p.mask)
             if rows.mean() < p_rows.mean() and over and on_top and distance < params.edge_px:
                 parents.append((distance, p.segment_id))

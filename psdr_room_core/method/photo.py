@@ -68,7 +68,9 @@ def read_photo(path: Path, max_pixels: int) -> np.ndarray:
     try:
         with PIL.Image.open(path) as pil:
             if pil.format not in FORMATS:
-                raise PsdrRoomError(f"{path}: {pil.format} images are not supported; convert it to JPEG, PNG, TIFF or WebP")
+                raise PsdrRoomError(
+                    f"{path}: {pil.format} images are not supported; convert it to JPEG, PNG, TIFF or WebP"
+                )
             width, height = pil.size
             if width * height > max_pixels:
                 raise PsdrRoomError(
@@ -76,12 +78,16 @@ def read_photo(path: Path, max_pixels: int) -> np.ndarray:
                     f"{max_pixels}; downscale the photo or raise load_image.max_pixels"
                 )
             if min(width, height) < MIN_SIDE:
-                raise PsdrRoomError(f"{path}: {width}x{height} is too small to reconstruct a room from; give a photo "
-                                    f"at least {MIN_SIDE} px on its short side")
+                raise PsdrRoomError(
+                    f"{path}: {width}x{height} is too small to reconstruct a room from; give a photo "
+                    f"at least {MIN_SIDE} px on its short side"
+                )
             orientation = int(pil.getexif().get(_EXIF_ORIENTATION, 1))
             pil.load()  # decodes fully: raises on truncated or corrupt data
     except PIL.UnidentifiedImageError:
-        raise PsdrRoomError(f"{path}: not an image (or an unsupported one); give a JPEG, PNG, TIFF or WebP photo") from None
+        raise PsdrRoomError(
+            f"{path}: not an image (or an unsupported one); give a JPEG, PNG, TIFF or WebP photo"
+        ) from None
     except OSError as exc:
         raise PsdrRoomError(f"{path}: damaged or truncated image ({exc}); re-export or re-download the photo") from None
     data = cv2.imdecode(np.fromfile(path, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
@@ -96,8 +102,10 @@ def read_photo(path: Path, max_pixels: int) -> np.ndarray:
 def resize_to_working(rgb: np.ndarray, max_side: int) -> np.ndarray:
     """Downscale (area filter) so the long side is at most ``max_side``; never upscale."""
     if max_side < MIN_SIDE:
-        raise PsdrRoomError(f"load_image.max_side={max_side}: the working image needs at least {MIN_SIDE} px; "
-                            "set it to 320 or more (default 800)")
+        raise PsdrRoomError(
+            f"load_image.max_side={max_side}: the working image needs at least {MIN_SIDE} px; "
+            "set it to 320 or more (default 800)"
+        )
     height, width = rgb.shape[:2]
     scale = max_side / max(height, width)
     if scale >= 1.0:

@@ -163,8 +163,15 @@ def support_top(parent: Placement, world_xz: np.ndarray) -> float:
 class _Scene:
     """The objects being settled, with what :func:`settle` reports."""
 
-    def __init__(self, placements: list[Placement], room: RoomBox, camera: Camera, drawn: set[int],
-                 pixels: Mapping[int, int], params: PhysicalParams) -> None:
+    def __init__(
+        self,
+        placements: list[Placement],
+        room: RoomBox,
+        camera: Camera,
+        drawn: set[int],
+        pixels: Mapping[int, int],
+        params: PhysicalParams,
+    ) -> None:
         self.objects = {p.segment_id: p for p in placements}
         self.room, self.camera, self.drawn, self.pixels, self.params = room, camera, drawn, pixels, params
         self.c2w = np.asarray(room.camera_to_world)
@@ -253,8 +260,9 @@ class _Scene:
         return low * math.exp(-self.params.size_tolerance)
 
     @staticmethod
-    def first(change: Callable[[float], Placement], ok: Callable[[Placement], bool],
-              steps: np.ndarray) -> Placement | None:
+    def first(
+        change: Callable[[float], Placement], ok: Callable[[Placement], bool], steps: np.ndarray
+    ) -> Placement | None:
         """``change(step)`` for the first of ``steps`` that is ``ok``."""
         for step in steps:
             candidate = change(float(step))
@@ -262,8 +270,13 @@ class _Scene:
                 return candidate
         return None
 
-    def shortest(self, change: Callable[[float], Placement], ok: Callable[[Placement], bool], longest: float,
-                 resolution: float = 0.01) -> Placement | None:
+    def shortest(
+        self,
+        change: Callable[[float], Placement],
+        ok: Callable[[Placement], bool],
+        longest: float,
+        resolution: float = 0.01,
+    ) -> Placement | None:
         """``change(d)`` for about the smallest ``d`` in (0, ``longest``] that is ``ok``: the first of four
         even steps that is, then halved down to ``resolution``."""
         bad = 0.0
@@ -299,9 +312,13 @@ class _Scene:
     def remove_duplicates(self) -> None:
         ids = sorted(self.objects, key=self.strength, reverse=True)
         for k, a in enumerate(ids):
-            for b in ids[k + 1:]:
-                if a in self.objects and b in self.objects and b not in self.drawn and \
-                        _one_kind(self.objects[a], self.objects[b]):
+            for b in ids[k + 1 :]:
+                if (
+                    a in self.objects
+                    and b in self.objects
+                    and b not in self.drawn
+                    and _one_kind(self.objects[a], self.objects[b])
+                ):
                     shared = overlap(self.objects[a], self.objects[b]).shared
                     if shared >= self.params.duplicate_share:
                         self.drop(b, f"occupies the space of {_name(self.objects[a])} ({shared:.0%} of it)")
@@ -314,30 +331,46 @@ class _Scene:
             inward = -(rotation_y(self.room.yaw) @ np.array([excess[0], 0.0, excess[2]]))
             ratios = np.linspace(0.98, 0.4, 30)
             options = [
-                self.first(lambda r: along_ray(p, p.scale * r, self.origin),
-                           lambda c: c.scale >= self.smallest(p) and self.inside(c), ratios),
-                self.first(lambda r: replace(p, scale=p.scale * r),
-                           lambda c: c.scale >= self.smallest(p) and self.inside(c), ratios),
+                self.first(
+                    lambda r: along_ray(p, p.scale * r, self.origin),
+                    lambda c: c.scale >= self.smallest(p) and self.inside(c),
+                    ratios,
+                ),
+                self.first(
+                    lambda r: replace(p, scale=p.scale * r),
+                    lambda c: c.scale >= self.smallest(p) and self.inside(c),
+                    ratios,
+                ),
             ]
             if not excess[1]:
                 options.append(self.shifted(p, inward * 1.001))
             kept = self.kept_look(p)
-            scored = sorted(((kept(c), k, c) for k, c in enumerate(options) if c is not None and self.inside(c)),
-                            key=lambda t: (-t[0], t[1]))
+            scored = sorted(
+                ((kept(c), k, c) for k, c in enumerate(options) if c is not None and self.inside(c)),
+                key=lambda t: (-t[0], t[1]),
+            )
             if scored and scored[0][0] >= self.params.keep_iou:
                 iou, _, best = scored[0]
-                self.put(best, f"brought inside the room (scale {p.scale:.2f} -> {best.scale:.2f}, moved "
-                               f"{float(np.linalg.norm(np.subtract(best.position, p.position))):.2f} m; "
-                               f"silhouette IoU {iou:.2f} with before)")
+                self.put(
+                    best,
+                    f"brought inside the room (scale {p.scale:.2f} -> {best.scale:.2f}, moved "
+                    f"{float(np.linalg.norm(np.subtract(best.position, p.position))):.2f} m; "
+                    f"silhouette IoU {iou:.2f} with before)",
+                )
             elif not final:
                 continue
             elif self.reach(p) > self.params.max_growth and p.segment_id not in self.drawn:
-                self.drop(p.segment_id, f"{self.reach(p):.2f} m beyond the room box, and no change keeps its "
-                                        "silhouette: its depth is implausible")
+                self.drop(
+                    p.segment_id,
+                    f"{self.reach(p):.2f} m beyond the room box, and no change keeps its "
+                    "silhouette: its depth is implausible",
+                )
             else:
                 self.room = grown(self.room, p.world_vertices())
-                self.changed.append(f"room box grown to {np.round(2 * np.asarray(self.room.half_size), 2).tolist()} m "
-                                    f"to hold {_name(p)} (no change kept its silhouette)")
+                self.changed.append(
+                    f"room box grown to {np.round(2 * np.asarray(self.room.half_size), 2).tolist()} m "
+                    f"to hold {_name(p)} (no change kept its silhouette)"
+                )
 
     def free_place(self, p: Placement) -> tuple[Placement, float] | None:
         """(``p`` freed (through nothing, reaching no farther beyond the room) by the change that keeps its
@@ -349,11 +382,18 @@ class _Scene:
         def free(c: Placement) -> bool:
             return self.reach(c) <= reach + 1e-3 and not self.collisions(c)
 
-        options = [self.shortest(lambda d: self.shifted(p, d * direction), free, self.params.max_shift)
-                   for direction in self.directions(p)]
+        options = [
+            self.shortest(lambda d: self.shifted(p, d * direction), free, self.params.max_shift)
+            for direction in self.directions(p)
+        ]
         smallest = self.smallest(p) / p.scale
-        options.append(self.first(lambda r: replace(p, scale=p.scale * r), free,
-                                  np.linspace(0.97, 0.6, 13)[np.linspace(0.97, 0.6, 13) >= smallest]))
+        options.append(
+            self.first(
+                lambda r: replace(p, scale=p.scale * r),
+                free,
+                np.linspace(0.97, 0.6, 13)[np.linspace(0.97, 0.6, 13) >= smallest],
+            )
+        )
         kept = self.kept_look(p)
         scored = [(c, kept(c)) for c in options if c is not None]
         best = max(scored, key=lambda t: t[1], default=None)
@@ -372,8 +412,11 @@ class _Scene:
                 if not any(o == b for o, _ in self.collisions(self.objects[a])):
                     continue
                 weaker, stronger = sorted((a, b), key=self.strength)
-                moves = [(found, mover, other) for mover, other in ((weaker, stronger), (stronger, weaker))
-                         if (found := self.free_place(self.objects[mover])) is not None]
+                moves = [
+                    (found, mover, other)
+                    for mover, other in ((weaker, stronger), (stronger, weaker))
+                    if (found := self.free_place(self.objects[mover])) is not None
+                ]
                 if moves:  # the change that alters the picture least (the weaker's on a tie)
                     (moved, iou), mover, other = max(moves, key=lambda m: m[0][1])
                     before = self.objects[mover]
@@ -381,12 +424,22 @@ class _Scene:
                     how = f"moved {shift:.2f} m" if shift > 1e-6 else f"scaled {before.scale:.2f} -> {moved.scale:.2f}"
                     self.put(moved, f"{how} out of {_name(self.objects[other])} (silhouette IoU {iou:.2f} with before)")
                 elif final and weaker not in self.drawn:  # two objects a person drew stay: what is left is reported
-                    self.drop(weaker, f"passes {depth:.2f} m through {_name(self.objects[stronger])}, with no "
-                                      f"free place within {self.params.max_shift:g} m for either")
+                    self.drop(
+                        weaker,
+                        f"passes {depth:.2f} m through {_name(self.objects[stronger])}, with no "
+                        f"free place within {self.params.max_shift:g} m for either",
+                    )
 
 
-def settle(placements: list[Placement], room: RoomBox, camera: Camera, drawn: set[int], pixels: Mapping[int, int],
-           params: PhysicalParams, final: bool = True) -> Settled:
+def settle(
+    placements: list[Placement],
+    room: RoomBox,
+    camera: Camera,
+    drawn: set[int],
+    pixels: Mapping[int, int],
+    params: PhysicalParams,
+    final: bool = True,
+) -> Settled:
     """The objects made physically possible (module docstring), judged in ``camera``'s picture (a small one
     will do); ``drawn``: segment ids a person drew; ``pixels``: each segment's pixel count; ``final``: the last
     settling, which may grow the room box and drop what it cannot part."""
@@ -403,7 +456,7 @@ def interpenetrations(placements: list[Placement], threshold: float) -> list[tup
     """(segment, segment, metres) of every pair passing through each other by more than ``threshold``."""
     found = []
     for i, a in enumerate(placements):
-        for b in placements[i + 1:]:
+        for b in placements[i + 1 :]:
             thickness = overlap(a, b).thickness
             if thickness > threshold:
                 found.append((a.segment_id, b.segment_id, round(thickness, 3)))

@@ -56,24 +56,42 @@ def register_stages(registry: Registry) -> None:
     registry.add_stage("estimate_depth", preprocess.estimate_depth, uses=["depth"], version="2", params=NoSettings)
     registry.add_stage("point_cloud", preprocess.point_cloud, params=settings.PointCloud)
     registry.add_stage("room_init", room.room_init, version="2", params=RoomInitParams)
-    registry.add_stage("room_fit", room.room_fit, uses=["renderer", "optimizer"], version="2",
-                       params=settings.RoomFit)
+    registry.add_stage("room_fit", room.room_fit, uses=["renderer", "optimizer"], version="2", params=settings.RoomFit)
     registry.add_stage("group_objects", objects.group_objects, uses=["retrieval"], params=settings.GroupObjects)
-    registry.add_stage("retrieve_objects", objects.retrieve_objects, uses=["retrieval"], version="3",
-                       params=settings.RetrieveObjects)
-    registry.add_stage("place_objects", objects.place_objects, uses=["retrieval"], version="4",
-                       params=settings.PlaceObjects)
-    registry.add_stage("fit_objects", objects.fit_objects, uses=["renderer", "optimizer"], version="4",
-                       params=settings.FitObjects)
-    registry.add_stage("assign_materials", materials.assign_materials, uses=["renderer", "material_graph", "texture"],
-                       sidecars=[CROPS_SUFFIX], version="3", params=settings.AssignMaterials)
-    registry.add_stage("init_lights", lighting.init_lights, uses=["renderer", "material_graph", "denoiser"], version="3",
-                       params=settings.InitLights)
-    registry.add_stage("fit_appearance", appearance.fit_appearance,
-                       uses=["renderer", "optimizer", "material_graph", "texture", "denoiser"], version="5",
-                       params=settings.FitAppearance)
-    registry.add_stage("export_scene", export.export_scene, uses=["material_graph"], version="4",
-                       params=settings.ExportScene)
+    registry.add_stage(
+        "retrieve_objects", objects.retrieve_objects, uses=["retrieval"], version="3", params=settings.RetrieveObjects
+    )
+    registry.add_stage(
+        "place_objects", objects.place_objects, uses=["retrieval"], version="4", params=settings.PlaceObjects
+    )
+    registry.add_stage(
+        "fit_objects", objects.fit_objects, uses=["renderer", "optimizer"], version="4", params=settings.FitObjects
+    )
+    registry.add_stage(
+        "assign_materials",
+        materials.assign_materials,
+        uses=["renderer", "material_graph", "texture"],
+        sidecars=[CROPS_SUFFIX],
+        version="3",
+        params=settings.AssignMaterials,
+    )
+    registry.add_stage(
+        "init_lights",
+        lighting.init_lights,
+        uses=["renderer", "material_graph", "denoiser"],
+        version="3",
+        params=settings.InitLights,
+    )
+    registry.add_stage(
+        "fit_appearance",
+        appearance.fit_appearance,
+        uses=["renderer", "optimizer", "material_graph", "texture", "denoiser"],
+        version="5",
+        params=settings.FitAppearance,
+    )
+    registry.add_stage(
+        "export_scene", export.export_scene, uses=["material_graph"], version="4", params=settings.ExportScene
+    )
 
 
 @hookimpl
@@ -83,8 +101,13 @@ def run_metrics(run: RunRecord) -> dict[str, Any]:
     out: dict[str, Any] = {}
     camera = run.artifacts.get("camera")
     if camera is not None:
-        out["camera"] = {"vfov_deg": camera.vfov_deg, "fx": camera.fx, "fy": camera.fy,
-                         "method": camera.method, "confidence": camera.confidence}
+        out["camera"] = {
+            "vfov_deg": camera.vfov_deg,
+            "fx": camera.fx,
+            "fy": camera.fy,
+            "method": camera.method,
+            "confidence": camera.confidence,
+        }
         out["vfov_deg"] = camera.vfov_deg
         if "camera_fit" in run.artifacts:
             out["camera"]["vfov_fit_deg"] = run.artifacts["camera_fit"].vfov_deg
@@ -100,8 +123,12 @@ def run_metrics(run: RunRecord) -> dict[str, Any]:
             out[name] = artifact.summary
     room = run.artifacts.get("room_box_fit", run.artifacts.get("room_box"))
     if room is not None:
-        out["room_box"] = {"size": [2 * float(h) for h in room.half_size], "yaw_deg": math.degrees(float(room.yaw)),
-                           "camera_height": room.extra.get("camera_height"), "ceiling_visible": room.ceiling_visible}
+        out["room_box"] = {
+            "size": [2 * float(h) for h in room.half_size],
+            "yaw_deg": math.degrees(float(room.yaw)),
+            "camera_height": room.extra.get("camera_height"),
+            "ceiling_visible": room.ceiling_visible,
+        }
         held = run.artifacts.get("room_box_objects")
         if held is not None:  # grown where fit_objects' objects reach beyond it
             out["room_box"]["size_holding_objects"] = [2 * float(h) for h in held.half_size]

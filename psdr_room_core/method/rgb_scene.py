@@ -76,8 +76,9 @@ def part_meshes(room: RoomBox, placements: Placements) -> dict[str, TriangleMesh
     return meshes
 
 
-def render_part_ids(renderer: Any, camera: Camera, camera_to_world: np.ndarray, meshes: Mapping[str, TriangleMesh],
-                    width: int) -> tuple[np.ndarray, np.ndarray]:
+def render_part_ids(
+    renderer: Any, camera: Camera, camera_to_world: np.ndarray, meshes: Mapping[str, TriangleMesh], width: int
+) -> tuple[np.ndarray, np.ndarray]:
     """(ids, depth) at the camera's resolution: the index (in ``meshes`` order) of the part seen in each pixel
     (-1: none, or less than half covered) and the z-depth, rendered by ``renderer`` at ``width`` pixels."""
     small = camera.resized(min(int(width), camera.width))
@@ -87,8 +88,10 @@ def render_part_ids(renderer: Any, camera: Camera, camera_to_world: np.ndarray, 
     ids = np.where(masks.max(axis=0) > 0.5, masks.argmax(axis=0), -1).astype(np.int32)
     depth = np.where(alpha > 0.5, depth / np.maximum(alpha, 1e-6), 0.0).astype(np.float32)
     size = (camera.width, camera.height)
-    return (cv2.resize(ids, size, interpolation=cv2.INTER_NEAREST),
-            cv2.resize(depth, size, interpolation=cv2.INTER_NEAREST))
+    return (
+        cv2.resize(ids, size, interpolation=cv2.INTER_NEAREST),
+        cv2.resize(depth, size, interpolation=cv2.INTER_NEAREST),
+    )
 
 
 def initial_parts(materials: MaterialAssignment, library: Any) -> list[PartAppearance]:
@@ -99,15 +102,17 @@ def initial_parts(materials: MaterialAssignment, library: Any) -> list[PartAppea
         base = tuple(float(v) for v in srgb_to_linear(np.asarray(m.albedo)))
         if m.kind == "procedural" and m.material:
             values = {k: v.value.tolist() for k, v in library.material(m.material).bounds.items()}
-            parts.append(PartAppearance(m.part, "procedural", base, m.roughness, 0.5, m.material, m.scale, m.rotation,
-                                        values))
+            parts.append(
+                PartAppearance(m.part, "procedural", base, m.roughness, 0.5, m.material, m.scale, m.rotation, values)
+            )
         else:
             parts.append(PartAppearance(m.part, "homogeneous", base, m.roughness, 0.5))
     return parts
 
 
-def graph_maps(library: Any, part: PartAppearance, size: int,
-               params: Mapping[str, torch.Tensor] | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+def graph_maps(
+    library: Any, part: PartAppearance, size: int, params: Mapping[str, torch.Tensor] | None = None
+) -> tuple[torch.Tensor, torch.Tensor]:
     """(linear base colour [size, size, 3], roughness [size, size, 1]) of a procedural part's graph at the
     unconstrained ``params`` (default: the part's saved values), differentiable in ``params``."""
     material = library.material(part.material)
@@ -127,13 +132,25 @@ class RgbScene:
 
     def renderer(self, renderer: Any, camera: Camera, camera_to_world: np.ndarray, width: int) -> Any:
         """A ``renderer.geometry`` of this scene at ``width`` pixels (every mesh its own part)."""
-        return renderer.geometry(camera, np.asarray(camera_to_world), self.meshes,
-                                 {n: i for i, n in enumerate(self.meshes)}, resolution_scale=width / camera.width,
-                                 surfaces=self.surfaces, emitters=self.emitters)
+        return renderer.geometry(
+            camera,
+            np.asarray(camera_to_world),
+            self.meshes,
+            {n: i for i, n in enumerate(self.meshes)},
+            resolution_scale=width / camera.width,
+            surfaces=self.surfaces,
+            emitters=self.emitters,
+        )
 
 
-def build_scene(meshes: Mapping[str, TriangleMesh], parts: Iterable[PartAppearance], lights: Iterable[Light],
-                fixtures: Mapping[str, TriangleMesh], library: Any, map_size: int) -> RgbScene:
+def build_scene(
+    meshes: Mapping[str, TriangleMesh],
+    parts: Iterable[PartAppearance],
+    lights: Iterable[Light],
+    fixtures: Mapping[str, TriangleMesh],
+    library: Any,
+    map_size: int,
+) -> RgbScene:
     """The scene of the part meshes (:func:`part_meshes`) with each part's material (procedural parts get
     their graph's maps at ``map_size`` on planar texture coordinates with their transform), the window
     frames, and the lights at their radiance; a lamp part that a light replaces is that light's mesh."""
@@ -152,8 +169,9 @@ def build_scene(meshes: Mapping[str, TriangleMesh], parts: Iterable[PartAppearan
             with torch.no_grad():
                 base, rough = graph_maps(library, part, map_size)
             scene.meshes[name] = split
-            scene.surfaces[name] = Surface(base.numpy(), rough.numpy(), part.specular,
-                                           texture_transform(metres, tile, part.scale, part.rotation))
+            scene.surfaces[name] = Surface(
+                base.numpy(), rough.numpy(), part.specular, texture_transform(metres, tile, part.scale, part.rotation)
+            )
         else:
             scene.meshes[name] = mesh
             scene.surfaces[name] = Surface(tuple(part.base_color), part.roughness, part.specular)
@@ -168,8 +186,9 @@ GUIDE_SPP = 16
 """Samples per pixel of a denoiser's albedo and normal guides (OIDN prefilters them)."""
 
 
-def finished_render(geometry: Any, denoiser: Any, inputs: Mapping[str, Any], spp: int,
-                    iteration: int) -> tuple[np.ndarray, np.ndarray]:
+def finished_render(
+    geometry: Any, denoiser: Any, inputs: Mapping[str, Any], spp: int, iteration: int
+) -> tuple[np.ndarray, np.ndarray]:
     """A picture of ``geometry``'s RGB scene (``inputs``: :meth:`render_rgb` keyword arguments, no gradients):
     linear (noisy, denoised) float32 [H, W, 3], the second by ``denoiser`` guided by the scene's albedo and
     normal."""

@@ -110,9 +110,7 @@ class RoomInitResult:
     one ``wall`` and the camera held level, or the ``camera`` alone (see :func:`floor_without_floor_points`)."""
 
 
-def fit_floor_plane(
-    points: np.ndarray, threshold: float, iterations: int, seed: int
-) -> tuple[np.ndarray, np.ndarray]:
+def fit_floor_plane(points: np.ndarray, threshold: float, iterations: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """RANSAC plane (a, b, c, d) through ``points`` (N x 3, camera frame) and its inlier mask.
 
     ``threshold`` is the absolute inlier distance. The normal points to the camera side (d >= 0).
@@ -153,8 +151,7 @@ def init_room_box(points: dict[str, np.ndarray], params: RoomInitParams = RoomIn
         floor_plane, _ = fit_floor_plane(clouds["floor"], threshold, params.ransac_iterations, params.seed)
         floor_source = "floor"
     else:
-        floor_plane, floor_source = floor_without_floor_points({**clouds, "objects": objects}, threshold, scale,
-                                                               params)
+        floor_plane, floor_source = floor_without_floor_points({**clouds, "objects": objects}, threshold, scale, params)
     camera_to_world = camera_to_world_from_floor(floor_plane)
     world = {name: _transform(cloud, camera_to_world) for name, cloud in clouds.items()}
     camera_height = float(floor_plane[3])
@@ -166,8 +163,9 @@ def init_room_box(points: dict[str, np.ndarray], params: RoomInitParams = RoomIn
     yaw = _wall_yaw(wall_normals, [len(inliers) for inliers in wall_inliers])
 
     room = np.concatenate([world["floor"], world["wall"], world["ceiling"]])
-    lower, upper = _horizontal_extents(room, wall_normals, wall_inliers, yaw, params.behind_margin * scale,
-                                       params.size_ratio * camera_height, params)
+    lower, upper = _horizontal_extents(
+        room, wall_normals, wall_inliers, yaw, params.behind_margin * scale, params.size_ratio * camera_height, params
+    )
     center_local = np.array([(lower[0] + upper[0]) / 2, height / 2, (lower[1] + upper[1]) / 2])
     half_size = np.array([(upper[0] - lower[0]) / 2, height / 2, (upper[1] - lower[1]) / 2])
     return RoomInitResult(
@@ -183,8 +181,9 @@ def init_room_box(points: dict[str, np.ndarray], params: RoomInitParams = RoomIn
     )
 
 
-def floor_without_floor_points(clouds: dict[str, np.ndarray], threshold: float, scale: float,
-                               params: RoomInitParams) -> tuple[np.ndarray, str]:
+def floor_without_floor_points(
+    clouds: dict[str, np.ndarray], threshold: float, scale: float, params: RoomInitParams
+) -> tuple[np.ndarray, str]:
     """The floor plane (camera frame, camera side positive) of a photo that shows no floor, and how it was found.
 
     From the ceiling plane when one is seen: parallel to it, the camera ``1 / (height_ratio - 1)`` of the
@@ -199,7 +198,7 @@ def floor_without_floor_points(clouds: dict[str, np.ndarray], threshold: float, 
         up = -ceiling[:3]  # the ceiling's normal points down, to the camera
         return np.append(up, ceiling[3] / (params.height_ratio - 1.0)), "ceiling"
     normals = _wall_normals(clouds["wall"], threshold, params)
-    pairs = [(a, b) for i, a in enumerate(normals) for b in normals[i + 1:] if abs(a @ b) < 0.3]
+    pairs = [(a, b) for i, a in enumerate(normals) for b in normals[i + 1 :] if abs(a @ b) < 0.3]
     image_up = np.array([0.0, -1.0, 0.0])  # camera y points down
     if pairs:
         up, source = np.cross(*pairs[0]), "walls"

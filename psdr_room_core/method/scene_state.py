@@ -105,8 +105,9 @@ def check_graph(material: Any, params: Any, library: Any, where: str) -> None:
     """A procedural part's ``material`` is in the ``library`` and its ``params`` are the graph's parameters, of
     their shapes and inside their ranges."""
     if not isinstance(material, str) or material not in library.names():
-        raise PsdrRoomError(f"{where}: material {material!r} is not in the library; "
-                            "`psdr-room-materials list` shows them")
+        raise PsdrRoomError(
+            f"{where}: material {material!r} is not in the library; `psdr-room-materials list` shows them"
+        )
     if not isinstance(params, Mapping):
         raise PsdrRoomError(f"{where}: params must be an object of graph parameters")
     bounds = library.material(material).bounds
@@ -119,13 +120,15 @@ def check_graph(material: Any, params: Any, library: Any, where: str) -> None:
         except (TypeError, ValueError):
             array = np.asarray(np.nan)
         if array.shape != tuple(bound.value.shape) or not np.all(np.isfinite(array)):
-            raise PsdrRoomError(f"{where}: {key}={json.dumps(value)} is invalid; allowed: numbers of shape "
-                                f"{tuple(bound.value.shape)}")
+            raise PsdrRoomError(
+                f"{where}: {key}={json.dumps(value)} is invalid; allowed: numbers of shape {tuple(bound.value.shape)}"
+            )
         lo, hi = np.asarray(bound.lo, dtype=np.float32), np.asarray(bound.hi, dtype=np.float32)
         single = array.astype(np.float32)  # the graph's precision: a slider's 0.05 is its bound float32(0.05)
         if np.any(single < lo) or np.any(single > hi):
-            raise PsdrRoomError(f"{where}: {key}={json.dumps(value)} is out of range; allowed: "
-                                f"{_span(lo)} to {_span(hi)}")
+            raise PsdrRoomError(
+                f"{where}: {key}={json.dumps(value)} is out of range; allowed: {_span(lo)} to {_span(hi)}"
+            )
 
 
 class _Checker:
@@ -137,8 +140,9 @@ class _Checker:
     def fail(self, where: str, value: Any, allowed: str) -> None:
         raise PsdrRoomError(f"{self.source}: {where}={json.dumps(value)} is invalid; allowed: {allowed}")
 
-    def mapping(self, value: Any, where: str, required: tuple[str, ...],
-                optional: tuple[str, ...] = ()) -> Mapping[str, Any]:
+    def mapping(
+        self, value: Any, where: str, required: tuple[str, ...], optional: tuple[str, ...] = ()
+    ) -> Mapping[str, Any]:
         if not isinstance(value, Mapping):
             self.fail(where, value, "an object")
         missing = [k for k in required if k not in value]
@@ -160,8 +164,9 @@ class _Checker:
         if isinstance(value, bool) or not ok_type or not math.isfinite(value):
             self.fail(where, value, f"{kind} from {lo:g} to {hi:g}")
         if not lo <= value <= hi:
-            raise PsdrRoomError(f"{self.source}: {where}={json.dumps(value)} is out of range; "
-                                f"allowed: {kind} from {lo:g} to {hi:g}")
+            raise PsdrRoomError(
+                f"{self.source}: {where}={json.dumps(value)} is out of range; allowed: {kind} from {lo:g} to {hi:g}"
+            )
 
     def rgb(self, value: Any, where: str, key: str) -> None:
         if not isinstance(value, list) or len(value) != 3:

@@ -101,5 +101,7 @@ def planar_uv(mesh: TriangleMesh) -> tuple[TriangleMesh, np.ndarray]:
         out_uv.append(np.stack([points @ tangent, points @ bitangent], axis=1))
         out_faces.append(local.reshape(-1, 3) + offset)
         offset += len(used)
-    return (TriangleMesh(np.concatenate(out_vertices), np.concatenate(out_faces)),
-            np.concatenate(out_uv).astype(np.float64))
+    return (
+        TriangleMesh(np.concatenate(out_vertices), np.concatenate(out_faces)),
+        np.concatenate(out_uv).astype(np.float64),
+    )

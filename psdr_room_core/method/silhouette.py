@@ -55,8 +55,10 @@ class MeshCaster:
 
         self._o3d = o3d
         self._scene = o3d.t.geometry.RaycastingScene()
-        self._scene.add_triangles(o3d.core.Tensor(np.ascontiguousarray(vertices, np.float32)),
-                                  o3d.core.Tensor(np.ascontiguousarray(faces, np.uint32)))
+        self._scene.add_triangles(
+            o3d.core.Tensor(np.ascontiguousarray(vertices, np.float32)),
+            o3d.core.Tensor(np.ascontiguousarray(faces, np.uint32)),
+        )
 
     def rays(self, camera: Camera, window: Window) -> np.ndarray:
         """[h*w, 3] camera-frame directions with unit z through the window's pixel centres
@@ -64,15 +66,21 @@ class MeshCaster:
         x0, y0, x1, y1 = window
         return camera_rays(camera)[y0:y1, x0:x1].reshape(-1, 3)
 
-    def depth(self, camera: Camera, camera_to_world: np.ndarray, to_world: np.ndarray | None = None,
-              window: Window | None = None) -> np.ndarray:
+    def depth(
+        self,
+        camera: Camera,
+        camera_to_world: np.ndarray,
+        to_world: np.ndarray | None = None,
+        window: Window | None = None,
+    ) -> np.ndarray:
         """(h, w) float32 z-depth of the nearest surface of the mesh posed by ``to_world`` (4×4 similarity:
         rotation times a uniform scale, plus translation; identity when None), 0 where no surface is hit,
         over ``window`` (default: the whole image)."""
         return self.depth_many(camera, camera_to_world, [np.eye(4) if to_world is None else to_world], window)[0]
 
-    def depth_many(self, camera: Camera, camera_to_world: np.ndarray, poses: Sequence[np.ndarray],
-                   window: Window | None = None) -> np.ndarray:
+    def depth_many(
+        self, camera: Camera, camera_to_world: np.ndarray, poses: Sequence[np.ndarray], window: Window | None = None
+    ) -> np.ndarray:
         """(K, h, w) float32 depths of the mesh under each of ``poses`` (as :meth:`depth`), cast in one call:
         each pose's rays are the same numbers :meth:`depth` casts, so the maps are equal to K single casts."""
         window = window or (0, 0, camera.width, camera.height)
@@ -85,8 +93,8 @@ class MeshCaster:
         for k, to_world in enumerate(poses):  # into the mesh's frame: x_local = A^-1 (x_world - t); t is kept
             linear = to_world[:3, :3]
             inverse = linear.T / float(linear[:, 0] @ linear[:, 0])  # A = s R: A^-1 = A^T / s^2
-            rays[k * n:(k + 1) * n, :3] = inverse @ (camera_to_world[:3, 3] - to_world[:3, 3])
-            rays[k * n:(k + 1) * n, 3:] = directions @ inverse.T
+            rays[k * n : (k + 1) * n, :3] = inverse @ (camera_to_world[:3, 3] - to_world[:3, 3])
+            rays[k * n : (k + 1) * n, 3:] = directions @ inverse.T
         hit = self._scene.cast_rays(self._o3d.core.Tensor(rays))["t_hit"].numpy()
         return np.where(np.isfinite(hit), hit, 0.0).astype(np.float32).reshape(len(poses), y1 - y0, x1 - x0)
 

@@ -42,8 +42,10 @@ class SizeRange:
     """The shorter horizontal side."""
 
     def describe(self) -> str:
-        return "; ".join(f"{name} {lo:g}-{hi:g} m" for name, (lo, hi) in
-                         (("height", self.height), ("length", self.length), ("width", self.width)))
+        return "; ".join(
+            f"{name} {lo:g}-{hi:g} m"
+            for name, (lo, hi) in (("height", self.height), ("length", self.length), ("width", self.width))
+        )
 
 
 CATEGORY_SIZES: dict[str, SizeRange] = {

@@ -53,7 +53,7 @@ class Solid:
 
     @property
     def volume(self) -> float:
-        return len(self.centres) * self.pitch ** 3
+        return len(self.centres) * self.pitch**3
 
     def depth_at(self, points: np.ndarray) -> np.ndarray:
         """(N,) depth inside the solid of model-frame points (nearest voxel; 0 outside the grid)."""
@@ -100,8 +100,14 @@ def voxel_solid(vertices: np.ndarray, faces: np.ndarray) -> Solid:
     depth = ndimage.distance_transform_edt(inside).astype(np.float32) * pitch
     depth = np.where(inside, np.maximum(depth - pitch / 2.0, pitch / 2.0), 0.0).astype(np.float32)
     cells = np.argwhere(inside)
-    return Solid(origin=origin, pitch=pitch, inside=inside, depth=depth,
-                 centres=(cells * pitch + origin).astype(np.float32), depths=depth[inside])
+    return Solid(
+        origin=origin,
+        pitch=pitch,
+        inside=inside,
+        depth=depth,
+        centres=(cells * pitch + origin).astype(np.float32),
+        depths=depth[inside],
+    )
 
 
 class _SolidCache:
@@ -171,6 +177,7 @@ def _one_way(a: Placement, b: Placement) -> tuple[float, float]:
 
 def _boxes_apart(a: Placement, b: Placement) -> bool:
     """Whether the two objects' world bounding spheres are apart (a quick test before the voxels)."""
+
     def sphere(p: Placement) -> tuple[np.ndarray, float]:
         v = p.mesh.vertices
         centre_model = (v.min(axis=0) + v.max(axis=0)) / 2.0
@@ -186,7 +193,7 @@ def overlap(a: Placement, b: Placement) -> Overlap:
         return Overlap(0.0, 0.0)
     thick_ab, common_ab = _one_way(a, b)
     thick_ba, common_ba = _one_way(b, a)
-    smaller = min(solid_of(a).volume * a.scale ** 3, solid_of(b).volume * b.scale ** 3)
+    smaller = min(solid_of(a).volume * a.scale**3, solid_of(b).volume * b.scale**3)
     common = max(common_ab, common_ba)
     return Overlap(max(thick_ab, thick_ba), common / smaller if smaller > 0 else 0.0)
 

@@ -35,9 +35,18 @@ from psdr_room_core.engine.errors import PsdrRoomError
 MARKERS = ("run.json", "psdr-room.log")
 """Files that make a folder a run folder (``run.json``: published; the log alone: the run failed)."""
 THUMB_HEIGHT = 96
-PAGE_COLUMNS = (("photo | render", "270px"), ("photo and run", "13%"), ("status", "17%"), ("FoV °", "4%"),
-                ("objects", "5%"), ("RMSE", "9.5%"), ("SSIM", "9.5%"), ("ꟻLIP", "9.5%"), ("computed s", "6%"),
-                ("wall s", "5.5%"))
+PAGE_COLUMNS = (
+    ("photo | render", "270px"),
+    ("photo and run", "13%"),
+    ("status", "17%"),
+    ("FoV °", "4%"),
+    ("objects", "5%"),
+    ("RMSE", "9.5%"),
+    ("SSIM", "9.5%"),
+    ("ꟻLIP", "9.5%"),
+    ("computed s", "6%"),
+    ("wall s", "5.5%"),
+)
 """The page's columns and their widths (a fixed layout: the table never grows past the window, cells wrap)."""
 
 
@@ -47,8 +56,11 @@ def find_runs(paths: Iterable[Path]) -> list[Path]:
     for path in paths:
         if not path.is_dir():
             raise PsdrRoomError(f"{path}: not a folder; give run folders or a sweep folder (hydra.sweep.dir)")
-        found = [path] if any((path / m).is_file() for m in MARKERS) else sorted(
-            {f.parent for m in MARKERS for f in path.rglob(m) if ".publishing-" not in str(f)})
+        found = (
+            [path]
+            if any((path / m).is_file() for m in MARKERS)
+            else sorted({f.parent for m in MARKERS for f in path.rglob(m) if ".publishing-" not in str(f)})
+        )
         if not found:
             raise PsdrRoomError(f"{path}: no run folder in it (none holds run.json or psdr-room.log)")
         runs += [r for r in found if r not in runs]
@@ -93,8 +105,24 @@ def summarise(run: Path) -> dict[str, Any]:
     return row
 
 
-COLUMNS = ("run", "photo", "status", "error", "implementations", "vfov_deg", "objects", "rmse_init", "rmse",
-           "ssim_init", "ssim", "flip_init", "flip", "total_seconds", "computed_seconds", "cached_stages")
+COLUMNS = (
+    "run",
+    "photo",
+    "status",
+    "error",
+    "implementations",
+    "vfov_deg",
+    "objects",
+    "rmse_init",
+    "rmse",
+    "ssim_init",
+    "ssim",
+    "flip_init",
+    "flip",
+    "total_seconds",
+    "computed_seconds",
+    "cached_stages",
+)
 
 
 def _stage_names(rows: list[dict[str, Any]]) -> list[str]:
@@ -122,8 +150,11 @@ def _thumbnail(run: Path) -> str:
     """photo | render (the render when the run got that far) as a PNG data URI; empty when there is no photo."""
     files = [run / "artifacts" / name for name in ("image/image.png", "appearance/render.png")]
     images = [cv2.imread(str(f)) for f in files if f.is_file()]
-    images = [cv2.resize(i, (round(i.shape[1] * THUMB_HEIGHT / i.shape[0]), THUMB_HEIGHT), interpolation=cv2.INTER_AREA)
-              for i in images if i is not None]
+    images = [
+        cv2.resize(i, (round(i.shape[1] * THUMB_HEIGHT / i.shape[0]), THUMB_HEIGHT), interpolation=cv2.INTER_AREA)
+        for i in images
+        if i is not None
+    ]
     if not images:
         return ""
     ok, png = cv2.imencode(".png", np.hstack(images))
@@ -141,8 +172,12 @@ def _link(target: Path, base: Path) -> str:
 def _stage_cells(row: dict[str, Any]) -> str:
     """A run's stages in run order, each ``name seconds`` computed, or ``name cached`` (greyed)."""
     cached = set(row.get("cached_stages", "").split())
-    return " ".join(f'<span class="cached">{html.escape(name)} cached</span>' if name in cached
-                    else f"<span>{html.escape(name)} {seconds:.2f} s</span>" for name, seconds in row["stages"].items())
+    return " ".join(
+        f'<span class="cached">{html.escape(name)} cached</span>'
+        if name in cached
+        else f"<span>{html.escape(name)} {seconds:.2f} s</span>"
+        for name, seconds in row["stages"].items()
+    )
 
 
 def html_text(rows: list[dict[str, Any]], base: Path = Path(".")) -> str:
@@ -159,17 +194,30 @@ def html_text(rows: list[dict[str, Any]], base: Path = Path(".")) -> str:
         uri = _thumbnail(run)
         thumb = f'<img src="{uri}">' if uri else ""
         if thumb and (run / "report.html").is_file():
-            thumb = f'<a href="{html.escape(_link(run / "report.html", base))}" title="the report of this run">{thumb}</a>'
+            thumb = (
+                f'<a href="{html.escape(_link(run / "report.html", base))}" title="the report of this run">{thumb}</a>'
+            )
         status = row["status"] if row["status"] == "ok" else f"{row['status']}: {row.get('error', '')}"
         photo = Path(str(row.get("photo", ""))).name or "(unknown photo)"
-        cells = [thumb, f"<b>{html.escape(photo)}</b><br><small>{html.escape(str(run))}</small>", html.escape(status),
-                 _plain(row.get("vfov_deg")), _plain(row.get("objects")), pair(row, "rmse"), pair(row, "ssim"),
-                 pair(row, "flip"), _plain(row.get("computed_seconds")), _plain(row.get("total_seconds"))]
+        cells = [
+            thumb,
+            f"<b>{html.escape(photo)}</b><br><small>{html.escape(str(run))}</small>",
+            html.escape(status),
+            _plain(row.get("vfov_deg")),
+            _plain(row.get("objects")),
+            pair(row, "rmse"),
+            pair(row, "ssim"),
+            pair(row, "flip"),
+            _plain(row.get("computed_seconds")),
+            _plain(row.get("total_seconds")),
+        ]
         body.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
         details = [f"<small>{html.escape(row['implementations'])}</small>"] if row.get("implementations") else []
         details += [_stage_cells(row)] if row["stages"] else []
         if details:
-            body.append(f'<tr class="stages"><td></td><td colspan="{len(PAGE_COLUMNS) - 1}">{"<br>".join(details)}</td></tr>')
+            body.append(
+                f'<tr class="stages"><td></td><td colspan="{len(PAGE_COLUMNS) - 1}">{"<br>".join(details)}</td></tr>'
+            )
     ok = sum(row["status"] == "ok" for row in rows)
     computed = sum(float(row.get("computed_seconds") or 0.0) for row in rows)
     results = sum(len(row["stages"]) for row in rows)
@@ -183,8 +231,11 @@ def html_text(rows: list[dict[str, Any]], base: Path = Path(".")) -> str:
         f"<h1>psdr-room summary</h1><p>{len(rows)} runs, {ok} ok, {len(rows) - ok} failed; {computed:.1f} s computed "
         f"in all; {cached} of {results} stage results from the cache (0 s each: their cost was paid by the run that "
         "made them). Per run: computed s = the seconds its stages computed; wall s = its stages' wall time, cache "
-        "reads included.</p><table><colgroup>" + "".join(f'<col style="width:{w}">' for _, w in PAGE_COLUMNS) + "</colgroup>"
-        "<tr>" + "".join(f"<th>{html.escape(h)}</th>" for h, _ in PAGE_COLUMNS) + "</tr>" + "".join(body) + "</table>\n")
+        "reads included.</p><table><colgroup>"
+        + "".join(f'<col style="width:{w}">' for _, w in PAGE_COLUMNS)
+        + "</colgroup>"
+        "<tr>" + "".join(f"<th>{html.escape(h)}</th>" for h, _ in PAGE_COLUMNS) + "</tr>" + "".join(body) + "</table>\n"
+    )
 
 
 def write_summary(rows: list[dict[str, Any]], out: Path) -> str:
@@ -196,9 +247,13 @@ def write_summary(rows: list[dict[str, Any]], out: Path) -> str:
     for name, text in texts.items():
         (out / name).write_text(text, encoding="utf-8")
     failed = [row for row in rows if row["status"] != "ok"]
-    return "\n".join([f"{len(rows)} runs ({len(rows) - len(failed)} ok, {len(failed)} failed) → "
-                      f"{out / 'summary.csv'}, {out / 'summary.html'}",
-                      *(f"  failed: {row.get('photo') or row['run']}: {row.get('error', '')}" for row in failed)])
+    return "\n".join(
+        [
+            f"{len(rows)} runs ({len(rows) - len(failed)} ok, {len(failed)} failed) → "
+            f"{out / 'summary.csv'}, {out / 'summary.html'}",
+            *(f"  failed: {row.get('photo') or row['run']}: {row.get('error', '')}" for row in failed),
+        ]
+    )
 
 
 class SweepSummary(Callback):
@@ -230,8 +285,12 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of ``psdr-room-summary``."""
     parser = argparse.ArgumentParser(prog="psdr-room-summary", description=__doc__.split("\n\n")[0])
     parser.add_argument("runs", nargs="+", type=Path, metavar="RUN_DIR", help="run folders, or folders holding them")
-    parser.add_argument("--out", type=Path, default=Path("."), help="where summary.csv and summary.html go "
-                        "(default: the current folder)")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("."),
+        help="where summary.csv and summary.html go (default: the current folder)",
+    )
     args = parser.parse_args(argv)
     try:
         print(write_summary([summarise(run) for run in find_runs(args.runs)], args.out))

@@ -37,8 +37,14 @@ class SurfaceColours:
     """Colour histograms of the fitted room's surfaces: ``labels`` (H, W) surface index per pixel (box.trace),
     ``background`` (H, W) the pixels that may train them (no object prompt on them)."""
 
-    def __init__(self, rgb8: np.ndarray, labels: np.ndarray, background: np.ndarray, coverage: float = 0.75,
-                 min_pixels: int = 200) -> None:
+    def __init__(
+        self,
+        rgb8: np.ndarray,
+        labels: np.ndarray,
+        background: np.ndarray,
+        coverage: float = 0.75,
+        min_pixels: int = 200,
+    ) -> None:
         self.index = colour_bins(rgb8)
         self.labels = labels
         self.likelihood = np.zeros(labels.shape, np.float32)
@@ -65,7 +71,7 @@ def unprompted(shape: tuple[int, int], boxes: Iterable[tuple[float, float, float
     """(H, W) True outside every box."""
     free = np.ones(shape, bool)
     for x0, y0, x1, y1 in boxes:
-        free[max(0, int(y0)):int(np.ceil(y1)), max(0, int(x0)):int(np.ceil(x1))] = False
+        free[max(0, int(y0)) : int(np.ceil(y1)), max(0, int(x0)) : int(np.ceil(x1))] = False
     return free
 
 
@@ -94,8 +100,9 @@ def edge_outliers(rgb8: np.ndarray, labels: np.ndarray, ratio: float, floor: flo
     return out
 
 
-def clean_pixels(rgb8: np.ndarray, labels: np.ndarray, coverage: float, edge_ratio: float, edge_floor: float,
-                 open_px: int) -> np.ndarray:
+def clean_pixels(
+    rgb8: np.ndarray, labels: np.ndarray, coverage: float, edge_ratio: float, edge_floor: float, open_px: int
+) -> np.ndarray:
     """(H, W) True on the pixels that show their surface itself: ``labels`` (H, W) gives each pixel's surface
     (−1: none); a pixel is clean when its surface's colour model explains it (:class:`SurfaceColours` at
     ``coverage``) and no :func:`edge_outliers` (``edge_ratio``, ``edge_floor``) lies within ``open_px`` // 2

@@ -36,8 +36,9 @@ def specular_ior(specular: float) -> float:
     return (1 + root) / (1 - root)
 
 
-def scene_usda(scene: RgbScene, camera: Camera, camera_to_world: np.ndarray,
-               maps: Mapping[str, Mapping[str, str]]) -> str:
+def scene_usda(
+    scene: RgbScene, camera: Camera, camera_to_world: np.ndarray, maps: Mapping[str, Mapping[str, str]]
+) -> str:
     """``scene.usda`` of ``scene``; ``maps[part][channel]`` (``base_color``, ``roughness``) are the relative paths
     of the parts' baked maps."""
     from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, Vt
@@ -59,7 +60,9 @@ def scene_usda(scene: RgbScene, camera: Camera, camera_to_world: np.ndarray,
     usd_camera.CreateHorizontalApertureAttr(APERTURE_MM)
     usd_camera.CreateVerticalApertureAttr(float(camera.height * camera.fx / camera.fy * millimetres))
     usd_camera.CreateHorizontalApertureOffsetAttr(float((camera.width / 2 - camera.cx) * millimetres))
-    usd_camera.CreateVerticalApertureOffsetAttr(float((camera.cy - camera.height / 2) * camera.fx / camera.fy * millimetres))
+    usd_camera.CreateVerticalApertureOffsetAttr(
+        float((camera.cy - camera.height / 2) * camera.fx / camera.fy * millimetres)
+    )
     usd_camera.CreateClippingRangeAttr(Gf.Vec2f(0.01, 10000.0))
 
     def mesh(path: str, vertices: np.ndarray, faces: np.ndarray) -> UsdGeom.Mesh:
@@ -77,7 +80,9 @@ def scene_usda(scene: RgbScene, camera: Camera, camera_to_world: np.ndarray,
         shader = UsdShade.Shader.Define(stage, f"{material.GetPath()}/{channel}_map")
         shader.CreateIdAttr("UsdUVTexture")
         shader.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(maps[part][channel])
-        shader.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("sRGB" if channel == "base_color" else "raw")
+        shader.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set(
+            "sRGB" if channel == "base_color" else "raw"
+        )
         shader.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set("repeat")
         shader.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set("repeat")
         shader.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "result")
@@ -94,8 +99,9 @@ def scene_usda(scene: RgbScene, camera: Camera, camera_to_world: np.ndarray,
         mapped = maps.get(name, {})
         if mapped:
             uv = np.asarray(surface.uv, np.float64)
-            st = UsdGeom.PrimvarsAPI(prim).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray,
-                                                          UsdGeom.Tokens.vertex)
+            st = UsdGeom.PrimvarsAPI(prim).CreatePrimvar(
+                "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex
+            )
             st.Set(Vt.Vec2fArray.FromNumpy(np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]).astype(np.float32)))
             reader = UsdShade.Shader.Define(stage, f"/Scene/Materials/{name}/st_reader")
             reader.CreateIdAttr("UsdPrimvarReader_float2")
@@ -153,8 +159,12 @@ def _rectangle(vertices: np.ndarray, normal: np.ndarray) -> tuple[np.ndarray, fl
         local = (vertices - centre) @ frame[:3, :3]
         width, height = float(np.ptp(local[:, 0])), float(np.ptp(local[:, 1]))
         if best is None or width * height < best[1] * best[2]:
-            frame[:3, 3] = centre + frame[:3, :3] @ np.array([local[:, 0].max() + local[:, 0].min(),
-                                                              local[:, 1].max() + local[:, 1].min(), 0.0]) / 2
+            frame[:3, 3] = (
+                centre
+                + frame[:3, :3]
+                @ np.array([local[:, 0].max() + local[:, 0].min(), local[:, 1].max() + local[:, 1].min(), 0.0])
+                / 2
+            )
             best = (frame, width, height)
     assert best is not None, "a flat emitter has two distinct vertices"
     return best

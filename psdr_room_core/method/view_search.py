@@ -96,9 +96,18 @@ class ViewTarget:
         return float(np.median(np.linalg.norm(self.points - self.points_median, axis=1)))
 
     @classmethod
-    def build(cls, camera: Camera, camera_to_world: np.ndarray, mask: np.ndarray, points: np.ndarray,
-              scene_points: np.ndarray, width: int, max_pixels: int = 0,
-              box: tuple[float, float, float, float] | None = None, room: RoomBox | None = None) -> ViewTarget:
+    def build(
+        cls,
+        camera: Camera,
+        camera_to_world: np.ndarray,
+        mask: np.ndarray,
+        points: np.ndarray,
+        scene_points: np.ndarray,
+        width: int,
+        max_pixels: int = 0,
+        box: tuple[float, float, float, float] | None = None,
+        room: RoomBox | None = None,
+    ) -> ViewTarget:
         """The target of an object with ``mask`` (working-image resolution) and world ``points`` in a scene of
         world ``scene_points`` (every segment's), seen by ``camera`` resized to ``width``, or narrower where
         the mask would have more than ``max_pixels`` pixels (0: no limit; scores are relative, so a cap buys
@@ -119,10 +128,19 @@ class ViewTarget:
             s = cam.width / camera.width
             x0, y0, x1, y1 = (int(round(v * s)) for v in box)
             small_box = (max(0, x0), max(0, y0), min(cam.width, max(x1, x0 + 1)), min(cam.height, max(y1, y0 + 1)))
-            free[small_box[1]:small_box[3], small_box[0]:small_box[2]] = True
+            free[small_box[1] : small_box[3], small_box[0] : small_box[2]] = True
             free &= ~small
-        return cls(cam, c2w, small, point_depth(cam, c2w, points), point_depth(cam, c2w, scene_points), points, free,
-                   small_box, room)
+        return cls(
+            cam,
+            c2w,
+            small,
+            point_depth(cam, c2w, points),
+            point_depth(cam, c2w, scene_points),
+            points,
+            free,
+            small_box,
+            room,
+        )
 
 
 @dataclass(frozen=True)
@@ -193,8 +211,16 @@ class SearchParams:
 class _Scorer:
     """Scores poses of one mesh against one :class:`ViewTarget`."""
 
-    def __init__(self, target: ViewTarget, vertices: np.ndarray, faces: np.ndarray, params: SearchParams,
-                 caster: MeshCaster | None = None, prior: SizePrior | None = None, backed: bool = False) -> None:
+    def __init__(
+        self,
+        target: ViewTarget,
+        vertices: np.ndarray,
+        faces: np.ndarray,
+        params: SearchParams,
+        caster: MeshCaster | None = None,
+        prior: SizePrior | None = None,
+        backed: bool = False,
+    ) -> None:
         self.target, self.params, self.prior = target, params, prior
         self.backed = backed and params.back_weight > 0
         self.caster = caster or MeshCaster(vertices, faces)
@@ -211,14 +237,23 @@ class _Scorer:
         u = cam.fx * local[:, 0] / local[:, 2] + cam.cx
         v = cam.fy * local[:, 1] / local[:, 2] + cam.cy
         x0, y0, x1, y1 = self.mask_box
-        return (max(0, min(x0, math.floor(u.min()))), max(0, min(y0, math.floor(v.min()))),
-                min(cam.width, max(x1, math.ceil(u.max()) + 1)), min(cam.height, max(y1, math.ceil(v.max()) + 1)))
+        return (
+            max(0, min(x0, math.floor(u.min()))),
+            max(0, min(y0, math.floor(v.min()))),
+            min(cam.width, max(x1, math.ceil(u.max()) + 1)),
+            min(cam.height, max(y1, math.ceil(v.max()) + 1)),
+        )
 
     def render_many(self, poses: list[np.ndarray]) -> tuple[Window, np.ndarray, np.ndarray]:
         """(window, (K, h, w) depths, (K, h, w) visible pixels) of K poses over the union of their windows, in
         one cast. Every score below is the same over any window holding the pose's own."""
         windows = np.array([self.window(pose) for pose in poses])
-        window = (int(windows[:, 0].min()), int(windows[:, 1].min()), int(windows[:, 2].max()), int(windows[:, 3].max()))
+        window = (
+            int(windows[:, 0].min()),
+            int(windows[:, 1].min()),
+            int(windows[:, 2].max()),
+            int(windows[:, 3].max()),
+        )
         depth = self.caster.depth_many(self.target.camera, self.target.camera_to_world, poses, window)
         x0, y0, x1, y1 = window
         seen = self.target.seen_depth[y0:y1, x0:x1]
@@ -317,9 +352,17 @@ class ViewSearch:
     stands with its back to a wall (its category is in :data:`~psdr_room_core.method.backs.BACKED`), so a pose
     showing the camera its back costs ``back_weight``."""
 
-    def __init__(self, target: ViewTarget, vertices: np.ndarray, faces: np.ndarray,
-                 params: SearchParams | None = None, support_height: float | None = None,
-                 caster: MeshCaster | None = None, prior: SizePrior | None = None, backed: bool = False) -> None:
+    def __init__(
+        self,
+        target: ViewTarget,
+        vertices: np.ndarray,
+        faces: np.ndarray,
+        params: SearchParams | None = None,
+        support_height: float | None = None,
+        caster: MeshCaster | None = None,
+        prior: SizePrior | None = None,
+        backed: bool = False,
+    ) -> None:
         params = params or SearchParams()
         self.params, self.support_height = params, support_height
         self.scorer = _Scorer(target, vertices, faces, params, caster, prior, backed)
@@ -379,12 +422,13 @@ class ViewSearch:
         those at finer steps, the best also turned by each of ``turns`` and refined."""
         params, scorer = self.params, self.scorer
         spacing = 2.0 * math.pi / max(params.n_yaw, 1)
-        search = _PatternSearch(scorer, self.supported, spacing / 2.0, self.size,
-                                scorer.target.camera_to_world[:3, 3], params.rounds)
-        explored = self.hypotheses[:params.explore] if params.explore else self.hypotheses
+        search = _PatternSearch(
+            scorer, self.supported, spacing / 2.0, self.size, scorer.target.camera_to_world[:3, 3], params.rounds
+        )
+        explored = self.hypotheses[: params.explore] if params.explore else self.hypotheses
         coarse = sorted((search.run(h, range(params.coarse)) for h in explored), key=lambda h: h[0])
         fine_levels = range(params.coarse, params.coarse + params.halvings)
-        fine = [search.run(h, fine_levels) for h in coarse[:params.polish]]
+        fine = [search.run(h, fine_levels) for h in coarse[: params.polish]]
         best = min(fine + coarse[:1], key=lambda h: h[0])
         if params.polish:  # a front/back or side flip of the best, refined from there: it keeps its place and size
             turns = [best[1] + turn for turn in np.radians(params.turns)]
@@ -393,12 +437,25 @@ class ViewSearch:
             best = min([best, *turned], key=lambda h: h[0])
         error, yaw, position, scale = best
         terms, iou = scorer.terms_many([pose_matrix(position, yaw, scale)])
-        return ViewFit(position, yaw % (2.0 * math.pi), scale, float(iou[0]), error,
-                       {name: float(value[0]) for name, value in terms.items()})
+        return ViewFit(
+            position,
+            yaw % (2.0 * math.pi),
+            scale,
+            float(iou[0]),
+            error,
+            {name: float(value[0]) for name, value in terms.items()},
+        )
 
 
-def fit_view(target: ViewTarget, vertices: np.ndarray, faces: np.ndarray, params: SearchParams | None = None,
-             support_height: float | None = None, prior: SizePrior | None = None, backed: bool = False) -> ViewFit:
+def fit_view(
+    target: ViewTarget,
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    params: SearchParams | None = None,
+    support_height: float | None = None,
+    prior: SizePrior | None = None,
+    backed: bool = False,
+) -> ViewFit:
     """The pose of a mesh (canonical: bottom at 0, centred on the vertical axis) that best explains the
     object in ``target``; with ``support_height`` its bottom stays at that height, with ``prior`` its size is
     a likelihood, ``backed``: it stands with its back to a wall (:class:`ViewSearch`)."""
@@ -412,10 +469,23 @@ class _PatternSearch:
     (shifts), 8% (log scale) and ``yaw_step``, halved ``k`` times; a level ends when no move helps or after
     ``rounds`` moves."""
 
-    def __init__(self, scorer: _Scorer, supported: Callable[[np.ndarray], np.ndarray], yaw_step: float, size: float,
-                 origin: np.ndarray, rounds: int) -> None:
+    def __init__(
+        self,
+        scorer: _Scorer,
+        supported: Callable[[np.ndarray], np.ndarray],
+        yaw_step: float,
+        size: float,
+        origin: np.ndarray,
+        rounds: int,
+    ) -> None:
         self.scorer, self.supported, self.yaw_step, self.size, self.origin, self.rounds = (
-            scorer, supported, yaw_step, size, origin, rounds)
+            scorer,
+            supported,
+            yaw_step,
+            size,
+            origin,
+            rounds,
+        )
         forward = scorer.target.camera_to_world[:3, 2] * [1.0, 0.0, 1.0]
         self.forward = forward / max(float(np.linalg.norm(forward)), 1e-9)
         self.right = np.cross([0.0, 1.0, 0.0], self.forward)
@@ -425,18 +495,20 @@ class _PatternSearch:
         error, yaw, position, scale = start
         last = 0  # the move that helped last is tried first
         for level in levels:
-            step = 0.08 / 2 ** level
-            turn = self.yaw_step / 2 ** level
+            step = 0.08 / 2**level
+            turn = self.yaw_step / 2**level
             for _ in range(self.rounds):
                 shift = step * scale * self.size
                 moves = []
                 for sign in (1.0, -1.0):
                     ray = math.exp(sign * step)
-                    moves += [(yaw, self.supported(position + sign * shift * self.right), scale),
-                              (yaw, self.supported(position + sign * shift * self.forward), scale),
-                              (yaw, position, scale * math.exp(sign * step)),
-                              (yaw, self.supported(self.origin + (position - self.origin) * ray), scale * ray),
-                              (yaw + sign * turn, position, scale)]
+                    moves += [
+                        (yaw, self.supported(position + sign * shift * self.right), scale),
+                        (yaw, self.supported(position + sign * shift * self.forward), scale),
+                        (yaw, position, scale * math.exp(sign * step)),
+                        (yaw, self.supported(self.origin + (position - self.origin) * ray), scale * ray),
+                        (yaw + sign * turn, position, scale),
+                    ]
                 for k in (last, *(k for k in range(len(moves)) if k != last)):
                     y, p, s = moves[k]
                     value = self.scorer.score(pose_matrix(p, y, s))[0]

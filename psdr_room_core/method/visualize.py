@@ -42,8 +42,16 @@ def segment_overlay(rgb8: np.ndarray, panoptic: Panoptic, alpha: float = 0.45, t
     grow = text_scale / 0.4
     for segment in panoptic.segments:
         if count[segment.id] > 200 * grow * grow:
-            cv2.putText(out, segment.label[:14], (int(cx[segment.id]) - round(20 * grow), int(cy[segment.id])),
-                        cv2.FONT_HERSHEY_SIMPLEX, text_scale, (255, 255, 255), max(1, round(grow)), cv2.LINE_AA)
+            cv2.putText(
+                out,
+                segment.label[:14],
+                (int(cx[segment.id]) - round(20 * grow), int(cy[segment.id])),
+                cv2.FONT_HERSHEY_SIMPLEX,
+                text_scale,
+                (255, 255, 255),
+                max(1, round(grow)),
+                cv2.LINE_AA,
+            )
     return out
 
 
@@ -79,7 +87,11 @@ def project_room_edges(camera: Camera, room: RoomBox, near: float = 1e-3) -> lis
 def room_edges_overlay(rgb8: np.ndarray, camera: Camera, room: RoomBox, thickness: int = 2) -> np.ndarray:
     """Draw the projected room box edges (floor green, ceiling blue, vertical orange) over the image."""
     out = rgb8.copy()
-    colors = {"floor": CATEGORY_COLORS["floor"], "ceiling": CATEGORY_COLORS["ceiling"], "vertical": CATEGORY_COLORS["wall"]}
+    colors = {
+        "floor": CATEGORY_COLORS["floor"],
+        "ceiling": CATEGORY_COLORS["ceiling"],
+        "vertical": CATEGORY_COLORS["wall"],
+    }
     height, width = out.shape[:2]
     for p, q, kind in project_room_edges(camera, room):
         ok, a, b = cv2.clipLine((0, 0, width, height), _pixel(p), _pixel(q))
@@ -113,7 +125,9 @@ def plot_curves(curves: dict[str, list[float]], size: tuple[int, int] = (520, 26
     plot = np.full((height, width, 3), 255, np.uint8)
     n = max(max((len(v) for v in curves.values()), default=1) - 1, 1)
     cv2.rectangle(plot, (left, top), (width - right, height - bottom), (160, 160, 160), 1)
-    cv2.putText(plot, f"iterations 0-{n}", (left, height - 8), cv2.FONT_HERSHEY_SIMPLEX, 0.38, (0, 0, 0), 1, cv2.LINE_AA)
+    cv2.putText(
+        plot, f"iterations 0-{n}", (left, height - 8), cv2.FONT_HERSHEY_SIMPLEX, 0.38, (0, 0, 0), 1, cv2.LINE_AA
+    )
     cv2.putText(plot, title, (left, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
     palette = list(CATEGORY_COLORS.values())
     for k, (name, curve) in enumerate(curves.items()):
@@ -124,5 +138,7 @@ def plot_curves(curves: dict[str, list[float]], size: tuple[int, int] = (520, 26
         ys = height - bottom - (values - lo) / max(hi - lo, 1e-12) * (height - bottom - top)
         cv2.polylines(plot, [np.stack([xs, ys], 1).round().astype(np.int32)], False, color, 1, cv2.LINE_AA)
         label = f"{name} {values[0]:.3g} > {values[-1]:.3g}"
-        cv2.putText(plot, label, (width - right + 6, top + 16 * (k + 1)), cv2.FONT_HERSHEY_SIMPLEX, 0.36, color, 1, cv2.LINE_AA)
+        cv2.putText(
+            plot, label, (width - right + 6, top + 16 * (k + 1)), cv2.FONT_HERSHEY_SIMPLEX, 0.36, color, 1, cv2.LINE_AA
+        )
     return plot

@@ -34,7 +34,9 @@ class ExifFov:
         with PIL.Image.open(photo) as pil:
             focal_35mm = pil.getexif().get_ifd(0x8769).get(FOCAL_35MM)
         if not focal_35mm:
-            return Camera.from_vfov(image.width, image.height, self.fallback_vfov_deg, method="exif/fallback", confidence=0.0)
+            return Camera.from_vfov(
+                image.width, image.height, self.fallback_vfov_deg, method="exif/fallback", confidence=0.0
+            )
         focal_px = float(focal_35mm) / FULL_FRAME_DIAGONAL_MM * math.hypot(image.width, image.height)
         vfov = math.degrees(2 * math.atan(0.5 * image.height / focal_px))
         return Camera.from_vfov(image.width, image.height, vfov, method="exif")

@@ -59,7 +59,9 @@ class Context:
         """Pixel-centre y coordinates in [0, 1) (row 0 at the top), shape [H, 1]."""
         key = ("ys", self.height)
         if key not in self.cache:
-            self.cache[key] = ((torch.arange(self.height, dtype=self.dtype) + 0.5) / self.height).to(self.device)[:, None]
+            self.cache[key] = ((torch.arange(self.height, dtype=self.dtype) + 0.5) / self.height).to(self.device)[
+                :, None
+            ]
         return self.cache[key]
 
     @property
@@ -102,11 +104,17 @@ NODE_TYPES: dict[str, NodeType] = {}
 KINDS = ("generator", "filter")
 
 
-def node(name: str, kind: str, *, params: dict[str, ParamSpec] | None = None,
-         inputs: dict[str, Input] | None = None, outputs: tuple[str, ...] = ("out",),
-         check: Callable[[dict[str, Any]], str | None] | None = None,
-         normal_ports: tuple[str, ...] = (),
-         inert: Callable[[dict[str, Any], set[str]], set[str]] | None = None) -> Callable[[NodeFn], NodeFn]:
+def node(
+    name: str,
+    kind: str,
+    *,
+    params: dict[str, ParamSpec] | None = None,
+    inputs: dict[str, Input] | None = None,
+    outputs: tuple[str, ...] = ("out",),
+    check: Callable[[dict[str, Any]], str | None] | None = None,
+    normal_ports: tuple[str, ...] = (),
+    inert: Callable[[dict[str, Any], set[str]], set[str]] | None = None,
+) -> Callable[[NodeFn], NodeFn]:
     """Declare a built-in node type (its docstring's first line is its description)."""
     if kind not in KINDS:
         raise ValueError(f"node kind must be one of {KINDS}, got {kind!r}")
@@ -115,8 +123,18 @@ def node(name: str, kind: str, *, params: dict[str, ParamSpec] | None = None,
         if name in NODE_TYPES:
             raise ValueError(f"node type {name!r} declared twice")
         doc = (fn.__doc__ or "").strip().split("\n")[0]
-        NODE_TYPES[name] = NodeType(name, kind, fn, dict(params or {}), dict(inputs or {}), tuple(outputs), doc, check,
-                                   tuple(normal_ports), inert)
+        NODE_TYPES[name] = NodeType(
+            name,
+            kind,
+            fn,
+            dict(params or {}),
+            dict(inputs or {}),
+            tuple(outputs),
+            doc,
+            check,
+            tuple(normal_ports),
+            inert,
+        )
         return fn
 
     return register

@@ -19,8 +19,18 @@ ANY = Input(None)
 GREY = Input(1)
 RGB = Input(3)
 
-BLEND_MODES = ("normal", "multiply", "screen", "overlay", "soft_light", "add", "subtract", "darken", "lighten",
-               "difference")
+BLEND_MODES = (
+    "normal",
+    "multiply",
+    "screen",
+    "overlay",
+    "soft_light",
+    "add",
+    "subtract",
+    "darken",
+    "lighten",
+    "difference",
+)
 
 
 def _match(a: torch.Tensor, b: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -29,10 +39,15 @@ def _match(a: torch.Tensor, b: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor
     return a, b
 
 
-@node("blend", "filter", params={
-    "mode": Choice(BLEND_MODES, "normal"),
-    "opacity": Float(0.0, 1.0, 1.0),
-}, inputs={"background": ANY, "foreground": ANY, "mask": Input(1, required=False)})
+@node(
+    "blend",
+    "filter",
+    params={
+        "mode": Choice(BLEND_MODES, "normal"),
+        "opacity": Float(0.0, 1.0, 1.0),
+    },
+    inputs={"background": ANY, "foreground": ANY, "mask": Input(1, required=False)},
+)
 def blend(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """Blend a foreground over a background with a blend mode, an opacity and an optional mask."""
     a, b = _match(inputs["background"], inputs["foreground"])
@@ -63,11 +78,18 @@ def blend(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     return torch.lerp(a, f.clamp(0, 1), weight).clamp(0, 1)
 
 
-@node("levels", "filter", params={
-    "in_low": Float(0.0, 1.0, 0.0), "in_high": Float(0.0, 1.0, 1.0),
-    "gamma": Float(0.1, 10.0, 1.0, doc="mid-tone exponent (> 1 brightens)"),
-    "out_low": Float(0.0, 1.0, 0.0), "out_high": Float(0.0, 1.0, 1.0),
-}, inputs={"input": ANY})
+@node(
+    "levels",
+    "filter",
+    params={
+        "in_low": Float(0.0, 1.0, 0.0),
+        "in_high": Float(0.0, 1.0, 1.0),
+        "gamma": Float(0.1, 10.0, 1.0, doc="mid-tone exponent (> 1 brightens)"),
+        "out_low": Float(0.0, 1.0, 0.0),
+        "out_high": Float(0.0, 1.0, 1.0),
+    },
+    inputs={"input": ANY},
+)
 def levels(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """Levels: remap [in_low, in_high] to [out_low, out_high] with a gamma."""
     span = (p["in_high"] - p["in_low"]).clamp(min=1e-3)
@@ -85,9 +107,14 @@ def _piecewise(x: torch.Tensor, values: torch.Tensor) -> torch.Tensor:
     return torch.lerp(values[i], values[i + 1], f)
 
 
-@node("curves", "filter", params={
-    "points": Floats(0.0, 1.0, (0.0, 0.25, 0.5, 0.75, 1.0), doc="output at evenly spaced inputs 0..1"),
-}, inputs={"input": ANY})
+@node(
+    "curves",
+    "filter",
+    params={
+        "points": Floats(0.0, 1.0, (0.0, 0.25, 0.5, 0.75, 1.0), doc="output at evenly spaced inputs 0..1"),
+    },
+    inputs={"input": ANY},
+)
 def curves(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """Tone curve through control values at evenly spaced inputs (piecewise linear)."""
     return _piecewise(inputs["input"], p["points"].to(ctx.dtype))
@@ -110,11 +137,16 @@ def gradient_map(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
 _YIQ = torch.tensor([[0.299, 0.587, 0.114], [0.596, -0.274, -0.322], [0.211, -0.523, 0.312]])
 
 
-@node("hsl", "filter", params={
-    "hue": Float(-0.5, 0.5, 0.0, doc="hue rotation, in turns"),
-    "saturation": Float(0.0, 2.0, 1.0, doc="chroma scale"),
-    "lightness": Float(-1.0, 1.0, 0.0, doc="added to the luma"),
-}, inputs={"input": RGB})
+@node(
+    "hsl",
+    "filter",
+    params={
+        "hue": Float(-0.5, 0.5, 0.0, doc="hue rotation, in turns"),
+        "saturation": Float(0.0, 2.0, 1.0, doc="chroma scale"),
+        "lightness": Float(-1.0, 1.0, 0.0, doc="added to the luma"),
+    },
+    inputs={"input": RGB},
+)
 def hsl(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """Hue / saturation / lightness adjustment (a rotation and scaling of chroma in YIQ)."""
     m = _YIQ.to(ctx.dtype)
@@ -127,18 +159,28 @@ def hsl(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     return torch.einsum("ij,jhw->ihw", torch.linalg.inv(m), torch.stack([y, i, q])).clamp(0, 1)
 
 
-@node("blur", "filter", params={
-    "sigma": Float(0.0, 0.1, 0.005, doc="Gaussian standard deviation, in tile widths"),
-}, inputs={"input": ANY})
+@node(
+    "blur",
+    "filter",
+    params={
+        "sigma": Float(0.0, 0.1, 0.005, doc="Gaussian standard deviation, in tile widths"),
+    },
+    inputs={"input": ANY},
+)
 def blur(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """Gaussian blur with wrap-around (FFT; cost independent of sigma)."""
     return fft_blur(inputs["input"], p["sigma"]).clamp(0, 1)
 
 
-@node("directional_warp", "filter", params={
-    "angle": Float(-1.0, 1.0, 0.0, doc="direction, in turns (0: +x)"),
-    "amount": Float(0.0, 0.5, 0.05, doc="displacement at intensity 1, in tile widths"),
-}, inputs={"input": ANY, "intensity": GREY})
+@node(
+    "directional_warp",
+    "filter",
+    params={
+        "angle": Float(-1.0, 1.0, 0.0, doc="direction, in turns (0: +x)"),
+        "amount": Float(0.0, 0.5, 0.05, doc="displacement at intensity 1, in tile widths"),
+    },
+    inputs={"input": ANY, "intensity": GREY},
+)
 def directional_warp(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """Shift each pixel along a fixed direction by an amount scaled by the intensity map."""
     a = 2 * math.pi * p["angle"]
@@ -153,19 +195,29 @@ def _unit_slope(slope: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     return dx / scale, dy / scale
 
 
-@node("warp", "filter", params={
-    "amount": Float(0.0, 0.3, 0.03, doc="displacement at average slope, in tile widths"),
-}, inputs={"input": ANY, "intensity": GREY})
+@node(
+    "warp",
+    "filter",
+    params={
+        "amount": Float(0.0, 0.3, 0.03, doc="displacement at average slope, in tile widths"),
+    },
+    inputs={"input": ANY, "intensity": GREY},
+)
 def warp(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """Displace pixels along the gradient of an intensity map (Substance's Warp)."""
     dx, dy = _unit_slope(inputs["intensity"])
     return sample_periodic(inputs["input"], ctx.xs + p["amount"] * dx, ctx.ys + p["amount"] * dy)
 
 
-@node("slope_blur", "filter", params={
-    "samples": Int(2, 32, 6, doc="samples along the slope"),
-    "amount": Float(0.0, 0.2, 0.02, doc="length of the smear at average slope, in tile widths"),
-}, inputs={"input": ANY, "slope": GREY})
+@node(
+    "slope_blur",
+    "filter",
+    params={
+        "samples": Int(2, 32, 6, doc="samples along the slope"),
+        "amount": Float(0.0, 0.2, 0.02, doc="length of the smear at average slope, in tile widths"),
+    },
+    inputs={"input": ANY, "slope": GREY},
+)
 def slope_blur(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """Smear the input along the gradient of a slope map (eroded, streaky looks)."""
     dx, dy = _unit_slope(inputs["slope"])
@@ -177,11 +229,18 @@ def slope_blur(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     return out / n
 
 
-@node("transform", "filter", params={
-    "repeat_x": Int(1, 64, 1, doc="copies across"), "repeat_y": Int(1, 64, 1, doc="copies down"),
-    "rotate90": Int(0, 3, 0, doc="quarter turns"),
-    "offset_x": Float(-1.0, 1.0, 0.0, doc="shift, in tile widths"), "offset_y": Float(-1.0, 1.0, 0.0),
-}, inputs={"input": ANY})
+@node(
+    "transform",
+    "filter",
+    params={
+        "repeat_x": Int(1, 64, 1, doc="copies across"),
+        "repeat_y": Int(1, 64, 1, doc="copies down"),
+        "rotate90": Int(0, 3, 0, doc="quarter turns"),
+        "offset_x": Float(-1.0, 1.0, 0.0, doc="shift, in tile widths"),
+        "offset_y": Float(-1.0, 1.0, 0.0),
+    },
+    inputs={"input": ANY},
+)
 def transform(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """2D transform that keeps tiling: integer repeats, quarter turns and a (continuous) offset."""
     x, y = ctx.xs.expand(ctx.height, ctx.width), ctx.ys.expand(ctx.height, ctx.width)
@@ -192,9 +251,15 @@ def transform(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     return sample_periodic(inputs["input"], u, v)
 
 
-@node("height_to_normal", "filter", params={
-    "strength": Float(0.0, 20.0, 2.0, doc="relief depth for height 1, in % of the tile width"),
-}, inputs={"height": GREY}, normal_ports=("out",))
+@node(
+    "height_to_normal",
+    "filter",
+    params={
+        "strength": Float(0.0, 20.0, 2.0, doc="relief depth for height 1, in % of the tile width"),
+    },
+    inputs={"height": GREY},
+    normal_ports=("out",),
+)
 def height_to_normal(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """Tangent-space unit normals from a height map (OpenGL convention: +x right, +y up the image)."""
     dx, dy = gradient(inputs["height"][0])
@@ -203,10 +268,15 @@ def height_to_normal(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     return n / torch.linalg.vector_norm(n, dim=0, keepdim=True)
 
 
-@node("edge_detect", "filter", params={
-    "width": Float(0.0005, 0.05, 0.003, doc="edge width, in tile widths"),
-    "contrast": Float(0.0, 4.0, 1.0),
-}, inputs={"input": GREY})
+@node(
+    "edge_detect",
+    "filter",
+    params={
+        "width": Float(0.0005, 0.05, 0.003, doc="edge width, in tile widths"),
+        "contrast": Float(0.0, 4.0, 1.0),
+    },
+    inputs={"input": GREY},
+)
 def edge_detect(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """Edges: gradient magnitude of the input smoothed at the edge width."""
     smooth = fft_blur(inputs["input"], p["width"])
@@ -227,10 +297,15 @@ def invert(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     return 1.0 - inputs["input"]
 
 
-@node("threshold", "filter", params={
-    "position": Float(0.0, 1.0, 0.5, doc="the value that maps to 0.5"),
-    "contrast": Float(0.0, 1.0, 0.8, doc="1: a hard step, 0: the identity ramp"),
-}, inputs={"input": GREY})
+@node(
+    "threshold",
+    "filter",
+    params={
+        "position": Float(0.0, 1.0, 0.5, doc="the value that maps to 0.5"),
+        "contrast": Float(0.0, 1.0, 0.8, doc="1: a hard step, 0: the identity ramp"),
+    },
+    inputs={"input": GREY},
+)
 def threshold(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """Histogram scan: a soft step around ``position`` (masks from noise)."""
     half = (1.0 - p["contrast"]) / 2.0 + 1e-3

@@ -23,26 +23,47 @@ def _noise(kind: str):  # noqa: ANN202
     return perlin_noise if kind == "perlin" else value_noise
 
 
-@node("value_noise", "generator", params={
-    "scale_x": SCALE, "scale_y": SCALE, "seed": Seed(),
-    "disorder": Float(-1.0, 1.0, 0.0, doc="moves the lattice values continuously"),
-})
+@node(
+    "value_noise",
+    "generator",
+    params={
+        "scale_x": SCALE,
+        "scale_y": SCALE,
+        "seed": Seed(),
+        "disorder": Float(-1.0, 1.0, 0.0, doc="moves the lattice values continuously"),
+    },
+)
 def value_noise_node(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """Smooth periodic value noise (random values on a lattice, quintic interpolation)."""
     return value_noise(ctx.xs, ctx.ys, p["scale_x"], p["scale_y"], p["seed"], p["disorder"])[None]
 
 
-@node("perlin_noise", "generator", params={
-    "scale_x": SCALE, "scale_y": SCALE, "seed": Seed(),
-    "disorder": Float(-1.0, 1.0, 0.0, doc="rotates the lattice gradients continuously"),
-})
+@node(
+    "perlin_noise",
+    "generator",
+    params={
+        "scale_x": SCALE,
+        "scale_y": SCALE,
+        "seed": Seed(),
+        "disorder": Float(-1.0, 1.0, 0.0, doc="rotates the lattice gradients continuously"),
+    },
+)
 def perlin_noise_node(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """Periodic Perlin gradient noise, about [0, 1] around 0.5."""
     return perlin_noise(ctx.xs, ctx.ys, p["scale_x"], p["scale_y"], p["seed"], p["disorder"]).clamp(0, 1)[None]
 
 
-def fbm_sum(ctx: Context, kind: str, sx: int, sy: int, octaves: int, persistence: torch.Tensor | float,
-            seed: int, disorder: torch.Tensor | float = 0.0, lacunarity: int = 2) -> torch.Tensor:
+def fbm_sum(
+    ctx: Context,
+    kind: str,
+    sx: int,
+    sy: int,
+    octaves: int,
+    persistence: torch.Tensor | float,
+    seed: int,
+    disorder: torch.Tensor | float = 0.0,
+    lacunarity: int = 2,
+) -> torch.Tensor:
     """0.5 + Σ persistenceᵒ·(noise(scale·lacunarityᵒ) − 0.5), scaled to a std of :data:`FBM_STD`, [H, W].
     Octaves finer than the pixel grid (Nyquist) are left out (they would alias), so a map looks the same at
     any resolution apart from its finest detail."""
@@ -65,26 +86,41 @@ def _sum_sq(persistence: torch.Tensor, octaves: int) -> torch.Tensor:
     return sum(persistence ** (2 * o) for o in range(octaves))
 
 
-@node("fbm", "generator", params={
-    "scale_x": SCALE, "scale_y": SCALE, "seed": Seed(),
-    "octaves": Int(1, 10, 5, doc="number of octaves (each twice the frequency)"),
-    "noise": Choice(("value", "perlin"), "perlin", doc="noise of each octave"),
-    "persistence": Float(0.05, 0.95, 0.5, doc="amplitude ratio between octaves (roughness)"),
-    "disorder": Float(-1.0, 1.0, 0.0, doc="moves every octave's lattice continuously"),
-}, inert=lambda p, ports: {"persistence"} if p["octaves"] == 1 else set())
+@node(
+    "fbm",
+    "generator",
+    params={
+        "scale_x": SCALE,
+        "scale_y": SCALE,
+        "seed": Seed(),
+        "octaves": Int(1, 10, 5, doc="number of octaves (each twice the frequency)"),
+        "noise": Choice(("value", "perlin"), "perlin", doc="noise of each octave"),
+        "persistence": Float(0.05, 0.95, 0.5, doc="amplitude ratio between octaves (roughness)"),
+        "disorder": Float(-1.0, 1.0, 0.0, doc="moves every octave's lattice continuously"),
+    },
+    inert=lambda p, ports: {"persistence"} if p["octaves"] == 1 else set(),
+)
 def fbm_node(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """Fractional Brownian motion: a fractal sum of periodic noise octaves."""
-    return fbm_sum(ctx, p["noise"], p["scale_x"], p["scale_y"], p["octaves"], p["persistence"], p["seed"],
-                   p["disorder"])[None]
+    return fbm_sum(
+        ctx, p["noise"], p["scale_x"], p["scale_y"], p["octaves"], p["persistence"], p["seed"], p["disorder"]
+    )[None]
 
 
-@node("ridged_noise", "generator", params={
-    "scale_x": SCALE, "scale_y": SCALE, "seed": Seed(),
-    "octaves": Int(1, 10, 4),
-    "persistence": Float(0.05, 0.95, 0.5),
-    "sharpness": Float(0.5, 32.0, 2.0, doc="exponent that thins the ridges"),
-    "disorder": Float(-1.0, 1.0, 0.0),
-}, inert=lambda p, ports: {"persistence"} if p["octaves"] == 1 else set())
+@node(
+    "ridged_noise",
+    "generator",
+    params={
+        "scale_x": SCALE,
+        "scale_y": SCALE,
+        "seed": Seed(),
+        "octaves": Int(1, 10, 4),
+        "persistence": Float(0.05, 0.95, 0.5),
+        "sharpness": Float(0.5, 32.0, 2.0, doc="exponent that thins the ridges"),
+        "disorder": Float(-1.0, 1.0, 0.0),
+    },
+    inert=lambda p, ports: {"persistence"} if p["octaves"] == 1 else set(),
+)
 def ridged_noise(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """Ridged fractal noise, (1 − |2·fbm − 1|)^sharpness: thin branching veins (marble, cracks)."""
     n = fbm_sum(ctx, "perlin", p["scale_x"], p["scale_y"], p["octaves"], p["persistence"], p["seed"], p["disorder"])
@@ -97,8 +133,9 @@ Candidate = tuple[torch.Tensor, torch.Tensor, torch.Tensor]
 """A candidate cell centre per pixel: (x, y) in texture units and its integer id (broadcastable to [H, W])."""
 
 
-def voronoi(candidates: list[Candidate], px: torch.Tensor, py: torch.Tensor,
-            unit: float) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+def voronoi(
+    candidates: list[Candidate], px: torch.Tensor, py: torch.Tensor, unit: float
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
     """Nearest two of the candidate centres per pixel (a running minimum, cheaper than sorting).
 
     ``px``, ``py``: pixel positions (texture units, broadcastable to [H, W]). Returns (F1, F2, distance to
@@ -141,13 +178,21 @@ def cellular_candidates(ctx: Context, fx: int, fy: int, seed: int, jitter: torch
     return candidates
 
 
-@node("cellular", "generator", params={
-    "scale_x": SCALE, "scale_y": SCALE, "seed": Seed(),
-    "jitter": Float(0.0, 1.0, 0.9, doc="how far feature points wander from the cell centres"),
-    "border_width": Float(0.005, 0.5, 0.08, doc="width of the border lines, in cell sizes"),
-}, outputs=("distance", "border", "cells", "random"),
-   inert=lambda p, ports: (set() if ports & {"border", "cells"} else {"border_width"})
-   | ({"jitter"} if ports <= {"random"} else set()))  # per-cell values do not move with the points
+@node(
+    "cellular",
+    "generator",
+    params={
+        "scale_x": SCALE,
+        "scale_y": SCALE,
+        "seed": Seed(),
+        "jitter": Float(0.0, 1.0, 0.9, doc="how far feature points wander from the cell centres"),
+        "border_width": Float(0.005, 0.5, 0.08, doc="width of the border lines, in cell sizes"),
+    },
+    outputs=("distance", "border", "cells", "random"),
+    inert=lambda p, ports: (
+        (set() if ports & {"border", "cells"} else {"border_width"}) | ({"jitter"} if ports <= {"random"} else set())
+    ),
+)  # per-cell values do not move with the points
 def cellular(ctx: Context, inputs: dict, p: dict) -> dict[str, torch.Tensor]:
     """Cellular (Worley/Voronoi) noise: distance to the nearest feature point, cell borders, cell heights
     and a random value per cell."""

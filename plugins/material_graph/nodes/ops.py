@@ -66,8 +66,9 @@ def gather2(table: torch.Tensor, iy: torch.Tensor, ix: torch.Tensor) -> torch.Te
     return table.index_select(0, iy.flatten()).index_select(1, ix.flatten())
 
 
-def value_noise(xs: torch.Tensor, ys: torch.Tensor, fx: int, fy: int, seed: int, disorder: torch.Tensor | float = 0.0,
-                salt: int = 0) -> torch.Tensor:
+def value_noise(
+    xs: torch.Tensor, ys: torch.Tensor, fx: int, fy: int, seed: int, disorder: torch.Tensor | float = 0.0, salt: int = 0
+) -> torch.Tensor:
     """Periodic value noise in [0, 1] on an [H, W] grid (xs [1, W], ys [H, 1]) with fx × fy lattice cells.
 
     Lattice values are ``0.5 + 0.5·sin(2π(r₁ + disorder·r₂))``: ``disorder`` moves them continuously
@@ -84,8 +85,9 @@ def value_noise(xs: torch.Tensor, ys: torch.Tensor, fx: int, fy: int, seed: int,
     return torch.lerp(top, bottom, sy)
 
 
-def perlin_noise(xs: torch.Tensor, ys: torch.Tensor, fx: int, fy: int, seed: int, disorder: torch.Tensor | float = 0.0,
-                 salt: int = 0) -> torch.Tensor:
+def perlin_noise(
+    xs: torch.Tensor, ys: torch.Tensor, fx: int, fy: int, seed: int, disorder: torch.Tensor | float = 0.0, salt: int = 0
+) -> torch.Tensor:
     """Periodic Perlin (gradient) noise, centred on 0.5 and scaled to about [0, 1], on an [H, W] grid."""
     r1 = lattice(fx, fy, seed, salt)
     r2 = lattice(fx, fy, seed, salt + 7919)
@@ -117,12 +119,18 @@ def sample_periodic(img: torch.Tensor, x: torch.Tensor, y: torch.Tensor) -> torc
     py = torch.remainder(torch.broadcast_to(y, shape), 1.0) * h + 0.5
     grid = torch.stack([px * (2.0 / (w + 1)) - 1.0, py * (2.0 / (h + 1)) - 1.0], dim=-1)
     padded = F.pad(img[None], (1, 1, 1, 1), mode="circular")
-    return F.grid_sample(padded, grid[None].to(img.dtype), mode="bilinear", padding_mode="border",
-                         align_corners=True)[0]
+    return F.grid_sample(padded, grid[None].to(img.dtype), mode="bilinear", padding_mode="border", align_corners=True)[
+        0
+    ]
 
 
-def sample_tiled(img: torch.Tensor, size: tuple[int, int], scale: float = 1.0, rotation_deg: float = 0.0,
-                 offset: tuple[float, float] = (0.0, 0.0)) -> torch.Tensor:
+def sample_tiled(
+    img: torch.Tensor,
+    size: tuple[int, int],
+    scale: float = 1.0,
+    rotation_deg: float = 0.0,
+    offset: tuple[float, float] = (0.0, 0.0),
+) -> torch.Tensor:
     """An ``size`` = (H, W) view of the infinitely tiled map: ``scale`` tiles across the view's width,
     rotated by ``rotation_deg`` and shifted by ``offset`` (tiles). Used for texture transforms (§4.4)."""
     h, w = size

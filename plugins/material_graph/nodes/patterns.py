@@ -38,7 +38,9 @@ def _even_rows_if_offset(p: dict[str, Any]) -> str | None:
     return None
 
 
-def _tile_maps(ctx: Context, distance: torch.Tensor, rand: torch.Tensor, unit: float, p: dict) -> dict[str, torch.Tensor]:
+def _tile_maps(
+    ctx: Context, distance: torch.Tensor, rand: torch.Tensor, unit: float, p: dict
+) -> dict[str, torch.Tensor]:
     """height/mask/random from the distance to the tile edge (texture units) and a per-tile random value."""
     mask = bevel_profile(distance, p["gap"] * unit / 2.0, p["bevel"] * unit, ctx.pixel)
     height = mask * (1.0 - p["height_variation"] * rand)
@@ -53,30 +55,56 @@ def _rect_grid(ctx: Context, cols: int, rows: int, shift: torch.Tensor) -> tuple
     x = ctx.xs * cols - shift
     col = torch.floor(x)
     tx = x - col
-    return (col.to(torch.int64) % cols).expand(ctx.height, ctx.width), row.to(torch.int64).expand(ctx.height, ctx.width), tx, ty
+    return (
+        (col.to(torch.int64) % cols).expand(ctx.height, ctx.width),
+        row.to(torch.int64).expand(ctx.height, ctx.width),
+        tx,
+        ty,
+    )
 
 
-@node("tiles", "generator", params={
-    "cols": Int(1, 256, 4, doc="tiles per row"), "rows": Int(1, 256, 8, doc="rows of tiles"), "seed": Seed(),
-    "offset": Float(0.0, 1.0, 0.5, doc="shift of every other row, in tile widths (0.5: running bond)"),
-    "random_offset": Float(0.0, 1.0, 0.0, doc="random shift per row, in tile widths"),
-    "gap": GAP, "bevel": BEVEL, "height_variation": VARIATION,
-}, outputs=TILE_OUTPUTS, check=_even_rows_if_offset)
+@node(
+    "tiles",
+    "generator",
+    params={
+        "cols": Int(1, 256, 4, doc="tiles per row"),
+        "rows": Int(1, 256, 8, doc="rows of tiles"),
+        "seed": Seed(),
+        "offset": Float(0.0, 1.0, 0.5, doc="shift of every other row, in tile widths (0.5: running bond)"),
+        "random_offset": Float(0.0, 1.0, 0.0, doc="random shift per row, in tile widths"),
+        "gap": GAP,
+        "bevel": BEVEL,
+        "height_variation": VARIATION,
+    },
+    outputs=TILE_OUTPUTS,
+    check=_even_rows_if_offset,
+)
 def tiles(ctx: Context, inputs: dict, p: dict) -> dict[str, torch.Tensor]:
     """Rectangular tiles or bricks with mortar joints, bevels, running-bond offset and per-tile variation."""
     cols, rows, seed = p["cols"], p["rows"], p["seed"]
     row_index = torch.floor(ctx.ys * rows).to(torch.int64)
-    shift = p["offset"] * (row_index % 2).to(ctx.dtype) + p["random_offset"] * hash_table(rows, seed, 3)[row_index % rows]
+    shift = (
+        p["offset"] * (row_index % 2).to(ctx.dtype) + p["random_offset"] * hash_table(rows, seed, 3)[row_index % rows]
+    )
     col, row, tx, ty = _rect_grid(ctx, cols, rows, shift)
     distance = torch.minimum(torch.minimum(tx, 1 - tx) / cols, torch.minimum(ty, 1 - ty) / rows)
     rand = hash_table(rows * cols, seed)[(row % rows) * cols + col]
     return _tile_maps(ctx, distance, rand, 1.0 / rows, p)
 
 
-@node("hex_tiles", "generator", params={
-    "cols": Int(1, 128, 7, doc="hexagons per row"), "rows": Int(2, 128, 8, step=2, doc="rows (even)"),
-    "seed": Seed(), "gap": GAP, "bevel": BEVEL, "height_variation": VARIATION,
-}, outputs=TILE_OUTPUTS)
+@node(
+    "hex_tiles",
+    "generator",
+    params={
+        "cols": Int(1, 128, 7, doc="hexagons per row"),
+        "rows": Int(2, 128, 8, step=2, doc="rows (even)"),
+        "seed": Seed(),
+        "gap": GAP,
+        "bevel": BEVEL,
+        "height_variation": VARIATION,
+    },
+    outputs=TILE_OUTPUTS,
+)
 def hex_tiles(ctx: Context, inputs: dict, p: dict) -> dict[str, torch.Tensor]:
     """Hexagonal tiles (odd rows shifted by half a tile; rows ≈ 1.15 × cols gives regular hexagons)."""
     cols, rows = p["cols"], p["rows"]
@@ -94,11 +122,20 @@ def hex_tiles(ctx: Context, inputs: dict, p: dict) -> dict[str, torch.Tensor]:
     return _tile_maps(ctx, border, hash_table(rows * cols, p["seed"])[nearest], 1.0 / rows, p)
 
 
-@node("planks", "generator", params={
-    "rows": Int(1, 128, 6, doc="rows of planks per tile"), "count": Int(1, 32, 2, doc="planks per row"),
-    "seed": Seed(), "stagger": Float(0.0, 1.0, 1.0, doc="random end-joint offset per row, in plank lengths"),
-    "gap": GAP, "bevel": BEVEL, "height_variation": VARIATION,
-}, outputs=WOOD_OUTPUTS)
+@node(
+    "planks",
+    "generator",
+    params={
+        "rows": Int(1, 128, 6, doc="rows of planks per tile"),
+        "count": Int(1, 32, 2, doc="planks per row"),
+        "seed": Seed(),
+        "stagger": Float(0.0, 1.0, 1.0, doc="random end-joint offset per row, in plank lengths"),
+        "gap": GAP,
+        "bevel": BEVEL,
+        "height_variation": VARIATION,
+    },
+    outputs=WOOD_OUTPUTS,
+)
 def planks(ctx: Context, inputs: dict, p: dict) -> dict[str, torch.Tensor]:
     """Floor boards along x: rows of planks with randomly staggered end joints."""
     rows, count, seed = p["rows"], p["count"], p["seed"]
@@ -112,11 +149,19 @@ def planks(ctx: Context, inputs: dict, p: dict) -> dict[str, torch.Tensor]:
     return out
 
 
-@node("herringbone", "generator", params={
-    "ratio": Int(2, 16, 4, doc="plank length / width"),
-    "repeats": Int(1, 32, 2, doc="zig-zag columns per tile"),
-    "seed": Seed(), "gap": GAP, "bevel": BEVEL, "height_variation": VARIATION,
-}, outputs=WOOD_OUTPUTS)
+@node(
+    "herringbone",
+    "generator",
+    params={
+        "ratio": Int(2, 16, 4, doc="plank length / width"),
+        "repeats": Int(1, 32, 2, doc="zig-zag columns per tile"),
+        "seed": Seed(),
+        "gap": GAP,
+        "bevel": BEVEL,
+        "height_variation": VARIATION,
+    },
+    outputs=WOOD_OUTPUTS,
+)
 def herringbone(ctx: Context, inputs: dict, p: dict) -> dict[str, torch.Tensor]:
     """Herringbone parquet: 1 × ratio planks at ±45°, in zig-zag columns along y.
 
@@ -152,10 +197,19 @@ def herringbone(ctx: Context, inputs: dict, p: dict) -> dict[str, torch.Tensor]:
     return out
 
 
-@node("parquet", "generator", params={
-    "cells": Int(2, 64, 4, step=2, doc="squares per tile side (even)"), "planks": Int(1, 16, 3, doc="planks per square"),
-    "seed": Seed(), "gap": GAP, "bevel": BEVEL, "height_variation": VARIATION,
-}, outputs=WOOD_OUTPUTS)
+@node(
+    "parquet",
+    "generator",
+    params={
+        "cells": Int(2, 64, 4, step=2, doc="squares per tile side (even)"),
+        "planks": Int(1, 16, 3, doc="planks per square"),
+        "seed": Seed(),
+        "gap": GAP,
+        "bevel": BEVEL,
+        "height_variation": VARIATION,
+    },
+    outputs=WOOD_OUTPUTS,
+)
 def parquet(ctx: Context, inputs: dict, p: dict) -> dict[str, torch.Tensor]:
     """Basket-weave parquet: squares of parallel planks, alternating direction like a chessboard."""
     cells, count, seed = p["cells"], p["planks"], p["seed"]
@@ -186,13 +240,17 @@ def _direction_coord(ctx: Context, direction: str) -> torch.Tensor:
 DIRECTIONS = ("horizontal", "vertical", "diagonal", "antidiagonal")
 
 
-@node("stripes", "generator", params={
-    "count": Int(1, 512, 8, doc="stripes per tile"),
-    "direction": Choice(DIRECTIONS, "vertical", doc="horizontal stripes vary along y"),
-    "width": Float(0.0, 1.0, 0.5, doc="stripe width, as a fraction of the period"),
-    "softness": Float(0.001, 0.5, 0.05, doc="edge softness, as a fraction of the period"),
-    "phase": Float(-1.0, 1.0, 0.0, doc="shift, in periods"),
-})
+@node(
+    "stripes",
+    "generator",
+    params={
+        "count": Int(1, 512, 8, doc="stripes per tile"),
+        "direction": Choice(DIRECTIONS, "vertical", doc="horizontal stripes vary along y"),
+        "width": Float(0.0, 1.0, 0.5, doc="stripe width, as a fraction of the period"),
+        "softness": Float(0.001, 0.5, 0.05, doc="edge softness, as a fraction of the period"),
+        "phase": Float(-1.0, 1.0, 0.0, doc="shift, in periods"),
+    },
+)
 def stripes(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """Parallel stripes (1 inside a stripe, 0 between)."""
     t = _direction_coord(ctx, p["direction"]) * p["count"] + p["phase"]
@@ -202,15 +260,20 @@ def stripes(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     return (1.0 - smoothstep(half - soft, half + soft, d))[None]
 
 
-@node("wood_rings", "generator", params={
-    "count": Int(1, 256, 12, doc="growth rings across the tile (along y)"),
-    "noise_x": Int(1, 64, 2, doc="distortion noise cells along x"), "noise_y": Int(1, 64, 1, doc="... along y"),
-    "seed": Seed(),
-    "distortion": Float(0.0, 6.0, 1.0, doc="how far rings wander (standard deviation), in ring spacings"),
-    "irregularity": Float(0.0, 1.0, 0.5, doc="random variation of the ring widths"),
-    "sharpness": Float(0.5, 8.0, 2.5, doc="exponent of the ramp from early to late wood (higher: thinner lines)"),
-    "phase": Float(-1.0, 1.0, 0.0, doc="shift, in rings"),
-})
+@node(
+    "wood_rings",
+    "generator",
+    params={
+        "count": Int(1, 256, 12, doc="growth rings across the tile (along y)"),
+        "noise_x": Int(1, 64, 2, doc="distortion noise cells along x"),
+        "noise_y": Int(1, 64, 1, doc="... along y"),
+        "seed": Seed(),
+        "distortion": Float(0.0, 6.0, 1.0, doc="how far rings wander (standard deviation), in ring spacings"),
+        "irregularity": Float(0.0, 1.0, 0.5, doc="random variation of the ring widths"),
+        "sharpness": Float(0.5, 8.0, 2.5, doc="exponent of the ramp from early to late wood (higher: thinner lines)"),
+        "phase": Float(-1.0, 1.0, 0.0, doc="shift, in rings"),
+    },
+)
 def wood_rings(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """Flat-sawn growth rings: lines along x displaced by low-frequency noise, with uneven widths; 0 in the
     early wood rising to 1 at each ring's late wood."""
@@ -233,13 +296,18 @@ def _noise1d(t: torch.Tensor, seed: int, period: int = 4096) -> torch.Tensor:
     return torch.lerp(table[i], table[(i + 1) % period], s)
 
 
-@node("wood_grain", "filter", params={
-    "lines": Float(1.0, 64.0, 8.0, doc="growth rings across a plank"),
-    "waviness": Float(0.0, 2.0, 0.4, doc="how far lines meander along the plank, in ring spacings"),
-    "cathedral": Float(0.0, 3.0, 0.6, doc="curvature of the arches of flat-sawn boards"),
-    "contrast": Float(0.0, 1.0, 0.7, doc="darkness of the late-wood lines"),
-    "seed": Seed(),
-}, inputs={"along": Input(1), "across": Input(1), "random": Input(1, required=False)})
+@node(
+    "wood_grain",
+    "filter",
+    params={
+        "lines": Float(1.0, 64.0, 8.0, doc="growth rings across a plank"),
+        "waviness": Float(0.0, 2.0, 0.4, doc="how far lines meander along the plank, in ring spacings"),
+        "cathedral": Float(0.0, 3.0, 0.6, doc="curvature of the arches of flat-sawn boards"),
+        "contrast": Float(0.0, 1.0, 0.7, doc="darkness of the late-wood lines"),
+        "seed": Seed(),
+    },
+    inputs={"along": Input(1), "across": Input(1), "random": Input(1, required=False)},
+)
 def wood_grain(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """Growth-ring grain inside planks, from their along/across coordinates and a per-plank random value
     (1: light early wood, darker towards each ring's late wood). Pointwise, so it tiles as its inputs do."""
@@ -281,12 +349,18 @@ def _weave_check(p: dict[str, Any]) -> str | None:
     return None
 
 
-@node("weave", "generator", params={
-    "threads": Int(2, 512, 32, doc="threads per tile in each direction"),
-    "pattern": Choice(tuple(WEAVES), "plain"),
-    "thread_width": Float(0.2, 1.0, 0.8, doc="thread width, as a fraction of the thread spacing"),
-    "lift": Float(0.0, 1.0, 0.6, doc="how much a crossing thread rises above one passing under"),
-}, outputs=("height", "warp", "mask"), check=_weave_check)
+@node(
+    "weave",
+    "generator",
+    params={
+        "threads": Int(2, 512, 32, doc="threads per tile in each direction"),
+        "pattern": Choice(tuple(WEAVES), "plain"),
+        "thread_width": Float(0.2, 1.0, 0.8, doc="thread width, as a fraction of the thread spacing"),
+        "lift": Float(0.0, 1.0, 0.6, doc="how much a crossing thread rises above one passing under"),
+    },
+    outputs=("height", "warp", "mask"),
+    check=_weave_check,
+)
 def weave(ctx: Context, inputs: dict, p: dict) -> dict[str, torch.Tensor]:
     """Woven cloth: warp threads along y, weft along x, crossing over and under (plain, twill, basket, satin)."""
     n, pattern = p["threads"], p["pattern"]
@@ -316,12 +390,19 @@ def weave(ctx: Context, inputs: dict, p: dict) -> dict[str, torch.Tensor]:
     return {"height": height.clamp(0, 1)[None], "warp": warp_on_top[None], "mask": mask[None]}
 
 
-@node("knit", "generator", params={
-    "cols": Int(1, 256, 12, doc="stitches per row"), "rows": Int(1, 256, 16, doc="rows of stitches"), "seed": Seed(),
-    "loop_width": Float(0.1, 0.8, 0.38, doc="width of a stitch leg, in stitch widths"),
-    "slant": Float(0.0, 1.0, 0.5, doc="lean of the legs (0: upright, 1: 60°)"),
-    "length": Float(0.3, 2.0, 1.2, doc="leg length, in stitch heights"),
-}, outputs=("height", "mask", "random"))
+@node(
+    "knit",
+    "generator",
+    params={
+        "cols": Int(1, 256, 12, doc="stitches per row"),
+        "rows": Int(1, 256, 16, doc="rows of stitches"),
+        "seed": Seed(),
+        "loop_width": Float(0.1, 0.8, 0.38, doc="width of a stitch leg, in stitch widths"),
+        "slant": Float(0.0, 1.0, 0.5, doc="lean of the legs (0: upright, 1: 60°)"),
+        "length": Float(0.3, 2.0, 1.2, doc="leg length, in stitch heights"),
+    },
+    outputs=("height", "mask", "random"),
+)
 def knit(ctx: Context, inputs: dict, p: dict) -> dict[str, torch.Tensor]:
     """Stockinette knit: columns of V-shaped stitches, each two slanted rounded legs."""
     cols, rows = p["cols"], p["rows"]
@@ -338,8 +419,11 @@ def knit(ctx: Context, inputs: dict, p: dict) -> dict[str, torch.Tensor]:
     code = owner[(ty * res).to(torch.int64).clamp(0, res - 1), (tx * res).to(torch.int64).clamp(0, res - 1)]
     di, dj = code % 3 - 1, code // 3 - 1
     stitch = ((cj.to(torch.int64) + dj) % rows) * cols + (ci.to(torch.int64) + di) % cols
-    return {"height": height[None], "mask": smoothstep(0.0, 0.15, height)[None],
-            "random": hash_table(rows * cols, p["seed"])[stitch][None]}
+    return {
+        "height": height[None],
+        "mask": smoothstep(0.0, 0.15, height)[None],
+        "random": hash_table(rows * cols, p["seed"])[stitch][None],
+    }
 
 
 def _knit_cell(tx: torch.Tensor, ty: torch.Tensor, aspect: float, p: dict) -> tuple[torch.Tensor, torch.Tensor]:
@@ -366,13 +450,20 @@ def _knit_cell(tx: torch.Tensor, ty: torch.Tensor, aspect: float, p: dict) -> tu
     return best, owner
 
 
-@node("gradient", "generator", params={
-    "direction": Choice(("horizontal", "vertical", "diagonal", "radial"), "vertical",
-                        doc="horizontal: varies along y; radial: from each repeat's centre"),
-    "count": Int(1, 256, 1, doc="repeats per tile (mirrored, so it tiles)"),
-    "position": Float(-1.0, 1.0, 0.0, doc="shift, in repeats"),
-    "gamma": Float(0.2, 5.0, 1.0, doc="exponent of the ramp"),
-})
+@node(
+    "gradient",
+    "generator",
+    params={
+        "direction": Choice(
+            ("horizontal", "vertical", "diagonal", "radial"),
+            "vertical",
+            doc="horizontal: varies along y; radial: from each repeat's centre",
+        ),
+        "count": Int(1, 256, 1, doc="repeats per tile (mirrored, so it tiles)"),
+        "position": Float(-1.0, 1.0, 0.0, doc="shift, in repeats"),
+        "gamma": Float(0.2, 5.0, 1.0, doc="exponent of the ramp"),
+    },
+)
 def gradient(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """Mirrored (triangle-wave) linear or radial gradient, 0..1, repeated ``count`` times."""
     if p["direction"] == "radial":
@@ -381,7 +472,9 @@ def gradient(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
         du, dv = u - torch.floor(u) - 0.5, v - torch.floor(v) - 0.5
         t = (2.0 * torch.sqrt(du * du + dv * dv + 1e-9)).clamp(0, 1)
     else:
-        c = _direction_coord(ctx, {"horizontal": "horizontal", "vertical": "vertical", "diagonal": "diagonal"}[p["direction"]])
+        c = _direction_coord(
+            ctx, {"horizontal": "horizontal", "vertical": "vertical", "diagonal": "diagonal"}[p["direction"]]
+        )
         s = c * p["count"] + p["position"]
         t = 1.0 - (2.0 * (s - torch.floor(s)) - 1.0).abs()
     return t.clamp(1e-6, 1.0).pow(p["gamma"])[None]
@@ -396,17 +489,27 @@ def _shape_check(p: dict[str, Any]) -> str | None:
     return None
 
 
-@node("shape", "generator", params={
-    "shape": Choice(SHAPES, "disc"),
-    "cols": Int(1, 256, 4), "rows": Int(1, 256, 4), "seed": Seed(),
-    "stagger": Choice(("no", "yes"), "no", doc="shift every other row by half a cell"),
-    "size": Float(0.0, 1.5, 0.6, doc="shape size, in cell sizes"),
-    "softness": Float(0.001, 0.5, 0.03, doc="edge softness, in cell sizes"),
-    "rotation": Float(-0.5, 0.5, 0.0, doc="rotation of each shape, in turns"),
-    "thickness": Float(0.02, 0.5, 0.15, doc="line thickness of ring and cross"),
-}, outputs=("out", "random"), check=_shape_check, inert=lambda p, ports: (
-    ({"rotation"} if p["shape"] in ("disc", "ring") else set())
-    | (set() if p["shape"] in ("ring", "cross") else {"thickness"})))
+@node(
+    "shape",
+    "generator",
+    params={
+        "shape": Choice(SHAPES, "disc"),
+        "cols": Int(1, 256, 4),
+        "rows": Int(1, 256, 4),
+        "seed": Seed(),
+        "stagger": Choice(("no", "yes"), "no", doc="shift every other row by half a cell"),
+        "size": Float(0.0, 1.5, 0.6, doc="shape size, in cell sizes"),
+        "softness": Float(0.001, 0.5, 0.03, doc="edge softness, in cell sizes"),
+        "rotation": Float(-0.5, 0.5, 0.0, doc="rotation of each shape, in turns"),
+        "thickness": Float(0.02, 0.5, 0.15, doc="line thickness of ring and cross"),
+    },
+    outputs=("out", "random"),
+    check=_shape_check,
+    inert=lambda p, ports: (
+        ({"rotation"} if p["shape"] in ("disc", "ring") else set())
+        | (set() if p["shape"] in ("ring", "cross") else {"thickness"})
+    ),
+)
 def shape(ctx: Context, inputs: dict, p: dict) -> dict[str, torch.Tensor]:
     """A grid of shapes (disc, square, diamond, hexagon, ring, cross), optionally staggered."""
     cols, rows = p["cols"], p["rows"]
@@ -440,10 +543,14 @@ def shape(ctx: Context, inputs: dict, p: dict) -> dict[str, torch.Tensor]:
     return {"out": out[None], "random": rand[None]}
 
 
-@node("checker", "generator", params={
-    "count": Int(2, 256, 8, step=2, doc="squares per tile side (even)"),
-    "softness": Float(0.0, 0.5, 0.01, doc="edge softness, in square sizes"),
-})
+@node(
+    "checker",
+    "generator",
+    params={
+        "count": Int(2, 256, 8, step=2, doc="squares per tile side (even)"),
+        "softness": Float(0.0, 0.5, 0.01, doc="edge softness, in square sizes"),
+    },
+)
 def checker(ctx: Context, inputs: dict, p: dict) -> torch.Tensor:
     """A chessboard of 0 and 1 squares."""
     n = p["count"]

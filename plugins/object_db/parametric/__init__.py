@@ -23,6 +23,32 @@ from .storage import cabinet, container, kitchen_unit, shelf
 from .tables import desk, table
 from .textiles import pillow, rug
 
-__all__ = ["GENERATORS", "SERIES", "Dice", "Series", "Variant", "bed", "cabinet", "catalogue", "chair", "container",
-           "desk", "frame", "kitchen_unit", "lamp", "microwave", "monitor", "ottoman", "oven", "pillow", "plant",
-           "refrigerator", "rug", "shelf", "sofa", "table", "tv", "washer"]
+__all__ = [
+    "GENERATORS",
+    "SERIES",
+    "Dice",
+    "Series",
+    "Variant",
+    "bed",
+    "cabinet",
+    "catalogue",
+    "chair",
+    "container",
+    "desk",
+    "frame",
+    "kitchen_unit",
+    "lamp",
+    "microwave",
+    "monitor",
+    "ottoman",
+    "oven",
+    "pillow",
+    "plant",
+    "refrigerator",
+    "rug",
+    "shelf",
+    "sofa",
+    "table",
+    "tv",
+    "washer",
+]

@@ -7,13 +7,18 @@ from psdr_room_core.method.artifacts import ObjectMesh
 from ..primitives import MeshBuilder, box, cylinder, lathe, rot_x, torus, transform
 from .common import METALS, colour
 
-FINISHES = {"white": (0.9, 0.9, 0.89), "steel": METALS["steel"], "black": (0.09, 0.09, 0.1),
-            "cream": (0.88, 0.85, 0.76)}
+FINISHES = {
+    "white": (0.9, 0.9, 0.89),
+    "steel": METALS["steel"],
+    "black": (0.09, 0.09, 0.1),
+    "cream": (0.88, 0.85, 0.76),
+}
 """Body colours of appliances."""
 
 
-def refrigerator(width: float = 0.7, height: float = 1.8, depth: float = 0.68, style: str = "top_freezer",
-                 finish: str = "white") -> ObjectMesh:
+def refrigerator(
+    width: float = 0.7, height: float = 1.8, depth: float = 0.68, style: str = "top_freezer", finish: str = "white"
+) -> ObjectMesh:
     """A refrigerator, doors facing +Z: groups ``body``, ``doors`` and ``handles``; ``style`` is single,
     top_freezer, bottom_freezer or side_by_side."""
     if style not in ("single", "top_freezer", "bottom_freezer", "side_by_side"):
@@ -23,15 +28,19 @@ def refrigerator(width: float = 0.7, height: float = 1.8, depth: float = 0.68, s
     b.add("body", box((0, height / 2, -0.03), (width, height, depth - 0.06)))
     zf, gap = depth / 2 - 0.03, 0.006
     if style == "side_by_side":
-        doors = [((-width / 4, height / 2), (width / 2 - gap, height - 0.02), 1), ((width / 4, height / 2),
-                                                                                  (width / 2 - gap, height - 0.02), -1)]
+        doors = [
+            ((-width / 4, height / 2), (width / 2 - gap, height - 0.02), 1),
+            ((width / 4, height / 2), (width / 2 - gap, height - 0.02), -1),
+        ]
     elif style == "single":
         doors = [((0.0, height / 2), (width - gap, height - 0.02), 1)]
     else:
         split = height * (0.7 if style == "top_freezer" else 0.38)
         low, high = (split, height - split) if style == "top_freezer" else (split, height - split)
-        doors = [((0.0, low / 2), (width - gap, low - 0.015), 1),
-                 ((0.0, low + high / 2), (width - gap, high - 0.015), 1)]
+        doors = [
+            ((0.0, low / 2), (width - gap, low - 0.015), 1),
+            ((0.0, low + high / 2), (width - gap, high - 0.015), 1),
+        ]
     for (x, y), (w, h), side in doors:
         b.add("doors", box((x, y, zf), (w, h, 0.06)))
         hx = x + side * (w / 2 - 0.05)
@@ -57,8 +66,14 @@ def microwave(width: float = 0.5, height: float = 0.3, depth: float = 0.38, fini
     return b.build()
 
 
-def oven(kind: str = "range", width: float = 0.6, height: float = 0.9, depth: float = 0.62, burners: int = 4,
-         finish: str = "steel") -> ObjectMesh:
+def oven(
+    kind: str = "range",
+    width: float = 0.6,
+    height: float = 0.9,
+    depth: float = 0.62,
+    burners: int = 4,
+    finish: str = "steel",
+) -> ObjectMesh:
     """A freestanding range (an oven under a cooktop) or a built-in wall oven, door facing +Z: groups
     ``body``, ``door`` (with its window), ``cooktop`` (the hob and burners of a range) and ``handles``."""
     if kind not in ("range", "wall"):

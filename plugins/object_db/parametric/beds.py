@@ -12,10 +12,22 @@ from .common import FABRICS, METALS, WOODS, add_legs, colour
 BED_HEADBOARDS = ("panel", "upholstered", "slats", "tall", "rounded", "none")
 
 
-def bed(width: float = 1.6, length: float = 2.05, headboard: str = "panel", headboard_height: float = 1.0,
-        footboard: bool = False, mattress_height: float = 0.22, frame_height: float = 0.32, legs: bool = True,
-        pillows: int = 2, blanket: bool = True, wood: str = "oak", fabric: str = "grey", bedding: str = "cream",
-        blanket_colour: str = "navy") -> ObjectMesh:
+def bed(
+    width: float = 1.6,
+    length: float = 2.05,
+    headboard: str = "panel",
+    headboard_height: float = 1.0,
+    footboard: bool = False,
+    mattress_height: float = 0.22,
+    frame_height: float = 0.32,
+    legs: bool = True,
+    pillows: int = 2,
+    blanket: bool = True,
+    wood: str = "oak",
+    fabric: str = "grey",
+    bedding: str = "cream",
+    blanket_colour: str = "navy",
+) -> ObjectMesh:
     """A bed: groups ``frame``, ``headboard``, ``mattress``, ``bedding`` (duvet), ``pillow`` and ``legs``;
     the headboard is at the back (-Z), the foot at the front (+Z)."""
     if headboard not in BED_HEADBOARDS:
@@ -29,16 +41,35 @@ def bed(width: float = 1.6, length: float = 2.05, headboard: str = "panel", head
     W, L = width, length
     b.add("frame", rounded_box((0, (leg_h + frame_height) / 2, 0), (W + 0.08, frame_height - leg_h, L + 0.06), 0.015))
     if legs:
-        add_legs(b, "legs", [(sx * (W / 2 - 0.02), sz * (L / 2 - 0.04)) for sz in (1, -1) for sx in (-1, 1)], leg_h,
-              "square", 0.06, top=leg_h + 0.01)
+        add_legs(
+            b,
+            "legs",
+            [(sx * (W / 2 - 0.02), sz * (L / 2 - 0.04)) for sz in (1, -1) for sx in (-1, 1)],
+            leg_h,
+            "square",
+            0.06,
+            top=leg_h + 0.01,
+        )
     top = frame_height + mattress_height
-    b.add("mattress", rounded_box((0, frame_height + mattress_height / 2, 0.02), (W, mattress_height, L - 0.04),
-                                  0.05, flat=(2, 1, 3)))
+    b.add(
+        "mattress",
+        rounded_box(
+            (0, frame_height + mattress_height / 2, 0.02), (W, mattress_height, L - 0.04), 0.05, flat=(2, 1, 3)
+        ),
+    )
     if blanket:
         cover = L * 0.66
         drop = mattress_height * 0.75
-        b.add("bedding", rounded_box((0, top + 0.02 - (drop + 0.04) / 2, L / 2 - cover / 2 + 0.01),
-                                     (W + 0.05, drop + 0.04, cover), 0.03, flat=(4, 1, 4), puff=0.08))
+        b.add(
+            "bedding",
+            rounded_box(
+                (0, top + 0.02 - (drop + 0.04) / 2, L / 2 - cover / 2 + 0.01),
+                (W + 0.05, drop + 0.04, cover),
+                0.03,
+                flat=(4, 1, 4),
+                puff=0.08,
+            ),
+        )
     for k in range(pillows):
         pw = min(0.62, (W - 0.1) / max(pillows, 1))
         x = (k - (pillows - 1) / 2) * (pw + 0.04)
@@ -52,8 +83,16 @@ def bed(width: float = 1.6, length: float = 2.05, headboard: str = "panel", head
         b.add("headboard", box((0, (hb + 0.3) / 2, z), (W + 0.12, hb + 0.3, 0.06)))
         b.add("frame", box((0, hb + 0.3, z), (W + 0.16, 0.05, 0.09)))
     elif headboard == "upholstered":
-        b.add("headboard", rounded_box((0, (hb + frame_height) / 2, z - 0.02),
-                                       (W + 0.12, hb - frame_height, 0.1), 0.04, flat=(6, 4, 1), puff=0.12))
+        b.add(
+            "headboard",
+            rounded_box(
+                (0, (hb + frame_height) / 2, z - 0.02),
+                (W + 0.12, hb - frame_height, 0.1),
+                0.04,
+                flat=(6, 4, 1),
+                puff=0.12,
+            ),
+        )
         b.add("frame", box((0, frame_height / 2, z - 0.02), (W + 0.1, frame_height, 0.08)))
     elif headboard == "rounded":  # a panel with an elliptical top
         radius = (W + 0.12) / 2

@@ -12,8 +12,9 @@ from ..primitives import MeshBuilder, box, cylinder, lathe, rot_x, rot_y, sphere
 from .common import FABRICS, METALS, WOODS, colour
 
 
-def plant(pot: str = "taper", height: float = 0.9, foliage: str = "bush", pot_colour: str = "terracotta",
-          leaves: str = "sage") -> ObjectMesh:
+def plant(
+    pot: str = "taper", height: float = 0.9, foliage: str = "bush", pot_colour: str = "terracotta", leaves: str = "sage"
+) -> ObjectMesh:
     """A potted plant: groups ``pot``, ``soil`` and ``foliage`` (a bush of blobs, a tall spiky plant, or a
     small tree with a trunk)."""
     b = MeshBuilder().group("pot", colour(pot_colour, FABRICS, WOODS)).group("soil", (0.25, 0.18, 0.12))
@@ -40,30 +41,39 @@ def plant(pot: str = "taper", height: float = 0.9, foliage: str = "bush", pot_co
         for k in range(11):
             a = math.radians(33 * k)
             tilt = 8 + 14 * ((k * 3) % 5) / 4
-            leaf = cylinder((0, 0, 0), 0.03, crown * (0.7 + 0.3 * ((k * 7) % 5) / 4), 6, radius_top=0.0,
-                            scale_z=0.3)
+            leaf = cylinder((0, 0, 0), 0.03, crown * (0.7 + 0.3 * ((k * 7) % 5) / 4), 6, radius_top=0.0, scale_z=0.3)
             leaf = transform(leaf, rot_y(math.degrees(a)) @ rot_x(tilt))
             b.add("foliage", (leaf[0] + np.array([0.0, top - 0.02, 0.0]), leaf[1]))
     else:  # tree
         b.add("trunk", cylinder((0, top - 0.02, 0), 0.02, crown * 0.55, 10, radius_top=0.012))
         for k in range(6):
             a = math.radians(60 * k)
-            b.add("foliage", sphere((0.12 * math.cos(a), top + crown * 0.72 + 0.06 * (k % 2), 0.12 * math.sin(a)),
-                                    crown * 0.2, 12))
+            b.add(
+                "foliage",
+                sphere((0.12 * math.cos(a), top + crown * 0.72 + 0.06 * (k % 2), 0.12 * math.sin(a)), crown * 0.2, 12),
+            )
         b.add("foliage", sphere((0, top + crown * 0.82, 0), crown * 0.22, 12))
     return b.build()
 
 
-def frame(kind: str = "picture", width: float = 0.6, height: float = 0.8, border: float = 0.05, depth: float = 0.03,
-          mat: float = 0.0, moulding: str = "black",
-          picture: tuple[float, float, float] = (0.45, 0.5, 0.55)) -> ObjectMesh:
+def frame(
+    kind: str = "picture",
+    width: float = 0.6,
+    height: float = 0.8,
+    border: float = 0.05,
+    depth: float = 0.03,
+    mat: float = 0.0,
+    moulding: str = "black",
+    picture: tuple[float, float, float] = (0.45, 0.5, 0.55),
+) -> ObjectMesh:
     """A framed picture, a mirror, a whiteboard or a poster, hanging on a wall and facing +Z: groups ``frame``
     (the moulding), ``mat`` (a passe-partout ``mat`` metres wide, none if 0) and ``picture`` (the image, the
     glass of a mirror, the board)."""
     if kind not in ("picture", "mirror", "whiteboard", "poster"):
         raise ValueError(f"frame: kind {kind!r}")
-    surface = {"picture": picture, "mirror": (0.75, 0.78, 0.8), "whiteboard": (0.95, 0.95, 0.95),
-               "poster": picture}[kind]
+    surface = {"picture": picture, "mirror": (0.75, 0.78, 0.8), "whiteboard": (0.95, 0.95, 0.95), "poster": picture}[
+        kind
+    ]
     b = MeshBuilder().group("frame", colour(moulding, WOODS, METALS)).group("mat", colour("cream", FABRICS))
     b.group("picture", surface)
     if kind == "poster":

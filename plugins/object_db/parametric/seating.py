@@ -27,10 +27,21 @@ CHAIR_BACKS = ("slats", "solid", "rails", "spindles", "upholstered", "none")
 CHAIR_LEGS = ("square", "round", "tapered", "splayed", "sled", "swivel")
 
 
-def chair(seat_height: float = 0.46, seat_width: float = 0.44, seat_depth: float = 0.42, back_height: float = 0.42,
-          back_style: str = "slats", leg_style: str = "square", armrests: bool = False, cushion: bool = False,
-          seat_shape: str = "square", back_lean: float = 8.0, wood: str = "oak", fabric: str = "grey",
-          metal: str = "black metal") -> ObjectMesh:
+def chair(
+    seat_height: float = 0.46,
+    seat_width: float = 0.44,
+    seat_depth: float = 0.42,
+    back_height: float = 0.42,
+    back_style: str = "slats",
+    leg_style: str = "square",
+    armrests: bool = False,
+    cushion: bool = False,
+    seat_shape: str = "square",
+    back_lean: float = 8.0,
+    wood: str = "oak",
+    fabric: str = "grey",
+    metal: str = "black metal",
+) -> ObjectMesh:
     """A chair or stool (``back_style="none"``): groups ``frame`` (seat and back), ``cushion`` (seat pad,
     upholstered back) and ``legs``. ``leg_style="swivel"`` is an office base on a five-star foot."""
     if back_style not in CHAIR_BACKS or leg_style not in CHAIR_LEGS:
@@ -42,13 +53,17 @@ def chair(seat_height: float = 0.46, seat_width: float = 0.44, seat_depth: float
     if seat_shape == "round":
         b.add("frame", cylinder((0, h - t, 0), w / 2, t, 28))
         if cushion:
-            b.add("cushion", lathe([(w / 2 - 0.01, 0), (w / 2 - 0.005, 0.03), (w / 2 - 0.06, 0.055), (0.0, 0.06)],
-                                   28, (0, h, 0)))
+            b.add(
+                "cushion",
+                lathe([(w / 2 - 0.01, 0), (w / 2 - 0.005, 0.03), (w / 2 - 0.06, 0.055), (0.0, 0.06)], 28, (0, h, 0)),
+            )
     else:
         b.add("frame", rounded_box((0, h - t / 2, 0), (w, t, d), 0.008))
         if cushion:
-            b.add("cushion", rounded_box((0, h + 0.03, 0.01), (w - 0.03, 0.06, d - 0.04), 0.025, flat=(3, 1, 3),
-                                         puff=0.15))
+            b.add(
+                "cushion",
+                rounded_box((0, h + 0.03, 0.01), (w - 0.03, 0.06, d - 0.04), 0.025, flat=(3, 1, 3), puff=0.15),
+            )
     inset = 0.035
     corners = [(sx * (w / 2 - inset), sz * (d / 2 - inset)) for sz in (1, -1) for sx in (-1, 1)]
     if seat_shape == "round":
@@ -56,8 +71,18 @@ def chair(seat_height: float = 0.46, seat_width: float = 0.44, seat_depth: float
     if leg_style == "sled":
         for sx in (-1, 1):
             x = sx * (w / 2 - 0.03)
-            b.add_all("legs", polyline_tube([(x, h - t, d / 2 - 0.04), (x, 0.012, d / 2 - 0.02),
-                                             (x, 0.012, -d / 2 + 0.02), (x, h - t, -d / 2 + 0.04)], 0.011))
+            b.add_all(
+                "legs",
+                polyline_tube(
+                    [
+                        (x, h - t, d / 2 - 0.04),
+                        (x, 0.012, d / 2 - 0.02),
+                        (x, 0.012, -d / 2 + 0.02),
+                        (x, h - t, -d / 2 + 0.04),
+                    ],
+                    0.011,
+                ),
+            )
     elif leg_style == "swivel":
         b.add("legs", cylinder((0, 0.1, 0), 0.025, h - t - 0.1, 16))
         b.add("legs", box((0, h - t - 0.03, 0), (0.16, 0.04, 0.16)))
@@ -81,8 +106,14 @@ def chair(seat_height: float = 0.46, seat_width: float = 0.44, seat_depth: float
         z = -d / 2 + 0.02
         top = h + back_height
         if back_style == "upholstered":
-            parts.append(("cushion", rounded_box((0, h + back_height / 2, z + 0.02), (w, back_height, 0.08), 0.03,
-                                                 flat=(3, 3, 1), puff=0.1)))
+            parts.append(
+                (
+                    "cushion",
+                    rounded_box(
+                        (0, h + back_height / 2, z + 0.02), (w, back_height, 0.08), 0.03, flat=(3, 3, 1), puff=0.1
+                    ),
+                )
+            )
         else:
             posts = [(sx * (w / 2 - 0.025), z) for sx in (-1, 1)]
             for x, pz in posts:
@@ -117,11 +148,23 @@ SOFA_ARMS = ("square", "rolled", "track", "rounded", "none")
 SOFA_LEGS = ("block", "tapered", "round", "metal", "plinth")
 
 
-def sofa(seats: int = 3, seat_width: float = 0.62, depth: float = 0.92, seat_height: float = 0.44,
-         back_height: float = 0.84, arm_style: str = "square", arm_height: float = 0.62,
-         cushion_thickness: float = 0.14, leg_height: float = 0.1, leg_style: str = "tapered",
-         back_cushions: bool = True, chaise: str = "none", fabric: str = "grey", cushion_fabric: str | None = None,
-         wood: str = "walnut") -> ObjectMesh:
+def sofa(
+    seats: int = 3,
+    seat_width: float = 0.62,
+    depth: float = 0.92,
+    seat_height: float = 0.44,
+    back_height: float = 0.84,
+    arm_style: str = "square",
+    arm_height: float = 0.62,
+    cushion_thickness: float = 0.14,
+    leg_height: float = 0.1,
+    leg_style: str = "tapered",
+    back_cushions: bool = True,
+    chaise: str = "none",
+    fabric: str = "grey",
+    cushion_fabric: str | None = None,
+    wood: str = "walnut",
+) -> ObjectMesh:
     """A sofa (``seats=1`` is an armchair): groups ``frame`` (base, back, arms), ``cushion`` (seat and back
     cushions) and ``legs``; ``chaise="left"/"right"`` extends one end forward into a chaise longue."""
     if arm_style not in SOFA_ARMS or leg_style not in SOFA_LEGS or chaise not in ("none", "left", "right"):
@@ -139,12 +182,22 @@ def sofa(seats: int = 3, seat_width: float = 0.62, depth: float = 0.92, seat_hei
     chaise_sign = -1.0 if chaise == "left" else 1.0
     # base and back
     b.add("frame", rounded_box((0, (leg_h + base_top) / 2, 0), (width, base_top - leg_h, depth), 0.03))
-    b.add("frame", rounded_box((0, (leg_h + back_height) / 2, -depth / 2 + back_t / 2), (width, back_height - leg_h,
-                                                                                           back_t), 0.05))
+    b.add(
+        "frame",
+        rounded_box(
+            (0, (leg_h + back_height) / 2, -depth / 2 + back_t / 2), (width, back_height - leg_h, back_t), 0.05
+        ),
+    )
     if chaise_len:
         cx = chaise_sign * (width / 2 - (seat_width + arm_w) / 2)
-        b.add("frame", rounded_box((cx, (leg_h + base_top) / 2, depth / 2 + chaise_len / 2 - 0.03),
-                                   (seat_width + arm_w, base_top - leg_h, chaise_len + 0.06), 0.03))
+        b.add(
+            "frame",
+            rounded_box(
+                (cx, (leg_h + base_top) / 2, depth / 2 + chaise_len / 2 - 0.03),
+                (seat_width + arm_w, base_top - leg_h, chaise_len + 0.06),
+                0.03,
+            ),
+        )
     # arms
     for sx in (-1, 1):
         if arm_style == "none" or (chaise_len and sx == chaise_sign):
@@ -152,10 +205,19 @@ def sofa(seats: int = 3, seat_width: float = 0.62, depth: float = 0.92, seat_hei
         x = sx * (width / 2 - arm_w / 2)
         if arm_style == "rolled":
             r = arm_w * 0.62
-            b.add("frame", rounded_box((x, (leg_h + arm_height - r) / 2, 0.0), (arm_w, arm_height - r - leg_h, depth),
-                                       0.02))
-            b.add("frame", tube((x + sx * 0.02, arm_height - r, -depth / 2 + 0.01),
-                                (x + sx * 0.02, arm_height - r, depth / 2), r, 20))
+            b.add(
+                "frame",
+                rounded_box((x, (leg_h + arm_height - r) / 2, 0.0), (arm_w, arm_height - r - leg_h, depth), 0.02),
+            )
+            b.add(
+                "frame",
+                tube(
+                    (x + sx * 0.02, arm_height - r, -depth / 2 + 0.01),
+                    (x + sx * 0.02, arm_height - r, depth / 2),
+                    r,
+                    20,
+                ),
+            )
         else:
             radius = {"square": 0.04, "track": 0.02, "rounded": 0.08}[arm_style]
             b.add("frame", rounded_box((x, (leg_h + arm_height) / 2, 0.0), (arm_w, arm_height - leg_h, depth), radius))
@@ -163,14 +225,28 @@ def sofa(seats: int = 3, seat_width: float = 0.62, depth: float = 0.92, seat_hei
     seat_d = depth - back_t - 0.02
     for k in range(seats):
         x = -inner / 2 + seat_width * (k + 0.5)
-        extra = chaise_len if chaise_len and ((chaise_sign > 0 and k == seats - 1) or (chaise_sign < 0 and k == 0)) else 0.0
-        b.add("cushion", rounded_box((x, seat_height - cushion_thickness / 2, depth / 2 - seat_d / 2 + extra / 2),
-                                     (seat_width - 0.012, cushion_thickness, seat_d + extra), 0.04, flat=(3, 1, 3),
-                                     puff=0.12))
+        extra = (
+            chaise_len if chaise_len and ((chaise_sign > 0 and k == seats - 1) or (chaise_sign < 0 and k == 0)) else 0.0
+        )
+        b.add(
+            "cushion",
+            rounded_box(
+                (x, seat_height - cushion_thickness / 2, depth / 2 - seat_d / 2 + extra / 2),
+                (seat_width - 0.012, cushion_thickness, seat_d + extra),
+                0.04,
+                flat=(3, 1, 3),
+                puff=0.12,
+            ),
+        )
         if back_cushions:
             bh = back_height - seat_height - 0.02
-            part = rounded_box((x, seat_height + bh / 2, -depth / 2 + back_t + 0.08), (seat_width - 0.02, bh, 0.16),
-                               0.05, flat=(3, 3, 1), puff=0.15)
+            part = rounded_box(
+                (x, seat_height + bh / 2, -depth / 2 + back_t + 0.08),
+                (seat_width - 0.02, bh, 0.16),
+                0.05,
+                flat=(3, 3, 1),
+                puff=0.15,
+            )
             b.add("cushion", transform(part, rot_x(-10), (0, seat_height, -depth / 2 + back_t)))
     # legs
     if leg_style != "plinth":
@@ -185,8 +261,16 @@ def sofa(seats: int = 3, seat_width: float = 0.62, depth: float = 0.92, seat_hei
     return b.build()
 
 
-def ottoman(shape: str = "square", width: float = 0.6, depth: float = 0.6, height: float = 0.42,
-            legs_height: float = 0.0, tufted: bool = False, fabric: str = "beige", wood: str = "walnut") -> ObjectMesh:
+def ottoman(
+    shape: str = "square",
+    width: float = 0.6,
+    depth: float = 0.6,
+    height: float = 0.42,
+    legs_height: float = 0.0,
+    tufted: bool = False,
+    fabric: str = "beige",
+    wood: str = "walnut",
+) -> ObjectMesh:
     """An ottoman, footstool or pouf: groups ``cushion`` (the upholstered top), ``base`` (the upholstered body)
     and ``legs`` (none when ``legs_height`` is 0). ``shape`` is square/rect/round (a round one without legs
     is a pouf); ``tufted`` adds buttons on a grid."""
@@ -201,15 +285,27 @@ def ottoman(shape: str = "square", width: float = 0.6, depth: float = 0.6, heigh
     if shape == "round":
         r = width / 2
         y = legs_height + body_h
-        b.add("base", lathe([(r * 0.96, legs_height), (r, legs_height + body_h * 0.5), (r * 0.98, y)], 40,
-                            scale_z=depth / width))
-        b.add("cushion", lathe([(r * 0.98, y), (r, y + top_t * 0.5), (r * 0.8, y + top_t * 0.95), (0.0, height)], 40,
-                               scale_z=depth / width))
+        b.add(
+            "base",
+            lathe([(r * 0.96, legs_height), (r, legs_height + body_h * 0.5), (r * 0.98, y)], 40, scale_z=depth / width),
+        )
+        b.add(
+            "cushion",
+            lathe(
+                [(r * 0.98, y), (r, y + top_t * 0.5), (r * 0.8, y + top_t * 0.95), (0.0, height)],
+                40,
+                scale_z=depth / width,
+            ),
+        )
         foot = [(sx * r * 0.6, sz * r * 0.6 * depth / width) for sz in (1, -1) for sx in (-1, 1)]
     else:
         b.add("base", rounded_box((0, legs_height + body_h / 2, 0), (width, body_h, depth), 0.03))
-        b.add("cushion", rounded_box((0, legs_height + body_h + top_t / 2, 0), (width, top_t, depth), 0.04,
-                                     flat=(4, 1, 4), puff=0.12))
+        b.add(
+            "cushion",
+            rounded_box(
+                (0, legs_height + body_h + top_t / 2, 0), (width, top_t, depth), 0.04, flat=(4, 1, 4), puff=0.12
+            ),
+        )
         foot = [(sx * (width / 2 - 0.05), sz * (depth / 2 - 0.05)) for sz in (1, -1) for sx in (-1, 1)]
     if legs_height > 0:
         add_legs(b, "legs", foot, legs_height, "tapered", 0.05, top=legs_height + 0.01)

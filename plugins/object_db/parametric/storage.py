@@ -13,9 +13,20 @@ from ..primitives import MeshBuilder, box, lathe, rounded_box, sphere
 from .common import FABRICS, METALS, WOODS, add_legs, colour
 
 
-def cabinet(width: float = 1.0, height: float = 0.85, depth: float = 0.45, drawers: int = 0, doors: int = 2,
-            drawer_columns: int = 1, base: str = "plinth", handle: str = "bar", top_overhang: float = 0.01,
-            wood: str = "oak", fronts: str | None = None, metal: str = "steel") -> ObjectMesh:
+def cabinet(
+    width: float = 1.0,
+    height: float = 0.85,
+    depth: float = 0.45,
+    drawers: int = 0,
+    doors: int = 2,
+    drawer_columns: int = 1,
+    base: str = "plinth",
+    handle: str = "bar",
+    top_overhang: float = 0.01,
+    wood: str = "oak",
+    fronts: str | None = None,
+    metal: str = "steel",
+) -> ObjectMesh:
     """A cabinet, dresser, nightstand, wardrobe, sideboard or TV stand: drawers (in ``drawer_columns``)
     above ``doors``; groups ``body``, ``fronts`` (doors and drawer fronts), ``handles`` and ``legs``;
     ``base`` is plinth/legs/none."""
@@ -27,12 +38,23 @@ def cabinet(width: float = 1.0, height: float = 0.85, depth: float = 0.45, drawe
     if base == "plinth":
         b.add("legs", box((0, base_h / 2, -0.02), (width - 0.04, base_h, depth - 0.06)))
     elif base == "legs":
-        add_legs(b, "legs", [(sx * (width / 2 - 0.05), sz * (depth / 2 - 0.05)) for sz in (1, -1) for sx in (-1, 1)],
-              base_h, "tapered", 0.05, top=base_h + 0.01)
+        add_legs(
+            b,
+            "legs",
+            [(sx * (width / 2 - 0.05), sz * (depth / 2 - 0.05)) for sz in (1, -1) for sx in (-1, 1)],
+            base_h,
+            "tapered",
+            0.05,
+            top=base_h + 0.01,
+        )
     body_h = height - base_h - 0.03
     b.add("body", box((0, base_h + body_h / 2, 0), (width, body_h, depth)))
-    b.add("body", rounded_box((0, height - 0.015, top_overhang / 2), (width + 2 * top_overhang, 0.03,
-                                                                      depth + top_overhang), 0.006))
+    b.add(
+        "body",
+        rounded_box(
+            (0, height - 0.015, top_overhang / 2), (width + 2 * top_overhang, 0.03, depth + top_overhang), 0.006
+        ),
+    )
     gap, panel_t, zf = 0.006, 0.02, depth / 2 + 0.01
     margin = 0.02
     x0, x1 = -width / 2 + margin, width / 2 - margin
@@ -71,9 +93,19 @@ def cabinet(width: float = 1.0, height: float = 0.85, depth: float = 0.45, drawe
     return b.build()
 
 
-def shelf(width: float = 0.8, height: float = 1.8, depth: float = 0.32, shelves: int = 5, columns: int = 1,
-          back_panel: bool = True, sides: str = "solid", books: float = 0.6, wood: str = "white",
-          metal: str = "black metal", book_colours: tuple[str, str] = ("terracotta", "navy")) -> ObjectMesh:
+def shelf(
+    width: float = 0.8,
+    height: float = 1.8,
+    depth: float = 0.32,
+    shelves: int = 5,
+    columns: int = 1,
+    back_panel: bool = True,
+    sides: str = "solid",
+    books: float = 0.6,
+    wood: str = "white",
+    metal: str = "black metal",
+    book_colours: tuple[str, str] = ("terracotta", "navy"),
+) -> ObjectMesh:
     """A bookcase or shelving unit: groups ``frame`` (sides, top, bottom, dividers), ``shelves``, ``back`` and
     ``books`` / ``books_alt`` (``books`` is the fraction of each compartment filled). ``sides="frame"`` is
     an open metal frame."""
@@ -96,7 +128,10 @@ def shelf(width: float = 0.8, height: float = 1.8, depth: float = 0.32, shelves:
     else:
         for sx in (-1, 1):
             for sz in (-1, 1):
-                b.add("frame", box((sx * (width / 2 - 0.012), height / 2, sz * (depth / 2 - 0.012)), (0.024, height, 0.024)))
+                b.add(
+                    "frame",
+                    box((sx * (width / 2 - 0.012), height / 2, sz * (depth / 2 - 0.012)), (0.024, height, 0.024)),
+                )
         levels = np.linspace(0.08, height - 0.02, shelves)
         bottom = float(levels[0])
         for y in levels:
@@ -130,16 +165,31 @@ def shelf(width: float = 0.8, height: float = 1.8, depth: float = 0.32, shelves:
     return b.build()
 
 
-def kitchen_unit(kind: str = "base", width: float = 1.8, height: float | None = None, depth: float | None = None,
-                 modules: int = 3, drawers: bool = True, counter: str = "granite", wood: str = "white",
-                 fronts: str | None = None, metal: str = "steel") -> ObjectMesh:
+def kitchen_unit(
+    kind: str = "base",
+    width: float = 1.8,
+    height: float | None = None,
+    depth: float | None = None,
+    modules: int = 3,
+    drawers: bool = True,
+    counter: str = "granite",
+    wood: str = "white",
+    fronts: str | None = None,
+    metal: str = "steel",
+) -> ObjectMesh:
     """A run of kitchen cabinets: ``base`` (plinth, drawers over doors, a worktop), ``wall`` (hung doors) or
     ``tall`` (a pantry). Groups ``body``, ``fronts``, ``handles``, ``plinth`` and ``counter`` (the worktop of
     a base run); ``modules`` door columns share the width."""
     if kind not in ("base", "wall", "tall"):
         raise ValueError(f"kitchen_unit: kind {kind!r}")
-    counters = {"granite": (0.22, 0.21, 0.21), "marble": (0.88, 0.87, 0.85), "oak": WOODS["oak"],
-                "white": (0.93, 0.93, 0.91), "black": (0.08, 0.08, 0.09), "concrete": (0.6, 0.59, 0.57)}
+    counters = {
+        "granite": (0.22, 0.21, 0.21),
+        "marble": (0.88, 0.87, 0.85),
+        "oak": WOODS["oak"],
+        "white": (0.93, 0.93, 0.91),
+        "black": (0.08, 0.08, 0.09),
+        "concrete": (0.6, 0.59, 0.57),
+    }
     height = height or {"base": 0.9, "wall": 0.72, "tall": 2.1}[kind]
     depth = depth or {"base": 0.6, "wall": 0.34, "tall": 0.6}[kind]
     b = MeshBuilder().group("body", colour(wood, WOODS)).group("fronts", colour(fronts or wood, WOODS))
@@ -168,15 +218,29 @@ def kitchen_unit(kind: str = "base", width: float = 1.8, height: float | None = 
     return b.build()
 
 
-def container(kind: str = "box", width: float = 0.5, depth: float = 0.35, height: float = 0.3, lid: bool = False,
-              body: str = "cardboard", trim: str = "cream") -> ObjectMesh:
+def container(
+    kind: str = "box",
+    width: float = 0.5,
+    depth: float = 0.35,
+    height: float = 0.3,
+    lid: bool = False,
+    body: str = "cardboard",
+    trim: str = "cream",
+) -> ObjectMesh:
     """A cardboard box, a plastic storage bin, a woven basket or a wooden crate: groups ``body``, ``lid`` (a
     lid or a box's taped flaps) and ``trim`` (tape, handles, a basket's rim)."""
     if kind not in ("box", "bin", "basket", "crate"):
         raise ValueError(f"container: kind {kind!r}")
-    colours = {"cardboard": (0.66, 0.5, 0.33), "white": (0.9, 0.9, 0.88), "clear": (0.78, 0.8, 0.82),
-               "blue": (0.2, 0.38, 0.62), "grey": (0.5, 0.5, 0.5), "wicker": (0.62, 0.47, 0.28),
-               "pine": WOODS["birch"], "black": (0.1, 0.1, 0.11)}
+    colours = {
+        "cardboard": (0.66, 0.5, 0.33),
+        "white": (0.9, 0.9, 0.88),
+        "clear": (0.78, 0.8, 0.82),
+        "blue": (0.2, 0.38, 0.62),
+        "grey": (0.5, 0.5, 0.5),
+        "wicker": (0.62, 0.47, 0.28),
+        "pine": WOODS["birch"],
+        "black": (0.1, 0.1, 0.11),
+    }
     b = MeshBuilder().group("body", colours[body]).group("lid", colours[body]).group("trim", colour(trim, FABRICS))
     if kind == "box":
         b.add("body", box((0, height / 2, 0), (width, height, depth)))

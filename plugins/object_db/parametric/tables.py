@@ -11,9 +11,18 @@ TABLE_SHAPES = ("rect", "square", "round", "oval")
 TABLE_LEGS = ("square", "round", "tapered", "splayed", "pedestal", "trestle", "metal")
 
 
-def table(shape: str = "rect", width: float = 1.6, depth: float = 0.9, height: float = 0.75,
-          top_thickness: float = 0.04, leg_style: str = "square", apron: bool = True, lower_shelf: bool = False,
-          top: str = "oak", legs: str = "oak") -> ObjectMesh:
+def table(
+    shape: str = "rect",
+    width: float = 1.6,
+    depth: float = 0.9,
+    height: float = 0.75,
+    top_thickness: float = 0.04,
+    leg_style: str = "square",
+    apron: bool = True,
+    lower_shelf: bool = False,
+    top: str = "oak",
+    legs: str = "oak",
+) -> ObjectMesh:
     """A dining, coffee, side or console table: groups ``top``, ``legs`` and ``frame`` (apron, stretchers,
     shelf). ``shape`` is rect/square/round/oval; ``leg_style="pedestal"`` is a central column."""
     if shape not in TABLE_SHAPES or leg_style not in TABLE_LEGS:
@@ -66,16 +75,32 @@ def table(shape: str = "rect", width: float = 1.6, depth: float = 0.9, height: f
     return b.build()
 
 
-def desk(width: float = 1.3, depth: float = 0.65, height: float = 0.75, drawers_side: str = "right",
-         leg_style: str = "square", modesty_panel: bool = True, hutch: bool = False, top: str = "oak",
-         body: str = "white", metal: str = "black metal") -> ObjectMesh:
+def desk(
+    width: float = 1.3,
+    depth: float = 0.65,
+    height: float = 0.75,
+    drawers_side: str = "right",
+    leg_style: str = "square",
+    modesty_panel: bool = True,
+    hutch: bool = False,
+    top: str = "oak",
+    body: str = "white",
+    metal: str = "black metal",
+) -> ObjectMesh:
     """A desk: groups ``top``, ``legs``, ``drawers`` (pedestal and drawer fronts) and ``handles``;
     ``drawers_side`` is left/right/both/none (seen from the front, +Z, where the user sits)."""
-    if drawers_side not in ("left", "right", "both", "none") or leg_style not in ("square", "tapered", "frame",
-                                                                                 "panel"):
+    if drawers_side not in ("left", "right", "both", "none") or leg_style not in (
+        "square",
+        "tapered",
+        "frame",
+        "panel",
+    ):
         raise ValueError(f"desk: drawers_side {drawers_side!r} / leg_style {leg_style!r}")
-    b = MeshBuilder().group("top", colour(top, WOODS)).group("legs", colour(metal if leg_style == "frame" else body,
-                                                                              METALS, WOODS))
+    b = (
+        MeshBuilder()
+        .group("top", colour(top, WOODS))
+        .group("legs", colour(metal if leg_style == "frame" else body, METALS, WOODS))
+    )
     b.group("drawers", colour(body, WOODS)).group("handles", colour("steel", METALS))
     t = 0.03
     b.add("top", rounded_box((0, height - t / 2, 0), (width, t, depth), 0.006))

@@ -12,8 +12,16 @@ from ..primitives import MeshBuilder, box, lathe, rot_x, rot_z, rounded_box, sph
 from .common import FABRICS, colour
 
 
-def rug(shape: str = "rect", width: float = 2.0, length: float = 1.4, border: float = 0.12, thickness: float = 0.012,
-        fringe: bool = False, field: str = "beige", border_colour: str = "terracotta") -> ObjectMesh:
+def rug(
+    shape: str = "rect",
+    width: float = 2.0,
+    length: float = 1.4,
+    border: float = 0.12,
+    thickness: float = 0.012,
+    fringe: bool = False,
+    field: str = "beige",
+    border_colour: str = "terracotta",
+) -> ObjectMesh:
     """A rug (rect/round/oval/runner): groups ``field``, ``border`` (a band of ``border`` metres, none if 0)
     and ``fringe`` (tassels along the short ends)."""
     if shape not in ("rect", "round", "oval", "runner"):
@@ -27,8 +35,10 @@ def rug(shape: str = "rect", width: float = 2.0, length: float = 1.4, border: fl
         inner = r - border if border > 0 else r
         b.add("field", lathe([(inner, 0.0), (inner, t)], 64, scale_z=scale))
         if border > 0:
-            b.add("border", lathe([(inner, 0.0), (r, 0.0), (r, t), (inner, t), (inner, 0.0)], 64, scale_z=scale,
-                                  caps=False))
+            b.add(
+                "border",
+                lathe([(inner, 0.0), (r, 0.0), (r, t), (inner, t), (inner, 0.0)], 64, scale_z=scale, caps=False),
+            )
         return b.build()
     W, L = width, length  # x, z
     if border > 0:
@@ -52,8 +62,16 @@ def rug(shape: str = "rect", width: float = 2.0, length: float = 1.4, border: fl
     return b.build()
 
 
-def pillow(shape: str = "square", size: float = 0.45, thickness: float = 0.12, puff: float = 0.3,
-           piping: bool = False, button: bool = False, fabric: str = "mustard", trim: str = "cream") -> ObjectMesh:
+def pillow(
+    shape: str = "square",
+    size: float = 0.45,
+    thickness: float = 0.12,
+    puff: float = 0.3,
+    piping: bool = False,
+    button: bool = False,
+    fabric: str = "mustard",
+    trim: str = "cream",
+) -> ObjectMesh:
     """A cushion standing upright, facing +Z: square, lumbar (wide), round (a disc) or bolster (a roll along
     x); groups ``cover``, ``piping`` (a cord round the edge) and ``button``."""
     if shape not in ("square", "lumbar", "round", "bolster"):
@@ -76,9 +94,16 @@ def pillow(shape: str = "square", size: float = 0.45, thickness: float = 0.12, p
     if shape == "round":  # a disc: profile from the back centre round the rim to the front centre
         r, half_t = size / 2, thickness / 2
         crown = half_t + puff * r * 0.5
-        rim = [(r - half_t + half_t * math.cos(a), half_t * math.sin(a)) for a in np.linspace(-math.pi / 2, math.pi / 2, 9)]
-        prof = [(0.0, -crown), (r * 0.6, -half_t - puff * r * 0.35), *rim, (r * 0.6, half_t + puff * r * 0.35),
-                (0.0, crown)]
+        rim = [
+            (r - half_t + half_t * math.cos(a), half_t * math.sin(a)) for a in np.linspace(-math.pi / 2, math.pi / 2, 9)
+        ]
+        prof = [
+            (0.0, -crown),
+            (r * 0.6, -half_t - puff * r * 0.35),
+            *rim,
+            (r * 0.6, half_t + puff * r * 0.35),
+            (0.0, crown),
+        ]
         part = transform(lathe(prof, 32), rot_x(90), translate=(0, r, 0))
         b.add("cover", part)
         if piping:
@@ -88,13 +113,21 @@ def pillow(shape: str = "square", size: float = 0.45, thickness: float = 0.12, p
         return b.build()
     # bolster: a roll along x
     length, r = size * 1.1, size * 0.2
-    prof = [(0.0, -length / 2), (r * 0.75, -length / 2), (r, -length / 2 + 0.03), (r, length / 2 - 0.03),
-            (r * 0.75, length / 2), (0.0, length / 2)]
+    prof = [
+        (0.0, -length / 2),
+        (r * 0.75, -length / 2),
+        (r, -length / 2 + 0.03),
+        (r, length / 2 - 0.03),
+        (r * 0.75, length / 2),
+        (0.0, length / 2),
+    ]
     b.add("cover", transform(lathe(prof, 28), rot_z(-90), translate=(0, r, 0)))
     if piping:
         for sx in (-1, 1):
-            b.add("piping", transform(torus((0, 0, 0), r * 0.9, 0.01, 28), rot_z(90),
-                                      translate=(sx * (length / 2 - 0.015), r, 0)))
+            b.add(
+                "piping",
+                transform(torus((0, 0, 0), r * 0.9, 0.01, 28), rot_z(90), translate=(sx * (length / 2 - 0.015), r, 0)),
+            )
     if button:
         for sx in (-1, 1):
             b.add("button", sphere((sx * length / 2, r, 0), 0.022, 10, scale=(0.5, 1, 1)))

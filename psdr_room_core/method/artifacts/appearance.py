@@ -64,23 +64,40 @@ class MaterialAssignment:
             write_png(directory / f"{name}.png", picture)
         if self.samples is not None:
             np.save(directory / "samples.npy", self.samples.astype(np.int16))
-        write_json(directory / "materials.json", {"images": sorted(self.images), "parts": [
-            {**asdict(p), "crops": [list(c) for c in p.crops], "candidates": [list(c) for c in p.candidates]}
-            for p in self.parts]})
+        write_json(
+            directory / "materials.json",
+            {
+                "images": sorted(self.images),
+                "parts": [
+                    {**asdict(p), "crops": [list(c) for c in p.crops], "candidates": [list(c) for c in p.candidates]}
+                    for p in self.parts
+                ],
+            },
+        )
 
     @classmethod
     def load(cls, directory: Path) -> MaterialAssignment:
         data = read_json(directory / "materials.json")
         try:
-            parts = [PartMaterial(**{**p, "albedo": tuple(float(v) for v in p["albedo"]),
-                                     "crops": tuple(tuple(int(v) for v in c) for c in p["crops"]),
-                                     "candidates": tuple((str(n), float(s)) for n, s in p["candidates"])})
-                     for p in data["parts"]]
+            parts = [
+                PartMaterial(
+                    **{
+                        **p,
+                        "albedo": tuple(float(v) for v in p["albedo"]),
+                        "crops": tuple(tuple(int(v) for v in c) for c in p["crops"]),
+                        "candidates": tuple((str(n), float(s)) for n, s in p["candidates"]),
+                    }
+                )
+                for p in data["parts"]
+            ]
         except (KeyError, TypeError, ValueError) as exc:
-            raise PsdrRoomError(f"{directory / 'materials.json'}: not as psdr-room writes it ({exc}); fix or regenerate it") from None
+            raise PsdrRoomError(
+                f"{directory / 'materials.json'}: not as psdr-room writes it ({exc}); fix or regenerate it"
+            ) from None
         samples = read_npy(directory / "samples.npy") if (directory / "samples.npy").is_file() else None
-        return cls(parts=parts, images={n: read_png(directory / f"{n}.png") for n in data.get("images", [])},
-                   samples=samples)
+        return cls(
+            parts=parts, images={n: read_png(directory / f"{n}.png") for n in data.get("images", [])}, samples=samples
+        )
 
 
 @dataclass
@@ -114,9 +131,17 @@ class Lights:
         for name, picture in self.images.items():
             write_png(directory / f"{name}.png", picture)
         save_meshes(directory / "meshes.npz", {**{l.name: l.mesh for l in self.lights}, **self.fixtures})
-        write_json(directory / "lights.json", {
-            "lights": [{"name": l.name, "kind": l.kind, "radiance": list(l.radiance), "part": l.part} for l in self.lights],
-            "fixtures": list(self.fixtures), "sweep": [list(s) for s in self.sweep], "images": sorted(self.images)})
+        write_json(
+            directory / "lights.json",
+            {
+                "lights": [
+                    {"name": l.name, "kind": l.kind, "radiance": list(l.radiance), "part": l.part} for l in self.lights
+                ],
+                "fixtures": list(self.fixtures),
+                "sweep": [list(s) for s in self.sweep],
+                "images": sorted(self.images),
+            },
+        )
 
     @classmethod
     def load(cls, directory: Path) -> Lights:
@@ -124,13 +149,26 @@ class Lights:
         try:
             names = [l["name"] for l in data["lights"]] + list(data["fixtures"])
             meshes = load_meshes(directory / "meshes.npz", names)
-            lights = [Light(str(l["name"]), str(l["kind"]), meshes[l["name"]], tuple(float(v) for v in l["radiance"]),
-                            l.get("part")) for l in data["lights"]]
-            return cls(lights=lights, fixtures={n: meshes[n] for n in data["fixtures"]},
-                       sweep=[(float(a), float(b)) for a, b in data["sweep"]],
-                       images={n: read_png(directory / f"{n}.png") for n in data.get("images", [])})
+            lights = [
+                Light(
+                    str(l["name"]),
+                    str(l["kind"]),
+                    meshes[l["name"]],
+                    tuple(float(v) for v in l["radiance"]),
+                    l.get("part"),
+                )
+                for l in data["lights"]
+            ]
+            return cls(
+                lights=lights,
+                fixtures={n: meshes[n] for n in data["fixtures"]},
+                sweep=[(float(a), float(b)) for a, b in data["sweep"]],
+                images={n: read_png(directory / f"{n}.png") for n in data.get("images", [])},
+            )
         except (KeyError, TypeError, ValueError) as exc:
-            raise PsdrRoomError(f"{directory / 'lights.json'}: not as psdr-room writes it ({exc}); fix or regenerate it") from None
+            raise PsdrRoomError(
+                f"{directory / 'lights.json'}: not as psdr-room writes it ({exc}); fix or regenerate it"
+            ) from None
 
 
 @dataclass
@@ -168,22 +206,33 @@ class SceneAppearance:
     def save(self, directory: Path) -> None:
         for name, picture in self.images.items():
             write_png(directory / f"{name}.png", picture)
-        write_json(directory / "appearance.json", {"parts": [asdict(p) for p in self.parts],
-                                                    "radiance": {k: list(v) for k, v in self.radiance.items()},
-                                                    "images": sorted(self.images)})
+        write_json(
+            directory / "appearance.json",
+            {
+                "parts": [asdict(p) for p in self.parts],
+                "radiance": {k: list(v) for k, v in self.radiance.items()},
+                "images": sorted(self.images),
+            },
+        )
 
     @classmethod
     def load(cls, directory: Path) -> SceneAppearance:
         data = read_json(directory / "appearance.json")
-        return cls(**appearance_fields(data, directory / "appearance.json"),
-                   images={n: read_png(directory / f"{n}.png") for n in data.get("images", [])})
+        return cls(
+            **appearance_fields(data, directory / "appearance.json"),
+            images={n: read_png(directory / f"{n}.png") for n in data.get("images", [])},
+        )
 
 
 def appearance_fields(data: Any, path: Path) -> dict[str, Any]:
     """``parts`` and ``radiance`` of a :class:`SceneAppearance` from its JSON form (``path`` for errors)."""
     try:
-        parts = [PartAppearance(**{**p, "base_color": tuple(float(v) for v in p["base_color"]),
-                                   "params": dict(p.get("params", {}))}) for p in data["parts"]]
+        parts = [
+            PartAppearance(
+                **{**p, "base_color": tuple(float(v) for v in p["base_color"]), "params": dict(p.get("params", {}))}
+            )
+            for p in data["parts"]
+        ]
         radiance = {str(k): tuple(float(x) for x in v) for k, v in data["radiance"].items()}
     except (KeyError, TypeError, ValueError) as exc:
         raise PsdrRoomError(f"{path}: not as psdr-room writes it ({exc}); fix or regenerate it") from None
@@ -209,5 +258,8 @@ class SceneFiles:
 
     @classmethod
     def load(cls, directory: Path) -> SceneFiles:
-        return cls(files={p.relative_to(directory).as_posix(): p.read_bytes()
-                          for p in sorted(directory.rglob("*")) if p.is_file()})
+        return cls(
+            files={
+                p.relative_to(directory).as_posix(): p.read_bytes() for p in sorted(directory.rglob("*")) if p.is_file()
+            }
+        )

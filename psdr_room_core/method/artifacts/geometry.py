@@ -139,23 +139,50 @@ class ObjectCandidates:
     def save(self, directory: Path) -> None:
         if self.sheet is not None:
             write_png(directory / "candidates.png", self.sheet)
-        write_json(directory / "candidates.json", {"source": self.source, "objects": [
-            {"segment_id": sid, "label": self.labels.get(sid, ""),
-             "candidates": [{"model_id": c.model_id, "score": float(c.score), "category": c.category,
-                             "terms": {k: float(v) for k, v in c.terms.items()}} for c in ranked]}
-            for sid, ranked in sorted(self.ranked.items())]})
+        write_json(
+            directory / "candidates.json",
+            {
+                "source": self.source,
+                "objects": [
+                    {
+                        "segment_id": sid,
+                        "label": self.labels.get(sid, ""),
+                        "candidates": [
+                            {
+                                "model_id": c.model_id,
+                                "score": float(c.score),
+                                "category": c.category,
+                                "terms": {k: float(v) for k, v in c.terms.items()},
+                            }
+                            for c in ranked
+                        ],
+                    }
+                    for sid, ranked in sorted(self.ranked.items())
+                ],
+            },
+        )
 
     @classmethod
     def load(cls, directory: Path) -> ObjectCandidates:
         data = read_json(directory / "candidates.json")
         try:
-            ranked = {int(o["segment_id"]): [Candidate(str(c["model_id"]), float(c["score"]), str(c.get("category", "")),
-                                                       {str(k): float(v) for k, v in c.get("terms", {}).items()})
-                                             for c in o["candidates"]]
-                      for o in data["objects"]}
+            ranked = {
+                int(o["segment_id"]): [
+                    Candidate(
+                        str(c["model_id"]),
+                        float(c["score"]),
+                        str(c.get("category", "")),
+                        {str(k): float(v) for k, v in c.get("terms", {}).items()},
+                    )
+                    for c in o["candidates"]
+                ]
+                for o in data["objects"]
+            }
             labels = {int(o["segment_id"]): str(o.get("label", "")) for o in data["objects"]}
         except (KeyError, TypeError, ValueError) as exc:
-            raise PsdrRoomError(f"{directory / 'candidates.json'}: not as psdr-room writes it ({exc}); fix or regenerate it") from None
+            raise PsdrRoomError(
+                f"{directory / 'candidates.json'}: not as psdr-room writes it ({exc}); fix or regenerate it"
+            ) from None
         sheet = read_png(directory / "candidates.png") if (directory / "candidates.png").is_file() else None
         return cls(ranked=ranked, labels=labels, source=str(data.get("source", "")), sheet=sheet)
 
@@ -210,8 +237,9 @@ class ObjectMesh:
             lines.append(f"usemtl {name}")
             lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in self.faces[self.face_group == g]]
         obj.write_text("\n".join(lines) + "\n")
-        mtl.write_text("".join(f"newmtl {name}\nKd {r:.4f} {g:.4f} {b:.4f}\n"
-                               for name, (r, g, b) in zip(self.groups, self.colors)))
+        mtl.write_text(
+            "".join(f"newmtl {name}\nKd {r:.4f} {g:.4f} {b:.4f}\n" for name, (r, g, b) in zip(self.groups, self.colors))
+        )
 
     @classmethod
     def read_obj(cls, obj: Path) -> ObjectMesh:
@@ -230,7 +258,7 @@ class ObjectMesh:
             colors = dict.fromkeys(groups, (0.5, 0.5, 0.5))
             name = None
             mtl = obj.with_suffix(".mtl")
-            for line in (mtl.read_text().splitlines() if mtl.is_file() else []):
+            for line in mtl.read_text().splitlines() if mtl.is_file() else []:
                 head, _, rest = line.partition(" ")
                 if head == "newmtl":
                     name = rest.strip()
@@ -239,11 +267,18 @@ class ObjectMesh:
         except FileNotFoundError:
             raise PsdrRoomError(f"{obj}: missing; the artifact directory is incomplete") from None
         except ValueError as exc:
-            raise PsdrRoomError(f"{obj}: not a triangle OBJ as psdr-room writes it ({exc}); fix or regenerate it") from None
+            raise PsdrRoomError(
+                f"{obj}: not a triangle OBJ as psdr-room writes it ({exc}); fix or regenerate it"
+            ) from None
         groups = groups or ["default"]
-        return cls(vertices=np.asarray(vertices, np.float64).reshape(-1, 3), faces=np.asarray(faces, np.int64).reshape(-1, 3),
-                   face_group=np.asarray(face_group, np.int64), groups=tuple(groups),
-                   colors=np.asarray([colors.get(g, (0.5, 0.5, 0.5)) for g in groups], np.float64))
+        return cls(
+            vertices=np.asarray(vertices, np.float64).reshape(-1, 3),
+            faces=np.asarray(faces, np.int64).reshape(-1, 3),
+            face_group=np.asarray(face_group, np.int64),
+            groups=tuple(groups),
+            colors=np.asarray([colors.get(g, (0.5, 0.5, 0.5)) for g in groups], np.float64),
+        )
+
 
 SUPPORTS = ("floor", "parent", "wall", "free")
 """How an object is held: on the floor, on top of another object, on a wall, or not at all."""
@@ -296,24 +331,46 @@ class Placements:
         items = []
         for p in self.objects:
             p.mesh.write_obj(directory / "meshes" / f"{p.segment_id}.obj")
-            items.append({"segment_id": p.segment_id, "label": p.label, "model_id": p.model_id,
-                          "mesh": f"meshes/{p.segment_id}.obj", "position": [float(v) for v in p.position],
-                          "yaw": float(p.yaw), "scale": float(p.scale), "support": p.support, "anchor": p.anchor,
-                          "category": p.category, "explained": p.explained, "to_world": p.to_world.tolist()})
+            items.append(
+                {
+                    "segment_id": p.segment_id,
+                    "label": p.label,
+                    "model_id": p.model_id,
+                    "mesh": f"meshes/{p.segment_id}.obj",
+                    "position": [float(v) for v in p.position],
+                    "yaw": float(p.yaw),
+                    "scale": float(p.scale),
+                    "support": p.support,
+                    "anchor": p.anchor,
+                    "category": p.category,
+                    "explained": p.explained,
+                    "to_world": p.to_world.tolist(),
+                }
+            )
         write_json(directory / "placements.json", {"objects": items, "extra": self.extra})
 
     @classmethod
     def load(cls, directory: Path) -> Placements:
         data = read_json(directory / "placements.json")
         try:
-            objects = [Placement(segment_id=int(o["segment_id"]), label=str(o["label"]), model_id=str(o["model_id"]),
-                                 mesh=ObjectMesh.read_obj(directory / o["mesh"]),
-                                 position=tuple(float(v) for v in o["position"]), yaw=float(o["yaw"]),
-                                 scale=float(o["scale"]), support=str(o["support"]),
-                                 anchor=None if o.get("anchor") is None else int(o["anchor"]),
-                                 category=str(o.get("category", "other")),
-                                 explained=None if o.get("explained") is None else float(o["explained"]))
-                       for o in data["objects"]]
+            objects = [
+                Placement(
+                    segment_id=int(o["segment_id"]),
+                    label=str(o["label"]),
+                    model_id=str(o["model_id"]),
+                    mesh=ObjectMesh.read_obj(directory / o["mesh"]),
+                    position=tuple(float(v) for v in o["position"]),
+                    yaw=float(o["yaw"]),
+                    scale=float(o["scale"]),
+                    support=str(o["support"]),
+                    anchor=None if o.get("anchor") is None else int(o["anchor"]),
+                    category=str(o.get("category", "other")),
+                    explained=None if o.get("explained") is None else float(o["explained"]),
+                )
+                for o in data["objects"]
+            ]
         except (KeyError, TypeError, ValueError) as exc:
-            raise PsdrRoomError(f"{directory / 'placements.json'}: not as psdr-room writes it ({exc}); fix or regenerate it") from None
+            raise PsdrRoomError(
+                f"{directory / 'placements.json'}: not as psdr-room writes it ({exc}); fix or regenerate it"
+            ) from None
         return cls(objects=objects, extra=dict(data.get("extra") or {}))

@@ -84,8 +84,15 @@ class Camera:
         """The camera for an image ``width`` pixels wide: the intrinsics scaled uniformly (square pixels stay
         square; the rounded height changes the vertical field of view by under half a pixel)."""
         s = width / self.width
-        return Camera(width=width, height=max(1, round(self.height * s)), fx=self.fx * s, fy=self.fy * s,
-                      cx=self.cx * s, cy=self.cy * s, method=self.method)
+        return Camera(
+            width=width,
+            height=max(1, round(self.height * s)),
+            fx=self.fx * s,
+            fy=self.fy * s,
+            cx=self.cx * s,
+            cy=self.cy * s,
+            method=self.method,
+        )
 
     @property
     def K(self) -> np.ndarray:

@@ -51,8 +51,16 @@ def read_png(path: Path) -> np.ndarray:
         raise PsdrRoomError(f"{path}: missing or not a readable PNG; regenerate it")
     return data[..., ::-1].copy() if data.ndim == 3 else data
 
-PLY_FIELDS = [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("red", "u1"), ("green", "u1"), ("blue", "u1"),
-              ("segment", "<i4")]
+
+PLY_FIELDS = [
+    ("x", "<f4"),
+    ("y", "<f4"),
+    ("z", "<f4"),
+    ("red", "u1"),
+    ("green", "u1"),
+    ("blue", "u1"),
+    ("segment", "<i4"),
+]
 
 PLY_TYPES = {"<f4": "float", "u1": "uchar", "<i4": "int"}
 
@@ -80,7 +88,7 @@ def read_ply(path: Path) -> np.ndarray:
     if end < 0 or header[1:2] != ["format binary_little_endian 1.0"] or header[3:] != expected:
         raise PsdrRoomError(f"{path}: not a psdr-room point cloud PLY (binary, x y z red green blue segment)")
     count = int(header[2].split()[-1])
-    return np.frombuffer(raw[end + len(b"end_header\n"):], dtype=PLY_FIELDS, count=count)
+    return np.frombuffer(raw[end + len(b"end_header\n") :], dtype=PLY_FIELDS, count=count)
 
 
 def save_meshes(path: Path, meshes: dict[str, TriangleMesh]) -> None:

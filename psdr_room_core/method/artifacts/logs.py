@@ -23,8 +23,9 @@ class OptimizationLog:
     summary: dict[str, Any] = field(default_factory=dict)
 
     def save(self, directory: Path) -> None:
-        write_json(directory / "log.json", {"history": self.history, "summary": self.summary,
-                                             "images": sorted(self.images)})
+        write_json(
+            directory / "log.json", {"history": self.history, "summary": self.summary, "images": sorted(self.images)}
+        )
         for name, picture in self.images.items():
             write_png(directory / f"{name}.png", picture)
 

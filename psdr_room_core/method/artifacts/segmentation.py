@@ -78,19 +78,39 @@ class Detections:
     """What produced them (``nanodet_onnx``, a boxes file's path, ...)."""
 
     def save(self, directory: Path) -> None:
-        write_json(directory / "detections.json", {"source": self.source, "items": [
-            {"label": d.label, "category": d.category, "box": [float(v) for v in d.box], "score": float(d.score)}
-            for d in self.items]})
+        write_json(
+            directory / "detections.json",
+            {
+                "source": self.source,
+                "items": [
+                    {
+                        "label": d.label,
+                        "category": d.category,
+                        "box": [float(v) for v in d.box],
+                        "score": float(d.score),
+                    }
+                    for d in self.items
+                ],
+            },
+        )
 
     @classmethod
     def load(cls, directory: Path) -> Detections:
         data = read_json(directory / "detections.json")
         try:
-            items = [Detection(label=str(d["label"]), category=str(d["category"]), box=tuple(map(float, d["box"])),
-                               score=float(d["score"])) for d in data["items"]]
+            items = [
+                Detection(
+                    label=str(d["label"]),
+                    category=str(d["category"]),
+                    box=tuple(map(float, d["box"])),
+                    score=float(d["score"]),
+                )
+                for d in data["items"]
+            ]
         except (KeyError, TypeError, ValueError) as exc:
-            raise PsdrRoomError(f"{directory / 'detections.json'}: not as psdr-room writes it ({exc}); "
-                                "fix the entry or regenerate it") from None
+            raise PsdrRoomError(
+                f"{directory / 'detections.json'}: not as psdr-room writes it ({exc}); fix the entry or regenerate it"
+            ) from None
         return cls(items=items, source=str(data.get("source", "")))
 
 
@@ -138,7 +158,9 @@ def write_coco_panoptic(png: Path, json_path: Path, ids: np.ndarray, segments: l
     """
     ids = np.asarray(ids)
     if ids.ndim != 2 or not np.issubdtype(ids.dtype, np.integer):
-        raise PsdrRoomError(f"{png}: the id map must be a 2-D integer array, got {ids.dtype} {ids.shape}; pass an int32 HxW array")
+        raise PsdrRoomError(
+            f"{png}: the id map must be a 2-D integer array, got {ids.dtype} {ids.shape}; pass an int32 HxW array"
+        )
     if ids.size and (ids.min() < 0 or ids.max() >= 1 << 24):
         raise PsdrRoomError(f"{png}: ids must lie in 0..16777215 to fit an RGB PNG; renumber the segments")
     listed: set[int] = set()
@@ -148,9 +170,13 @@ def write_coco_panoptic(png: Path, json_path: Path, ids: np.ndarray, segments: l
         listed.add(int(s.id))
     present = set(np.unique(ids).tolist()) - {0}
     if present - listed:
-        raise PsdrRoomError(f"{png}: id map holds ids without a segment ({sorted(present - listed)[:5]}); add segments or zero those pixels")
+        raise PsdrRoomError(
+            f"{png}: id map holds ids without a segment ({sorted(present - listed)[:5]}); add segments or zero those pixels"
+        )
     if listed - present:
-        raise PsdrRoomError(f"{json_path}: segment(s) {sorted(listed - present)[:5]} have no pixels; drop them before writing")
+        raise PsdrRoomError(
+            f"{json_path}: segment(s) {sorted(listed - present)[:5]} have no pixels; drop them before writing"
+        )
 
     u = ids.astype(np.uint32)
     write_png(png, np.stack([u & 255, (u >> 8) & 255, (u >> 16) & 255], axis=-1).astype(np.uint8))
@@ -160,17 +186,29 @@ def write_coco_panoptic(png: Path, json_path: Path, ids: np.ndarray, segments: l
         ys, xs = np.nonzero(ids == s.id)
         x0, y0 = int(xs.min()), int(ys.min())
         bbox = [x0, y0, int(xs.max()) - x0 + 1, int(ys.max()) - y0 + 1]
-        infos.append({"id": int(s.id), "category_id": cat_id[s.category], "label": s.label, "iscrowd": 0,
-                      "area": int(xs.size), "bbox": bbox, **({} if s.score is None else {"score": float(s.score)}),
-                      **({} if s.box is None else {"prompt_box": [float(v) for v in s.box]})})
-    write_json(json_path, {
-        "file_name": png.name,
-        "image_id": png.stem,
-        "height": int(ids.shape[0]),
-        "width": int(ids.shape[1]),
-        "segments_info": infos,
-        "categories": [{"id": i, "name": n, "isthing": int(n in ("object", "lamp"))} for n, i in cat_id.items()],
-    })
+        infos.append(
+            {
+                "id": int(s.id),
+                "category_id": cat_id[s.category],
+                "label": s.label,
+                "iscrowd": 0,
+                "area": int(xs.size),
+                "bbox": bbox,
+                **({} if s.score is None else {"score": float(s.score)}),
+                **({} if s.box is None else {"prompt_box": [float(v) for v in s.box]}),
+            }
+        )
+    write_json(
+        json_path,
+        {
+            "file_name": png.name,
+            "image_id": png.stem,
+            "height": int(ids.shape[0]),
+            "width": int(ids.shape[1]),
+            "segments_info": infos,
+            "categories": [{"id": i, "name": n, "isthing": int(n in ("object", "lamp"))} for n, i in cat_id.items()],
+        },
+    )
 
 
 @dataclass
@@ -199,13 +237,22 @@ class Panoptic:
         """Read what :meth:`save` wrote; (edited) files from elsewhere go through ``segmentation=file``."""
         rgb = read_png(directory / "panoptic.png")
         if rgb.ndim != 3:
-            raise PsdrRoomError(f"{directory / 'panoptic.png'}: not an RGB PNG (id = R + 256 G + 256² B); regenerate it")
+            raise PsdrRoomError(
+                f"{directory / 'panoptic.png'}: not an RGB PNG (id = R + 256 G + 256² B); regenerate it"
+            )
         meta = read_json(directory / "panoptic.json")
         try:
             names = {c["id"]: c["name"] for c in meta["categories"]}
-            segments = [Segment(int(s["id"]), names[s["category_id"]], s.get("label") or names[s["category_id"]],
-                                None if s.get("score") is None else float(s["score"]), s.get("prompt_box"))
-                        for s in meta["segments_info"]]
+            segments = [
+                Segment(
+                    int(s["id"]),
+                    names[s["category_id"]],
+                    s.get("label") or names[s["category_id"]],
+                    None if s.get("score") is None else float(s["score"]),
+                    s.get("prompt_box"),
+                )
+                for s in meta["segments_info"]
+            ]
         except (KeyError, TypeError, ValueError) as exc:
             raise PsdrRoomError(
                 f"{directory / 'panoptic.json'}: not as psdr-room writes it ({type(exc).__name__}: {exc}); "

@@ -70,9 +70,17 @@ class AppearanceModel:
     this the fit may match the photo with black walls that mirror the lights, a scene that falls apart once a
     light moves."""
 
-    def __init__(self, parts: list[PartAppearance], lights: Lights, library: Any, map_size: int,
-                 free: set[str] | None = None, radiance_range: float = 16.0, colour_range: float = 2.0,
-                 paint: PaintPrior | None = None) -> None:
+    def __init__(
+        self,
+        parts: list[PartAppearance],
+        lights: Lights,
+        library: Any,
+        map_size: int,
+        free: set[str] | None = None,
+        radiance_range: float = 16.0,
+        colour_range: float = 2.0,
+        paint: PaintPrior | None = None,
+    ) -> None:
         self.parts = parts
         self.lights = lights
         self.library = library
@@ -124,8 +132,10 @@ class AppearanceModel:
         for p in self.optimised():
             if p.kind == "procedural" and painted(p.part):
                 luminance = (inputs["base_color"][p.part] @ torch.tensor(LUMINANCE)).mean()
-                terms.append((torch.relu(low - luminance) / max(low, 1e-6)) ** 2
-                             + (torch.relu(luminance - high) / max(1 - high, 1e-6)) ** 2)
+                terms.append(
+                    (torch.relu(low - luminance) / max(low, 1e-6)) ** 2
+                    + (torch.relu(luminance - high) / max(1 - high, 1e-6)) ** 2
+                )
         return torch.stack(terms).sum() if terms else None
 
     def _add(self, name: str, value: torch.Tensor, group: str) -> None:
@@ -134,7 +144,7 @@ class AppearanceModel:
 
     def _graph(self, part: str) -> dict[str, torch.Tensor]:
         prefix = f"{part}/graph/"
-        return {k[len(prefix):]: v for k, v in self.theta.items() if k.startswith(prefix)}
+        return {k[len(prefix) :]: v for k, v in self.theta.items() if k.startswith(prefix)}
 
     def inputs(self) -> dict[str, dict[str, torch.Tensor]]:
         """Keyword arguments of ``render_rgb`` for the current parameters (the optimised parts and the lights)."""
@@ -144,11 +154,16 @@ class AppearanceModel:
             if p.kind == "procedural":
                 base[p.part], rough[p.part] = graph_maps(self.library, p, self.map_size, self._graph(p.part))
                 if p.part in self.plain:
-                    base[p.part], rough[p.part] = (m.mean((0, 1), keepdim=True).expand_as(m).contiguous()
-                                                   for m in (base[p.part], rough[p.part]))
+                    base[p.part], rough[p.part] = (
+                        m.mean((0, 1), keepdim=True).expand_as(m).contiguous() for m in (base[p.part], rough[p.part])
+                    )
             elif painted(p.part):
-                base[p.part] = paint_colour(self.theta[f"{p.part}/base_color"], self.theta[f"{p.part}/lightness"],
-                                            self.chroma[p.part], self.paint)
+                base[p.part] = paint_colour(
+                    self.theta[f"{p.part}/base_color"],
+                    self.theta[f"{p.part}/lightness"],
+                    self.chroma[p.part],
+                    self.paint,
+                )
                 rough[p.part] = torch.sigmoid(self.theta[f"{p.part}/roughness"])
             else:
                 base[p.part] = torch.sigmoid(self.theta[f"{p.part}/base_color"])
@@ -157,9 +172,12 @@ class AppearanceModel:
         if self.lights.lights:
             v = torch.tanh(self.theta["lights/colour"])
             colour = torch.exp(self.log_colour_range * (v - v.mean()))  # a tint, not a brightness
-            radiance = {l.name: torch.tensor(l.radiance, dtype=torch.float32) * colour
-                        * torch.exp(self.log_range * torch.tanh(self.theta[f"{l.name}/radiance"]))
-                        for l in self.lights.lights}
+            radiance = {
+                l.name: torch.tensor(l.radiance, dtype=torch.float32)
+                * colour
+                * torch.exp(self.log_range * torch.tanh(self.theta[f"{l.name}/radiance"]))
+                for l in self.lights.lights
+            }
         return {"base_color": base, "roughness": rough, "specular": spec, "radiance": radiance}
 
     def result(self) -> tuple[list[PartAppearance], dict[str, tuple[float, float, float]]]:
@@ -173,8 +191,11 @@ class AppearanceModel:
                     continue
                 base = values["base_color"][p.part]
                 mean_base = tuple(float(v) for v in base.reshape(-1, 3).mean(0))
-                common = dict(base_color=mean_base, roughness=float(values["roughness"][p.part].mean()),
-                              specular=float(values["specular"][p.part]))
+                common = dict(
+                    base_color=mean_base,
+                    roughness=float(values["roughness"][p.part].mean()),
+                    specular=float(values["specular"][p.part]),
+                )
                 if p.part in self.plain:
                     parts.append(within_paint(PartAppearance(p.part, "homogeneous", **common), self.paint))
                     continue
@@ -186,8 +207,15 @@ class AppearanceModel:
         return parts, radiance
 
 
-def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBox, placements: Placements,
-                   materials: MaterialAssignment, lights: Lights) -> dict[str, Any]:
+def fit_appearance(
+    ctx: StageContext,
+    image: Image,
+    camera: Camera,
+    room: RoomBox,
+    placements: Placements,
+    materials: MaterialAssignment,
+    lights: Lights,
+) -> dict[str, Any]:
     """Optimise all materials and light radiances jointly (§4.4, eq. 4) by path tracing (``renderer``, its
     ``max_depth`` bounces) at ``render_width``:
 
@@ -234,8 +262,11 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     target_small = linear_to_srgb(downsampled(srgb_to_linear(target), factor))
     ids, _ = render_part_ids(renderer, camera.resized(width), c2w, meshes, width)
     names = list(meshes)
-    samples = (cv2.resize(materials.samples, (width, height), interpolation=cv2.INTER_NEAREST)
-               if materials.samples is not None else np.full(ids.shape, -1, np.int16))
+    samples = (
+        cv2.resize(materials.samples, (width, height), interpolation=cv2.INTER_NEAREST)
+        if materials.samples is not None
+        else np.full(ids.shape, -1, np.int16)
+    )
     regions, seen = [], set()
     min_px = settings.min_region_px
     for k, p in enumerate(materials.parts):
@@ -248,16 +279,23 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
                 seen.add(p.part)
     # Parts the camera does not see keep their initial material: only indirect light shows them, and it
     # trades off freely against the lights' radiance.
-    model = AppearanceModel(parts, lights, library, settings.map_size, free=seen,
-                            radiance_range=settings.radiance_range, colour_range=settings.colour_range,
-                            paint=paint)
+    model = AppearanceModel(
+        parts,
+        lights,
+        library,
+        settings.map_size,
+        free=seen,
+        radiance_range=settings.radiance_range,
+        colour_range=settings.colour_range,
+        paint=paint,
+    )
     crops = []
     for p in materials.parts:
         for rect in p.crops[: settings.crops_per_part]:
             r = squarish([int(round(v * scale)) for v in rect], settings.max_crop_aspect)
             if r[2] - r[0] >= 8 and r[3] - r[1] >= 8:
                 with torch.no_grad():
-                    crops.append((r, descriptor.describe(target[r[1]:r[3], r[0]:r[2]].permute(2, 0, 1))))
+                    crops.append((r, descriptor.describe(target[r[1] : r[3], r[0] : r[2]].permute(2, 0, 1))))
     weights = asdict(settings.weights)
     spp, grad_spp = settings.spp, settings.grad_spp
 
@@ -268,10 +306,16 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
         srgb = linear_to_srgb(linear)
         out = {"image": (linear_to_srgb(downsampled(linear, factor)) - target_small).abs().mean()}
         if regions:
-            out["colour"] = torch.stack([(linear_to_srgb(linear[m].mean(0)) - c).abs().mean() for m, c in regions]).mean()
+            out["colour"] = torch.stack(
+                [(linear_to_srgb(linear[m].mean(0)) - c).abs().mean() for m, c in regions]
+            ).mean()
         if crops:
-            out["texture"] = torch.stack([descriptor.distance(descriptor.describe(srgb[y0:y1, x0:x1].permute(2, 0, 1)), d)
-                                          .reshape(()) for (x0, y0, x1, y1), d in crops]).mean()
+            out["texture"] = torch.stack(
+                [
+                    descriptor.distance(descriptor.describe(srgb[y0:y1, x0:x1].permute(2, 0, 1)), d).reshape(())
+                    for (x0, y0, x1, y1), d in crops
+                ]
+            ).mean()
         return out
 
     def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
@@ -284,30 +328,60 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
         return total, {k: float(v.detach()) for k, v in parts.items()}
 
     rates = {name: getattr(settings.learning_rates, group) for name, group in model.group.items()}
-    history = untimed(ctx.impl("optimizer").minimize(model.theta, rates, loss, settings.iterations,
-                                                     lambda it: ctx.progress(it, total=settings.iterations),
-                                                     stop=settings.convergence), ctx.timings)
+    history = untimed(
+        ctx.impl("optimizer").minimize(
+            model.theta,
+            rates,
+            loss,
+            settings.iterations,
+            lambda it: ctx.progress(it, total=settings.iterations),
+            stop=settings.convergence,
+        ),
+        ctx.timings,
+    )
     final_spp, denoiser = settings.final_spp, ctx.impl("denoiser")
     with torch.no_grad():
         initial = AppearanceModel(parts, lights, library, model.map_size, seen, paint=paint).inputs()
         start_noisy, start = picture(geometry, denoiser, initial, final_spp, 10**6)
         final_noisy, final = picture(geometry, denoiser, model.inputs(), final_spp, 10**6 + 1)
         if settings.plain_check:
-            final_noisy, final = plain_parts(model, geometry, denoiser, final_spp, photo, (final_noisy, final),
-                                             {name: ids == k for k, name in enumerate(names)})
+            final_noisy, final = plain_parts(
+                model,
+                geometry,
+                denoiser,
+                final_spp,
+                photo,
+                (final_noisy, final),
+                {name: ids == k for k, name in enumerate(names)},
+            )
     parts, radiance = model.result()
-    metrics = {**_agreement(start, final, photo), **_agreement(start_noisy, final_noisy, photo, "_noisy"),
-               "denoiser": denoiser.describe(), "iterations": len(history), "fitted_parts": sorted(seen),
-               "plain_parts": sorted(model.plain)}
+    metrics = {
+        **_agreement(start, final, photo),
+        **_agreement(start_noisy, final_noisy, photo, "_noisy"),
+        "denoiser": denoiser.describe(),
+        "iterations": len(history),
+        "fitted_parts": sorted(seen),
+        "plain_parts": sorted(model.plain),
+    }
     scorer = lpips.installed()
     if scorer is not None:  # the paper's perceptual metric, only with its real weights
         metrics.update(lpips_init=scorer(start, photo), lpips=scorer(final, photo))
-    log.info("fit_appearance: RMSE %.4f -> %.4f, SSIM %.3f -> %.3f, FLIP %.3f -> %.3f (denoiser: %s)",
-             metrics["rmse_init"], metrics["rmse"], metrics["ssim_init"], metrics["ssim"], metrics["flip_init"],
-             metrics["flip"], metrics["denoiser"])
+    log.info(
+        "fit_appearance: RMSE %.4f -> %.4f, SSIM %.3f -> %.3f, FLIP %.3f -> %.3f (denoiser: %s)",
+        metrics["rmse_init"],
+        metrics["rmse"],
+        metrics["ssim_init"],
+        metrics["ssim"],
+        metrics["flip_init"],
+        metrics["flip"],
+        metrics["denoiser"],
+    )
     as8 = lambda x: (np.clip(x, 0, 1) * 255 + 0.5).astype(np.uint8)  # noqa: E731
-    curves = {k: [h[k] for h in history] for k in ("loss", "image", "colour", "texture", "paint")
-              if history and k in history[0]}
+    curves = {
+        k: [h[k] for h in history]
+        for k in ("loss", "image", "colour", "texture", "paint")
+        if history and k in history[0]
+    }
     images = {"photo_init_final": np.hstack([as8(photo), as8(start), as8(final)])}
     if crops:
         images["crop_pairs"] = _crop_pairs(photo, start, final, [c[0] for c in crops])
@@ -317,8 +391,15 @@ def fit_appearance(ctx: StageContext, image: Image, camera: Camera, room: RoomBo
     return {"appearance": appearance, "log": OptimizationLog(history=history, images=images, summary=metrics)}
 
 
-def plain_parts(model: AppearanceModel, geometry: Any, denoiser: Any, spp: int, photo: np.ndarray,
-                final: tuple[np.ndarray, np.ndarray], masks: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+def plain_parts(
+    model: AppearanceModel,
+    geometry: Any,
+    denoiser: Any,
+    spp: int,
+    photo: np.ndarray,
+    final: tuple[np.ndarray, np.ndarray],
+    masks: dict[str, np.ndarray],
+) -> tuple[np.ndarray, np.ndarray]:
     """Plain stays plain, judged after the fit: each fitted procedural part is drawn once more with its maps'
     mean colour and roughness, and becomes homogeneous (``model.plain``) where that render's SSIM against the
     photo, averaged over the part's own pixels, is higher than the patterned one's. A pattern the photo does not
@@ -330,12 +411,19 @@ def plain_parts(model: AppearanceModel, geometry: Any, denoiser: Any, spp: int, 
     model.plain = set(candidates)
     plain = picture(geometry, denoiser, model.inputs(), spp, 10**6 + 2)
     patterned_ssim, plain_ssim = ssim_map(final[1], photo), ssim_map(plain[1], photo)
-    scores = {part: (float(patterned_ssim[masks[part]].mean()), float(plain_ssim[masks[part]].mean()))
-              for part in sorted(candidates)}
+    scores = {
+        part: (float(patterned_ssim[masks[part]].mean()), float(plain_ssim[masks[part]].mean()))
+        for part in sorted(candidates)
+    }
     chosen = {part for part, (patterned, flat) in scores.items() if flat > patterned}
     for part, (patterned, flat) in scores.items():
-        log.info("fit_appearance: %s %s (SSIM on its pixels: pattern %.3f, plain %.3f)", part,
-                 "made plain" if part in chosen else "keeps its pattern", patterned, flat)
+        log.info(
+            "fit_appearance: %s %s (SSIM on its pixels: pattern %.3f, plain %.3f)",
+            part,
+            "made plain" if part in chosen else "keeps its pattern",
+            patterned,
+            flat,
+        )
     model.plain = chosen
     if chosen == candidates:
         return plain
@@ -375,7 +463,9 @@ def squarish(rect: list[int], max_aspect: float) -> list[int]:
     return [x0, y0, x1, y1]
 
 
-def _crop_pairs(photo: np.ndarray, start: np.ndarray, final: np.ndarray, rects: list[list[int]], cell: int = 96) -> np.ndarray:
+def _crop_pairs(
+    photo: np.ndarray, start: np.ndarray, final: np.ndarray, rects: list[list[int]], cell: int = 96
+) -> np.ndarray:
     """Fig. 7: each crop of the photo beside the render's crop at initialisation and after the fit."""
     rows = []
     for x0, y0, x1, y1 in rects:
@@ -383,11 +473,13 @@ def _crop_pairs(photo: np.ndarray, start: np.ndarray, final: np.ndarray, rects: 
         for picture in (photo, start, final):
             crop = (np.clip(picture[y0:y1, x0:x1], 0, 1) * 255 + 0.5).astype(np.uint8)
             s = cell / max(crop.shape[:2])
-            small = cv2.resize(crop, (max(1, round(crop.shape[1] * s)), max(1, round(crop.shape[0] * s))),
-                               interpolation=cv2.INTER_AREA if s < 1 else cv2.INTER_NEAREST)
+            small = cv2.resize(
+                crop,
+                (max(1, round(crop.shape[1] * s)), max(1, round(crop.shape[0] * s))),
+                interpolation=cv2.INTER_AREA if s < 1 else cv2.INTER_NEAREST,
+            )
             tile = np.full((cell, cell, 3), 255, np.uint8)
-            tile[:small.shape[0], :small.shape[1]] = small
+            tile[: small.shape[0], : small.shape[1]] = small
             tiles.append(tile)
         rows.append(np.hstack(tiles))
     return np.vstack(rows)
-

@@ -43,12 +43,15 @@ from .settings import ExportScene
 CV_TO_MITSUBA = np.diag([-1.0, -1.0, 1.0, 1.0])
 """OpenCV camera axes (x right, y down, z forward) → Mitsuba's (x left, y up, z forward)."""
 
+
 def mesh_ply(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray | None = None, part: int | None = None) -> bytes:
     """A binary PLY triangle mesh: positions (one vertex per corner), texture coordinates ``u``, ``v`` when
     given, and ``part`` as a per-face ``part_x`` property when given (Mitsuba reads it as the mesh attribute
     ``face_part``; its loader merges meshes of equal materials into one unnamed shape unless they carry an
     attribute, so the part index keeps every part its own shape, addressable by id)."""
-    props = "property float x\nproperty float y\nproperty float z\n" + ("property float u\nproperty float v\n" if uv is not None else "")
+    props = "property float x\nproperty float y\nproperty float z\n" + (
+        "property float u\nproperty float v\n" if uv is not None else ""
+    )
     face_props = "property list uchar int vertex_indices\n" + ("property float part_x\n" if part is not None else "")
     header = (
         "ply\nformat binary_little_endian 1.0\n"
@@ -93,8 +96,10 @@ def _texture(name: str, channel: str, value: Any, files: dict[str, bytes]) -> li
         else:
             files[path] = _png8(array[..., 0])
             raw = "true"
-        return [f'<texture type="bitmap" name="{channel}"><string name="filename" value="{path}"/>'
-                f'<boolean name="raw" value="{raw}"/></texture>']
+        return [
+            f'<texture type="bitmap" name="{channel}"><string name="filename" value="{path}"/>'
+            f'<boolean name="raw" value="{raw}"/></texture>'
+        ]
     if channel == "base_color":
         return [f'<rgb name="base_color" value="{" ".join(f"{float(c):.6g}" for c in array.reshape(-1))}"/>']
     return [f'<float name="{channel}" value="{float(array.reshape(-1)[0]):.6g}"/>']
@@ -107,8 +112,9 @@ def _png8(image: np.ndarray) -> bytes:
     return encoded.tobytes()
 
 
-def scene_xml(camera: Camera, camera_to_world: np.ndarray, scene: RgbScene, spp: int, max_depth: int,
-              files: dict[str, bytes]) -> str:
+def scene_xml(
+    camera: Camera, camera_to_world: np.ndarray, scene: RgbScene, spp: int, max_depth: int, files: dict[str, bytes]
+) -> str:
     """Mitsuba 3 scene description of ``scene`` (meshes and textures are added to ``files``): the camera
     (``$width``, ``$height``, ``$spp`` overridable, ``spp`` by default), two-sided principled surfaces, area-light
     meshes, and a path tracer of ``max_depth`` (``$max_depth``)."""
@@ -141,9 +147,11 @@ def scene_xml(camera: Camera, camera_to_world: np.ndarray, scene: RgbScene, spp:
     for part, (name, mesh) in enumerate(scene.meshes.items()):
         surface = scene.surfaces[name]
         files[f"meshes/{name}.ply"] = mesh_ply(mesh.vertices, mesh.faces, surface.uv if surface.mapped else None, part)
-        inputs = (_texture(name, "base_color", surface.base_color, files)
-                  + _texture(name, "roughness", surface.roughness, files)
-                  + [f'<float name="specular" value="{float(surface.specular):.6g}"/>'])
+        inputs = (
+            _texture(name, "base_color", surface.base_color, files)
+            + _texture(name, "roughness", surface.roughness, files)
+            + [f'<float name="specular" value="{float(surface.specular):.6g}"/>']
+        )
         lines += [
             f'    <shape type="ply" id={quoteattr(name)}>',
             f'        <string name="filename" value="meshes/{name}.ply"/>',
@@ -182,20 +190,32 @@ def read_mesh_ply(data: bytes, source: str) -> tuple[TriangleMesh, np.ndarray | 
     face_at = next(i for i, l in enumerate(header) if l.startswith("element face"))
     columns = sum(1 for l in header[:face_at] if l.startswith("property float"))
     with_part = any(l.startswith("property float part_x") for l in header[face_at:])
-    body = data[end + len(b"end_header\n"):]
+    body = data[end + len(b"end_header\n") :]
     size = n_vertices * columns * 4
     tris = np.frombuffer(body[size:], dtype=_face_dtype(with_part), count=n_faces)
     table = np.frombuffer(body[:size], dtype="<f4").reshape(n_vertices, columns).astype(np.float64)
     return TriangleMesh(table[:, :3], tris["i"].astype(np.int64)), (table[:, 3:5] if columns >= 5 else None)
 
 
-def scene_state(camera: Camera, camera_to_world: np.ndarray, parts: list[PartAppearance],
-                lights: list[Light], fixtures: list[str], texture_size: int) -> dict[str, Any]:
+def scene_state(
+    camera: Camera,
+    camera_to_world: np.ndarray,
+    parts: list[PartAppearance],
+    lights: list[Light],
+    fixtures: list[str],
+    texture_size: int,
+) -> dict[str, Any]:
     """What a scene folder's ``appearance.json`` holds: everything besides the meshes needed to rebuild and
     edit it (camera, every part's material with its graph parameters, the lights, the window frames)."""
     return {
-        "camera": {"width": camera.width, "height": camera.height, "fx": camera.fx, "fy": camera.fy,
-                   "cx": camera.cx, "cy": camera.cy},
+        "camera": {
+            "width": camera.width,
+            "height": camera.height,
+            "fx": camera.fx,
+            "fy": camera.fy,
+            "cx": camera.cx,
+            "cy": camera.cy,
+        },
         "camera_to_world": np.asarray(camera_to_world).tolist(),
         "parts": [asdict(p) for p in parts],
         "lights": [{"name": l.name, "kind": l.kind, "part": l.part, "radiance": list(l.radiance)} for l in lights],
@@ -204,8 +224,9 @@ def scene_state(camera: Camera, camera_to_world: np.ndarray, parts: list[PartApp
     }
 
 
-def scene_folder(scene: RgbScene, state: dict[str, Any], spp: int, max_depth: int, glb: bool,
-                 usd: bool) -> dict[str, bytes]:
+def scene_folder(
+    scene: RgbScene, state: dict[str, Any], spp: int, max_depth: int, glb: bool, usd: bool
+) -> dict[str, bytes]:
     """The files of a scene folder: ``scene.xml`` with its meshes and maps, ``scene.glb`` (when ``glb``),
     ``scene.usda`` (when ``usd``; it shares the maps) and ``appearance.json`` (``state``)."""
     camera = Camera(**state["camera"])
@@ -215,15 +236,24 @@ def scene_folder(scene: RgbScene, state: dict[str, Any], spp: int, max_depth: in
     if glb:
         files["scene.glb"] = scene_glb(scene, camera, c2w)
     if usd:
-        maps = {part: {channel: map_path(part, channel) for channel in MAP_CHANNELS if map_path(part, channel) in files}
-                for part in scene.meshes}
+        maps = {
+            part: {channel: map_path(part, channel) for channel in MAP_CHANNELS if map_path(part, channel) in files}
+            for part in scene.meshes
+        }
         files["scene.usda"] = scene_usda(scene, camera, c2w, maps).encode()
     files["appearance.json"] = (json.dumps(state, indent=1) + "\n").encode()
     return files
 
 
-def export_scene(ctx: StageContext, camera: Camera, room: RoomBox, cloud: PointCloud, placements: Placements,
-                 lights: Lights, appearance: SceneAppearance) -> SceneFiles:
+def export_scene(
+    ctx: StageContext,
+    camera: Camera,
+    room: RoomBox,
+    cloud: PointCloud,
+    placements: Placements,
+    lights: Lights,
+    appearance: SceneAppearance,
+) -> SceneFiles:
     """Write the fitted scene: ``scene.xml`` (Mitsuba 3; ``mitsuba.load_file`` renders what ``fit_appearance``
     rendered) with its meshes (PLY, texture coordinates on mapped parts) and the procedural parts' maps
     baked at ``texture_size`` (``textures/``); ``scene.glb`` (glTF 2.0, when ``glb``); ``scene.usda``
@@ -235,8 +265,14 @@ def export_scene(ctx: StageContext, camera: Camera, room: RoomBox, cloud: PointC
     """
     settings = ctx.settings(ExportScene)
     lit = [Light(l.name, l.kind, l.mesh, appearance.radiance.get(l.name, l.radiance), l.part) for l in lights.lights]
-    scene = build_scene(part_meshes(room, placements), appearance.parts, lit, lights.fixtures,
-                        ctx.impl("material_graph"), settings.texture_size)
+    scene = build_scene(
+        part_meshes(room, placements),
+        appearance.parts,
+        lit,
+        lights.fixtures,
+        ctx.impl("material_graph"),
+        settings.texture_size,
+    )
     c2w = np.asarray(room.camera_to_world)
     state = scene_state(camera, c2w, appearance.parts, lit, list(lights.fixtures), settings.texture_size)
     files = scene_folder(scene, state, settings.spp, settings.max_depth, settings.glb, settings.usd)

@@ -23,8 +23,15 @@ from .settings import InitLights
 log = logging.getLogger("psdr_room")
 
 
-def init_lights(ctx: StageContext, image: Image, panoptic: Panoptic, camera: Camera, room: RoomBox,
-                placements: Placements, materials: MaterialAssignment) -> Lights:
+def init_lights(
+    ctx: StageContext,
+    image: Image,
+    panoptic: Panoptic,
+    camera: Camera,
+    room: RoomBox,
+    placements: Placements,
+    materials: MaterialAssignment,
+) -> Lights:
     """The initial lights of §4.4.
 
     The ceiling is split into a ``ceiling_grid`` of panels, each scaled by ``cell_ratio``, and those in the
@@ -64,8 +71,11 @@ def init_lights(ctx: StageContext, image: Image, panoptic: Panoptic, camera: Cam
             quad, bars = panel
             lights.append(Light(f"light_window_{segment.id}", "window", quad_mesh(quad)))
             fixtures.update({f"window_{segment.id}_frame_{k}": bar for k, bar in enumerate(bars)})
-    lamps = {p.segment_id for p in placements.objects
-             if any(s.id == p.segment_id and s.category == "lamp" for s in panoptic.segments)}
+    lamps = {
+        p.segment_id
+        for p in placements.objects
+        if any(s.id == p.segment_id and s.category == "lamp" for s in panoptic.segments)
+    }
     for segment_id in sorted(lamps):
         prefix = f"object_{segment_id}_"
         own = [(int(seen[i]), n) for i, n in enumerate(names) if n.startswith(prefix)]
@@ -73,8 +83,9 @@ def init_lights(ctx: StageContext, image: Image, panoptic: Panoptic, camera: Cam
             part = max(own)[1]
             lights.append(Light(f"light_lamp_{segment_id}", "lamp", meshes[part], part=part))
 
-    scene = build_scene(meshes, initial_parts(materials, ctx.impl("material_graph")), lights, fixtures,
-                        ctx.impl("material_graph"), 64)
+    scene = build_scene(
+        meshes, initial_parts(materials, ctx.impl("material_graph")), lights, fixtures, ctx.impl("material_graph"), 64
+    )
     width = min(settings.render_width, camera.width)
     geometry = scene.renderer(ctx.impl("renderer"), camera, c2w, width)
     with torch.no_grad():
@@ -92,16 +103,29 @@ def init_lights(ctx: StageContext, image: Image, panoptic: Panoptic, camera: Cam
     balance = white_balance(unit, photo, settings.max_balance)
     radiance = tuple(best * float(b) for b in balance)
     lights = [Light(l.name, l.kind, l.mesh, radiance, l.part) for l in lights]  # type: ignore[arg-type]
-    picture = ctx.impl("denoiser").denoise(unit.numpy() * np.asarray(radiance, np.float32),
-                                           *geometry.render_guides(spp=GUIDE_SPP))
-    curve = plot_curves({"L1 luminance vs log radiance": [s[1] for s in sweep]},
-                        title=f"initial radiance sweep: {best:.3g} chosen of {low:g}..{high:g}")
-    log.info("%d lights (%s); initial radiance %.3g, colour (%.2f, %.2f, %.2f)", len(lights),
-             ", ".join(f"{k} {sum(l.kind == k for l in lights)}" for k in dict.fromkeys(l.kind for l in lights)), best,
-             *balance)
-    return Lights(lights=lights, fixtures=fixtures, sweep=sweep,
-                  images={"initial_render": np.hstack([to_srgb8(picture), (photo.numpy() * 255 + 0.5).astype(np.uint8)]),
-                          "radiance_sweep": curve})
+    picture = ctx.impl("denoiser").denoise(
+        unit.numpy() * np.asarray(radiance, np.float32), *geometry.render_guides(spp=GUIDE_SPP)
+    )
+    curve = plot_curves(
+        {"L1 luminance vs log radiance": [s[1] for s in sweep]},
+        title=f"initial radiance sweep: {best:.3g} chosen of {low:g}..{high:g}",
+    )
+    log.info(
+        "%d lights (%s); initial radiance %.3g, colour (%.2f, %.2f, %.2f)",
+        len(lights),
+        ", ".join(f"{k} {sum(l.kind == k for l in lights)}" for k in dict.fromkeys(l.kind for l in lights)),
+        best,
+        *balance,
+    )
+    return Lights(
+        lights=lights,
+        fixtures=fixtures,
+        sweep=sweep,
+        images={
+            "initial_render": np.hstack([to_srgb8(picture), (photo.numpy() * 255 + 0.5).astype(np.uint8)]),
+            "radiance_sweep": curve,
+        },
+    )
 
 
 def white_balance(render: torch.Tensor, photo: torch.Tensor, max_gain: float) -> np.ndarray:

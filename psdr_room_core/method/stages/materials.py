@@ -41,14 +41,21 @@ class ScenePart:
     crops: tuple[Rect, ...] = ()
 
 
-def scene_parts(room: RoomBox, placements: Placements, panoptic: Panoptic,
-                room_colours: dict[str, list[float]]) -> list[ScenePart]:
+def scene_parts(
+    room: RoomBox, placements: Placements, panoptic: Panoptic, room_colours: dict[str, list[float]]
+) -> list[ScenePart]:
     """The room's six sides and every object's material groups, as exported."""
     parts = []
     for name, quad in room_quads(room).items():
         category = name.split("_")[0]
-        parts.append(ScenePart(name, TriangleMesh(quad, np.array([[0, 1, 2], [0, 2, 3]])), panoptic.mask(category),
-                               tuple(float(c) for c in room_colours[category])))
+        parts.append(
+            ScenePart(
+                name,
+                TriangleMesh(quad, np.array([[0, 1, 2], [0, 2, 3]])),
+                panoptic.mask(category),
+                tuple(float(c) for c in room_colours[category]),
+            )
+        )
     for p in placements.objects:
         target = panoptic.ids == p.segment_id
         for name, (mesh, colour) in object_parts(p).items():
@@ -56,8 +63,9 @@ def scene_parts(room: RoomBox, placements: Placements, panoptic: Panoptic,
     return parts
 
 
-def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera: Camera, room: RoomBox,
-                     placements: Placements) -> MaterialAssignment:
+def assign_materials(
+    ctx: StageContext, image: Image, panoptic: Panoptic, camera: Camera, room: RoomBox, placements: Placements
+) -> MaterialAssignment:
     """Initial material of every scene part (§4.4).
 
     A part's *region* is its rendered mask ∩ its target segment; its *clean* pixels are those of the region
@@ -87,8 +95,9 @@ def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera
 
     settings = ctx.settings(AssignMaterials)
     parts = scene_parts(room, placements, panoptic, asdict(settings.room_colours))
-    ids, depth = render_part_ids(ctx.impl("renderer"), camera, room.camera_to_world, {p.name: p.mesh for p in parts},
-                                 settings.render_width)
+    ids, depth = render_part_ids(
+        ctx.impl("renderer"), camera, room.camera_to_world, {p.name: p.mesh for p in parts}, settings.render_width
+    )
     rgb8 = image.to_uint8()
     labels = np.full(ids.shape, -1, np.int64)
     for k, part in enumerate(parts):
@@ -126,8 +135,7 @@ def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera
         source = next((m for m in (part.clean, part.region) if m is not None and m.any()), None)
         if source is not None:
             samples[source] = k  # regions are disjoint
-        albedo = (walls if unseen_side and walls else
-                  median_colour(rgb, [source, part.target], part.fallback))
+        albedo = walls if unseen_side and walls else median_colour(rgb, [source, part.target], part.fallback)
         crops = []
         for rect in part.crops:
             coords = surface_coordinates(camera, c2w, depth, rect)
@@ -135,30 +143,49 @@ def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera
                 x0, y0, x1, y1 = rect
                 crops.append((photo[:, y0:y1, x0:x1], rgb[y0:y1, x0:x1], coords))
         if not crops:
-            reason = ("no rendered depth in its crops" if part.crops else
-                      "unseen: the visible walls' colour" if unseen_side and walls else
-                      "no crop: the photo shows too little of it")
+            reason = (
+                "no rendered depth in its crops"
+                if part.crops
+                else "unseen: the visible walls' colour"
+                if unseen_side and walls
+                else "no crop: the photo shows too little of it"
+            )
             assigned.append(PartMaterial(part.name, "homogeneous", albedo, roughness, reason=reason))
             continue
         energy = float(np.median([texture_energy(c) for _, c, _ in crops]))
         common = dict(part=part.name, albedo=albedo, roughness=roughness, crops=tuple(part.crops))
         if energy < settings.flat_energy:
-            assigned.append(PartMaterial(kind="homogeneous", scores={"texture_energy": energy},
-                                         reason=f"plain: texture energy {energy:.3f} < flat_energy", **common))
+            assigned.append(
+                PartMaterial(
+                    kind="homogeneous",
+                    scores={"texture_energy": energy},
+                    reason=f"plain: texture energy {energy:.3f} < flat_energy",
+                    **common,
+                )
+            )
             continue
         if index is None:
             index = MaterialIndex.build(library, descriptor, map_size)
         wanted = categories[part.name.split("_")[0]] if part.name in room_sides else None
-        allowed = torch.tensor([wanted is None or library.material(n).category in wanted for n in index.names],
-                               dtype=torch.bool)
+        allowed = torch.tensor(
+            [wanted is None or library.material(n).category in wanted for n in index.names], dtype=torch.bool
+        )
         if not allowed.any():
-            assigned.append(PartMaterial(kind="homogeneous", scores={"texture_energy": energy},
-                                         reason=f"no library material of the categories {sorted(wanted or ())}", **common))
+            assigned.append(
+                PartMaterial(
+                    kind="homogeneous",
+                    scores={"texture_energy": energy},
+                    reason=f"no library material of the categories {sorted(wanted or ())}",
+                    **common,
+                )
+            )
             continue
         with torch.no_grad():
             described = [(crop, descriptor.describe(crop), coords) for crop, _, coords in crops]
-            flats = [float(descriptor.distance(descriptor.describe(flat_image(albedo, c.shape[1:])), d))
-                     for c, d, _ in described]
+            flats = [
+                float(descriptor.distance(descriptor.describe(flat_image(albedo, c.shape[1:])), d))
+                for c, d, _ in described
+            ]
             per_crop = []
             for _, target, _ in described:
                 distances = torch.where(allowed, index.distances(descriptor, target), torch.inf)
@@ -170,23 +197,52 @@ def assign_materials(ctx: StageContext, image: Image, panoptic: Panoptic, camera
         common["candidates"] = tuple((n, round(s, 4)) for n, s in ranked[:5])
         scores = {"texture_energy": energy, "similarity": best_similarity, "homogeneous_loss": homogeneous_loss}
         if best_similarity < settings.min_similarity:
-            assigned.append(PartMaterial(kind="homogeneous", scores=scores,
-                                         reason=f"best similarity {best_similarity:.3f} < min_similarity", **common))
+            assigned.append(
+                PartMaterial(
+                    kind="homogeneous",
+                    scores=scores,
+                    reason=f"best similarity {best_similarity:.3f} < min_similarity",
+                    **common,
+                )
+            )
             continue
         material = library.material(name)
-        fit = search_transform(library, descriptor, library.appearance(name, map_size), float(material.tile_size),
-                               described, settings.scales, settings.rotations)
+        fit = search_transform(
+            library,
+            descriptor,
+            library.appearance(name, map_size),
+            float(material.tile_size),
+            described,
+            settings.scales,
+            settings.rotations,
+        )
         scores["texture_loss"] = fit.loss
         if fit.loss >= homogeneous_loss:
-            assigned.append(PartMaterial(kind="homogeneous", scores=scores, reason=f"a flat colour matches better than {name}",
-                                         **common))
+            assigned.append(
+                PartMaterial(
+                    kind="homogeneous", scores=scores, reason=f"a flat colour matches better than {name}", **common
+                )
+            )
         else:
-            assigned.append(PartMaterial(kind="procedural", material=name, scale=fit.scale, rotation=fit.rotation,
-                                         scores=scores, reason="retrieved", **common))
-        sheet_rows += [(part.name, crop, view, albedo, assigned[-1]) for (crop, _, _), view in zip(described, fit.views)]
-    return MaterialAssignment(parts=assigned, images={"crops": crop_overlay(rgb8, parts),
-                                                      **({"crop_pairs": crop_sheet(sheet_rows)} if sheet_rows else {})},
-                              samples=samples)
+            assigned.append(
+                PartMaterial(
+                    kind="procedural",
+                    material=name,
+                    scale=fit.scale,
+                    rotation=fit.rotation,
+                    scores=scores,
+                    reason="retrieved",
+                    **common,
+                )
+            )
+        sheet_rows += [
+            (part.name, crop, view, albedo, assigned[-1]) for (crop, _, _), view in zip(described, fit.views)
+        ]
+    return MaterialAssignment(
+        parts=assigned,
+        images={"crops": crop_overlay(rgb8, parts), **({"crop_pairs": crop_sheet(sheet_rows)} if sheet_rows else {})},
+        samples=samples,
+    )
 
 
 def heights(camera: Camera, camera_to_world: np.ndarray, depth: np.ndarray) -> np.ndarray:
@@ -196,8 +252,9 @@ def heights(camera: Camera, camera_to_world: np.ndarray, depth: np.ndarray) -> n
     return np.where(depth > 0, y, np.nan)
 
 
-def median_colour(rgb: np.ndarray, masks: list[np.ndarray | None], fallback: tuple[float, float, float]
-                  ) -> tuple[float, float, float]:
+def median_colour(
+    rgb: np.ndarray, masks: list[np.ndarray | None], fallback: tuple[float, float, float]
+) -> tuple[float, float, float]:
     """The median colour of the first non-empty mask, else ``fallback``."""
     for mask in masks:
         if mask is not None and mask.any():
@@ -246,18 +303,26 @@ def crop_overlay(rgb8: np.ndarray, parts: list[ScenePart]) -> np.ndarray:
     return out
 
 
-def crop_sheet(rows: list[tuple[str, Any, Any, tuple[float, float, float], PartMaterial]], cell: int = 96) -> np.ndarray:
+def crop_sheet(
+    rows: list[tuple[str, Any, Any, tuple[float, float, float], PartMaterial]], cell: int = 96
+) -> np.ndarray:
     """One row per crop pair: the photo crop, the retrieved material in it at the chosen transform, the flat
     median colour, and what was chosen."""
     lines = []
     for name, crop, view, albedo, chosen in rows:
-        tiles = [_fit(_to_uint8(crop), cell), _fit(_to_uint8(view), cell),
-                 np.full((cell, cell, 3), np.round(np.asarray(albedo) * 255), np.uint8)]
+        tiles = [
+            _fit(_to_uint8(crop), cell),
+            _fit(_to_uint8(view), cell),
+            np.full((cell, cell, 3), np.round(np.asarray(albedo) * 255), np.uint8),
+        ]
         caption = np.full((cell, 3 * cell, 3), 255, np.uint8)
-        text = [name[:30], f"-> {chosen.material or 'homogeneous'}",
-                f"scale {chosen.scale:g} rot {chosen.rotation:g}",
-                f"tex {chosen.scores.get('texture_loss', float('nan')):.3f} flat {chosen.scores.get('homogeneous_loss', float('nan')):.3f}",
-                f"sim {chosen.scores.get('similarity', float('nan')):.3f}"]
+        text = [
+            name[:30],
+            f"-> {chosen.material or 'homogeneous'}",
+            f"scale {chosen.scale:g} rot {chosen.rotation:g}",
+            f"tex {chosen.scores.get('texture_loss', float('nan')):.3f} flat {chosen.scores.get('homogeneous_loss', float('nan')):.3f}",
+            f"sim {chosen.scores.get('similarity', float('nan')):.3f}",
+        ]
         for i, line in enumerate(text):
             cv2.putText(caption, line, (4, 16 + 17 * i), cv2.FONT_HERSHEY_SIMPLEX, 0.42, (0, 0, 0), 1, cv2.LINE_AA)
         lines.append(np.hstack(tiles + [caption]))
@@ -270,9 +335,12 @@ def _to_uint8(image: torch.Tensor) -> np.ndarray:
 
 def _fit(rgb8: np.ndarray, cell: int) -> np.ndarray:
     scale = cell / max(rgb8.shape[:2])
-    small = cv2.resize(rgb8, (max(1, round(rgb8.shape[1] * scale)), max(1, round(rgb8.shape[0] * scale))),
-                       interpolation=cv2.INTER_AREA if scale < 1 else cv2.INTER_NEAREST)
+    small = cv2.resize(
+        rgb8,
+        (max(1, round(rgb8.shape[1] * scale)), max(1, round(rgb8.shape[0] * scale))),
+        interpolation=cv2.INTER_AREA if scale < 1 else cv2.INTER_NEAREST,
+    )
     tile = np.full((cell, cell, 3), 255, np.uint8)
     y0, x0 = (cell - small.shape[0]) // 2, (cell - small.shape[1]) // 2
-    tile[y0:y0 + small.shape[0], x0:x0 + small.shape[1]] = small
+    tile[y0 : y0 + small.shape[0], x0 : x0 + small.shape[1]] = small
     return tile

@@ -58,8 +58,15 @@ if TYPE_CHECKING:
 log = logging.getLogger("psdr_room")
 
 
-def group_objects(ctx: StageContext, image: Image, panoptic: Panoptic, cloud: PointCloud, camera: Camera,
-                  room: RoomBox, depth: DepthMap) -> dict[str, Any]:
+def group_objects(
+    ctx: StageContext,
+    image: Image,
+    panoptic: Panoptic,
+    cloud: PointCloud,
+    camera: Camera,
+    room: RoomBox,
+    depth: DepthMap,
+) -> dict[str, Any]:
     """One object per thing: merge the guessed segments that are parts of one object, by their geometry in the
     fitted room (:func:`~psdr_room_core.method.grouping.group_segments`: stacked parts of a bed or a sofa,
     segments occupying the same space) where the ``retrieval`` capability's best model of the whole's category
@@ -78,8 +85,17 @@ def group_objects(ctx: StageContext, image: Image, panoptic: Panoptic, cloud: Po
 
     def judge(whole: str, union: Part, parts: Sequence[Part]) -> tuple[float, list[float]]:
         def best(part: Part) -> float:
-            query = ObjectQuery(part.segment.id, part.segment.label, (whole,), part.mask, part.points,
-                                square_crop(rgb8, part.mask), scene, part.segment.box, room=room)
+            query = ObjectQuery(
+                part.segment.id,
+                part.segment.label,
+                (whole,),
+                part.mask,
+                part.points,
+                square_crop(rgb8, part.mask),
+                scene,
+                part.segment.box,
+                room=room,
+            )
             ranked = retriever.rank(query, camera, c2w, 1)
             return ranked[0].score if ranked else 0.0
 
@@ -91,8 +107,9 @@ def group_objects(ctx: StageContext, image: Image, panoptic: Panoptic, cloud: Po
     return {"panoptic": grouped, "cloud": regrouped}
 
 
-def retrieve_objects(ctx: StageContext, image: Image, panoptic: Panoptic, cloud: PointCloud, camera: Camera,
-                     room: RoomBox) -> ObjectCandidates:
+def retrieve_objects(
+    ctx: StageContext, image: Image, panoptic: Panoptic, cloud: PointCloud, camera: Camera, room: RoomBox
+) -> ObjectCandidates:
     """Rank ``top_k`` database models for every object segment with the ``retrieval`` capability, among the
     categories its label names (:mod:`~psdr_room_core.method.labels`). A guessed segment's label may mislead (the
     detector calls desks "bed"): its alternates are ranked too, and taken only where their best scores
@@ -105,18 +122,28 @@ def retrieve_objects(ctx: StageContext, image: Image, panoptic: Panoptic, cloud:
     retriever = ctx.impl("retrieval")
     c2w = np.asarray(room.camera_to_world)
     queries = object_queries(image, panoptic, cloud, room, settings.min_points, settings.min_pixels)
-    unmodelled = [f"{s.id}:{s.label}" for s in panoptic.segments
-                  if s.category in OBJECT_CATEGORIES and meaning(s.label, s.category) is None]
+    unmodelled = [
+        f"{s.id}:{s.label}"
+        for s in panoptic.segments
+        if s.category in OBJECT_CATEGORIES and meaning(s.label, s.category) is None
+    ]
     if unmodelled:
         log.info("retrieve_objects: not in the object database, left out: %s", ", ".join(unmodelled))
-    ranked = {q.segment_id: _rank_by_label(retriever, q, camera, c2w, settings.top_k, settings.alternate_margin)
-              for q in ctx.progress(queries, total=len(queries))}
-    return ObjectCandidates(ranked=ranked, labels={q.segment_id: q.label for q in queries},
-                            source=retriever.describe(), sheet=candidate_sheet(queries, ranked, retriever))
+    ranked = {
+        q.segment_id: _rank_by_label(retriever, q, camera, c2w, settings.top_k, settings.alternate_margin)
+        for q in ctx.progress(queries, total=len(queries))
+    }
+    return ObjectCandidates(
+        ranked=ranked,
+        labels={q.segment_id: q.label for q in queries},
+        source=retriever.describe(),
+        sheet=candidate_sheet(queries, ranked, retriever),
+    )
 
 
-def _rank_by_label(retriever: Any, q: ObjectQuery, camera: Camera, c2w: np.ndarray, k: int,
-                   margin: float) -> list[Candidate]:
+def _rank_by_label(
+    retriever: Any, q: ObjectQuery, camera: Camera, c2w: np.ndarray, k: int, margin: float
+) -> list[Candidate]:
     """The ``k`` best models among the label's categories, or among its alternates where the shape says so."""
     own = retriever.rank(q, camera, c2w, k)
     if not q.alternates:
@@ -126,20 +153,31 @@ def _rank_by_label(retriever: Any, q: ObjectQuery, camera: Camera, c2w: np.ndarr
         return own
     best_own = own[0].score if own else 0.0
     taken = other[0].score > (1.0 + margin) * best_own
-    log.info("retrieve_objects: segment %d '%s' %s %s (%s %.3f against %s %.3f)", q.segment_id, q.label,
-             "is a" if taken else "stays a", other[0].category if taken else (own[0].category if own else q.label),
-             other[0].model_id, other[0].score, own[0].model_id if own else "-", best_own)
+    log.info(
+        "retrieve_objects: segment %d '%s' %s %s (%s %.3f against %s %.3f)",
+        q.segment_id,
+        q.label,
+        "is a" if taken else "stays a",
+        other[0].category if taken else (own[0].category if own else q.label),
+        other[0].model_id,
+        other[0].score,
+        own[0].model_id if own else "-",
+        best_own,
+    )
     return other if taken else own
 
 
-def candidate_sheet(queries: list[ObjectQuery], ranked: dict[int, list[Candidate]], retriever: Any,
-                    cell: int = 96) -> np.ndarray | None:
+def candidate_sheet(
+    queries: list[ObjectQuery], ranked: dict[int, list[Candidate]], retriever: Any, cell: int = 96
+) -> np.ndarray | None:
     """One row per object: its crop, then each candidate's thumbnail with its id and score."""
     rows = []
     for q in queries:
         tiles = [_tile(q.crop, f"{q.segment_id}: {q.label}", cell)]
-        tiles += [_tile(retriever.thumbnail(c.model_id), f"{c.model_id.split('/')[-1]} {c.score:.2f}", cell)
-                  for c in ranked[q.segment_id]]
+        tiles += [
+            _tile(retriever.thumbnail(c.model_id), f"{c.model_id.split('/')[-1]} {c.score:.2f}", cell)
+            for c in ranked[q.segment_id]
+        ]
         row = np.full((cell + 14, cell * (1 + max(len(r) for r in ranked.values())), 3), 255, np.uint8)
         row[:, : cell * len(tiles)] = np.hstack(tiles)
         rows.append(row)
@@ -148,11 +186,12 @@ def candidate_sheet(queries: list[ObjectQuery], ranked: dict[int, list[Candidate
 
 def _tile(rgb8: np.ndarray, caption: str, cell: int) -> np.ndarray:
     scale = cell / max(rgb8.shape[:2])
-    small = cv2.resize(rgb8, (max(1, round(rgb8.shape[1] * scale)), max(1, round(rgb8.shape[0] * scale))),
-                       interpolation=cv2.INTER_AREA)
+    small = cv2.resize(
+        rgb8, (max(1, round(rgb8.shape[1] * scale)), max(1, round(rgb8.shape[0] * scale))), interpolation=cv2.INTER_AREA
+    )
     tile = np.full((cell + 14, cell, 3), 255, np.uint8)
     y0, x0 = (cell - small.shape[0]) // 2, (cell - small.shape[1]) // 2
-    tile[y0:y0 + small.shape[0], x0:x0 + small.shape[1]] = small
+    tile[y0 : y0 + small.shape[0], x0 : x0 + small.shape[1]] = small
     cv2.putText(tile, caption[:18], (2, cell + 11), cv2.FONT_HERSHEY_SIMPLEX, 0.32, (0, 0, 0), 1, cv2.LINE_AA)
     return tile
 
@@ -164,14 +203,23 @@ def _pick(candidates: list[Candidate], choice: Any, segment_id: int) -> str:
     if isinstance(choice, int) or (isinstance(choice, str) and choice.isdigit()):
         rank = int(choice)
         if not 0 <= rank < len(candidates):
-            raise PsdrRoomError(f"place_objects.pick.{segment_id}={choice}: only {len(candidates)} candidates; "
-                                f"use a rank below {len(candidates)} or a model id")
+            raise PsdrRoomError(
+                f"place_objects.pick.{segment_id}={choice}: only {len(candidates)} candidates; "
+                f"use a rank below {len(candidates)} or a model id"
+            )
         return candidates[rank].model_id
     return str(choice)
 
 
-def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image, panoptic: Panoptic,
-                  cloud: PointCloud, camera: Camera, room: RoomBox) -> Placements:
+def place_objects(
+    ctx: StageContext,
+    candidates: ObjectCandidates,
+    image: Image,
+    panoptic: Panoptic,
+    cloud: PointCloud,
+    camera: Camera,
+    room: RoomBox,
+) -> Placements:
     """Initial poses (§4.3) with the support rules (floor, parent, wall), at real sizes, made physically possible.
 
     ``init=radius`` is the paper's: centre on the points' median, radius ``radius_factor`` × the points'
@@ -202,15 +250,21 @@ def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image,
     c2w = np.asarray(room.camera_to_world)
     cam = camera.resized(min(settings.render_width, camera.width))
     picks = {int(k): v for k, v in (settings.pick or {}).items()}
-    queries = [q for q in object_queries(image, panoptic, cloud, room, settings.min_points, settings.min_pixels)
-               if candidates.ranked.get(q.segment_id)]
+    queries = [
+        q
+        for q in object_queries(image, panoptic, cloud, room, settings.min_points, settings.min_pixels)
+        if candidates.ranked.get(q.segment_id)
+    ]
     unknown = set(picks) - {q.segment_id for q in queries}
     if unknown:
-        raise PsdrRoomError(f"place_objects.pick: no object segment {sorted(unknown)}; segments: "
-                            f"{sorted(q.segment_id for q in queries)} (see the candidates artifact)")
+        raise PsdrRoomError(
+            f"place_objects.pick: no object segment {sorted(unknown)}; segments: "
+            f"{sorted(q.segment_id for q in queries)} (see the candidates artifact)"
+        )
     search = settings.search
-    chosen = {q.segment_id: _pick(candidates.ranked[q.segment_id], picks.get(q.segment_id), q.segment_id)
-              for q in queries}
+    chosen = {
+        q.segment_id: _pick(candidates.ranked[q.segment_id], picks.get(q.segment_id), q.segment_id) for q in queries
+    }
     categories = {sid: retriever.category(model_id) for sid, model_id in chosen.items()}
     relations = support_relations(queries, panoptic.mask("floor"), room, settings.support, categories)
     guessed = {s.id for s in panoptic.segments if s.score is not None}
@@ -220,20 +274,39 @@ def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image,
     for q in order:
         model_id, category = chosen[q.segment_id], categories[q.segment_id]
         mesh = retriever.mesh(model_id)
-        prior = SizePrior.of(category, np.ptp(mesh.vertices, axis=0), settings.size_prior.scale_weight,
-                             settings.size_prior.range_weight)
+        prior = SizePrior.of(
+            category, np.ptp(mesh.vertices, axis=0), settings.size_prior.scale_weight, settings.size_prior.range_weight
+        )
         supports = [(k, a) for k, a in relations[q.segment_id] if k != "parent" or a in placed] or [("free", None)]
         explained = None
-        if settings.init == "silhouette":  # each support the rules allow (a dropped parent holds nothing); the search picks
-            target = ViewTarget.build(camera, c2w, q.mask, q.points, q.scene_points, settings.render_width,
-                                      box=q.box, room=room)
-            fits = [(fit_view(target, mesh.vertices, mesh.faces, search, _support_height(k, a, placed, q, room), prior,
-                              backed=category in BACKED), k, a) for k, a in supports]
+        if (
+            settings.init == "silhouette"
+        ):  # each support the rules allow (a dropped parent holds nothing); the search picks
+            target = ViewTarget.build(
+                camera, c2w, q.mask, q.points, q.scene_points, settings.render_width, box=q.box, room=room
+            )
+            fits = [
+                (
+                    fit_view(
+                        target,
+                        mesh.vertices,
+                        mesh.faces,
+                        search,
+                        _support_height(k, a, placed, q, room),
+                        prior,
+                        backed=category in BACKED,
+                    ),
+                    k,
+                    a,
+                )
+                for k, a in supports
+            ]
             view, kind, anchor = min(fits, key=lambda f: f[0].error)
             position, yaw, scale, explained = view.position, view.yaw, view.scale, view.iou
             if q.segment_id in guessed and view.iou < settings.prune.min_iou:
-                pruned.append(f"{q.segment_id}:{q.label} ({model_id.split('/')[-1]}): explains {view.iou:.2f} of "
-                              "its segment")
+                pruned.append(
+                    f"{q.segment_id}:{q.label} ({model_id.split('/')[-1]}): explains {view.iou:.2f} of its segment"
+                )
                 continue
         else:
             kind, anchor = supports[0]
@@ -248,18 +321,37 @@ def place_objects(ctx: StageContext, candidates: ObjectCandidates, image: Image,
             yaw = math.atan2(inward[0], inward[2])  # the model's front (+Z) faces into the room
             depth = float(np.ptp(mesh.vertices[:, 2]))
             position = position + (offset + 0.5 * scale * depth - inward @ position) * inward
-        placed[q.segment_id] = Placement(segment_id=q.segment_id, label=q.label, model_id=model_id, mesh=mesh,
-                                         position=tuple(map(float, position)), yaw=float(yaw), scale=float(scale),
-                                         support=kind, anchor=anchor, category=category, explained=explained)
+        placed[q.segment_id] = Placement(
+            segment_id=q.segment_id,
+            label=q.label,
+            model_id=model_id,
+            mesh=mesh,
+            position=tuple(map(float, position)),
+            yaw=float(yaw),
+            scale=float(scale),
+            support=kind,
+            anchor=anchor,
+            category=category,
+            explained=explained,
+        )
     if pruned:
         log.info("place_objects: dropped %d guessed object(s) no model explains: %s", len(pruned), ", ".join(pruned))
     objects = [placed[q.segment_id] for q in queries if q.segment_id in placed]
     settled = _settle(objects, room, cam, panoptic, settings.physical, "place_objects", final=False)
-    return Placements(objects=settled.placements, extra={"pruned": pruned + settled.dropped, "settled": settled.changed})
+    return Placements(
+        objects=settled.placements, extra={"pruned": pruned + settled.dropped, "settled": settled.changed}
+    )
 
 
-def _settle(objects: list[Placement], room: RoomBox, camera: Camera, panoptic: Panoptic, physical: PhysicalParams,
-            stage: str, final: bool) -> Settled:
+def _settle(
+    objects: list[Placement],
+    room: RoomBox,
+    camera: Camera,
+    panoptic: Panoptic,
+    physical: PhysicalParams,
+    stage: str,
+    final: bool,
+) -> Settled:
     """:func:`~psdr_room_core.method.physical.settle` with its changes logged (segments with no score were drawn)."""
     drawn = {s.id for s in panoptic.segments if s.score is None}
     counts = np.bincount(panoptic.ids.ravel())
@@ -272,8 +364,9 @@ def _settle(objects: list[Placement], room: RoomBox, camera: Camera, panoptic: P
     return settled
 
 
-def _support_height(kind: str, anchor: int | None, placed: dict[int, Placement], q: ObjectQuery,
-                    room: RoomBox) -> float | None:
+def _support_height(
+    kind: str, anchor: int | None, placed: dict[int, Placement], q: ObjectQuery, room: RoomBox
+) -> float | None:
     """Where a supported object's bottom stays: the room's floor, its parent's surface under its points; None for
     wall and free objects."""
     if kind == "floor":
@@ -316,8 +409,11 @@ def object_targets(placements: Placements, panoptic: Panoptic, depth: DepthMap, 
             x0, y0, x1, y1 = (max(0, int(round(v))) for v in boxes[p.segment_id])
             free[y0:y1, x0:x1] = True
         weights.append(1.0 - area(free & ~mask))
-    return ObjectTargets(masks=np.stack(masks).astype(np.float32), masked_depth=np.stack(masked).astype(np.float32),
-                         weights=np.stack(weights).astype(np.float32))
+    return ObjectTargets(
+        masks=np.stack(masks).astype(np.float32),
+        masked_depth=np.stack(masked).astype(np.float32),
+        weights=np.stack(weights).astype(np.float32),
+    )
 
 
 def gaussian_pyramid_blur(masks: torch.Tensor, sigmas: tuple[float, ...]) -> torch.Tensor:
@@ -331,10 +427,12 @@ def gaussian_pyramid_blur(masks: torch.Tensor, sigmas: tuple[float, ...]) -> tor
         kernel = torch.exp(-0.5 * (x / sigma) ** 2)
         kernel = kernel / kernel.sum()
         m = masks[:, None]
-        m = torch.nn.functional.conv2d(torch.nn.functional.pad(m, (radius, radius, 0, 0), mode="replicate"),
-                                       kernel.view(1, 1, 1, -1))
-        m = torch.nn.functional.conv2d(torch.nn.functional.pad(m, (0, 0, radius, radius), mode="replicate"),
-                                       kernel.view(1, 1, -1, 1))
+        m = torch.nn.functional.conv2d(
+            torch.nn.functional.pad(m, (radius, radius, 0, 0), mode="replicate"), kernel.view(1, 1, 1, -1)
+        )
+        m = torch.nn.functional.conv2d(
+            torch.nn.functional.pad(m, (0, 0, radius, radius), mode="replicate"), kernel.view(1, 1, -1, 1)
+        )
         blurred.append(m[:, 0])
     return torch.stack(blurred)
 
@@ -353,22 +451,32 @@ class PoseModel:
         self.room = room
         self.unit = unit
         self.index = {p.segment_id: i for i, p in enumerate(self.placements)}
-        self.rest = {i: (p.position[1] - self.placements[self.index[p.anchor]].position[1])
-                     / self.placements[self.index[p.anchor]].scale
-                     for i, p in enumerate(self.placements) if p.support == "parent"}
+        self.rest = {
+            i: (p.position[1] - self.placements[self.index[p.anchor]].position[1])
+            / self.placements[self.index[p.anchor]].scale
+            for i, p in enumerate(self.placements)
+            if p.support == "parent"
+        }
         """Child index → its height above its parent's origin, in the parent's model units."""
         self.ranges = [scale_range(p.category, np.ptp(p.mesh.vertices, axis=0)) for p in self.placements]
-        self.pairs = [(i, j) for i, a in enumerate(self.placements) for j, b in enumerate(self.placements)
-                      if i < j and a.anchor != b.segment_id and b.anchor != a.segment_id and _near(a, b)]
+        self.pairs = [
+            (i, j)
+            for i, a in enumerate(self.placements)
+            for j, b in enumerate(self.placements)
+            if i < j and a.anchor != b.segment_id and b.anchor != a.segment_id and _near(a, b)
+        ]
         """Pairs of objects that may touch (neither stands on the other): their interpenetration is paid for."""
         self.solids = {i: solid_of(self.placements[i]) for pair in self.pairs for i in pair}
         self.fields = {i: torch.from_numpy(solid.depth)[None, None] for i, solid in self.solids.items()}
-        self.samples = {i: torch.from_numpy(solid.centres[::max(1, len(solid.centres) // 200)])
-                        for i, solid in self.solids.items()}
+        self.samples = {
+            i: torch.from_numpy(solid.centres[:: max(1, len(solid.centres) // 200)]) for i, solid in self.solids.items()
+        }
         n = len(self.placements)
-        self.theta = {"translation": torch.zeros(n, 3, requires_grad=True),
-                      "log_scale": torch.zeros(n, requires_grad=True),
-                      "yaw": torch.zeros(n, requires_grad=True)}
+        self.theta = {
+            "translation": torch.zeros(n, 3, requires_grad=True),
+            "log_scale": torch.zeros(n, requires_grad=True),
+            "yaw": torch.zeros(n, requires_grad=True),
+        }
         self.welded = [weld(TriangleMesh(p.mesh.vertices, p.mesh.faces)) for p in self.placements]
         self.backed = [p.category in BACKED and p.support != "wall" for p in self.placements]
         """Per object: it stands with its back to a wall and may turn (wall objects face into the room)."""
@@ -386,8 +494,10 @@ class PoseModel:
             position = torch.tensor(p.position, dtype=torch.float32)
             yaw = p.yaw + torch.deg2rad(yaw_deg[i])
             if p.support == "wall":
-                inward, tangent, offset = (torch.as_tensor(v, dtype=torch.float32) if isinstance(v, np.ndarray)
-                                           else v for v in wall_frame(self.room, p.anchor))
+                inward, tangent, offset = (
+                    torch.as_tensor(v, dtype=torch.float32) if isinstance(v, np.ndarray) else v
+                    for v in wall_frame(self.room, p.anchor)
+                )
                 depth = float(np.ptp(p.mesh.vertices[:, 2]))
                 moved = position + self.unit * (t[i, 0] * tangent + t[i, 1] * torch.tensor([0.0, 1.0, 0.0]))
                 position = moved + (offset + 0.5 * scale * depth - inward @ moved) * inward
@@ -428,8 +538,12 @@ class PoseModel:
         import torch
 
         eye = np.asarray(self.room.camera_to_world)[:3, 3]
-        shown = [back_shown(torch.sin(yaw), torch.cos(yaw), position[0] - float(eye[0]), position[2] - float(eye[2]))
-                 if backed else torch.zeros(()) for (position, yaw, _), backed in zip(self.poses(), self.backed)]
+        shown = [
+            back_shown(torch.sin(yaw), torch.cos(yaw), position[0] - float(eye[0]), position[2] - float(eye[2]))
+            if backed
+            else torch.zeros(())
+            for (position, yaw, _), backed in zip(self.poses(), self.backed)
+        ]
         return torch.stack(shown)
 
     def collision_penalty(self) -> torch.Tensor:
@@ -470,12 +584,21 @@ class PoseModel:
         return torch.stack([torch.relu(((v - centre) @ rotation).abs() - half).max() for v in vertices.values()])
 
     def placements_now(self) -> list[Placement]:
-        return [replace(p, position=tuple(float(v) for v in position.detach()), yaw=float(yaw),
-                        scale=float(scale)) for p, (position, yaw, scale) in zip(self.placements, self.poses())]
+        return [
+            replace(p, position=tuple(float(v) for v in position.detach()), yaw=float(yaw), scale=float(scale))
+            for p, (position, yaw, scale) in zip(self.placements, self.poses())
+        ]
 
 
-def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room: RoomBox, depth: DepthMap,
-                panoptic: Panoptic, image: Image) -> dict[str, Any]:
+def fit_objects(
+    ctx: StageContext,
+    placements: Placements,
+    camera: Camera,
+    room: RoomBox,
+    depth: DepthMap,
+    panoptic: Panoptic,
+    image: Image,
+) -> dict[str, Any]:
     """Refine all object poses jointly (§4.3, eq. 3) by differentiable rendering of their masks and depth.
 
     Minimises ``Σ_i L1(M_i^r · D^r, M_i^t · D_i) / d + w_blur · Σ_i L1(G(M_i^r), G(M_i^t)) + Σ_i P_i(s_i) +
@@ -503,15 +626,19 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
     import torch
 
     if not placements.objects:
-        return {"placements": placements, "log": OptimizationLog(history=[], images={}, summary={"objects": 0}),
-                "room": room}
+        return {
+            "placements": placements,
+            "log": OptimizationLog(history=[], images={}, summary={"objects": 0}),
+            "room": room,
+        }
     settings = ctx.settings(FitObjects)
     cam = camera.resized(min(settings.render_width, camera.width))
     targets = object_targets(placements, panoptic, depth, (cam.width, cam.height))
     model = PoseModel(placements, room, unit=float(np.mean(room.half_size)))
     initial_vertices = {k: v.detach().numpy() for k, v in model.vertices().items()}
-    meshes = {name: TriangleMesh(initial_vertices[name], model.welded[i].faces)
-              for i, name in enumerate(initial_vertices)}
+    meshes = {
+        name: TriangleMesh(initial_vertices[name], model.welded[i].faces) for i, name in enumerate(initial_vertices)
+    }
     parts = {name: i for i, name in enumerate(meshes)}
     renderer = ctx.impl("renderer").geometry(cam, np.asarray(room.camera_to_world), meshes, parts)
     t_masks, t_masked = torch.from_numpy(targets.masks), torch.from_numpy(targets.masked_depth)
@@ -533,10 +660,15 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
         collision_term = settings.collision_weight * model.collision_penalty()
         back_term = settings.back_weight * model.back_penalty()
         ious = (masks * t_masks).sum((1, 2)) / (masks + t_masks - masks * t_masks).sum((1, 2)).clamp_min(1e-6)
-        terms = {"mask_depth_l1": depth_term.sum().item(), "blurred_mask_l1": blur_term.sum().item(),
-                 "size_prior": size_term.sum().item(), "beyond_room": room_term.sum().item(),
-                 "interpenetration": collision_term.sum().item(), "back_shown": back_term.sum().item(),
-                 "mean_iou": ious.mean().item()}
+        terms = {
+            "mask_depth_l1": depth_term.sum().item(),
+            "blurred_mask_l1": blur_term.sum().item(),
+            "size_prior": size_term.sum().item(),
+            "beyond_room": room_term.sum().item(),
+            "interpenetration": collision_term.sum().item(),
+            "back_shown": back_term.sum().item(),
+            "mean_iou": ious.mean().item(),
+        }
         total = depth_term + settings.blur_weight * blur_term + size_term + room_term + collision_term + back_term
         return total, ious.detach(), terms
 
@@ -558,8 +690,14 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
     if turned or first == phase:  # turned poses are a new start (the best is theirs); or not converged yet
         if turned:
             best = BestIterate(model.theta)
-        history += optimizer.minimize(model.theta, rates, lambda it: loss(first + it), iterations - first,
-                                      lambda it: ctx.progress(it, total=iterations - first), plateau)
+        history += optimizer.minimize(
+            model.theta,
+            rates,
+            lambda it: loss(first + it),
+            iterations - first,
+            lambda it: ctx.progress(it, total=iterations - first),
+            plateau,
+        )
         best.restore()
     with torch.no_grad():
         ious = per_object(len(history))[1].numpy()
@@ -568,9 +706,16 @@ def fit_objects(ctx: StageContext, placements: Placements, camera: Camera, room:
     through = interpenetrations(settled.placements, settings.physical.penetration)
     history = untimed(history, ctx.timings)
     final = history[best.iteration]
-    fitted = Placements(objects=settled.placements, extra={
-        "interpenetrations": through, "turned": turned, "final": final, "dropped": settled.dropped,
-        "settled": settled.changed})
+    fitted = Placements(
+        objects=settled.placements,
+        extra={
+            "interpenetrations": through,
+            "turned": turned,
+            "final": final,
+            "dropped": settled.dropped,
+            "settled": settled.changed,
+        },
+    )
     log = _objects_log(history, image, camera, room, placements, fitted, panoptic, through)
     log.summary.update(turned=turned, final=final, best_iteration=best.iteration, dropped=settled.dropped)
     return {"placements": fitted, "log": log, "room": settled.room}
@@ -587,6 +732,7 @@ def _rotation(yaw: torch.Tensor) -> torch.Tensor:
 
 def _near(a: Placement, b: Placement, margin: float = 0.25) -> bool:
     """Whether two objects' bounding spheres come within ``margin`` metres (they may touch while fitted)."""
+
     def sphere(p: Placement) -> tuple[np.ndarray, float]:
         v = p.world_vertices()
         return (v.min(axis=0) + v.max(axis=0)) / 2.0, 0.5 * float(np.linalg.norm(np.ptp(v, axis=0)))
@@ -595,8 +741,9 @@ def _near(a: Placement, b: Placement, margin: float = 0.25) -> bool:
     return float(np.linalg.norm(ca - cb)) < ra + rb + margin
 
 
-def try_yaw_turns(model: PoseModel, evaluate: Callable[[], torch.Tensor], angles: list[float],
-                  min_gain: float) -> dict[int, float]:
+def try_yaw_turns(
+    model: PoseModel, evaluate: Callable[[], torch.Tensor], angles: list[float], min_gain: float
+) -> dict[int, float]:
     """Turn each free-standing object by each of ``angles`` (degrees) in turn and keep a turn that lowers both
     its own loss term by at least ``min_gain`` (a share of it) and the joint loss; ``evaluate`` gives every
     object's term [P] (one fixed-seed render). Returns segment id → degrees turned.
@@ -631,7 +778,10 @@ def footprint(p: Placement) -> tuple[np.ndarray, float, float]:
     lo, hi = v.min(axis=0) * p.scale, v.max(axis=0) * p.scale
     corners = np.array([[lo[0], lo[2]], [hi[0], lo[2]], [hi[0], hi[2]], [lo[0], hi[2]]])
     c, s = math.cos(p.yaw), math.sin(p.yaw)
-    xz = corners @ np.array([[c, -s], [s, c]]) + [p.position[0], p.position[2]]  # R_y acts on (x, z) as [[c, s], [-s, c]]
+    xz = corners @ np.array([[c, -s], [s, c]]) + [
+        p.position[0],
+        p.position[2],
+    ]  # R_y acts on (x, z) as [[c, s], [-s, c]]
     return xz, p.position[1] + lo[1], p.position[1] + hi[1]
 
 
@@ -645,21 +795,43 @@ def _outlines(rgb8: np.ndarray, camera: Camera, room: RoomBox, placements: Place
         cv2.drawContours(out, contours, -1, colour, 2)
         if contours:
             x, y = contours[0][0][0]
-            cv2.putText(out, f"{p.segment_id}:{p.model_id.split('/')[-1]} ({p.support})", (int(x), max(12, int(y) - 4)),
-                        cv2.FONT_HERSHEY_SIMPLEX, 0.4, colour, 1, cv2.LINE_AA)
+            cv2.putText(
+                out,
+                f"{p.segment_id}:{p.model_id.split('/')[-1]} ({p.support})",
+                (int(x), max(12, int(y) - 4)),
+                cv2.FONT_HERSHEY_SIMPLEX,
+                0.4,
+                colour,
+                1,
+                cv2.LINE_AA,
+            )
     return out
 
 
-def _objects_log(history: list[dict[str, float]], image: Image, camera: Camera, room: RoomBox, before: Placements,
-                 after: Placements, panoptic: Panoptic, through: list[tuple[int, int, float]]) -> OptimizationLog:
+def _objects_log(
+    history: list[dict[str, float]],
+    image: Image,
+    camera: Camera,
+    room: RoomBox,
+    before: Placements,
+    after: Placements,
+    panoptic: Panoptic,
+    through: list[tuple[int, int, float]],
+) -> OptimizationLog:
     base = segment_overlay(image.to_uint8(), panoptic, alpha=0.25)
     curves = {k: [h[k] for h in history] for k in history[0]}
     return OptimizationLog(
         history=history,
-        images={"before": _outlines(base, camera, room, before), "after": _outlines(base, camera, room, after),
-                "loss": plot_curves(curves, title="fit_objects")},
-        summary={"objects": len(after.objects), "iterations": len(history),
-                 "initial": history[0],
-                 "interpenetrations": through,
-                 "supports": {p.segment_id: p.support for p in after.objects}},
+        images={
+            "before": _outlines(base, camera, room, before),
+            "after": _outlines(base, camera, room, after),
+            "loss": plot_curves(curves, title="fit_objects"),
+        },
+        summary={
+            "objects": len(after.objects),
+            "iterations": len(history),
+            "initial": history[0],
+            "interpenetrations": through,
+            "supports": {p.segment_id: p.support for p in after.objects},
+        },
     )

@@ -27,8 +27,7 @@ def load_image(ctx: StageContext) -> Image:
     settings = ctx.settings(LoadImageSettings)
     rgb = read_photo(ctx.photo, settings.max_pixels)
     height, width = rgb.shape[:2]
-    return Image(rgb=resize_to_working(rgb, settings.max_side), source=str(ctx.photo),
-                 original_size=(width, height))
+    return Image(rgb=resize_to_working(rgb, settings.max_side), source=str(ctx.photo), original_size=(width, height))
 
 
 def estimate_fov(ctx: StageContext, image: Image) -> Camera:
@@ -55,7 +54,9 @@ def estimate_depth(ctx: StageContext, image: Image, camera: Camera, panoptic: Pa
     """Estimate depth at the working resolution with the ``depth`` capability (given the segmentation)."""
     depth = ctx.impl("depth").estimate(image, camera, panoptic, ctx.photo)
     if depth.depth.shape != (image.height, image.width):
-        raise PsdrRoomError(f"depth implementation returned {depth.depth.shape}, expected {(image.height, image.width)}")
+        raise PsdrRoomError(
+            f"depth implementation returned {depth.depth.shape}, expected {(image.height, image.width)}"
+        )
     return depth
 
 
@@ -104,5 +105,9 @@ def point_cloud(ctx: StageContext, image: Image, camera: Camera, depth: DepthMap
         seg.append(np.full(int(keep.sum()), segment.id, dtype=np.int32))
     if not points or sum(len(p) for p in points) == 0:
         raise PsdrRoomError("point_cloud: no segmented pixel has a valid depth; check the depth and segmentation files")
-    return PointCloud(points=np.concatenate(points), colors=np.concatenate(rgb), segment=np.concatenate(seg),
-                      segments=list(panoptic.segments))
+    return PointCloud(
+        points=np.concatenate(points),
+        colors=np.concatenate(rgb),
+        segment=np.concatenate(seg),
+        segments=list(panoptic.segments),
+    )

@@ -43,10 +43,12 @@ if TYPE_CHECKING:
 log = logging.getLogger("psdr_room")
 
 
-FLOOR_GUESSES = {"ceiling": "the ceiling (parallel, a camera height below the usual ceiling height)",
-                 "walls": "two walls (up is along both) below the lowest point seen",
-                 "wall": "one wall and the camera held level, below the lowest point seen or 1.5 camera units",
-                 "camera": "the camera held level, below the lowest point seen or 1.5 camera units"}
+FLOOR_GUESSES = {
+    "ceiling": "the ceiling (parallel, a camera height below the usual ceiling height)",
+    "walls": "two walls (up is along both) below the lowest point seen",
+    "wall": "one wall and the camera held level, below the lowest point seen or 1.5 camera units",
+    "camera": "the camera held level, below the lowest point seen or 1.5 camera units",
+}
 """How each ``floor_source`` other than ``floor`` guessed the floor (logged; metrics.json and the report say it)."""
 
 
@@ -67,8 +69,11 @@ def room_init(ctx: StageContext, cloud: PointCloud) -> RoomBox:
     except ValueError as exc:
         raise PsdrRoomError(str(exc)) from None
     if fit.floor_source != "floor":
-        log.warning("room_init: no floor in view; guessed: the floor plane from %s (camera %.2f above it)",
-                    FLOOR_GUESSES[fit.floor_source], fit.camera_height)
+        log.warning(
+            "room_init: no floor in view; guessed: the floor plane from %s (camera %.2f above it)",
+            FLOOR_GUESSES[fit.floor_source],
+            fit.camera_height,
+        )
     return RoomBox(
         camera_to_world=fit.camera_to_world,
         center=fit.center,
@@ -109,22 +114,30 @@ class RoomTargets:
 
 def room_targets(panoptic: Panoptic, depth: DepthMap, size: tuple[int, int]) -> RoomTargets:
     """Downsample the segmentation and depth to the render size ``(width, height)``."""
+
     def area(x: np.ndarray) -> np.ndarray:
         return cv2.resize(x.astype(np.float32), size, interpolation=cv2.INTER_AREA)
 
-    masks = np.stack([area(np.isin(panoptic.ids, [s.id for s in panoptic.segments if s.category in cats]))
-                      for cats in MASK_CATEGORIES.values()])
+    masks = np.stack(
+        [
+            area(np.isin(panoptic.ids, [s.id for s in panoptic.segments if s.category in cats]))
+            for cats in MASK_CATEGORIES.values()
+        ]
+    )
     surface = np.zeros(panoptic.ids.shape, bool)
     for category in DEPTH_CATEGORIES:
         surface |= panoptic.mask(category)
     surface &= depth.valid
     weight = area(surface)
     mean_depth = np.where(weight > 0, area(np.where(surface, depth.depth, 0.0)) / np.maximum(weight, 1e-6), 0.0)
-    return RoomTargets(masks=masks, visible=np.clip(masks.sum(0), 0, 1), depth=mean_depth.astype(np.float32),
-                       depth_weight=weight)
+    return RoomTargets(
+        masks=masks, visible=np.clip(masks.sum(0), 0, 1), depth=mean_depth.astype(np.float32), depth_weight=weight
+    )
 
 
-def box_vertices(room: RoomBox, theta: dict[str, torch.Tensor], scale: float, keep_floor: bool) -> dict[str, torch.Tensor]:
+def box_vertices(
+    room: RoomBox, theta: dict[str, torch.Tensor], scale: float, keep_floor: bool
+) -> dict[str, torch.Tensor]:
     """World quads of the box moved by ``theta``: yaw offset, translation in units of ``scale``, per-axis
     log-scale, and a tilt of the whole box about the camera centre (the floor normal from ``room_init``
     may be off by a few degrees; tilting about the camera keeps the camera's height above the floor).
@@ -181,8 +194,9 @@ def soft_iou(rendered: torch.Tensor, target: torch.Tensor, visible: torch.Tensor
     return intersection / union.clamp_min(1e-6)
 
 
-def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, panoptic: Panoptic,
-             image: Image) -> dict[str, Any]:
+def room_fit(
+    ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, panoptic: Panoptic, image: Image
+) -> dict[str, Any]:
     """Refine the room box (and the camera's focal length) by differentiable rendering (§4.2, eq. 2).
 
     Minimises ``L_box = −Σ_i IoU(M_i^r, M_i^t) + w_depth · L1(D^r, D^t)`` over the box's yaw, translation and
@@ -205,9 +219,13 @@ def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, 
     parts = {name: ROOM_PARTS["wall" if name.startswith("wall") else name] for name in meshes}
     renderer = ctx.impl("renderer").geometry(cam, np.asarray(room.camera_to_world), meshes, parts)
     scale = float(np.mean(room.half_size))
-    theta = {"yaw": torch.zeros((), requires_grad=True), "translation": torch.zeros(3, requires_grad=True),
-             "log_scale": torch.zeros(3, requires_grad=True), "tilt": torch.zeros(2, requires_grad=True),
-             "log_focal": torch.zeros((), requires_grad=True)}
+    theta = {
+        "yaw": torch.zeros((), requires_grad=True),
+        "translation": torch.zeros(3, requires_grad=True),
+        "log_scale": torch.zeros(3, requires_grad=True),
+        "tilt": torch.zeros(2, requires_grad=True),
+        "log_focal": torch.zeros((), requires_grad=True),
+    }
     camera_to_world = np.asarray(room.camera_to_world, dtype=np.float64)
     t_masks, visible = torch.from_numpy(targets.masks), torch.from_numpy(targets.visible)
     t_depth, d_weight = torch.from_numpy(targets.depth), torch.from_numpy(targets.depth_weight)
@@ -226,9 +244,16 @@ def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, 
         terms = {f"iou_{name}": ious[k].item() for name, k in ROOM_PARTS.items()} | {"depth_l1": l1.item()}
         return -torch.stack(ious).sum() + settings.depth_weight * l1, terms
 
-    history = untimed(ctx.impl("optimizer").minimize(theta, dataclasses.asdict(settings.learning_rates), loss, settings.iterations,
-                                                     lambda it: ctx.progress(it, total=settings.iterations)),
-                      ctx.timings)
+    history = untimed(
+        ctx.impl("optimizer").minimize(
+            theta,
+            dataclasses.asdict(settings.learning_rates),
+            loss,
+            settings.iterations,
+            lambda it: ctx.progress(it, total=settings.iterations),
+        ),
+        ctx.timings,
+    )
     with torch.no_grad():
         half_size = np.asarray(room.half_size) * np.exp(theta["log_scale"].numpy().astype(np.float64))
         center = np.asarray(room.center) + scale * theta["translation"].numpy().astype(np.float64)
@@ -238,8 +263,9 @@ def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, 
         tilted = camera_to_world.copy()
         tilted[:3, :3] = tilt_rotation(theta["tilt"]).numpy().astype(np.float64).T @ camera_to_world[:3, :3]
         focal = float(torch.exp(theta["log_focal"]))
-        fitted_camera = dataclasses.replace(camera, fx=camera.fx * focal, fy=camera.fy * focal,
-                                            method=f"{camera.method}+room_fit")
+        fitted_camera = dataclasses.replace(
+            camera, fx=camera.fx * focal, fy=camera.fy * focal, method=f"{camera.method}+room_fit"
+        )
         fitted = RoomBox(
             camera_to_world=tilted,
             center=center,
@@ -248,19 +274,30 @@ def room_fit(ctx: StageContext, room: RoomBox, camera: Camera, depth: DepthMap, 
             ceiling_visible=room.ceiling_visible,
             extra={**room.extra, "room_fit": {k: float(v) for k, v in history[-1].items()}},
         )
-    return {"room": fitted, "camera": fitted_camera,
-            "log": _fit_log(history, image, (camera, room), (fitted_camera, fitted), panoptic)}
+    return {
+        "room": fitted,
+        "camera": fitted_camera,
+        "log": _fit_log(history, image, (camera, room), (fitted_camera, fitted), panoptic),
+    }
 
 
-def _fit_log(history: list[dict[str, float]], image: Image, before: tuple[Camera, RoomBox],
-             after: tuple[Camera, RoomBox], panoptic: Panoptic) -> OptimizationLog:
+def _fit_log(
+    history: list[dict[str, float]],
+    image: Image,
+    before: tuple[Camera, RoomBox],
+    after: tuple[Camera, RoomBox],
+    panoptic: Panoptic,
+) -> OptimizationLog:
     """Loss curves and before/after overlays (Fig. 3 of the paper) of a room fit."""
     base = segment_overlay(image.to_uint8(), panoptic, alpha=0.35)
     curves = {k: [h[k] for h in history] for k in history[0]}
     return OptimizationLog(
         history=history,
-        images={"before": room_edges_overlay(base, *before), "after": room_edges_overlay(base, *after),
-                "loss": plot_curves(curves, title="room_fit")},
+        images={
+            "before": room_edges_overlay(base, *before),
+            "after": room_edges_overlay(base, *after),
+            "loss": plot_curves(curves, title="room_fit"),
+        },
         summary={"iterations": len(history), "initial": history[0], "final": history[-1]},
     )
 
@@ -272,5 +309,11 @@ def room_iou(reference: RoomBox, estimate: RoomBox) -> float:
     center = to_reference[:3, :3] @ np.asarray(estimate.center) + to_reference[:3, 3]
     x_axis = to_reference[:3, :3] @ rotation_y(float(estimate.yaw)) @ np.array([1.0, 0.0, 0.0])
     yaw = float(np.arctan2(-x_axis[2], x_axis[0]))
-    return box_iou_3d(np.asarray(reference.center), np.asarray(reference.half_size), float(reference.yaw),
-                      center, np.asarray(estimate.half_size), yaw)
+    return box_iou_3d(
+        np.asarray(reference.center),
+        np.asarray(reference.half_size),
+        float(reference.yaw),
+        center,
+        np.asarray(estimate.half_size),
+        yaw,
+    )

@@ -228,4 +228,3 @@ class ExportScene:
     texture_size: int = setting(ge=8)
     glb: bool = setting()
     usd: bool = setting()
-
