@@ -6,6 +6,7 @@ import copy
 import gc
 import weakref
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import pytest
@@ -346,3 +347,33 @@ def test_auto_with_nothing_usable_names_the_candidates(tmp_path: Path, photo: Pa
     cfg = {**AUTO, "scaler": {**AUTO["scaler"], "auto": {"order": ["toy_sidecar"]}}}
     with pytest.raises(PsdrRoomError, match="none of toy_sidecar is usable.*no .factor file"):
         run(cfg, photo, Store(tmp_path / "cache"), tmp_path)
+
+
+def test_an_implementation_missing_a_method_of_its_capability_is_refused_in_one_line(
+    tmp_path: Path, photo: Path
+) -> None:
+    """The capability's protocol is checked when the engine constructs an implementation, before its stage runs."""
+
+    class Adder:  # a scaler without apply
+        def add(self, value: float, photo: Path) -> float:
+            return value + 1.0
+
+    def register(registry: Any) -> None:
+        registry.add_implementation("scaler", "adder", Adder)
+
+    cfg = copy.deepcopy(BASE)
+    cfg["scaler"]["impl"] = "adder"
+    plugins = load_plugins(
+        extra=[
+            (toy_plugin, TOY),
+            (SimpleNamespace(register_implementations=hookimpl(register)), Origin("adder", "tests", "adder")),
+        ]
+    )
+    runner = Runner(plugins, cfg, photo, Store(tmp_path / "cache"), Store(tmp_path / "scratch"), "readwrite")
+    scaled = toy_plugin.CALLS["b"]
+    with pytest.raises(PsdrRoomError) as caught:
+        runner.run(Pipeline.from_config(cfg).select())
+    assert str(caught.value) == (
+        "scaler.adder (Adder) is not a scaler implementation: it has no apply (the toy_plugin.Scaler protocol)"
+    )
+    assert toy_plugin.CALLS["b"] == scaled  # the stage that uses it never ran

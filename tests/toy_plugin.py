@@ -7,7 +7,7 @@ import json
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
-from typing import ClassVar
+from typing import ClassVar, Protocol, runtime_checkable
 
 from psdr_room_core.engine.dag import StageContext
 from psdr_room_core.engine.hookspecs import hookimpl
@@ -29,6 +29,13 @@ class Number:
     @classmethod
     def load(cls, directory: Path) -> Number:
         return cls(json.loads((directory / "number.json").read_text())["value"])
+
+
+@runtime_checkable
+class Scaler(Protocol):
+    """The ``scaler`` capability: what its implementations do."""
+
+    def apply(self, value: float, photo: Path) -> float: ...
 
 
 class Multiplier:
@@ -65,7 +72,7 @@ def scale(ctx: StageContext, x: Number) -> Number:
     CALLS[ctx.stage] += 1
     if ctx.params.get("fail"):
         raise RuntimeError("toy failure")
-    return Number(ctx.impl("scaler").apply(x.value, ctx.photo))
+    return Number(ctx.impl("scaler", Scaler).apply(x.value, ctx.photo))
 
 
 def add(ctx: StageContext, x: Number, y: Number) -> dict[str, Number]:
@@ -75,7 +82,7 @@ def add(ctx: StageContext, x: Number, y: Number) -> dict[str, Number]:
 
 @hookimpl
 def register_capabilities(registry: Registry) -> None:
-    registry.add_capability("scaler", "multiplies a number")
+    registry.add_capability("scaler", "multiplies a number", Scaler)
 
 
 @hookimpl

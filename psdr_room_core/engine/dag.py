@@ -24,7 +24,7 @@ import time
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, TypeVar, cast
+from typing import Any, TypeVar, cast, overload
 
 from tqdm import tqdm
 
@@ -209,6 +209,7 @@ class Pipeline:
 
 
 SettingsT = TypeVar("SettingsT")
+ImplT = TypeVar("ImplT")
 
 
 @dataclass
@@ -231,8 +232,15 @@ class StageContext:
 
         return cast(SettingsT, OmegaConf.to_object(OmegaConf.merge(OmegaConf.structured(schema), self.params)))
 
-    def impl(self, capability: str) -> Any:
-        """The selected implementation of ``capability`` (declared in the stage's ``uses``)."""
+    @overload
+    def impl(self, capability: str) -> Any: ...
+
+    @overload
+    def impl(self, capability: str, protocol: type[ImplT]) -> ImplT: ...
+
+    def impl(self, capability: str, protocol: type[Any] | None = None) -> Any:
+        """The selected implementation of ``capability`` (declared in the stage's ``uses``), typed as
+        ``protocol`` (the capability's, which the engine checked when it constructed the implementation)."""
         try:
             return self.implementations[capability]
         except KeyError:
@@ -376,11 +384,19 @@ class Runner:
         impl = self.plugins.registry.implementation(capability, name)
         params = dict(node.get(name) or {})
         try:
-            return impl.factory(**params)
+            instance = impl.factory(**params)
         except TypeError as exc:
             raise PsdrRoomError(
                 f"{capability}.{name}: invalid parameters ({exc}); see conf/{capability}/{name}.yaml and the stages' _uses_"
             ) from None
+        protocol = self.plugins.registry.protocols.get(capability)
+        if protocol is not None and not isinstance(instance, protocol):
+            missing = [m for m in dir(protocol) if not m.startswith("_") and not callable(getattr(instance, m, None))]
+            raise PsdrRoomError(
+                f"{capability}.{name} ({type(instance).__name__}) is not a {capability} implementation: it has no "
+                f"{', '.join(missing)} (the {protocol.__module__}.{protocol.__qualname__} protocol)"
+            )
+        return instance
 
     def _first_available(self, capability: str, node: Mapping[str, Any]) -> tuple[str, Any, dict[str, str]]:
         """``<capability>=auto``: the first implementation of ``auto.order`` usable for this photo.

@@ -82,6 +82,8 @@ class Registry:
 
     capabilities: dict[str, str] = field(default_factory=dict)
     """Capability → one-line description, in registration order (the method's pipeline order)."""
+    protocols: dict[str, type] = field(default_factory=dict)
+    """Capability → the protocol its implementations satisfy (checked when one is constructed), where declared."""
     artifacts: dict[str, type[Artifact]] = field(default_factory=dict)
     """Artifact kind → type, for loading cached, injected or published artifacts."""
     implementations: dict[tuple[str, str], Implementation] = field(default_factory=dict)
@@ -93,11 +95,15 @@ class Registry:
     """Plugin name → why it was left out."""
     _origin: Origin = Origin("?", "?", "?")
 
-    def add_capability(self, name: str, description: str) -> None:
-        """Declare capability ``name``: a config group of the same name selects one of its implementations."""
+    def add_capability(self, name: str, description: str, protocol: type | None = None) -> None:
+        """Declare capability ``name``: a config group of the same name selects one of its implementations;
+        ``protocol``: a ``runtime_checkable`` Protocol every implementation must satisfy (its methods are
+        checked when an implementation is constructed, before the stage that uses it runs)."""
         if not name.isidentifier():
             raise ValueError(f"capability name '{name}' is not an identifier")
         self.capabilities.setdefault(name, description)
+        if protocol is not None:
+            self.protocols.setdefault(name, protocol)
 
     def add_artifact(self, artifact_type: type[Artifact]) -> None:
         """Register an artifact type under its ``kind`` (a kind registered twice keeps the first type)."""

@@ -33,7 +33,7 @@ CAPABILITIES: tuple[str, ...] = (
     "optimizer",
     "denoiser",
 )
-"""Every capability, in pipeline order. Protocols below exist for those the pipeline calls today."""
+"""Every capability, in pipeline order; each has its protocol below (:data:`PROTOCOLS`)."""
 
 DESCRIPTIONS: dict[str, str] = {
     "fov": "camera intrinsics (vertical field of view) from the photo (§4.1)",
@@ -256,3 +256,19 @@ class TextureDescriptor(Protocol):
     def describe(self, images: torch.Tensor) -> torch.Tensor: ...
 
     def distance(self, a: torch.Tensor, b: torch.Tensor) -> torch.Tensor: ...
+
+
+PROTOCOLS: dict[str, type] = {
+    "fov": FovEstimator,
+    "detector": Detector,
+    "segmentation": Segmenter,
+    "depth": DepthEstimator,
+    "retrieval": ObjectRetriever,
+    "renderer": Renderer,
+    "material_graph": MaterialGraph,
+    "texture": TextureDescriptor,
+    "optimizer": Optimizer,
+    "denoiser": Denoiser,
+}
+"""Capability → the protocol its implementations satisfy: the engine checks each one it constructs, and a stage
+gets it typed as such (``ctx.impl("retrieval", ObjectRetriever)``)."""

@@ -17,7 +17,7 @@ from psdr_room_core.engine.plugins import Registry
 from psdr_room_core.engine.settings import NoSettings
 
 from . import artifacts, hookspecs
-from .capabilities import CAPABILITIES, DESCRIPTIONS
+from .capabilities import CAPABILITIES, DESCRIPTIONS, PROTOCOLS
 from .crops import CROPS_SUFFIX
 from .guesses import guesses
 from .room_box import RoomInitParams
@@ -36,7 +36,7 @@ def add_hookspecs(plugin_manager: pluggy.PluginManager) -> None:
 def register_capabilities(registry: Registry) -> None:
     """The paper's swappable parts, in pipeline order (:mod:`.capabilities`)."""
     for name in CAPABILITIES:
-        registry.add_capability(name, DESCRIPTIONS[name])
+        registry.add_capability(name, DESCRIPTIONS[name], PROTOCOLS[name])
 
 
 @hookimpl

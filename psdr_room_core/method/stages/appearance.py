@@ -24,6 +24,7 @@ from ..artifacts import (
     RoomBox,
     SceneAppearance,
 )
+from ..capabilities import Denoiser, MaterialGraph, Optimizer, Renderer, TextureDescriptor
 from ..convergence import untimed
 from ..image_metrics import downsampled, flip, rmse, ssim, ssim_map
 from ..material_priors import LUMINANCE, PaintPrior, painted, within_paint
@@ -244,7 +245,11 @@ def fit_appearance(
     (:mod:`psdr_room_core.method.lpips`).
     """
     settings = ctx.settings(FitAppearance)
-    library, descriptor, renderer = ctx.impl("material_graph"), ctx.impl("texture"), ctx.impl("renderer")
+    library, descriptor, renderer = (
+        ctx.impl("material_graph", MaterialGraph),
+        ctx.impl("texture", TextureDescriptor),
+        ctx.impl("renderer", Renderer),
+    )
     c2w = np.asarray(room.camera_to_world)
     width = min(settings.render_width, camera.width)
     scale = width / camera.width
@@ -329,7 +334,7 @@ def fit_appearance(
 
     rates = {name: getattr(settings.learning_rates, group) for name, group in model.group.items()}
     history = untimed(
-        ctx.impl("optimizer").minimize(
+        ctx.impl("optimizer", Optimizer).minimize(
             model.theta,
             rates,
             loss,
@@ -339,7 +344,7 @@ def fit_appearance(
         ),
         ctx.timings,
     )
-    final_spp, denoiser = settings.final_spp, ctx.impl("denoiser")
+    final_spp, denoiser = settings.final_spp, ctx.impl("denoiser", Denoiser)
     with torch.no_grad():
         initial = AppearanceModel(parts, lights, library, model.map_size, seen, paint=paint).inputs()
         start_noisy, start = picture(geometry, denoiser, initial, final_spp, 10**6)

@@ -33,6 +33,7 @@ from ..artifacts import (
     SceneFiles,
 )
 from ..artifacts.io import ply_bytes
+from ..capabilities import MaterialGraph
 from ..geometry import TriangleMesh
 from ..gltf import scene_glb
 from ..rgb_scene import RgbScene, build_scene, part_meshes
@@ -270,7 +271,7 @@ def export_scene(
         appearance.parts,
         lit,
         lights.fixtures,
-        ctx.impl("material_graph"),
+        ctx.impl("material_graph", MaterialGraph),
         settings.texture_size,
     )
     c2w = np.asarray(room.camera_to_world)

@@ -12,6 +12,7 @@ import torch.nn.functional as F
 from psdr_room_core.engine.dag import StageContext
 
 from ..artifacts import Camera, Image, Light, Lights, MaterialAssignment, Panoptic, Placements, RoomBox
+from ..capabilities import Denoiser, MaterialGraph, Renderer
 from ..geometry import TriangleMesh, quad_mesh
 from ..image_metrics import downsampled, luminance
 from ..lighting import behind_camera_light, ceiling_lights, wall_window_light, window_panel
@@ -50,7 +51,7 @@ def init_lights(
     quads = room_quads(room)
     meshes = part_meshes(room, placements)
     names = list(meshes)
-    ids, _ = render_part_ids(ctx.impl("renderer"), camera, c2w, meshes, settings.render_width)
+    ids, _ = render_part_ids(ctx.impl("renderer", Renderer), camera, c2w, meshes, settings.render_width)
     seen = np.bincount(ids[ids >= 0].ravel(), minlength=len(names))
     drop = settings.drop
     rows, cols = settings.ceiling_grid
@@ -84,10 +85,15 @@ def init_lights(
             lights.append(Light(f"light_lamp_{segment_id}", "lamp", meshes[part], part=part))
 
     scene = build_scene(
-        meshes, initial_parts(materials, ctx.impl("material_graph")), lights, fixtures, ctx.impl("material_graph"), 64
+        meshes,
+        initial_parts(materials, ctx.impl("material_graph", MaterialGraph)),
+        lights,
+        fixtures,
+        ctx.impl("material_graph", MaterialGraph),
+        64,
     )
     width = min(settings.render_width, camera.width)
-    geometry = scene.renderer(ctx.impl("renderer"), camera, c2w, width)
+    geometry = scene.renderer(ctx.impl("renderer", Renderer), camera, c2w, width)
     with torch.no_grad():
         unit = geometry.render_rgb(spp=settings.spp)
     photo = torch.from_numpy(np.asarray(image.rgb, np.float32))
@@ -103,7 +109,7 @@ def init_lights(
     balance = white_balance(unit, photo, settings.max_balance)
     radiance = tuple(best * float(b) for b in balance)
     lights = [Light(l.name, l.kind, l.mesh, radiance, l.part) for l in lights]  # type: ignore[arg-type]
-    picture = ctx.impl("denoiser").denoise(
+    picture = ctx.impl("denoiser", Denoiser).denoise(
         unit.numpy() * np.asarray(radiance, np.float32), *geometry.render_guides(spp=GUIDE_SPP)
     )
     curve = plot_curves(

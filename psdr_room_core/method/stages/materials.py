@@ -13,6 +13,7 @@ from psdr_room_core.engine.dag import StageContext
 from psdr_room_core.engine.errors import PsdrRoomError
 
 from ..artifacts import Camera, Image, MaterialAssignment, Panoptic, PartMaterial, Placements, Rect, RoomBox
+from ..capabilities import MaterialGraph, Renderer, TextureDescriptor
 from ..crops import crop_windows, crops_file, read_crops
 from ..geometry import TriangleMesh
 from ..rgb_scene import object_parts, render_part_ids, room_quads
@@ -96,7 +97,11 @@ def assign_materials(
     settings = ctx.settings(AssignMaterials)
     parts = scene_parts(room, placements, panoptic, asdict(settings.room_colours))
     ids, depth = render_part_ids(
-        ctx.impl("renderer"), camera, room.camera_to_world, {p.name: p.mesh for p in parts}, settings.render_width
+        ctx.impl("renderer", Renderer),
+        camera,
+        room.camera_to_world,
+        {p.name: p.mesh for p in parts},
+        settings.render_width,
     )
     rgb8 = image.to_uint8()
     labels = np.full(ids.shape, -1, np.int64)
@@ -115,7 +120,7 @@ def assign_materials(
 
     rgb = rgb8.astype(np.float32) / 255.0
     photo = torch.from_numpy(rgb).permute(2, 0, 1).contiguous()
-    library, descriptor = ctx.impl("material_graph"), ctx.impl("texture")
+    library, descriptor = ctx.impl("material_graph", MaterialGraph), ctx.impl("texture", TextureDescriptor)
     map_size = settings.map_size
     index = None
     c2w = np.asarray(room.camera_to_world)

@@ -30,6 +30,7 @@ from ..artifacts import (
     rotation_y,
 )
 from ..backs import BACKED, back_shown
+from ..capabilities import ObjectRetriever, Optimizer, Renderer
 from ..convergence import BestIterate, untimed
 from ..geometry import TriangleMesh, weld
 from ..grouping import Part, group_segments
@@ -78,7 +79,7 @@ def group_objects(
     group = ctx.settings(GroupObjects)
     if not group.enabled:
         return {"panoptic": panoptic, "cloud": cloud}
-    retriever = ctx.impl("retrieval")
+    retriever = ctx.impl("retrieval", ObjectRetriever)
     c2w = np.asarray(room.camera_to_world)
     rgb8 = image.to_uint8()
     scene = cloud.points.astype(np.float64) @ c2w[:3, :3].T + c2w[:3, 3]
@@ -119,7 +120,7 @@ def retrieve_objects(
     Params: ``top_k``, ``alternate_margin``, ``min_points`` and ``min_pixels`` (smaller segments are left out).
     """
     settings = ctx.settings(RetrieveObjects)
-    retriever = ctx.impl("retrieval")
+    retriever = ctx.impl("retrieval", ObjectRetriever)
     c2w = np.asarray(room.camera_to_world)
     queries = object_queries(image, panoptic, cloud, room, settings.min_points, settings.min_pixels)
     unmodelled = [
@@ -246,7 +247,7 @@ def place_objects(
     ``min_pixels``.
     """
     settings = ctx.settings(PlaceObjects)
-    retriever = ctx.impl("retrieval")
+    retriever = ctx.impl("retrieval", ObjectRetriever)
     c2w = np.asarray(room.camera_to_world)
     cam = camera.resized(min(settings.render_width, camera.width))
     picks = {int(k): v for k, v in (settings.pick or {}).items()}
@@ -640,7 +641,7 @@ def fit_objects(
         name: TriangleMesh(initial_vertices[name], model.welded[i].faces) for i, name in enumerate(initial_vertices)
     }
     parts = {name: i for i, name in enumerate(meshes)}
-    renderer = ctx.impl("renderer").geometry(cam, np.asarray(room.camera_to_world), meshes, parts)
+    renderer = ctx.impl("renderer", Renderer).geometry(cam, np.asarray(room.camera_to_world), meshes, parts)
     t_masks, t_masked = torch.from_numpy(targets.masks), torch.from_numpy(targets.masked_depth)
     t_weights = torch.from_numpy(targets.weights)
     valid = targets.masked_depth[targets.masks > 0.5] / np.maximum(targets.masks[targets.masks > 0.5], 1e-6)
@@ -681,7 +682,7 @@ def fit_objects(
         return total, logged
 
     iterations, plateau = settings.iterations, settings.convergence
-    optimizer, rates = ctx.impl("optimizer"), asdict(settings.learning_rates)
+    optimizer, rates = ctx.impl("optimizer", Optimizer), asdict(settings.learning_rates)
     phase = round(iterations * settings.yaw_test.at)
     history = optimizer.minimize(model.theta, rates, loss, phase, lambda it: ctx.progress(it, total=phase), plateau)
     first = len(history)

@@ -13,6 +13,7 @@ from psdr_room_core.engine.dag import StageContext
 from psdr_room_core.engine.errors import PsdrRoomError
 
 from ..artifacts import ROOM_CATEGORIES, Camera, DepthMap, Detections, Image, Panoptic, PointCloud
+from ..capabilities import DepthEstimator, Detector, FovEstimator, Segmenter
 from ..photo import read_photo, resize_to_working
 from .settings import LoadImage as LoadImageSettings
 from .settings import PointCloud as PointCloudSettings
@@ -32,17 +33,17 @@ def load_image(ctx: StageContext) -> Image:
 
 def estimate_fov(ctx: StageContext, image: Image) -> Camera:
     """Estimate pinhole intrinsics with the ``fov`` capability."""
-    return ctx.impl("fov").estimate(image, ctx.photo)
+    return ctx.impl("fov", FovEstimator).estimate(image, ctx.photo)
 
 
 def detect(ctx: StageContext, image: Image) -> Detections:
     """Find object boxes (prompts for box-driven segmentation) with the ``detector`` capability."""
-    return ctx.impl("detector").detect(image, ctx.photo)
+    return ctx.impl("detector", Detector).detect(image, ctx.photo)
 
 
 def segment(ctx: StageContext, image: Image, camera: Camera, detections: Detections) -> Panoptic:
     """Segment the photo with the ``segmentation`` capability (given the camera and the box prompts)."""
-    panoptic = ctx.impl("segmentation").segment(image, camera, detections, ctx.photo)
+    panoptic = ctx.impl("segmentation", Segmenter).segment(image, camera, detections, ctx.photo)
     if panoptic.ids.shape != (image.height, image.width):
         raise PsdrRoomError(
             f"segmentation implementation returned {panoptic.ids.shape}, expected {(image.height, image.width)}"
@@ -52,7 +53,7 @@ def segment(ctx: StageContext, image: Image, camera: Camera, detections: Detecti
 
 def estimate_depth(ctx: StageContext, image: Image, camera: Camera, panoptic: Panoptic) -> DepthMap:
     """Estimate depth at the working resolution with the ``depth`` capability (given the segmentation)."""
-    depth = ctx.impl("depth").estimate(image, camera, panoptic, ctx.photo)
+    depth = ctx.impl("depth", DepthEstimator).estimate(image, camera, panoptic, ctx.photo)
     if depth.depth.shape != (image.height, image.width):
         raise PsdrRoomError(
             f"depth implementation returned {depth.depth.shape}, expected {(image.height, image.width)}"

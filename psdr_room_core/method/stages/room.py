@@ -30,6 +30,7 @@ from ..artifacts import (
     RoomBox,
     rotation_y,
 )
+from ..capabilities import Optimizer, Renderer
 from ..convergence import untimed
 from ..geometry import quad_mesh
 from ..rgb_scene import room_quad_indices, room_quads
@@ -217,7 +218,7 @@ def room_fit(
         raise PsdrRoomError("room_fit: the segmentation shows no wall, floor or ceiling; label them to fit the room")
     meshes = {name: quad_mesh(quad) for name, quad in room_quads(room).items()}
     parts = {name: ROOM_PARTS["wall" if name.startswith("wall") else name] for name in meshes}
-    renderer = ctx.impl("renderer").geometry(cam, np.asarray(room.camera_to_world), meshes, parts)
+    renderer = ctx.impl("renderer", Renderer).geometry(cam, np.asarray(room.camera_to_world), meshes, parts)
     scale = float(np.mean(room.half_size))
     theta = {
         "yaw": torch.zeros((), requires_grad=True),
@@ -245,7 +246,7 @@ def room_fit(
         return -torch.stack(ious).sum() + settings.depth_weight * l1, terms
 
     history = untimed(
-        ctx.impl("optimizer").minimize(
+        ctx.impl("optimizer", Optimizer).minimize(
             theta,
             dataclasses.asdict(settings.learning_rates),
             loss,
