@@ -37,7 +37,13 @@ from psdr_room_core.method.objects import (
     wall_frame,
 )
 from psdr_room_core.method.silhouette import MeshCaster, camera_rays, depth_map, silhouette
-from psdr_room_core.method.stages.objects import PoseModel, fit_objects, object_targets, try_yaw_turns
+from psdr_room_core.method.stages.objects import (
+    PoseModel,
+    fit_objects,
+    object_targets,
+    restore_lost,
+    try_yaw_turns,
+)
 from psdr_room_core.method.view_search import SearchParams, ViewTarget, fit_view
 from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
 from psdr_room_plugins.optimizer_adam import Adam
@@ -425,6 +431,7 @@ def test_fit_objects_recovers_perturbed_poses(tmp_path: Path) -> None:
         "room_weight": 0.2,
         "collision_weight": 2.0,
         "back_weight": 0.05,
+        "keep_share": 0.5,
         "physical": PHYSICAL,
         "learning_rates": {"translation": 0.01, "log_scale": 0.01, "yaw": 1.0},
         "yaw_test": {"at": 0.5, "angles": [180.0, 90.0, -90.0], "min_gain": 0.1},
@@ -450,6 +457,7 @@ def test_fit_objects_recovers_perturbed_poses(tmp_path: Path) -> None:
     assert set(log.images) == {"before", "after", "loss"} and log.summary["interpenetrations"] == []
     assert out["room"] is ROOM and log.summary["dropped"] == []  # nothing crossed the room or another object
     assert log.summary["turned"] == {} and len(log.history) == 60  # nothing was the wrong way round
+    assert log.summary["kept_placed"] == []  # and the fit lost nothing
     losses = [h["loss"] for h in log.history]  # the poses left are the best iterate's
     assert log.summary["best_iteration"] == losses.index(min(losses))
     assert log.summary["final"]["loss"] == min(losses) == fitted.extra["final"]["loss"]
@@ -530,6 +538,29 @@ def test_eq3_pays_for_a_backed_object_showing_its_back() -> None:
     assert penalty[0].item() > 0.95 and penalty[1].item() == 0.0 and penalty[2:].tolist() == [0.0, 0.0]
     penalty.sum().backward()
     assert model.theta["yaw"].grad[0].item() != 0.0
+
+
+def test_an_object_the_fit_pushed_off_its_segment_goes_back_to_its_placed_pose() -> None:
+    """restore_lost: of two objects the fit moved, the one left explaining a tenth of what it explained when placed
+    gets its placed pose back (every fit parameter zeroed); the one still explaining most of it keeps its fit."""
+    mesh = l_shape()
+    start = Placements(
+        objects=[
+            Placement(1, "sofa", "m", mesh, (-0.6, 0.0, 1.2), 0.3, 0.9, "floor"),
+            Placement(2, "sofa", "m", mesh, (1.0, 0.0, 2.2), -0.5, 0.8, "floor"),
+        ]
+    )
+    model = PoseModel(start, ROOM, unit=3.0)
+    with torch.no_grad():
+        for values in model.theta.values():
+            values += 0.5
+    assert restore_lost(model, np.array([0.9, 0.8]), np.array([0.09, 0.7]), share=0.5) == [0]
+    assert model.theta["log_scale"].tolist() == [0.0, 0.5] and model.theta["yaw"].tolist() == [0.0, 0.5]
+    assert model.theta["translation"][0].tolist() == [0.0, 0.0, 0.0]
+    with torch.no_grad():
+        first, second = model.placements_now()
+    assert first.position == pytest.approx(start.objects[0].position) and first.scale == pytest.approx(0.9)
+    assert second.position != pytest.approx(start.objects[1].position)
 
 
 @pytest.mark.parametrize(

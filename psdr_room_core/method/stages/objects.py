@@ -612,17 +612,18 @@ def fit_objects(
     over each object's scale, horizontal translation and yaw under its support constraint (:class:`PoseModel`),
     with the ``renderer`` and the ``optimizer``. The fit runs until the yaw test (or a plateau of the loss
     before it), then, where an object turned or the loss had not flattened, on to ``iterations`` (or a
-    plateau); each phase leaves its best iterate. The fitted scene is then made physically possible
+    plateau); each phase leaves its best iterate. An object the fit left explaining less than ``keep_share`` of
+    what it explained when placed goes back to its placed pose (:func:`restore_lost`). The fitted scene is then made physically possible
     (:func:`~psdr_room_core.method.physical.settle`, ``physical``: place_objects' settings): real sizes, inside
     the room (which grows where an object the photo shows cannot be brought inside it: the room box after the
     objects, ``room``), no interpenetration beyond ``physical.penetration``, duplicates dropped; what remains
     passing through something is reported.
 
-    Params: ``iterations``, ``render_width``, ``blur_sigmas``, ``blur_weight``, ``size_prior``
-    {``scale_weight``, ``range_weight``}, ``room_weight``, ``collision_weight``, ``back_weight``, ``learning_rates`` {translation (room half-size units), log_scale, yaw
-    (degrees)}, ``yaw_test`` {``at``: fraction of the iterations after which :func:`try_yaw_turns` runs,
-    ``angles``, ``min_gain``}, ``convergence`` (:class:`~psdr_room_core.method.convergence.Plateau` fields),
-    ``physical``.
+    Params (:class:`~.settings.FitObjects`): ``iterations``, ``render_width``, ``blur_sigmas``, ``blur_weight``,
+    ``size_prior`` {``scale_weight``, ``range_weight``}, ``room_weight``, ``collision_weight``, ``back_weight``,
+    ``learning_rates`` {translation (room half-size units), log_scale, yaw (degrees)}, ``yaw_test`` {``at``:
+    fraction of the iterations after which :func:`try_yaw_turns` runs, ``angles``, ``min_gain``},
+    ``keep_share``, ``convergence`` (:class:`~psdr_room_core.method.convergence.Plateau`), ``physical``.
     """
     import torch
 
@@ -674,6 +675,8 @@ def fit_objects(
         return total, ious.detach(), terms
 
     best = BestIterate(model.theta)
+    with torch.no_grad():
+        placed_ious = per_object(0)[1].numpy()
 
     def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
         terms, _, logged = per_object(iteration)
@@ -701,8 +704,18 @@ def fit_objects(
         )
         best.restore()
     with torch.no_grad():
-        ious = per_object(len(history))[1].numpy()
+        fitted_ious = per_object(len(history))[1].numpy()
+        restored = restore_lost(model, placed_ious, fitted_ious, settings.keep_share)
+        ious = per_object(len(history))[1].numpy() if restored else fitted_ious
         posed = [replace(p, explained=float(iou)) for p, iou in zip(model.placements_now(), ious)]
+    kept = []
+    for i in restored:
+        p = model.placements[i]
+        kept.append(
+            f"{p.segment_id}:{p.label} ({p.model_id.split('/')[-1]}): the fit left it explaining "
+            f"{fitted_ious[i]:.2f} of its segment ({placed_ious[i]:.2f} placed)"
+        )
+        log.info("fit_objects: kept the placed pose of %s", kept[-1])
     settled = _settle(posed, room, cam, panoptic, settings.physical, "fit_objects", final=True)
     through = interpenetrations(settled.placements, settings.physical.penetration)
     history = untimed(history, ctx.timings)
@@ -712,14 +725,17 @@ def fit_objects(
         extra={
             "interpenetrations": through,
             "turned": turned,
+            "kept_placed": kept,
             "final": final,
             "dropped": settled.dropped,
             "settled": settled.changed,
         },
     )
-    log = _objects_log(history, image, camera, room, placements, fitted, panoptic, through)
-    log.summary.update(turned=turned, final=final, best_iteration=best.iteration, dropped=settled.dropped)
-    return {"placements": fitted, "log": log, "room": settled.room}
+    record = _objects_log(history, image, camera, room, placements, fitted, panoptic, through)
+    record.summary.update(
+        turned=turned, kept_placed=kept, final=final, best_iteration=best.iteration, dropped=settled.dropped
+    )
+    return {"placements": fitted, "log": record, "room": settled.room}
 
 
 def _rotation(yaw: torch.Tensor) -> torch.Tensor:
@@ -740,6 +756,21 @@ def _near(a: Placement, b: Placement, margin: float = 0.25) -> bool:
 
     (ca, ra), (cb, rb) = sphere(a), sphere(b)
     return float(np.linalg.norm(ca - cb)) < ra + rb + margin
+
+
+def restore_lost(model: PoseModel, placed: np.ndarray, fitted: np.ndarray, share: float) -> list[int]:
+    """The objects the fit left explaining less than ``share`` of what they explained when placed (``placed``,
+    ``fitted``: each object's render IoU with its segment), put back in their placed pose (their fit parameters
+    zeroed). The joint fit can push an object off its segment (out of a collision with a neighbour the photo
+    shows in front of it, or shrunk by its size prior) where no gradient brings it back: eq. 3 must not lose
+    what the placement found. Returns their indices."""
+    import torch
+
+    lost = [i for i in range(len(placed)) if fitted[i] < share * placed[i]]
+    with torch.no_grad():
+        for values in model.theta.values():
+            values[lost] = 0.0
+    return lost
 
 
 def try_yaw_turns(

@@ -114,6 +114,7 @@ class FitObjects:
     collision_weight: float = setting(ge=0)
     back_weight: float = setting(ge=0)
     yaw_test: YawTest = setting()
+    keep_share: float = setting(ge=0, le=1)
     learning_rates: FitObjectsRates = setting()
     physical: PhysicalParams = setting()
 
