@@ -10,6 +10,7 @@ from ..primitives import MeshBuilder, box, lathe, rot_x, rounded_box, transform
 from .common import FABRICS, METALS, WOODS, add_legs, colour
 
 BED_HEADBOARDS = ("panel", "upholstered", "slats", "tall", "rounded", "none")
+BED_FOOTBOARDS = ("none", "rail", "panel")
 
 
 def bed(
@@ -17,7 +18,8 @@ def bed(
     length: float = 2.05,
     headboard: str = "panel",
     headboard_height: float = 1.0,
-    footboard: bool = False,
+    footboard: str = "none",
+    footboard_height: float = 0.85,
     mattress_height: float = 0.22,
     frame_height: float = 0.32,
     legs: bool = True,
@@ -32,6 +34,8 @@ def bed(
     the headboard is at the back (-Z), the foot at the front (+Z)."""
     if headboard not in BED_HEADBOARDS:
         raise ValueError(f"bed: headboard {headboard!r}")
+    if footboard not in BED_FOOTBOARDS:
+        raise ValueError(f"bed: footboard {footboard!r}")
     b = MeshBuilder().group("frame", colour(wood, WOODS, FABRICS))
     upholstered = headboard in ("upholstered", "rounded")
     b.group("headboard", colour(fabric if upholstered else wood, FABRICS, WOODS))
@@ -109,7 +113,9 @@ def bed(
         for k in range(7):
             x = (k - 3) * W / 7.5
             b.add("headboard", box((x, (frame_height + hb) / 2, z), (0.07, hb - frame_height, 0.025)))
-    if footboard:
+    if footboard == "rail":  # a low board at the mattress's top
         fb = frame_height + 0.22
         b.add("frame", box((0, fb / 2, L / 2 + 0.03), (W + 0.1, fb, 0.05)))
+    elif footboard == "panel":  # a panel or sleigh bed's board, ``footboard_height`` above the floor
+        b.add("headboard", box((0, footboard_height / 2, L / 2 + 0.03), (W + 0.1, footboard_height, 0.06)))
     return b.build()

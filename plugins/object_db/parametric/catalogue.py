@@ -228,12 +228,14 @@ def _beds(d: Dice) -> tuple[str, str, dict[str, Any]]:
     size = d.cycle(("double", "single", "king", "double", "queen"))
     width = {"single": 0.95, "double": 1.45, "queen": 1.6, "king": 1.85}[size]
     head = d.choice("head", BED_HEADBOARDS)
+    foot = d.choice("footboard", ("none", "none", "rail", "panel")) if head != "none" else "none"
     params = dict(
         width=width,
         length=d.uniform("l", 2.0, 2.15),
         headboard=head,
         headboard_height=d.uniform("hh", 0.9, 1.25),
-        footboard=d.flag("foot", 0.3),
+        footboard=foot,
+        footboard_height=d.uniform("fbh", 0.7, 1.0),
         mattress_height=d.uniform("mh", 0.18, 0.28),
         frame_height=d.uniform("fh", 0.25, 0.4),
         legs=d.flag("legs", 0.6),
@@ -244,7 +246,7 @@ def _beds(d: Dice) -> tuple[str, str, dict[str, Any]]:
         bedding=d.choice("bedding", ("cream", "beige", "grey", "blush")),
         blanket_colour=d.choice("blanket_c", FABRIC_NAMES),
     )
-    return "bed", f"{size} bed, {head} headboard", params
+    return "bed", f"{size} bed, {head} headboard" + (f", {foot} footboard" if foot != "none" else ""), params
 
 
 def _cabinets(d: Dice) -> tuple[str, str, dict[str, Any]]:
