@@ -377,3 +377,6 @@ def test_an_implementation_missing_a_method_of_its_capability_is_refused_in_one_
         "scaler.adder (Adder) is not a scaler implementation: it has no apply (the toy_plugin.Scaler protocol)"
     )
     assert toy_plugin.CALLS["b"] == scaled  # the stage that uses it never ran
+    ctx = StageContext(stage="b", params={}, seed=0, photo=photo, implementations={"scaler": Adder()})
+    with pytest.raises(PsdrRoomError, match="^stage 'b' wants its scaler to be a Scaler; Adder is not$"):
+        ctx.impl("scaler", toy_plugin.Scaler)

@@ -242,9 +242,15 @@ class StageContext:
         """The selected implementation of ``capability`` (declared in the stage's ``uses``), typed as
         ``protocol`` (the capability's, which the engine checked when it constructed the implementation)."""
         try:
-            return self.implementations[capability]
+            implementation = self.implementations[capability]
         except KeyError:
             raise PsdrRoomError(f"stage '{self.stage}' uses capability '{capability}' without declaring it") from None
+        if protocol is not None and not isinstance(implementation, protocol):
+            raise PsdrRoomError(
+                f"stage '{self.stage}' wants its {capability} to be a {protocol.__qualname__}; "
+                f"{type(implementation).__name__} is not"
+            )
+        return implementation
 
     def progress(self, iterable: Iterable[Any], total: int | None = None, desc: str | None = None) -> Iterable[Any]:
         """Wrap a loop to show a progress bar (on a terminal)."""
