@@ -190,7 +190,7 @@ class ThumbnailRenderer:
             params = mi.traverse(self._scene)
             self._params = params
             self._keys = {
-                name: [k for k in params if k.endswith(f"{name}.data")]
+                name: [k for k in params.keys() if k.endswith(f"{name}.data")]  # noqa: SIM118 (iterating SceneParameters yields (key, value))
                 for name in ("base_color", "roughness", "metallic", "normalmap")
             }
         else:

@@ -811,7 +811,7 @@ _RenderFunction = _LazyFunction()
 
 
 def _find_key(params: Any, prefix: str, suffixes: tuple[str, ...]) -> str:
-    for key in params:
+    for key in params.keys():  # noqa: SIM118 (iterating Mitsuba's SceneParameters yields (key, value) pairs)
         if key.startswith(prefix) and key.endswith(suffixes):
             return key
     raise PsdrRoomError(f"renderer=mitsuba: no scene parameter {prefix}*{suffixes[0]} (Mitsuba version mismatch?)")
