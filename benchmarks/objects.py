@@ -71,8 +71,13 @@ def stage_params(name: str, **overrides: object) -> dict:
     from omegaconf import OmegaConf
 
     stages = OmegaConf.create({path.stem: OmegaConf.load(path) for path in CONF.glob("*.yaml")})
-    params = {k: v for k, v in OmegaConf.to_container(stages[name], resolve=True).items() if not k.startswith("_")}
-    return {**params, **overrides, **OVERRIDES.get(name, {})}
+    params = OmegaConf.merge(
+        {k: v for k, v in OmegaConf.to_container(stages[name], resolve=True).items() if not k.startswith("_")},
+        overrides,
+    )
+    for key, value in OVERRIDES.get(name, {}).items():  # a dotted key sets a nested setting (search.n_yaw)
+        OmegaConf.update(params, key, value, merge=False)
+    return OmegaConf.to_container(params)
 
 
 @dataclass
