@@ -84,14 +84,8 @@ def init_lights(
             part = max(own)[1]
             lights.append(Light(f"light_lamp_{segment_id}", "lamp", meshes[part], part=part))
 
-    scene = build_scene(
-        meshes,
-        initial_parts(materials, ctx.impl("material_graph", MaterialGraph)),
-        lights,
-        fixtures,
-        ctx.impl("material_graph", MaterialGraph),
-        64,
-    )
+    library = ctx.impl("material_graph", MaterialGraph)
+    scene = build_scene(meshes, initial_parts(materials, library), lights, fixtures, library, 64)
     width = min(settings.render_width, camera.width)
     geometry = scene.renderer(ctx.impl("renderer", Renderer), camera, c2w, width)
     with torch.no_grad():

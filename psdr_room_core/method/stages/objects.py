@@ -242,9 +242,9 @@ def place_objects(
 
     Params: :class:`~.settings.PlaceObjects`: ``init``, ``pick`` (segment id → rank or model id),
     ``radius_factor``, ``render_width``, ``search`` (:class:`~psdr_room_core.method.view_search.SearchParams`),
-    ``size_prior`` {``scale_weight``, ``range_weight``}, ``support`` (:class:`~psdr_room_core.method.objects.SupportParams`), ``prune``
-    {``min_iou``}, ``physical`` (:class:`~psdr_room_core.method.physical.PhysicalParams`), ``min_points``,
-    ``min_pixels``.
+    ``size_prior`` {``scale_weight``, ``range_weight``}, ``support``
+    (:class:`~psdr_room_core.method.objects.SupportParams`), ``prune`` {``min_iou``}, ``physical``
+    (:class:`~psdr_room_core.method.physical.PhysicalParams`), ``min_points``, ``min_pixels``.
     """
     settings = ctx.settings(PlaceObjects)
     retriever = ctx.impl("retrieval", ObjectRetriever)
@@ -604,20 +604,20 @@ def fit_objects(
 
     Minimises ``Σ_i L1(M_i^r · D^r, M_i^t · D_i) / d + w_blur · Σ_i L1(G(M_i^r), G(M_i^t)) + Σ_i P_i(s_i) +
     w_room · Σ_i R_i + w_collision · Σ_i C_i + w_back · Σ_i B_i`` with ``d`` the targets' 98th-percentile depth,
-    ``G`` Gaussian blurs of ``blur_sigmas`` pixels (a prompted segment's free pixels, its prompt box outside its mask, left out:
-    :class:`ObjectTargets`), ``P_i`` the size prior of object i's category on its scale (``size_prior`` weights:
-    :meth:`PoseModel.size_penalty`), ``R_i`` how far it reaches beyond the room box (:meth:`PoseModel.room_penalty`),
-    ``C_i`` how deep it passes through the others (:meth:`PoseModel.collision_penalty`) and ``B_i`` how far it shows
-    the camera its back where it stands with its back to a wall (:meth:`PoseModel.back_penalty`),
-    over each object's scale, horizontal translation and yaw under its support constraint (:class:`PoseModel`),
-    with the ``renderer`` and the ``optimizer``. The fit runs until the yaw test (or a plateau of the loss
-    before it), then, where an object turned or the loss had not flattened, on to ``iterations`` (or a
-    plateau); each phase leaves its best iterate. An object the fit left explaining less than ``keep_share`` of
-    what it explained when placed goes back to its placed pose (:func:`restore_lost`). The fitted scene is then made physically possible
-    (:func:`~psdr_room_core.method.physical.settle`, ``physical``: place_objects' settings): real sizes, inside
-    the room (which grows where an object the photo shows cannot be brought inside it: the room box after the
-    objects, ``room``), no interpenetration beyond ``physical.penetration``, duplicates dropped; what remains
-    passing through something is reported.
+    ``G`` Gaussian blurs of ``blur_sigmas`` pixels (a prompted segment's free pixels, its prompt box outside its
+    mask, left out: :class:`ObjectTargets`), ``P_i`` the size prior of object i's category on its scale
+    (``size_prior`` weights: :meth:`PoseModel.size_penalty`), ``R_i`` how far it reaches beyond the room box
+    (:meth:`PoseModel.room_penalty`), ``C_i`` how deep it passes through the others
+    (:meth:`PoseModel.collision_penalty`) and ``B_i`` how far it shows the camera its back where it stands with its
+    back to a wall (:meth:`PoseModel.back_penalty`), over each object's scale, horizontal translation and yaw under
+    its support constraint (:class:`PoseModel`), with the ``renderer`` and the ``optimizer``. The fit runs until the
+    yaw test (or a plateau of the loss before it), then, where an object turned or the loss had not flattened, on to
+    ``iterations`` (or a plateau); each phase leaves its best iterate. An object the fit left explaining less than
+    ``keep_share`` of what it explained when placed goes back to its placed pose (:func:`restore_lost`). The fitted
+    scene is then made physically possible (:func:`~psdr_room_core.method.physical.settle`, ``physical``:
+    place_objects' settings): real sizes, inside the room (which grows where an object the photo shows cannot be
+    brought inside it: the room box after the objects, ``room``), no interpenetration beyond
+    ``physical.penetration``, duplicates dropped; what remains passing through something is reported.
 
     Params (:class:`~.settings.FitObjects`): ``iterations``, ``render_width``, ``blur_sigmas``, ``blur_weight``,
     ``size_prior`` {``scale_weight``, ``range_weight``}, ``room_weight``, ``collision_weight``, ``back_weight``,
