@@ -19,7 +19,7 @@ import numpy as np
 from psdr_room_core.method.image_metrics import flip, rmse, ssim
 from psdr_room_core.method.shading import linear_to_srgb
 from psdr_room_plugins.denoisers import QUALITIES, OidnDenoiser
-from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
+from psdr_room_plugins.mitsuba_renderer.session import MitsubaRenderer
 
 
 def agreement(render: np.ndarray, photo: np.ndarray) -> tuple[float, float, float]:

@@ -39,10 +39,10 @@ import yaml
 
 from psdr_room_core.method.material_search import MaterialIndex
 from psdr_room_core.method.surface_colours import texture_energy
-from psdr_room_plugins.material_graph import TorchGraphLibrary
+from psdr_room_plugins.material_graph.library import TorchGraphLibrary
 from psdr_room_plugins.material_graph.nodes.ops import sample_tiled
 from psdr_room_plugins.material_graph.thumbnails import shade
-from psdr_room_plugins.texture import RandomCnnDescriptor
+from psdr_room_plugins.texture.random_cnn import RandomCnnDescriptor
 
 CROP = 128
 STAGE_CONF = Path(__file__).resolve().parents[1] / "conf" / "stage" / "assign_materials.yaml"

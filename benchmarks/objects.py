@@ -50,7 +50,7 @@ from psdr_room_core.method.objects import object_queries, pose_matrix, transform
 from psdr_room_core.method.rgb_scene import room_quads
 from psdr_room_core.method.stages.objects import fit_objects, footprint, place_objects
 from psdr_room_core.method.stages.preprocess import backproject
-from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
+from psdr_room_plugins.mitsuba_renderer.session import MitsubaRenderer
 from psdr_room_plugins.optimizer_adam import Adam
 from psdr_room_plugins.retrieval_silhouette import SilhouetteRetrieval, object_mesh
 from psdr_room_plugins.synth.scene import generate

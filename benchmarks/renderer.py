@@ -21,7 +21,7 @@ import torch
 from psdr_room_core.method.artifacts import Camera, RoomBox
 from psdr_room_core.method.geometry import TriangleMesh, box_mesh, quad_mesh
 from psdr_room_core.method.rgb_scene import room_quads
-from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
+from psdr_room_plugins.mitsuba_renderer.session import MitsubaRenderer
 
 ROOM = RoomBox(
     camera_to_world=np.eye(4), center=np.array([0.0, 1.4, 0.0]), half_size=np.array([2.5, 1.4, 2.0]), yaw=0.0

@@ -94,5 +94,5 @@ def _distribution_version(name: str) -> str:
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("denoiser", "oidn", OidnDenoiser, params=OidnSettings)
-    registry.add_implementation("denoiser", "none", NoDenoiser, params=NoSettings)
+    registry.add_implementation("denoiser", "oidn", OidnDenoiser, params=OidnSettings, reads_files=False)
+    registry.add_implementation("denoiser", "none", NoDenoiser, params=NoSettings, reads_files=False)

@@ -90,4 +90,4 @@ class FileDepthSettings:
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("depth", "file", FileDepth, params=FileDepthSettings)
+    registry.add_implementation("depth", "file", FileDepth, params=FileDepthSettings, reads_files=True)

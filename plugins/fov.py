@@ -56,5 +56,7 @@ class FixedFov:
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("fov", "vanishing_points", VanishingPointsFov, params=VanishingPointParams)
-    registry.add_implementation("fov", "fixed", FixedFov, params=FixedFovSettings)
+    registry.add_implementation(
+        "fov", "vanishing_points", VanishingPointsFov, params=VanishingPointParams, reads_files=False
+    )
+    registry.add_implementation("fov", "fixed", FixedFov, params=FixedFovSettings, reads_files=False)

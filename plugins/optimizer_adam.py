@@ -63,4 +63,4 @@ class AdamSettings:
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("optimizer", "adam", Adam, params=AdamSettings)
+    registry.add_implementation("optimizer", "adam", Adam, params=AdamSettings, reads_files=False)

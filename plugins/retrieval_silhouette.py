@@ -203,4 +203,6 @@ class SilhouetteSettings:
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("retrieval", "silhouette", SilhouetteRetrieval, version="5", params=SilhouetteSettings)
+    registry.add_implementation(
+        "retrieval", "silhouette", SilhouetteRetrieval, version="5", params=SilhouetteSettings, reads_files=False
+    )

@@ -91,4 +91,6 @@ class FileSegmentationSettings:
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("segmentation", "file", FileSegmentation, params=FileSegmentationSettings)
+    registry.add_implementation(
+        "segmentation", "file", FileSegmentation, params=FileSegmentationSettings, reads_files=True
+    )

@@ -40,10 +40,10 @@ from psdr_room_core.method.stages.appearance import AppearanceModel, fit_appeara
 from psdr_room_core.method.stages.export import export_scene
 from psdr_room_core.method.stages.lighting import init_lights, white_balance
 from psdr_room_plugins.denoisers import OidnDenoiser
-from psdr_room_plugins.material_graph import TorchGraphLibrary
-from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
+from psdr_room_plugins.material_graph.library import TorchGraphLibrary
+from psdr_room_plugins.mitsuba_renderer.session import MitsubaRenderer
 from psdr_room_plugins.optimizer_adam import Adam
-from psdr_room_plugins.texture import RandomCnnDescriptor
+from psdr_room_plugins.texture.random_cnn import RandomCnnDescriptor
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import gc
+import sys
 import weakref
 from pathlib import Path
 from types import SimpleNamespace
@@ -380,3 +381,69 @@ def test_an_implementation_missing_a_method_of_its_capability_is_refused_in_one_
     ctx = StageContext(stage="b", params={}, seed=0, photo=photo, implementations={"scaler": Adder()})
     with pytest.raises(PsdrRoomError, match="^stage 'b' wants its scaler to be a Scaler; Adder is not$"):
         ctx.impl("scaler", toy_plugin.Scaler)
+
+
+LAZY_MODULE = '''
+import toy_plugin
+
+
+def scale(ctx, x, by=None):
+    """Ten times x, with the scaler's say."""
+    return toy_plugin.Number(ctx.impl("scaler").apply(x.value, ctx.photo) * 10)
+
+
+class Tripler:
+    def __init__(self, factor=3.0):
+        self.factor = factor
+
+    def apply(self, value, photo):
+        return value * self.factor
+
+
+class Reader(Tripler):
+    def external_files(self, photo):
+        return []
+'''
+
+
+def test_references_load_only_when_a_stage_computes(tmp_path: Path, photo: Path, monkeypatch) -> None:
+    """A stage and an implementation registered by ``"module:attribute"``: the input check reads the function from
+    its source, a computing stage imports both, a cached run imports neither; a ``reads_files=False``
+    implementation that has ``external_files`` after all is refused."""
+    (tmp_path / "lazy_toy.py").write_text(LAZY_MODULE)
+    monkeypatch.syspath_prepend(str(tmp_path))
+
+    def register_implementations(registry: Any) -> None:
+        registry.add_implementation("scaler", "lazy", "lazy_toy:Tripler", reads_files=False)
+        registry.add_implementation("scaler", "liar", "lazy_toy:Reader", reads_files=False)
+
+    def register_stages(registry: Any) -> None:
+        registry.add_stage("lazy_scale", "lazy_toy:scale", uses=["scaler"])
+
+    lazy = SimpleNamespace(
+        register_implementations=hookimpl(register_implementations), register_stages=hookimpl(register_stages)
+    )
+    plugins = load_plugins(extra=[(toy_plugin, TOY), (lazy, Origin("lazy", "tests", "lazy = lazy_toy"))])
+    cfg = copy.deepcopy(BASE)
+    cfg["scaler"] = {"impl": "lazy", "lazy": {}, "liar": {}}
+    cfg["b"]["_stage_"] = "lazy_scale"
+    store = Store(tmp_path / "cache")
+
+    def run_lazy(cfg: dict) -> RunRecord:
+        pipeline = Pipeline.from_config(cfg)
+        check_stage_inputs(pipeline.nodes, plugins.registry)
+        return Runner(plugins, cfg, photo, store, Store(tmp_path / "scratch"), "readwrite").run(pipeline.select())
+
+    assert plugins.registry.stage("lazy_scale").description == "Ten times x, with the scaler's say."
+    wrong = copy.deepcopy(cfg)
+    wrong["b"]["_inputs_"] = {"y": "a"}
+    with pytest.raises(PsdrRoomError, match="stage 'b': input 'y' is not a parameter of its function; expected x, by"):
+        check_stage_inputs(Pipeline.from_config(wrong).nodes, plugins.registry)
+    assert "lazy_toy" not in sys.modules  # read from the source
+    first = run_lazy(cfg)
+    assert first.artifacts["b"].value == 1.0 * 3.0 * 10 and "lazy_toy" in sys.modules
+    monkeypatch.delitem(sys.modules, "lazy_toy")
+    assert recomputed(run_lazy(cfg)) == set() and "lazy_toy" not in sys.modules
+    cfg["scaler"]["impl"] = "liar"
+    with pytest.raises(PsdrRoomError, match=r"scaler.liar .* has external_files but was registered with reads_files"):
+        run_lazy(cfg)

@@ -14,8 +14,7 @@ import pytest
 from boxroom import checker_floor
 from psdr_room_core.engine.dag import RunRecord
 from psdr_room_core.method.artifacts import Camera, Detection, Detections, Image, Panoptic, Segment
-from psdr_room_core.method.guesses import fov_guesses
-from psdr_room_core.method.stages.room import FLOOR_GUESSES
+from psdr_room_core.method.guesses import FLOOR_GUESSES, fov_guesses
 from psdr_room_plugins.layout import box
 from psdr_room_plugins.layout.depth import LayoutDepth, object_depth
 from psdr_room_plugins.layout.fit import LayoutParams, fit_layout, floor_colour_region

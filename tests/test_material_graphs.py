@@ -16,18 +16,12 @@ from conftest import REPO
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Origin, load_plugins
-from psdr_room_plugins.material_graph import (
-    Float,
-    GraphError,
-    Input,
-    NodeType,
-    TorchGraphLibrary,
-    load_graph,
-    parse_graph,
-)
-from psdr_room_plugins.material_graph.nodes import builtin_node_types
+from psdr_room_plugins.material_graph.graph import GraphError, load_graph, parse_graph
+from psdr_room_plugins.material_graph.library import TorchGraphLibrary
+from psdr_room_plugins.material_graph.nodes import Input, NodeType, builtin_node_types
+from psdr_room_plugins.material_graph.params import Float
 from psdr_room_plugins.material_graph.thumbnails import contact_sheet, shade
-from psdr_room_plugins.texture import RandomCnnDescriptor
+from psdr_room_plugins.texture.random_cnn import RandomCnnDescriptor
 
 torch.set_num_threads(1)
 

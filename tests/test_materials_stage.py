@@ -27,9 +27,9 @@ from psdr_room_core.method.material_search import (
 from psdr_room_core.method.rgb_scene import render_part_ids
 from psdr_room_core.method.stages.materials import assign_materials, scene_parts
 from psdr_room_core.method.surface_colours import dominant_colour, texture_energy
-from psdr_room_plugins.material_graph import TorchGraphLibrary
-from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
-from psdr_room_plugins.texture import RandomCnnDescriptor
+from psdr_room_plugins.material_graph.library import TorchGraphLibrary
+from psdr_room_plugins.mitsuba_renderer.session import MitsubaRenderer
+from psdr_room_plugins.texture.random_cnn import RandomCnnDescriptor
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
 C2W = np.eye(4)

@@ -45,7 +45,7 @@ from psdr_room_core.method.stages.objects import (
     try_yaw_turns,
 )
 from psdr_room_core.method.view_search import SearchParams, ViewTarget, fit_view
-from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
+from psdr_room_plugins.mitsuba_renderer.session import MitsubaRenderer
 from psdr_room_plugins.optimizer_adam import Adam
 
 C2W = np.eye(4)

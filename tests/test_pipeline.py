@@ -180,11 +180,23 @@ def test_scene_loads_in_mitsuba(first_run: tuple[Path, dict[str, str]]) -> None:
     assert image.shape == (480, 640, 3) and image.mean() > 0  # the light reaches the room
 
 
+HEAVY = {"torch", "mitsuba", "drjit", "scipy"}
+"""Libraries a fully cached run never imports: stages and implementations load by reference when they compute."""
+
+
+def imported(stderr: str) -> set[str]:
+    """The top-level modules a process imported, from its ``PYTHONPROFILEIMPORTTIME`` lines."""
+    return {line.rsplit("|", 1)[1].strip() for line in stderr.splitlines() if line.startswith("import time:")}
+
+
 def test_rerun_is_cached_and_identical(first_run: tuple[Path, dict[str, str]]) -> None:
     root, env = first_run
-    psdr_room(f"image={EXAMPLE}", f"hydra.run.dir={root / 'run2'}", env=env)
+    result = psdr_room(
+        f"image={EXAMPLE}", f"hydra.run.dir={root / 'run2'}", env={**env, "PYTHONPROFILEIMPORTTIME": "1"}
+    )
     assert computed(root / "run2") == set()
     assert metrics(root / "run2")["digests"] == metrics(root / "run1")["digests"]
+    assert "numpy" in imported(result.stderr) and not HEAVY & imported(result.stderr)
 
 
 def test_changed_stage_param_reruns_it_and_what_follows(first_run: tuple[Path, dict[str, str]]) -> None:

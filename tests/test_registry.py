@@ -179,3 +179,22 @@ def test_every_builtin_implementation_class_has_its_capabilitys_methods() -> Non
         for key, cls in classes
     }
     assert not {key: names for key, names in missing.items() if names}
+
+
+def test_help_lists_plugins_options_and_imports_no_heavy_library(third_party: Path, cli_env: dict[str, str]) -> None:
+    """``psdr-room --help`` reads the registry and the config folders (a third-party plugin's included); stages and
+    the torch- and Mitsuba-based implementations are registered by reference, so it imports none of them."""
+    result = subprocess.run(
+        [shutil.which("psdr-room") or "psdr-room", "--help"],
+        env={**_env(cli_env, third_party), "PYTHONPROFILEIMPORTTIME": "1"},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    rows = {line.split()[0]: line.split(maxsplit=1)[1] for line in result.stdout.splitlines() if line.startswith("  ")}
+    assert rows["fov"] == "exif, fixed, vanishing_points*" and rows["renderer"] == "mitsuba*"
+    assert rows["+preset"] == "preview" and "load_image, estimate_fov, detect" in result.stdout
+    imported = {
+        line.rsplit("|", 1)[1].strip() for line in result.stderr.splitlines() if line.startswith("import time:")
+    }
+    assert "psdr_room_core" in imported and not {"torch", "mitsuba", "drjit", "scipy"} & imported

@@ -82,7 +82,7 @@ def test_weld_map_merges_split_vertices() -> None:
 def test_factory_is_cheap_and_validates() -> None:
     import sys
 
-    from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
+    from psdr_room_plugins.mitsuba_renderer.session import MitsubaRenderer
 
     was_loaded = "mitsuba" in sys.modules
     MitsubaRenderer(spp=2, spp_boundary=2)
@@ -99,7 +99,7 @@ torch = pytest.importorskip("torch")
 
 @pytest.fixture(scope="module")
 def renderer_cls():
-    from psdr_room_plugins.mitsuba_renderer import MitsubaRenderer
+    from psdr_room_plugins.mitsuba_renderer.session import MitsubaRenderer
 
     try:
         MitsubaRenderer().activate()

@@ -15,9 +15,9 @@ import yaml
 from conftest import REPO, SHARED_DATA
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.plugins import load_plugins
-from psdr_room_plugins.texture import RandomCnnDescriptor, Vgg19Descriptor, colour_stats
-from psdr_room_plugins.texture.common import gram
-from psdr_room_plugins.texture.vgg19 import BLOCKS, CONV_INDICES, layer_names
+from psdr_room_plugins.texture.common import colour_stats, gram
+from psdr_room_plugins.texture.random_cnn import RandomCnnDescriptor
+from psdr_room_plugins.texture.vgg19 import BLOCKS, CONV_INDICES, Vgg19Descriptor, layer_names
 
 torch.set_num_threads(1)
 

@@ -53,6 +53,7 @@ def register_implementations(registry: Registry) -> None:
         NanodetOnnx,
         version="2",
         params=NanodetSettings,
+        reads_files=True,
         description="COCO object boxes from the bundled NanoDet-g 416 (onnxruntime, offline)",
     )
     registry.add_implementation(
@@ -61,8 +62,9 @@ def register_implementations(registry: Registry) -> None:
         BoxesFile,
         version="1",
         params=BoxesFileSettings,
+        reads_files=True,
         description="object boxes from <photo stem>.boxes.yaml beside the photo",
     )
     registry.add_implementation(
-        "detector", "none", NoDetector, version="1", description="no object boxes", params=NoSettings
+        "detector", "none", NoDetector, version="1", description="no object boxes", params=NoSettings, reads_files=False
     )

@@ -19,26 +19,27 @@ class EyesSettings:
     min_instance_fraction: float = setting(ge=0, lt=1)
 
 
-def _factory(kind: str):  # type: ignore[no-untyped-def]
-    def make(**params: object) -> object:
-        from . import perception  # onnxruntime and cv2 only when used
-
-        return getattr(perception, kind)(**params)
-
-    make.__doc__ = {
-        "EyesSegmentation": "walls, floor, ceiling, windows, doors and furniture instances from "
-        "psdr-room's own network (trained on its renders)",
-        "EyesDepth": "relative depth from psdr-room's own network (trained on its renders)",
-        "EyesDetector": "furniture boxes from psdr-room's own network (trained on its renders)",
-    }[kind]
-    return make
+DESCRIPTIONS = {
+    "segmentation": "walls, floor, ceiling, windows, doors and furniture instances from psdr-room's own network "
+    "(trained on its renders)",
+    "depth": "relative depth from psdr-room's own network (trained on its renders)",
+    "detector": "furniture boxes from psdr-room's own network (trained on its renders)",
+}
 
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
+    """By reference: onnxruntime and cv2 load when one is constructed."""
     for capability, kind in (
         ("segmentation", "EyesSegmentation"),
         ("depth", "EyesDepth"),
         ("detector", "EyesDetector"),
     ):
-        registry.add_implementation(capability, "eyes", _factory(kind), params=EyesSettings)
+        registry.add_implementation(
+            capability,
+            "eyes",
+            f"psdr_room_plugins.eyes.perception:{kind}",
+            params=EyesSettings,
+            reads_files=True,
+            description=DESCRIPTIONS[capability],
+        )

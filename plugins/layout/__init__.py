@@ -14,34 +14,25 @@ from psdr_room_core.engine.plugins import Registry
 from .settings import LayoutDepthSettings, LayoutSegmentationSettings
 
 
-def _segmentation(**params: object) -> object:
-    from .segmentation import LayoutSegmentation  # scipy (via the VP code) is slow to import: only when used
-
-    return LayoutSegmentation(**params)
-
-
-def _depth(**params: object) -> object:
-    from .depth import LayoutDepth
-
-    return LayoutDepth(**params)
-
-
 @hookimpl
 def register_implementations(registry: Registry) -> None:
+    """By reference: scipy (the vanishing points' code) loads when one is constructed."""
     registry.add_implementation(
         "segmentation",
         "layout",
-        _segmentation,
+        "psdr_room_plugins.layout.segmentation:LayoutSegmentation",
         version="3",
         params=LayoutSegmentationSettings,
+        reads_files=False,
         description="walls/floor/ceiling of a box layout fitted to the photo's lines; objects discovered among "
         "detector boxes and what the room cannot explain, cut out by GrabCut",
     )
     registry.add_implementation(
         "depth",
         "layout",
-        _depth,
+        "psdr_room_plugins.layout.depth:LayoutDepth",
         version="2",
         params=LayoutDepthSettings,
+        reads_files=False,
         description="depth of a box room fitted to the segmentation, objects standing on its floor (camera height assumed)",
     )

@@ -4,7 +4,10 @@ The paper optimises the parameters of Substance-like node graphs (DiffMatV2) thr
 package is the same idea in plain torch: tileable generator and filter nodes (:mod:`.nodes`), typed and
 bounded parameters with a sigmoid reparameterisation (:mod:`.params`), graph files that are data
 (:mod:`.graph`, ``library/*.yaml``), the library (:mod:`.library`), thumbnails (:mod:`.thumbnails`) and the
-``psdr-room-materials`` command (:mod:`.cli`).
+``psdr-room-materials`` command (:mod:`.cli`). The library is registered by reference: torch loads when it is
+constructed.
+
+    from psdr_room_plugins.material_graph.library import TorchGraphLibrary
 
     lib = TorchGraphLibrary()
     oak = lib.material("oak_planks")
@@ -23,27 +26,6 @@ from psdr_room_core.engine.plugins import Registry
 from psdr_room_core.engine.settings import setting
 
 from . import hookspecs
-from .graph import GraphError, ProceduralMaterial, load_graph, parse_graph
-from .library import TorchGraphLibrary
-from .nodes import Input, NodeType
-from .params import Choice, Color, Float, Floats, Int, Ramp, Seed
-
-__all__ = [
-    "TorchGraphLibrary",
-    "ProceduralMaterial",
-    "GraphError",
-    "load_graph",
-    "parse_graph",
-    "NodeType",
-    "Input",
-    "Int",
-    "Seed",
-    "Choice",
-    "Float",
-    "Color",
-    "Floats",
-    "Ramp",
-]
 
 
 @dataclass
@@ -61,4 +43,10 @@ def add_hookspecs(plugin_manager: pluggy.PluginManager) -> None:
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("material_graph", "torch_graph", TorchGraphLibrary, params=TorchGraphSettings)
+    registry.add_implementation(
+        "material_graph",
+        "torch_graph",
+        "psdr_room_plugins.material_graph.library:TorchGraphLibrary",
+        params=TorchGraphSettings,
+        reads_files=False,
+    )

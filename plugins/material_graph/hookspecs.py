@@ -22,7 +22,7 @@ def material_graphs() -> list[str | Path]:
 
 @hookspec
 def material_nodes() -> list[Any]:
-    """Return node types (``psdr_room_plugins.material_graph.NodeType``) that material graphs may use.
+    """Return node types (``psdr_room_plugins.material_graph.nodes.NodeType``) that material graphs may use.
 
     Called when the ``torch_graph`` library is built; a node type name that is already taken is reported
     and left out.

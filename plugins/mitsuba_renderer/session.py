@@ -36,9 +36,7 @@ from psdr_room_core.method.rgb_scene import GUIDE_SPP
 from psdr_room_core.method.shading import Surface
 
 from .llvm import VARIANTS, resolve_variant
-
-GUIDING = ("none", "grid", "octree")
-"""How ``rgb_sppi`` samples find indirect silhouettes."""
+from .settings import GUIDING
 
 if TYPE_CHECKING:
     import torch

@@ -62,6 +62,10 @@ class ClipSettings(OnnxModelSettings):
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("depth", "onnx", OnnxDepth, params=OnnxDepthSettings)
-    registry.add_implementation("segmentation", "onnx", OnnxSegmentation, params=OnnxSegmentationSettings)
-    registry.add_implementation("retrieval", "clip_onnx", ClipRetrieval, version="2", params=ClipSettings)
+    registry.add_implementation("depth", "onnx", OnnxDepth, params=OnnxDepthSettings, reads_files=True)
+    registry.add_implementation(
+        "segmentation", "onnx", OnnxSegmentation, params=OnnxSegmentationSettings, reads_files=True
+    )
+    registry.add_implementation(
+        "retrieval", "clip_onnx", ClipRetrieval, version="2", params=ClipSettings, reads_files=True
+    )

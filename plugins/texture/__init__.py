@@ -3,7 +3,7 @@
 ``texture=random_cnn`` (the offline default) needs no weights; ``texture=vgg19`` is the paper's descriptor
 and reads torchvision's VGG19 weights (``psdr-room-models download vgg19_imagenet``). Both map sRGB crops
 ``[3, H, W]`` / ``[N, 3, H, W]`` to vectors whose length does not depend on the crop size, with
-``distance(a, b)`` the L1 norm of their difference (the ``TextureDescriptor`` protocol).
+``distance(a, b)`` the L1 norm of their difference (the ``TextureDescriptor`` protocol). Both are registered by reference: torch loads when one is constructed.
 """
 
 from __future__ import annotations
@@ -13,12 +13,6 @@ from dataclasses import dataclass
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Registry
 from psdr_room_core.engine.settings import setting
-
-from .common import colour_stats, gram
-from .random_cnn import RandomCnnDescriptor
-from .vgg19 import Vgg19Descriptor
-
-__all__ = ["RandomCnnDescriptor", "Vgg19Descriptor", "colour_stats", "gram"]
 
 
 @dataclass
@@ -46,5 +40,13 @@ class Vgg19Settings:
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    registry.add_implementation("texture", "random_cnn", RandomCnnDescriptor, params=RandomCnnSettings)
-    registry.add_implementation("texture", "vgg19", Vgg19Descriptor, params=Vgg19Settings)
+    registry.add_implementation(
+        "texture",
+        "random_cnn",
+        "psdr_room_plugins.texture.random_cnn:RandomCnnDescriptor",
+        params=RandomCnnSettings,
+        reads_files=False,
+    )
+    registry.add_implementation(
+        "texture", "vgg19", "psdr_room_plugins.texture.vgg19:Vgg19Descriptor", params=Vgg19Settings, reads_files=True
+    )

@@ -27,6 +27,7 @@ from omegaconf import DictConfig, OmegaConf
 from . import threads
 from .dag import AUTO, Pipeline
 from .errors import PsdrRoomError
+from .help import help_text
 from .inputs import find_photos, require_file
 from .ownership import check_replaceable, claim
 from .plugins import PluginSystem, plugin_system
@@ -231,6 +232,9 @@ def main() -> None:
     try:
         argv = quote_photo(expand_photos(sys.argv[1:]))
         plugins = plugin_system()
+        if split_arguments(argv)[1] & {"--help", "-h"}:
+            print(help_text(plugins, CONFIG_MODULE))
+            return
         preflight(argv, plugins)
     except PsdrRoomError as exc:
         _fail(str(exc))

@@ -17,17 +17,18 @@ progress display: the :class:`Runner` does those, and announces each step throug
 
 from __future__ import annotations
 
+import functools
 import gc
-import inspect
 import logging
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar, cast, overload
 
 from tqdm import tqdm
 
+from . import references
 from .artifacts import Artifact, artifact_kind_of
 from .cache import Entry, Store, digest_dir, digest_file, stage_key
 from .capabilities import Availability
@@ -64,11 +65,11 @@ def check_stage_inputs(nodes: Iterable[StageNode], registry: Registry) -> None:
     expected, found) before any stage runs."""
     for node in nodes:
         stage = registry.stage(node.function)
-        parameters = list(inspect.signature(stage.fn).parameters.values())[1:]  # after ctx
-        if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters):
+        parameters = references.parameters(stage.target)[1:]  # after ctx; a reference's read from its source
+        if any(p.var_keyword for p in parameters):
             continue
-        takes = [p.name for p in parameters if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
-        needed = [p.name for p in parameters if p.default is inspect.Parameter.empty and p.name in takes]
+        takes = [p.name for p in parameters if p.keyword]
+        needed = [p.name for p in parameters if p.required and p.keyword]
         expected = f"expected {', '.join(takes) or 'none'} (stage function {node.function})"
         for name in node.inputs:
             if name not in takes:
@@ -212,6 +213,14 @@ SettingsT = TypeVar("SettingsT")
 ImplT = TypeVar("ImplT")
 
 
+class Deferred:
+    """An implementation the engine constructs only when the stage asks for it (:meth:`StageContext.impl`): a
+    cached stage never constructs one that reads no files, so a cached run imports none of its libraries."""
+
+    def __init__(self, construct: Callable[[], Any]) -> None:
+        self.construct = construct
+
+
 @dataclass
 class StageContext:
     """What a stage function gets besides its input artifacts."""
@@ -245,6 +254,8 @@ class StageContext:
             implementation = self.implementations[capability]
         except KeyError:
             raise PsdrRoomError(f"stage '{self.stage}' uses capability '{capability}' without declaring it") from None
+        if isinstance(implementation, Deferred):
+            implementation = self.implementations[capability] = implementation.construct()
         if protocol is not None and not isinstance(implementation, protocol):
             raise PsdrRoomError(
                 f"stage '{self.stage}' wants its {capability} to be a {protocol.__qualname__}; "
@@ -354,7 +365,9 @@ class Runner:
         ``_uses_`` settings over the configured ones.
 
         Returns the instances, their descriptions (part of the cache key) and, for capabilities set to
-        ``auto``, how the choice was made (for the run record, not the key: only the choice matters).
+        ``auto``, how the choice was made (for the run record, not the key: only the choice matters). An
+        implementation registered with ``reads_files=False`` and not chosen by ``auto`` is returned
+        :class:`Deferred`: the stage constructs it if it computes.
         """
         unknown = sorted(set(node.uses) - set(stage.uses))
         if unknown:
@@ -375,13 +388,15 @@ class Runner:
                 name, instances[capability], skipped = self._first_available(capability, group)
                 selected_by[capability] = "auto" + "".join(f"; not {n}: {why}" for n, why in skipped.items())
                 log.info("%s=auto selected %s (%s)", capability, name, selected_by[capability])
+            elif self.plugins.registry.implementation(capability, name).reads_files is False:
+                instances[capability] = Deferred(functools.partial(self._construct, capability, name, group))
             else:
                 instances[capability] = self._construct(capability, name, group)
             impl = self.plugins.registry.implementation(capability, name)
             described[capability] = {
                 "name": name,
                 "version": impl.version,
-                "code": code_fingerprint(impl.factory),
+                "code": code_fingerprint(impl.target),
                 "params": dict(group.get(name) or {}),
             }
         return instances, described, selected_by
@@ -395,6 +410,11 @@ class Runner:
             raise PsdrRoomError(
                 f"{capability}.{name}: invalid parameters ({exc}); see conf/{capability}/{name}.yaml and the stages' _uses_"
             ) from None
+        if callable(getattr(instance, "external_files", None)) and impl.reads_files is False:
+            raise PsdrRoomError(
+                f"{capability}.{name} ({impl.origin}) has external_files but was registered with reads_files=False, "
+                "so the files it reads could not join the cache key; register it with reads_files=True"
+            )
         protocol = self.plugins.registry.protocols.get(capability)
         if protocol is not None and not isinstance(instance, protocol):
             missing = [m for m in dir(protocol) if not m.startswith("_") and not callable(getattr(instance, m, None))]
@@ -437,6 +457,8 @@ class Runner:
         for suffix in stage.sidecars:
             files[f"sidecar:{suffix}"] = self.photo.with_name(self.photo.stem + suffix)
         for capability, instance in instances.items():
+            if isinstance(instance, Deferred):  # registered as reading no files
+                continue
             for i, path in enumerate(getattr(instance, "external_files", lambda _p: [])(self.photo)):
                 files[f"{capability}[{i}]:{Path(path).name}"] = Path(path)
         return {role: (digest_file(p) if p.is_file() else "absent") for role, p in files.items()}
@@ -449,7 +471,7 @@ class Runner:
             stage=node.name,
             function=stage.name,
             function_version=stage.version,
-            function_code=code_fingerprint(stage.fn),
+            function_code=code_fingerprint(stage.target),
             config={"params": node.params, "seed": self.seed, "outputs": node.outputs},
             implementations=described,
             inputs={param: record.digests[artifact] for param, artifact in node.inputs.items()},

@@ -16,11 +16,11 @@ from __future__ import annotations
 import ast
 import functools
 import hashlib
-import importlib.util
 import sys
-from collections.abc import Callable
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+
+from .references import Target, module_file, module_of
 
 FOLLOWED = ("psdr_room_core", "psdr_room_plugins")
 """Packages whose modules are followed from any plugin's code ..."""
@@ -28,16 +28,17 @@ NOT_FOLLOWED = "psdr_room_core.engine"
 """... but for the engine's."""
 
 
-def code_fingerprint(obj: Callable[..., Any]) -> str:
-    """Digest of the source of ``obj``'s module and the project modules it imports, transitively."""
-    module = getattr(obj, "__module__", None)
-    return _fingerprint(module) if module in sys.modules else "unknown"
+def code_fingerprint(target: Target) -> str:
+    """Digest of the source of ``target``'s module and the project modules it imports, transitively (read from
+    the files: nothing is imported)."""
+    module = module_of(target)
+    return _fingerprint(module) if _source(module) is not None else "unknown"
 
 
-def code_modules(obj: Callable[..., Any]) -> list[str]:
-    """The modules whose source :func:`code_fingerprint` digests for ``obj``."""
-    module = getattr(obj, "__module__", None)
-    return sorted(_closure(module)) if module in sys.modules else []
+def code_modules(target: Target) -> list[str]:
+    """The modules whose source :func:`code_fingerprint` digests for ``target``."""
+    module = module_of(target)
+    return sorted(_closure(module)) if _source(module) is not None else []
 
 
 @functools.cache
@@ -74,16 +75,12 @@ def _is_engine(name: str) -> bool:
 @functools.cache
 def _source(name: str) -> Path | None:
     """The ``.py`` file of module ``name`` (None for a name that is not a module, such as a function imported
-    with ``from package import function``)."""
+    with ``from package import function``), found without importing anything."""
     loaded = sys.modules.get(name)
     file = getattr(loaded, "__file__", None) if loaded is not None else None
     if file is None:
-        try:
-            spec = importlib.util.find_spec(name)
-        except (ImportError, ValueError):
-            return None
-        file = spec.origin if spec is not None else None
-    return Path(file) if file and file.endswith(".py") else None
+        return module_file(name)
+    return Path(file) if file.endswith(".py") else None
 
 
 @functools.cache
@@ -91,12 +88,13 @@ def _file_digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
+@functools.cache
 def _imports(name: str, path: Path) -> list[str]:
     """Modules ``name`` (at ``path``) imports: ``import a.b`` gives ``a.b``; ``from .x import y`` gives ``x``
     resolved against the package, and ``x.y`` in case ``y`` is a module."""
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     found: list[str] = []
-    for node in ast.walk(ast.parse(path.read_bytes(), filename=str(path))):
+    for node in _import_statements(ast.parse(path.read_bytes(), filename=str(path))):
         if isinstance(node, ast.Import):
             found += [alias.name for alias in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -109,3 +107,16 @@ def _imports(name: str, path: Path) -> list[str]:
             found.append(target)
             found += [f"{target}.{alias.name}" for alias in node.names if alias.name != "*"]
     return found
+
+
+def _import_statements(tree: ast.Module) -> Iterator[ast.Import | ast.ImportFrom]:
+    """The import statements of a module, those inside functions, classes and blocks included (only statements
+    are visited, not expressions: a tenth of :func:`ast.walk`'s nodes)."""
+    todo: list[ast.AST] = list(tree.body)
+    while todo:
+        node = todo.pop()
+        if isinstance(node, ast.Import | ast.ImportFrom):
+            yield node
+            continue
+        for name in ("body", "orelse", "finalbody", "handlers", "cases"):
+            todo.extend(child for child in getattr(node, name, ()) if isinstance(child, ast.AST))

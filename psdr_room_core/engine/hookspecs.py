@@ -57,7 +57,8 @@ def register_implementations(registry: Registry) -> None:
     Called once per plugin when plugins are loaded. ``factory(**params)`` is called with the parameters of
     the implementation's config node (``<capability>.<name>`` in the composed config) and returns an object
     satisfying the capability's protocol (the method's are in :mod:`psdr_room_core.method.capabilities`). Factories must be cheap:
-    load model weights lazily, on first use.
+    load model weights lazily, on first use. ``factory`` may be a reference ``"module:attribute"``, imported when
+    first constructed; with ``reads_files=False`` a cached stage never constructs it (:mod:`.references`).
     """
 
 
@@ -66,7 +67,8 @@ def register_stages(registry: Registry) -> None:
     """Add pipeline stages with ``registry.add_stage(name, fn, uses=(...), version=...)``.
 
     A stage is a plain function ``fn(ctx, **inputs) -> {output_name: artifact}``; which stages run and how
-    their inputs and outputs are wired is decided by the config (``conf/stage/*.yaml``), not here.
+    their inputs and outputs are wired is decided by the config (``conf/stage/*.yaml``), not here. ``fn`` may
+    be a reference ``"module:attribute"``, imported when the stage first computes (:mod:`.references`).
     """
 
 

@@ -12,7 +12,6 @@ with a message that names the plugin and its error.
 from __future__ import annotations
 
 import functools
-import inspect
 import logging
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
@@ -21,9 +20,10 @@ from typing import Any
 
 import pluggy
 
-from . import hookspecs
+from . import hookspecs, references
 from .artifacts import Artifact
 from .errors import PsdrRoomError
+from .references import Target
 
 log = logging.getLogger(__name__)
 
@@ -48,12 +48,27 @@ class Implementation:
 
     capability: str
     name: str
-    factory: Callable[..., Any]
+    target: Target
+    """Its factory, or a reference ``"module:attribute"`` to it (imported when first constructed)."""
     version: str
-    description: str
     origin: Origin
     params: type | None = None
     """The schema of its config node (:mod:`psdr_room_core.engine.settings`); None: not checked."""
+    reads_files: bool | None = None
+    """Whether its instances have ``external_files(photo)`` (files they read, part of the cache key). False: it
+    is constructed only when a stage that uses it computes (a cached run never imports its libraries); True or
+    None (not declared): for every stage that uses it, cached or not."""
+    summary: str = ""
+    """Its one-line description as registered; empty: its factory's docstring."""
+
+    @functools.cached_property
+    def factory(self) -> Callable[..., Any]:
+        """The factory (a reference's imported now)."""
+        return references.load(self.target)
+
+    @functools.cached_property
+    def description(self) -> str:
+        return self.summary or references.docstring(self.target)
 
 
 @dataclass(frozen=True)
@@ -61,7 +76,8 @@ class StageDef:
     """A stage function as registered by a plugin; the config decides where it runs in the DAG."""
 
     name: str
-    fn: Callable[..., Any]
+    target: Target
+    """The stage function, or a reference ``"module:attribute"`` to it (imported when the stage first computes)."""
     version: str
     uses: tuple[str, ...]
     """Capabilities the stage calls through ``ctx.impl(capability)``."""
@@ -70,10 +86,18 @@ class StageDef:
     sidecars: tuple[str, ...]
     """Suffixes of files beside the photo (``<stem><suffix>``) the stage reads when present (their bytes,
     or their absence, are part of the cache key)."""
-    description: str
     origin: Origin
     params: type | None = None
     """The schema of its parameters (:mod:`psdr_room_core.engine.settings`); None: not checked."""
+
+    @functools.cached_property
+    def fn(self) -> Callable[..., Any]:
+        """The stage function (a reference's imported now)."""
+        return references.load(self.target)
+
+    @functools.cached_property
+    def description(self) -> str:
+        return references.docstring(self.target)
 
 
 @dataclass
@@ -116,17 +140,21 @@ class Registry:
         self,
         capability: str,
         name: str,
-        factory: Callable[..., Any],
+        factory: Target,
         *,
         version: str = "1",
         description: str = "",
         params: type | None = None,
+        reads_files: bool | None = None,
     ) -> None:
-        """Register ``factory`` as implementation ``name`` of ``capability`` (a declared one).
+        """Register ``factory`` (or a reference ``"module:attribute"`` to it, imported on first use) as
+        implementation ``name`` of ``capability`` (a declared one).
 
         Bump ``version`` whenever the implementation's results change: it is part of every cache key.
         ``params``: the dataclass schema of ``factory``'s keyword arguments (:mod:`psdr_room_core.engine.settings`),
-        checked against ``<capability>.<name>`` before any stage runs.
+        checked against ``<capability>.<name>`` before any stage runs. ``reads_files``: whether its instances read
+        files (``external_files(photo)``, part of the cache key); False lets a cached stage skip constructing it
+        (an instance that has them after all is refused), None constructs it for every stage as True does.
         """
         if capability not in self.capabilities:
             raise ValueError(f"unknown capability '{capability}'; expected one of {', '.join(self.capabilities)}")
@@ -134,15 +162,14 @@ class Registry:
         if key in self.implementations:
             self.conflicts.setdefault(key, [self.implementations[key].origin]).append(self._origin)
             return
-        description = description or (inspect.getdoc(factory) or "").split("\n")[0]
         self.implementations[key] = Implementation(
-            capability, name, factory, version, description, self._origin, params
+            capability, name, factory, version, self._origin, params, reads_files, description
         )
 
     def add_stage(
         self,
         name: str,
-        fn: Callable[..., Any],
+        fn: Target,
         *,
         version: str = "1",
         uses: Iterable[str] = (),
@@ -150,7 +177,8 @@ class Registry:
         sidecars: Iterable[str] = (),
         params: type | None = None,
     ) -> None:
-        """Register stage function ``fn`` under ``name`` (a later plugin's stage of the same name wins,
+        """Register stage function ``fn`` (or a reference ``"module:attribute"`` to it, imported when the stage
+        first computes) under ``name`` (a later plugin's stage of the same name wins,
         so a plugin can replace a built-in stage; bump ``version`` when its results change). ``uses``: the
         capabilities it calls; ``reads_photo`` and ``sidecars`` (suffixes of files beside the photo): the
         files it reads itself, whose bytes join its cache key; ``params``: the dataclass schema of its config
@@ -159,10 +187,7 @@ class Registry:
         for capability in uses:
             if capability not in self.capabilities:
                 raise ValueError(f"stage '{name}' uses unknown capability '{capability}'")
-        description = (inspect.getdoc(fn) or "").split("\n")[0]
-        self.stages[name] = StageDef(
-            name, fn, version, uses, reads_photo, tuple(sidecars), description, self._origin, params
-        )
+        self.stages[name] = StageDef(name, fn, version, uses, reads_photo, tuple(sidecars), self._origin, params)
 
     def add_settings(self, name: str, params: type | None = None) -> None:
         """Declare ``name``, a top-level config node this plugin reads (the report's ``report``), with the

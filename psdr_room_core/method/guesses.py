@@ -5,7 +5,21 @@ does). A run that guesses goes on; a user knows what to check."""
 from __future__ import annotations
 
 from .artifacts import Camera, RoomBox
-from .stages import room as room_stage
+
+FLOOR_GUESSES = {
+    "ceiling": "the ceiling (parallel, a camera height below the usual ceiling height)",
+    "walls": "two walls (up is along both) below the lowest point seen",
+    "wall": "one wall and the camera held level, below the lowest point seen or 1.5 camera units",
+    "camera": "the camera held level, below the lowest point seen or 1.5 camera units",
+}
+"""How each ``floor_source`` other than ``floor`` guessed the floor (logged; metrics.json and the report say it)."""
+
+
+def room_guesses(room: RoomBox) -> list[str]:
+    """What a run had to guess about ``room`` because the photo did not show it (empty when nothing)."""
+    source = room.extra.get("floor_source", "floor")
+    return [] if source == "floor" else [f"no floor in view: the floor plane from {FLOOR_GUESSES[source]}"]
+
 
 WEAK_FOV = 0.1
 """A vanishing-point FoV of lower confidence is a guess (its lines barely constrain it; the prior about
@@ -28,4 +42,4 @@ def fov_guesses(camera: Camera) -> list[str]:
 
 def guesses(camera: Camera | None, room: RoomBox | None) -> list[str]:
     """Everything a run guessed, from its estimated camera and its initial room box (either may be absent)."""
-    return (fov_guesses(camera) if camera is not None else []) + (room_stage.guesses(room) if room is not None else [])
+    return (fov_guesses(camera) if camera is not None else []) + (room_guesses(room) if room is not None else [])

@@ -21,9 +21,12 @@ from .capabilities import CAPABILITIES, DESCRIPTIONS, PROTOCOLS
 from .crops import CROPS_SUFFIX
 from .guesses import guesses
 from .room_box import RoomInitParams
-from .stages import appearance, export, lighting, materials, objects, preprocess, room, settings
+from .stages import settings
 
 log = logging.getLogger("psdr_room")
+
+STAGES = __package__ + ".stages"
+"""The package of the stage modules (:mod:`.stages`)."""
 
 
 @hookimpl
@@ -48,28 +51,47 @@ def register_artifacts(registry: Registry) -> None:
 
 @hookimpl
 def register_stages(registry: Registry) -> None:
-    """The stages of the paper's pipeline; ``conf/stage/*.yaml`` places them in the DAG."""
-    registry.add_stage("load_image", preprocess.load_image, reads_photo=True, params=settings.LoadImage)
-    registry.add_stage("estimate_fov", preprocess.estimate_fov, uses=["fov"], params=NoSettings)
-    registry.add_stage("detect", preprocess.detect, uses=["detector"], params=NoSettings)
-    registry.add_stage("segment", preprocess.segment, uses=["segmentation"], version="2", params=NoSettings)
-    registry.add_stage("estimate_depth", preprocess.estimate_depth, uses=["depth"], version="2", params=NoSettings)
-    registry.add_stage("point_cloud", preprocess.point_cloud, params=settings.PointCloud)
-    registry.add_stage("room_init", room.room_init, version="2", params=RoomInitParams)
-    registry.add_stage("room_fit", room.room_fit, uses=["renderer", "optimizer"], version="2", params=settings.RoomFit)
-    registry.add_stage("group_objects", objects.group_objects, uses=["retrieval"], params=settings.GroupObjects)
+    """The stages of the paper's pipeline; ``conf/stage/*.yaml`` places them in the DAG. By reference: a stage's
+    module (and torch, Mitsuba, what it needs) is imported when the stage first computes."""
+    registry.add_stage("load_image", f"{STAGES}.preprocess:load_image", reads_photo=True, params=settings.LoadImage)
+    registry.add_stage("estimate_fov", f"{STAGES}.preprocess:estimate_fov", uses=["fov"], params=NoSettings)
+    registry.add_stage("detect", f"{STAGES}.preprocess:detect", uses=["detector"], params=NoSettings)
+    registry.add_stage("segment", f"{STAGES}.preprocess:segment", uses=["segmentation"], version="2", params=NoSettings)
     registry.add_stage(
-        "retrieve_objects", objects.retrieve_objects, uses=["retrieval"], version="3", params=settings.RetrieveObjects
+        "estimate_depth", f"{STAGES}.preprocess:estimate_depth", uses=["depth"], version="2", params=NoSettings
+    )
+    registry.add_stage("point_cloud", f"{STAGES}.preprocess:point_cloud", params=settings.PointCloud)
+    registry.add_stage("room_init", f"{STAGES}.room:room_init", version="2", params=RoomInitParams)
+    registry.add_stage(
+        "room_fit", f"{STAGES}.room:room_fit", uses=["renderer", "optimizer"], version="2", params=settings.RoomFit
     )
     registry.add_stage(
-        "place_objects", objects.place_objects, uses=["retrieval"], version="4", params=settings.PlaceObjects
+        "group_objects", f"{STAGES}.objects:group_objects", uses=["retrieval"], params=settings.GroupObjects
     )
     registry.add_stage(
-        "fit_objects", objects.fit_objects, uses=["renderer", "optimizer"], version="4", params=settings.FitObjects
+        "retrieve_objects",
+        f"{STAGES}.objects:retrieve_objects",
+        uses=["retrieval"],
+        version="3",
+        params=settings.RetrieveObjects,
+    )
+    registry.add_stage(
+        "place_objects",
+        f"{STAGES}.objects:place_objects",
+        uses=["retrieval"],
+        version="4",
+        params=settings.PlaceObjects,
+    )
+    registry.add_stage(
+        "fit_objects",
+        f"{STAGES}.objects:fit_objects",
+        uses=["renderer", "optimizer"],
+        version="4",
+        params=settings.FitObjects,
     )
     registry.add_stage(
         "assign_materials",
-        materials.assign_materials,
+        f"{STAGES}.materials:assign_materials",
         uses=["renderer", "material_graph", "texture"],
         sidecars=[CROPS_SUFFIX],
         version="3",
@@ -77,20 +99,24 @@ def register_stages(registry: Registry) -> None:
     )
     registry.add_stage(
         "init_lights",
-        lighting.init_lights,
+        f"{STAGES}.lighting:init_lights",
         uses=["renderer", "material_graph", "denoiser"],
         version="3",
         params=settings.InitLights,
     )
     registry.add_stage(
         "fit_appearance",
-        appearance.fit_appearance,
+        f"{STAGES}.appearance:fit_appearance",
         uses=["renderer", "optimizer", "material_graph", "texture", "denoiser"],
         version="5",
         params=settings.FitAppearance,
     )
     registry.add_stage(
-        "export_scene", export.export_scene, uses=["material_graph"], version="4", params=settings.ExportScene
+        "export_scene",
+        f"{STAGES}.export:export_scene",
+        uses=["material_graph"],
+        version="4",
+        params=settings.ExportScene,
     )
 
 
@@ -127,7 +153,7 @@ def run_metrics(run: RunRecord) -> dict[str, Any]:
             "size": [2 * float(h) for h in room.half_size],
             "yaw_deg": math.degrees(float(room.yaw)),
             "camera_height": room.extra.get("camera_height"),
-            "ceiling_visible": room.ceiling_visible,
+            "ceiling_visible": f"{STAGES}.room:ceiling_visible",
         }
         held = run.artifacts.get("room_box_objects")
         if held is not None:  # grown where fit_objects' objects reach beyond it

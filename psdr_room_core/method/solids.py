@@ -22,7 +22,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy import ndimage
 
 from .artifacts import Placement, rotation_y
 
@@ -97,6 +96,8 @@ def voxel_solid(vertices: np.ndarray, faces: np.ndarray) -> Solid:
         after = np.flip(np.logical_or.accumulate(np.flip(surface, axis=axis), axis=axis), axis=axis)
         between += before & after
     inside = surface | (between >= 2)
+    from scipy import ndimage  # scipy loads when a solid is first made
+
     depth = ndimage.distance_transform_edt(inside).astype(np.float32) * pitch
     depth = np.where(inside, np.maximum(depth - pitch / 2.0, pitch / 2.0), 0.0).astype(np.float32)
     cells = np.argwhere(inside)

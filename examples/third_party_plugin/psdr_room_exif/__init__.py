@@ -44,7 +44,7 @@ class ExifFov:
 
 @hookimpl
 def register_implementations(registry):
-    registry.add_implementation("fov", "exif", ExifFov, params=ExifSettings)
+    registry.add_implementation("fov", "exif", ExifFov, params=ExifSettings, reads_files=True)
 
 
 @hookimpl

@@ -33,6 +33,7 @@ from ..artifacts import (
 from ..capabilities import Optimizer, Renderer
 from ..convergence import untimed
 from ..geometry import quad_mesh
+from ..guesses import FLOOR_GUESSES
 from ..rgb_scene import room_quad_indices, room_quads
 from ..room_box import RoomInitParams, box_iou_3d, init_room_box
 from ..visualize import plot_curves, room_edges_overlay, segment_overlay
@@ -42,21 +43,6 @@ if TYPE_CHECKING:
     import torch
 
 log = logging.getLogger("psdr_room")
-
-
-FLOOR_GUESSES = {
-    "ceiling": "the ceiling (parallel, a camera height below the usual ceiling height)",
-    "walls": "two walls (up is along both) below the lowest point seen",
-    "wall": "one wall and the camera held level, below the lowest point seen or 1.5 camera units",
-    "camera": "the camera held level, below the lowest point seen or 1.5 camera units",
-}
-"""How each ``floor_source`` other than ``floor`` guessed the floor (logged; metrics.json and the report say it)."""
-
-
-def guesses(room: RoomBox) -> list[str]:
-    """What a run had to guess about ``room`` because the photo did not show it (empty when nothing)."""
-    source = room.extra.get("floor_source", "floor")
-    return [] if source == "floor" else [f"no floor in view: the floor plane from {FLOOR_GUESSES[source]}"]
 
 
 def room_init(ctx: StageContext, cloud: PointCloud) -> RoomBox:
