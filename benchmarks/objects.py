@@ -393,7 +393,8 @@ def main() -> None:
         action="append",
         default=[],
         metavar="STAGE.KEY=VALUE",
-        help="override a stage parameter (YAML value), e.g. --set place_objects.search.n_yaw=24",
+        help="override a stage parameter (YAML value), e.g. --set place_objects.search.n_yaw=24, or the silhouette "
+        "retrieval's (--set retrieval.back_weight=0)",
     )
     args = parser.parse_args()
     import yaml
@@ -404,8 +405,9 @@ def main() -> None:
         if not (stage and name and _):
             parser.error(f"--set {item}: expected STAGE.KEY=VALUE")
         OVERRIDES.setdefault(stage, {})[name] = yaml.safe_load(value)
-    retriever = SilhouetteRetrieval()
-    small = SilhouetteRetrieval(fraction=0.05, seed=0)
+    retrieval = OVERRIDES.get("retrieval", {})  # --set retrieval.back_weight=0: the silhouette retrieval's own
+    retriever = SilhouetteRetrieval(**retrieval)
+    small = SilhouetteRetrieval(**{**retrieval, "fraction": 0.05, "seed": 0})
     rows = []
     print(HEADER, flush=True)
     for seed in args.seeds or range(args.scenes):
