@@ -32,10 +32,8 @@ class VanishingPointsFov:
             cy=result.cy,
             method=f"vanishing_points/{result.method}",
             confidence=result.confidence,
-            extra={
-                "vanishing_points": [list(map(float, v)) for v in result.vanishing_points],
-                "segments": result.n_segments,
-            },
+            vanishing_points=[(float(x), float(y), float(w)) for x, y, w in result.vanishing_points],
+            extra={"segments": result.n_segments},
         )
 
 

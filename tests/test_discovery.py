@@ -48,9 +48,9 @@ def room() -> dict:
     camera = Camera.from_vfov(WIDTH, HEIGHT, 55.0)
     vps = (camera.K @ rotation).T
     camera = Camera.from_vfov(
-        WIDTH, HEIGHT, 55.0, extra={"vanishing_points": (vps / np.linalg.norm(vps, axis=1, keepdims=True)).tolist()}
+        WIDTH, HEIGHT, 55.0, vanishing_points=[tuple(v) for v in vps / np.linalg.norm(vps, axis=1, keepdims=True)]
     )
-    frame = frame_from_vanishing_points(camera, camera.extra["vanishing_points"])
+    frame = frame_from_vanishing_points(camera, camera.vanishing_points)
     rays = frame.rays(camera, WIDTH, HEIGHT)
     labels, t = box.trace(rays.reshape(-1, 3), ROOM[None])
     labels, t = labels[0].reshape(HEIGHT, WIDTH), t[0].reshape(HEIGHT, WIDTH)

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import json
 import math
 from functools import cache
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from boxroom import checker_floor, render_box_room
+from psdr_room_core.method.artifacts import Camera
 from psdr_room_plugins.vanishing_points import VanishingPointParams, estimate_camera
 
 # (vertical FoV, yaw, pitch, roll) in degrees
@@ -66,3 +69,16 @@ def test_deterministic_for_a_seed() -> None:
     image = _render(*VIEWS[0])
     params = VanishingPointParams(seed=3)
     assert estimate_camera(image, params) == estimate_camera(image, params)
+
+
+def test_vanishing_points_are_a_field_of_the_camera(tmp_path: Path) -> None:
+    """``fov=vanishing_points`` hands the layout its vanishing points as a typed field that survives the cache,
+    and a camera.json written when they travelled in ``extra`` loads into that field."""
+    vps = [(0.6, 0.0, 0.8), (0.0, 1.0, 0.0)]
+    camera = Camera.from_vfov(320, 240, 55.0, vanishing_points=vps, extra={"segments": 12})
+    camera.save(tmp_path)
+    assert Camera.load(tmp_path) == camera
+    data = json.loads((tmp_path / "camera.json").read_text())
+    data["extra"]["vanishing_points"] = [list(v) for v in data.pop("vanishing_points")]
+    (tmp_path / "camera.json").write_text(json.dumps(data))
+    assert Camera.load(tmp_path) == camera

@@ -40,7 +40,7 @@ def _camera(rotation: np.ndarray, width: int = 320, height: int = 240) -> Camera
     camera = Camera.from_vfov(width, height, 55.0)
     vps = (camera.K @ rotation).T
     return Camera.from_vfov(
-        width, height, 55.0, extra={"vanishing_points": (vps / np.linalg.norm(vps, axis=1, keepdims=True)).tolist()}
+        width, height, 55.0, vanishing_points=[tuple(v) for v in vps / np.linalg.norm(vps, axis=1, keepdims=True)]
     )
 
 
@@ -67,7 +67,7 @@ def _render(camera: Camera, frame: ManhattanFrame) -> tuple[Image, np.ndarray, n
 def room() -> tuple[Camera, Image, np.ndarray, np.ndarray]:
     rotation = _rotation(yaw_deg=28.0, pitch_deg=6.0)
     camera = _camera(rotation)
-    frame = frame_from_vanishing_points(camera, camera.extra["vanishing_points"])
+    frame = frame_from_vanishing_points(camera, camera.vanishing_points)
     image, labels, t = _render(camera, frame)
     return camera, image, labels, t
 
@@ -75,7 +75,7 @@ def room() -> tuple[Camera, Image, np.ndarray, np.ndarray]:
 def test_frame_from_vanishing_points_recovers_gravity_and_walls() -> None:
     rotation = _rotation(yaw_deg=28.0, pitch_deg=6.0)
     camera = _camera(rotation)
-    shuffled = np.array(camera.extra["vanishing_points"])[[2, 0, 1]] * [[1], [-1], [1]]  # order and sign free
+    shuffled = np.array(camera.vanishing_points)[[2, 0, 1]] * [[1], [-1], [1]]  # order and sign free
     frame = frame_from_vanishing_points(camera, shuffled)
     assert frame.observed
     assert np.allclose(frame.rotation[:, 1], rotation[:, 1], atol=1e-6)  # up is up
@@ -122,7 +122,7 @@ def test_layout_depth_from_true_labels_is_the_room_depth(room: tuple) -> None:
 
 def test_object_stands_on_the_floor(room: tuple) -> None:
     camera, _, labels, t = room
-    frame = frame_from_vanishing_points(camera, camera.extra["vanishing_points"])
+    frame = frame_from_vanishing_points(camera, camera.vanishing_points)
     rays = frame.rays(camera, camera.width, camera.height)
     mask = np.zeros(labels.shape, dtype=bool)
     mask[120:200, 140:170] = True  # bottom row 199 lies on the floor
@@ -183,7 +183,7 @@ def test_boxes_yaml_replaces_the_detector(tmp_path: Path) -> None:
 
     photo = tmp_path / "room.png"
     camera = _camera(_rotation(28.0, 6.0))
-    image, _, _ = _render(camera, frame_from_vanishing_points(camera, camera.extra["vanishing_points"]))
+    image, _, _ = _render(camera, frame_from_vanishing_points(camera, camera.vanishing_points))
     cv2.imwrite(str(photo), image.to_uint8()[..., ::-1])
     plugins = plugin_system()
     overrides = [f"image={photo}", f"cache_dir={tmp_path / 'cache'}", "run.until=detect", "report.enabled=false"]
@@ -229,7 +229,7 @@ def _render_true(rotation: np.ndarray) -> tuple[Image, np.ndarray]:
     axis the vanishing points would call up): the image and its surface labels."""
     camera = _camera(rotation)
     frame = ManhattanFrame(
-        rotation=rotation, vanishing_points=np.asarray(camera.extra["vanishing_points"]), observed=True
+        rotation=rotation, vanishing_points=np.asarray(camera.vanishing_points), observed=True
     )
     image, labels, _ = _render(camera, frame)
     return image, labels
@@ -239,7 +239,7 @@ def test_a_bare_photo_without_floor_or_prompts_still_gives_a_room(tmp_path: Path
     """Looking up at a plain room: no floor in view, the detector finds nothing, no proposal stands out. The
     pipeline stands the room on its ceiling (logged) and places no object, without an error."""
     camera = _camera(_rotation(28.0, -25.0))  # pitched up: floor out of view
-    image, labels, _ = _render(camera, frame_from_vanishing_points(camera, camera.extra["vanishing_points"]))
+    image, labels, _ = _render(camera, frame_from_vanishing_points(camera, camera.vanishing_points))
     assert not (labels == box.FLOOR).any() and (labels == box.CEILING).any()
     record = _run_bare(image, tmp_path, "place_objects")
     room = record.artifacts["room_box"]
@@ -273,7 +273,7 @@ def test_a_tiled_floor_filling_the_photo_is_a_floor_not_a_wall_seen_from_below()
     its lower 40%), and the floor, not a wall seen 35° from below, fills the photo."""
     rgb = checker_floor(40.0, 55.0, 0.8)
     found = estimate_camera(rgb)
-    camera = Camera.from_vfov(320, 240, found.vfov_deg, extra={"vanishing_points": found.vanishing_points})
+    camera = Camera.from_vfov(320, 240, found.vfov_deg, vanishing_points=found.vanishing_points)
     layout = fit_layout(Image(rgb=rgb, original_size=(320, 240)), camera, LayoutParams(n_random=1500))
     labels, _ = layout.trace(camera, 160, 120)
     assert (labels == box.FLOOR).mean() > 0.95

@@ -73,7 +73,7 @@ class Layout:
 
 def manhattan_frame(image: Image, camera: Camera) -> ManhattanFrame:
     """The room frame from the camera's vanishing points, estimated from the photo when ``fov`` gave none."""
-    vps = camera.extra.get("vanishing_points") or []
+    vps = camera.vanishing_points
     if len(vps) < 2:
         vps = estimate_camera(image.rgb).vanishing_points
     return frame_from_vanishing_points(camera, vps)

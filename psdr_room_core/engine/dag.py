@@ -388,11 +388,10 @@ class Runner:
                 name, instances[capability], skipped = self._first_available(capability, group)
                 selected_by[capability] = "auto" + "".join(f"; not {n}: {why}" for n, why in skipped.items())
                 log.info("%s=auto selected %s (%s)", capability, name, selected_by[capability])
-            elif self.plugins.registry.implementation(capability, name).reads_files is False:
-                instances[capability] = Deferred(functools.partial(self._construct, capability, name, group))
-            else:
-                instances[capability] = self._construct(capability, name, group)
             impl = self.plugins.registry.implementation(capability, name)
+            if capability not in instances:  # auto constructed its choice to ask whether it is usable
+                construct = functools.partial(self._construct, capability, name, group)
+                instances[capability] = Deferred(construct) if impl.reads_files is False else construct()
             described[capability] = {
                 "name": name,
                 "version": impl.version,

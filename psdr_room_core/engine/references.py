@@ -38,10 +38,6 @@ class Parameter:
     """``**kwargs``: it takes any name."""
 
 
-def is_reference(target: Target) -> bool:
-    return isinstance(target, str)
-
-
 def module_of(target: Target) -> str:
     """The module that defines ``target`` (a reference's own, without importing it)."""
     if isinstance(target, str):

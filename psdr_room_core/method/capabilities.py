@@ -67,7 +67,7 @@ class Detector(Protocol):
 class Segmenter(Protocol):
     """``segmentation``: a panoptic segmentation at the working image's resolution.
 
-    ``camera`` carries the vanishing points when ``fov`` found them (``camera.extra``); ``detections``
+    ``camera`` carries the vanishing points when ``fov`` found them (``camera.vanishing_points``); ``detections``
     are box prompts (segmenters that find objects themselves may ignore them).
     """
 

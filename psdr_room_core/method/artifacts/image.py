@@ -68,8 +68,12 @@ class Camera:
     method: str = ""
     """How the intrinsics were obtained (e.g. ``vanishing_points/orthogonal_triplet``, ``fixed``)."""
     confidence: float = 1.0
+    vanishing_points: list[tuple[float, float, float]] = field(default_factory=list)
+    """The image vanishing points of the room's axes the estimate found (two or three homogeneous unit-norm
+    ``(x, y, w)`` in pixels, ``w = 0`` at infinity; empty when it looked for none): the Manhattan frame the
+    ``layout`` segmentation fits its box in."""
     extra: dict[str, Any] = field(default_factory=dict)
-    """Estimator details kept for inspection (vanishing points, segment counts, ...)."""
+    """Estimator details kept for inspection (segment counts, ...)."""
 
     @classmethod
     def from_vfov(cls, width: int, height: int, vfov_deg: float, **kwargs: Any) -> Camera:
@@ -113,4 +117,7 @@ class Camera:
     def load(cls, directory: Path) -> Camera:
         data = read_json(directory / "camera.json")
         data.pop("vfov_deg", None)
+        if "vanishing_points" in data.get("extra", {}):  # written before they were a field of their own
+            data["vanishing_points"] = data["extra"].pop("vanishing_points")
+        data["vanishing_points"] = [tuple(v) for v in data.get("vanishing_points", [])]
         return cls(**data)
