@@ -228,9 +228,7 @@ def _render_true(rotation: np.ndarray) -> tuple[Image, np.ndarray]:
     """The room seen by a camera whose frame axes are ``rotation`` (rendered in that true frame, whichever
     axis the vanishing points would call up): the image and its surface labels."""
     camera = _camera(rotation)
-    frame = ManhattanFrame(
-        rotation=rotation, vanishing_points=np.asarray(camera.vanishing_points), observed=True
-    )
+    frame = ManhattanFrame(rotation=rotation, vanishing_points=np.asarray(camera.vanishing_points), observed=True)
     image, labels, _ = _render(camera, frame)
     return image, labels
 
