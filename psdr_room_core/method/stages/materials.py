@@ -4,10 +4,11 @@ material retrieval with voting across crops, and the texture-transform search.""
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import cv2
 import numpy as np
+import torch
 
 from psdr_room_core.engine.dag import StageContext
 from psdr_room_core.engine.errors import PsdrRoomError
@@ -19,9 +20,6 @@ from ..geometry import TriangleMesh
 from ..rgb_scene import object_parts, render_part_ids, room_quads
 from ..surface_colours import clean_pixels, dominant_colour, texture_energy
 from .settings import AssignMaterials
-
-if TYPE_CHECKING:
-    import torch
 
 
 @dataclass
@@ -90,8 +88,6 @@ def assign_materials(
     an object's parts rank them all. Params also: ``render_width``, ``map_size`` (texture side evaluated for
     the search).
     """
-    import torch
-
     from ..material_search import MaterialIndex, flat_image, search_transform, surface_coordinates, vote
 
     settings = ctx.settings(AssignMaterials)

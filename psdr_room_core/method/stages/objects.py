@@ -7,10 +7,11 @@ import logging
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, replace
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import cv2
 import numpy as np
+import torch
 
 from psdr_room_core.engine.dag import StageContext
 from psdr_room_core.engine.errors import PsdrRoomError
@@ -52,9 +53,6 @@ from ..solids import field_lookup, solid_of
 from ..view_search import ViewTarget, fit_view
 from ..visualize import plot_curves, segment_overlay
 from .settings import FitObjects, GroupObjects, PlaceObjects, RetrieveObjects
-
-if TYPE_CHECKING:
-    import torch
 
 log = logging.getLogger("psdr_room")
 
@@ -419,8 +417,6 @@ def object_targets(placements: Placements, panoptic: Panoptic, depth: DepthMap, 
 
 def gaussian_pyramid_blur(masks: torch.Tensor, sigmas: tuple[float, ...]) -> torch.Tensor:
     """[P,H,W] masks blurred by Gaussians of each sigma (pixels), stacked: [S,P,H,W]."""
-    import torch
-
     blurred = []
     for sigma in sigmas:
         radius = max(1, int(3 * sigma))
@@ -446,8 +442,6 @@ class PoseModel:
     what showing the camera its back costs a piece that stands with its back to a wall."""
 
     def __init__(self, placements: Placements, room: RoomBox, unit: float) -> None:
-        import torch
-
         self.placements = placements.objects
         self.room = room
         self.unit = unit
@@ -484,8 +478,6 @@ class PoseModel:
 
     def poses(self) -> list[tuple[torch.Tensor, torch.Tensor, torch.Tensor]]:
         """(position [3], yaw (radians), scale) per object, constraints applied."""
-        import torch
-
         t, log_s, yaw_deg = self.theta["translation"], self.theta["log_scale"], self.theta["yaw"]
         poses: list[Any] = [None] * len(self.placements)
         order = sorted(range(len(self.placements)), key=lambda i: self.placements[i].support == "parent")
@@ -515,8 +507,6 @@ class PoseModel:
 
     def vertices(self) -> dict[str, torch.Tensor]:
         """World positions of each object's welded mesh."""
-        import torch
-
         out = {}
         for i, (position, yaw, scale) in enumerate(self.poses()):
             local = torch.as_tensor(self.welded[i].vertices, dtype=torch.float32)
@@ -525,8 +515,6 @@ class PoseModel:
 
     def size_penalty(self, scale_weight: float, range_weight: float) -> torch.Tensor:
         """[P] each object's size prior (:class:`~psdr_room_core.method.sizes.SizePrior`) at its current scale."""
-        import torch
-
         log_scale = torch.stack([torch.log(scale) for _, _, scale in self.poses()])
         low = torch.tensor([math.log(lo) if lo > 0 else -math.inf for lo, _ in self.ranges])
         high = torch.tensor([math.log(hi) for _, hi in self.ranges])
@@ -536,8 +524,6 @@ class PoseModel:
     def back_penalty(self) -> torch.Tensor:
         """[P] how far each object that stands with its back to a wall shows the camera its back
         (:func:`~psdr_room_core.method.backs.back_shown`; 0 for the others)."""
-        import torch
-
         eye = np.asarray(self.room.camera_to_world)[:3, 3]
         shown = [
             back_shown(torch.sin(yaw), torch.cos(yaw), position[0] - float(eye[0]), position[2] - float(eye[2]))
@@ -550,8 +536,6 @@ class PoseModel:
     def collision_penalty(self) -> torch.Tensor:
         """[P] how deep each object passes through the others: for each pair, the mean depth (metres) of each
         one's sampled volume inside the other, both ways, half to each."""
-        import torch
-
         if not self.pairs:
             return torch.zeros(len(self.placements))
         poses = self.poses()
@@ -577,8 +561,6 @@ class PoseModel:
 
     def room_penalty(self, vertices: dict[str, torch.Tensor]) -> torch.Tensor:
         """[P] how far (metres) each object's mesh reaches beyond the room box, at its farthest vertex."""
-        import torch
-
         rotation = torch.as_tensor(rotation_y(self.room.yaw), dtype=torch.float32)
         centre = torch.as_tensor(np.asarray(self.room.center), dtype=torch.float32)
         half = torch.as_tensor(np.asarray(self.room.half_size), dtype=torch.float32)
@@ -625,8 +607,6 @@ def fit_objects(
     fraction of the iterations after which :func:`try_yaw_turns` runs, ``angles``, ``min_gain``},
     ``keep_share``, ``convergence`` (:class:`~psdr_room_core.method.convergence.Plateau`), ``physical``.
     """
-    import torch
-
     if not placements.objects:
         return {
             "placements": placements,
@@ -740,8 +720,6 @@ def fit_objects(
 
 def _rotation(yaw: torch.Tensor) -> torch.Tensor:
     """R_y(yaw) as a differentiable 3x3 tensor."""
-    import torch
-
     c, s = torch.cos(yaw), torch.sin(yaw)
     zero, one = torch.zeros_like(c), torch.ones_like(c)
     return torch.stack([torch.stack([c, zero, s]), torch.stack([zero, one, zero]), torch.stack([-s, zero, c])])
@@ -764,8 +742,6 @@ def restore_lost(model: PoseModel, placed: np.ndarray, fitted: np.ndarray, share
     zeroed). The joint fit can push an object off its segment (out of a collision with a neighbour the photo
     shows in front of it, or shrunk by its size prior) where no gradient brings it back: eq. 3 must not lose
     what the placement found. Returns their indices."""
-    import torch
-
     lost = [i for i in range(len(placed)) if fitted[i] < share * placed[i]]
     with torch.no_grad():
         for values in model.theta.values():
@@ -784,8 +760,6 @@ def try_yaw_turns(
     nearly alike; gradient descent on yaw never crosses the ridge between them. A near-symmetric model's turn
     changes its term by less than the render's noise: ``min_gain`` keeps it as it is. Wall objects keep their
     orientation (they face into the room)."""
-    import torch
-
     turned: dict[int, float] = {}
     with torch.no_grad():
         best = evaluate()

@@ -11,10 +11,11 @@ from __future__ import annotations
 import dataclasses
 import logging
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import cv2
 import numpy as np
+import torch
 
 from psdr_room_core.engine.dag import StageContext
 from psdr_room_core.engine.errors import PsdrRoomError
@@ -38,9 +39,6 @@ from ..rgb_scene import room_quad_indices, room_quads
 from ..room_box import RoomInitParams, box_iou_3d, init_room_box
 from ..visualize import plot_curves, room_edges_overlay, segment_overlay
 from .settings import RoomFit
-
-if TYPE_CHECKING:
-    import torch
 
 log = logging.getLogger("psdr_room")
 
@@ -134,8 +132,6 @@ def box_vertices(
     the camera; a fixed floor (the camera's height above it comes from many depth points) removes that
     ambiguity, which the depth term alone pins down only weakly.
     """
-    import torch
-
     signs = torch.tensor([[(i >> 0) & 1, (i >> 1) & 1, (i >> 2) & 1] for i in range(8)], dtype=torch.float32) * 2 - 1
     half = torch.as_tensor(room.half_size, dtype=torch.float32) * torch.exp(theta["log_scale"])
     yaw = float(room.yaw) + theta["yaw"]
@@ -154,8 +150,6 @@ def with_focal_scale(corners: torch.Tensor, camera_to_world: np.ndarray, log_foc
     """Scale camera-frame x and y of world points by exp(``log_focal``): rendering them with focal f is
     rendering the unscaled points with focal f·exp(log_focal) (u = f·x/z + c), so the field of view is
     refined without rebuilding the renderer."""
-    import torch
-
     rotation = torch.as_tensor(camera_to_world[:3, :3], dtype=torch.float32)
     origin = torch.as_tensor(camera_to_world[:3, 3], dtype=torch.float32)
     factor = torch.exp(log_focal)
@@ -165,8 +159,6 @@ def with_focal_scale(corners: torch.Tensor, camera_to_world: np.ndarray, log_foc
 
 def tilt_rotation(tilt: torch.Tensor) -> torch.Tensor:
     """Rotation about world X then Z by the two ``tilt`` angles (radians): corrects the floor normal."""
-    import torch
-
     (cx, cz), (sx, sz) = torch.cos(tilt), torch.sin(tilt)
     zero, one = torch.zeros_like(cx), torch.ones_like(cx)
     rx = torch.stack([torch.stack([one, zero, zero]), torch.stack([zero, cx, -sx]), torch.stack([zero, sx, cx])])
@@ -195,8 +187,6 @@ def room_fit(
     focal length is refined too (``log_focal``; learning rate 0 keeps the estimated FoV): masks and depth
     together constrain it, and a FoV error otherwise bends the box.
     """
-    import torch  # imported here: a cached run never pays for it
-
     settings = ctx.settings(RoomFit)
     cam = camera.resized(settings.render_width)
     targets = room_targets(panoptic, depth, (cam.width, cam.height))
