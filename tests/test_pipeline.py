@@ -102,6 +102,8 @@ def test_outputs_of_a_run(first_run: tuple[Path, dict[str, str]]) -> None:
     assert 30 < m["vfov_deg"] < 60  # the Kinect's true vertical FoV is 49.6°
     assert m["implementations"]["fov"]["name"] == "vanishing_points"
     assert "psdr_room_plugins.fov" in m["implementations"]["fov"]["origin"]
+    box = json.loads((run_dir / "artifacts" / "room_box_fit" / "room_box.json").read_text())
+    assert m["room_box"]["ceiling_visible"] is box["ceiling_visible"] and len(m["room_box"]["size"]) == 3
     assert (run_dir / ".hydra" / "config.yaml").is_file()
     report = (run_dir / "report.html").read_text()
     assert report.count("data:image/png;base64,") >= 7 and "room_fit_log: after" in report

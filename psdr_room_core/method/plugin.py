@@ -153,7 +153,7 @@ def run_metrics(run: RunRecord) -> dict[str, Any]:
             "size": [2 * float(h) for h in room.half_size],
             "yaw_deg": math.degrees(float(room.yaw)),
             "camera_height": room.extra.get("camera_height"),
-            "ceiling_visible": f"{STAGES}.room:ceiling_visible",
+            "ceiling_visible": room.ceiling_visible,
         }
         held = run.artifacts.get("room_box_objects")
         if held is not None:  # grown where fit_objects' objects reach beyond it
