@@ -4,7 +4,7 @@
   an engine free of the rendering/vision/learning stack, and no package whose modules import each other in a circle;
 * [tool.ruff]: ``ruff check`` (pyflakes, syntax errors, import order, bugbear, pyupgrade, simplify) and ``ruff format``
   everywhere;
-* [tool.mypy]: the engine type-checks under ``--strict``.
+* [tool.mypy]: the engine type-checks under ``--strict``, the method at mypy's default strictness.
 """
 
 from __future__ import annotations

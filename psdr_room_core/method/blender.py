@@ -101,7 +101,10 @@ def build_blend(
 
 def denoise_png(png: Path, denoiser: Denoiser) -> None:
     """Replace the sRGB render ``png`` by its version cleaned by ``denoiser``."""
-    noisy = srgb_to_linear(cv2.imread(str(png))[..., ::-1].astype(np.float32) / 255.0)
+    bgr = cv2.imread(str(png))
+    if bgr is None:
+        raise PsdrRoomError(f"{png}: Blender wrote no readable render; rerun, or render without a denoiser")
+    noisy = srgb_to_linear(bgr[..., ::-1].astype(np.float32) / 255.0)
     with tempfile.NamedTemporaryFile(suffix=".png", dir=png.parent, delete=False) as staging:
         write_png(Path(staging.name), to_srgb8(denoiser.denoise(noisy)))
     os.replace(staging.name, png)

@@ -212,6 +212,8 @@ class ProceduralMaterial(Protocol):
     """
 
     name: str
+    category: str
+    """What the material is (``wood floor``, ``painted wall``, ...): a room side searches the categories it may have."""
     tile_size: float
     """Metres one repeat of the maps covers in a room (the starting texture scale)."""
 

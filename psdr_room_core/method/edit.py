@@ -42,7 +42,7 @@ from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.ownership import check_replaceable, claim
 from psdr_room_core.engine.plugins import plugin_system
 
-from .artifacts import Light, PartAppearance, appearance_fields, write_png
+from .artifacts import Light, PartAppearance, appearance_fields, vec3, write_png
 from .geometry import TriangleMesh
 from .rgb_scene import build_scene, to_srgb8
 from .scene_state import check_state, read_state
@@ -135,14 +135,16 @@ def _edit_material(state: dict[str, Any], key: str, rest: str, value: Any, libra
         if field == "base_color":
             if part.kind != "homogeneous":
                 raise PsdrRoomError(f"edit {key}: {part_name} is procedural; edit its graph's colour parameters")
-            part = replace(part, base_color=tuple(_rgb(value, key)))
+            part = replace(part, base_color=vec3(_rgb(value, key)))
         else:
-            part = replace(part, **{field: _number(value, key)})
+            number_change: dict[str, Any] = {field: _number(value, key)}
+            part = replace(part, **number_change)
     elif field in ("scale", "rotation"):
         number = _number(value, key)
         if field == "scale" and number <= 0:
             raise PsdrRoomError(f"edit {key}: the scale must be > 0")
-        part = replace(part, **{field: number})
+        transform_change: dict[str, Any] = {field: number}
+        part = replace(part, **transform_change)
     else:
         if part.kind != "procedural":
             raise PsdrRoomError(

@@ -224,17 +224,17 @@ def group_segments(
                 judged.add((a_id, b_id))
                 whole, points, index, why = found
                 keep, gone = sorted((a, b), key=lambda p: (p.category != whole, -int(p.mask.sum())))
-                boxes = [p.segment.box for p in (a, b)]
+                boxes = [p.segment.box for p in (a, b) if p.segment.box is not None]
                 box = (
-                    None
-                    if None in boxes
-                    else (
+                    (
                         min(x[0] for x in boxes),
-                        min(x[1] for x in boxes),  # type: ignore[index]
+                        min(x[1] for x in boxes),
                         max(x[2] for x in boxes),
                         max(x[3] for x in boxes),
                     )
-                )  # type: ignore[index]
+                    if len(boxes) == 2
+                    else None
+                )
                 segment = replace(keep.segment, score=max(a.segment.score or 0.0, b.segment.score or 0.0), box=box)
                 union = Part(segment, whole, a.mask | b.mask, points, index)
                 together, apart = judge(whole, union, (a, b))
@@ -255,19 +255,19 @@ def group_segments(
                 break
     if not merged_into:
         return panoptic, cloud, notes
-    root = {gone: _root(gone, merged_into) for gone in merged_into}
-    ids = panoptic.ids.copy()
+    root = {gone_id: _root(gone_id, merged_into) for gone_id in merged_into}
+    new_ids = panoptic.ids.copy()
     labels = cloud.segment.copy()
     points = cloud.points.copy()
-    for gone, keep in root.items():
-        ids[panoptic.ids == gone] = keep
-        labels[cloud.segment == gone] = keep
-    for keep in set(root.values()):  # a resting part's points where it was stood
-        part = parts[keep]
+    for gone_id, keep_id in root.items():
+        new_ids[panoptic.ids == gone_id] = keep_id
+        labels[cloud.segment == gone_id] = keep_id
+    for keep_id in set(root.values()):  # a resting part's points where it was stood
+        part = parts[keep_id]
         points[part.index] = ((part.points - to_world[:3, 3]) @ to_world[:3, :3]).astype(points.dtype)
     segments = [parts[s.id].segment if s.id in parts else s for s in panoptic.segments if s.id not in root]
     return (
-        Panoptic(ids=ids, segments=segments),
+        Panoptic(ids=new_ids, segments=segments),
         PointCloud(points=points, colors=cloud.colors, segment=labels, segments=segments),
         notes,
     )

@@ -29,7 +29,7 @@ import numpy as np
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.settings import setting
 
-from .artifacts import PartAppearance
+from .artifacts import PartAppearance, vec3
 
 LUMINANCE = (0.2126, 0.7152, 0.0722)
 """Rec. 709 / sRGB luminance weights of linear RGB: how LRV weighs a colour's reflectance."""
@@ -73,4 +73,4 @@ def within_paint(part: PartAppearance, prior: PaintPrior) -> PartAppearance:
     lum = float(colour @ LUMINANCE)
     low, high = prior.albedo
     scaled = colour * min(min(max(lum, low), high) / lum, high / colour.max())  # hue kept
-    return replace(part, base_color=tuple(float(c) for c in scaled), specular=specular)
+    return replace(part, base_color=vec3(scaled), specular=specular)

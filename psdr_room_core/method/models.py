@@ -424,6 +424,7 @@ def _fetch(
         f"download it on a connected machine ({entry.url}) and put it in {models_dir} as {entry.file}, "
         "then `psdr-room-models verify`"
     )
+    assert entry.url is not None  # download() refuses an entry without one
     request = urllib.request.Request(entry.url, headers={"User-Agent": "psdr-room-models"})
     digest = hashlib.sha256()
     size = 0

@@ -40,7 +40,7 @@ import numpy as np
 
 from psdr_room_core.engine.settings import setting
 
-from .artifacts import Camera, Placement, RoomBox, rotation_y
+from .artifacts import Camera, Placement, RoomBox, rotation_y, vec3
 from .labels import ANY, meaning
 from .silhouette import silhouette
 from .sizes import scale_range
@@ -111,7 +111,7 @@ def along_ray(p: Placement, scale: float, camera_origin: np.ndarray) -> Placemen
     moved = camera_origin + (position - camera_origin) * ratio
     if p.support in ("floor", "parent"):
         moved[1] = position[1]
-    return replace(p, scale=float(scale), position=tuple(float(v) for v in moved))
+    return replace(p, scale=float(scale), position=vec3(moved))
 
 
 def room_excess(p: Placement, room: RoomBox, tolerance: float = 1e-3) -> np.ndarray:
@@ -238,7 +238,7 @@ class _Scene:
     # -- moves
     def shifted(self, p: Placement, step: np.ndarray) -> Placement:
         """``p`` moved by ``step`` (on its parent's surface there, for a child)."""
-        moved = replace(p, position=tuple(float(v) for v in np.asarray(p.position) + step))
+        moved = replace(p, position=vec3(np.asarray(p.position) + step))
         if p.support == "parent" and p.anchor in self.objects:
             top = support_top(self.objects[p.anchor], np.asarray(moved.position)[[0, 2]])
             moved = replace(moved, position=(moved.position[0], top, moved.position[2]))

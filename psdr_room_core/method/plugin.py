@@ -125,7 +125,7 @@ def run_metrics(run: RunRecord) -> dict[str, Any]:
     """Key estimates for ``metrics.json``: the camera (and its error against a synthetic room's ground truth),
     every optimisation log's summary, the room box."""
     out: dict[str, Any] = {}
-    camera = run.artifacts.get("camera")
+    camera, room = _camera(run), _room(run, "room_box_fit", "room_box")
     if camera is not None:
         out["camera"] = {
             "vfov_deg": camera.vfov_deg,
@@ -135,8 +135,9 @@ def run_metrics(run: RunRecord) -> dict[str, Any]:
             "confidence": camera.confidence,
         }
         out["vfov_deg"] = camera.vfov_deg
-        if "camera_fit" in run.artifacts:
-            out["camera"]["vfov_fit_deg"] = run.artifacts["camera_fit"].vfov_deg
+        fitted = run.artifacts.get("camera_fit")
+        if isinstance(fitted, artifacts.Camera):
+            out["camera"]["vfov_fit_deg"] = fitted.vfov_deg
         truth = run.photo.parent / "ground_truth.json"
         if truth.is_file():
             intrinsics = json.loads(truth.read_text()).get("intrinsics", {})
@@ -145,9 +146,8 @@ def run_metrics(run: RunRecord) -> dict[str, Any]:
                 true_vfov = math.degrees(2 * math.atan(0.5 * camera.height / (float(intrinsics["fy"]) * scale)))
                 out["camera"]["vfov_error_deg"] = camera.vfov_deg - true_vfov
     for name, artifact in run.artifacts.items():
-        if artifact.kind == "optimization_log":
+        if isinstance(artifact, artifacts.OptimizationLog):
             out[name] = artifact.summary
-    room = run.artifacts.get("room_box_fit", run.artifacts.get("room_box"))
     if room is not None:
         out["room_box"] = {
             "size": [2 * float(h) for h in room.half_size],
@@ -155,15 +155,26 @@ def run_metrics(run: RunRecord) -> dict[str, Any]:
             "camera_height": room.extra.get("camera_height"),
             "ceiling_visible": room.ceiling_visible,
         }
-        held = run.artifacts.get("room_box_objects")
+        held = _room(run, "room_box_objects")
         if held is not None:  # grown where fit_objects' objects reach beyond it
             out["room_box"]["size_holding_objects"] = [2 * float(h) for h in held.half_size]
-    out["guessed"] = guesses(run.artifacts.get("camera"), run.artifacts.get("room_box"))
+    out["guessed"] = guesses(camera, _room(run, "room_box"))
     return out
+
+
+def _camera(run: RunRecord) -> artifacts.Camera | None:
+    camera = run.artifacts.get("camera")
+    return camera if isinstance(camera, artifacts.Camera) else None
+
+
+def _room(run: RunRecord, *names: str) -> artifacts.RoomBox | None:
+    """The first of the artifacts ``names`` the run has, as a room box."""
+    room = next((run.artifacts[n] for n in names if n in run.artifacts), None)
+    return room if isinstance(room, artifacts.RoomBox) else None
 
 
 @hookimpl
 def after_run(run: RunRecord, run_dir: Path) -> None:
     """Say, one line each, what the run guessed because the photo did not show it (:mod:`.guesses`)."""
-    for guess in guesses(run.artifacts.get("camera"), run.artifacts.get("room_box")):
+    for guess in guesses(_camera(run), _room(run, "room_box")):
         log.warning("guessed: %s", guess)

@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 import torch
 
-from .artifacts import Camera, Light, MaterialAssignment, PartAppearance, Placement, Placements, RoomBox
+from .artifacts import Camera, Light, MaterialAssignment, PartAppearance, Placement, Placements, RoomBox, vec3
 from .geometry import TriangleMesh, quad_mesh, weld
 from .shading import Surface, linear_to_srgb, planar_uv, srgb_to_linear, texture_transform
 
@@ -99,7 +99,7 @@ def initial_parts(materials: MaterialAssignment, library: Any) -> list[PartAppea
     procedural ones at their graph's own parameter values with the searched transform."""
     parts = []
     for m in materials.parts:
-        base = tuple(float(v) for v in srgb_to_linear(np.asarray(m.albedo)))
+        base = vec3(srgb_to_linear(np.asarray(m.albedo)))
         if m.kind == "procedural" and m.material:
             values = {k: v.value.tolist() for k, v in library.material(m.material).bounds.items()}
             parts.append(
@@ -174,11 +174,11 @@ def build_scene(
             )
         else:
             scene.meshes[name] = mesh
-            scene.surfaces[name] = Surface(tuple(part.base_color), part.roughness, part.specular)
+            scene.surfaces[name] = Surface(part.base_color, part.roughness, part.specular)
     for name, mesh in fixtures.items():
         scene.meshes[name], scene.surfaces[name] = mesh, Surface(FIXTURE_COLOUR, 0.6, 0.5)
     for light in lights:
-        scene.emitters[light.name] = (light.mesh, tuple(float(v) for v in light.radiance))
+        scene.emitters[light.name] = (light.mesh, vec3(light.radiance))
     return scene
 
 

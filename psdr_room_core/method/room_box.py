@@ -215,7 +215,8 @@ def floor_without_floor_points(
 def _wall_normals(points: np.ndarray, threshold: float, params: RoomInitParams) -> list[np.ndarray]:
     """Normals of the planes found one after another in the wall points (at most ``max_walls``)."""
     rng = np.random.default_rng((params.seed, 2))
-    remaining, normals = points, []
+    remaining = points
+    normals: list[np.ndarray] = []
     while len(remaining) >= _MIN_FLOOR_POINTS and len(normals) < params.max_walls:
         plane, inliers = _ransac_plane(remaining, threshold, params.ransac_iterations, rng)
         if inliers.sum() < max(params.min_wall_inliers * len(points), _MIN_PLANE_POINTS):
@@ -372,8 +373,8 @@ def _wall_yaw(normals: list[np.ndarray], weights: list[int]) -> float:
     if not normals:
         return 0.0
     angles = 4 * np.array([np.arctan2(normal[0], normal[2]) for normal in normals])
-    weights = np.asarray(weights, dtype=np.float64)
-    return float(np.arctan2(weights @ np.sin(angles), weights @ np.cos(angles)) / 4)
+    w = np.asarray(weights, dtype=np.float64)
+    return float(np.arctan2(w @ np.sin(angles), w @ np.cos(angles)) / 4)
 
 
 def _horizontal_extents(
@@ -398,7 +399,7 @@ def _horizontal_extents(
     lower = np.percentile(local[:, [0, 2]], 100 - params.extent_percentile, axis=0)
     upper = np.percentile(local[:, [0, 2]], params.extent_percentile, axis=0)
     lower, upper = np.minimum(lower, -clearance), np.maximum(upper, clearance)
-    support = {}
+    support: dict[tuple[int, bool], int] = {}
     min_alignment = np.cos(np.radians(_WALL_AXIS_TOLERANCE_DEG))
     for normal, inliers in zip(wall_normals, wall_inliers):
         horizontal = (rotation.T @ normal)[[0, 2]]

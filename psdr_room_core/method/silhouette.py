@@ -56,8 +56,8 @@ class MeshCaster:
         self._o3d = o3d
         self._scene = o3d.t.geometry.RaycastingScene()
         self._scene.add_triangles(
-            o3d.core.Tensor(np.ascontiguousarray(vertices, np.float32)),
-            o3d.core.Tensor(np.ascontiguousarray(faces, np.uint32)),
+            o3d.core.Tensor(np.ascontiguousarray(vertices, np.float32)),  # type: ignore[call-overload]  # open3d's stub lacks Tensor(ndarray)
+            o3d.core.Tensor(np.ascontiguousarray(faces, np.uint32)),  # type: ignore[call-overload]  # open3d's stub lacks Tensor(ndarray)
         )
 
     def rays(self, camera: Camera, window: Window) -> np.ndarray:
@@ -95,7 +95,7 @@ class MeshCaster:
             inverse = linear.T / float(linear[:, 0] @ linear[:, 0])  # A = s R: A^-1 = A^T / s^2
             rays[k * n : (k + 1) * n, :3] = inverse @ (camera_to_world[:3, 3] - to_world[:3, 3])
             rays[k * n : (k + 1) * n, 3:] = directions @ inverse.T
-        hit = self._scene.cast_rays(self._o3d.core.Tensor(rays))["t_hit"].numpy()
+        hit = self._scene.cast_rays(self._o3d.core.Tensor(rays))["t_hit"].numpy()  # type: ignore[call-overload]  # open3d's stub lacks Tensor(ndarray)
         return np.where(np.isfinite(hit), hit, 0.0).astype(np.float32).reshape(len(poses), y1 - y0, x1 - x0)
 
 

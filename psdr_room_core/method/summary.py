@@ -149,10 +149,10 @@ def _plain(value: Any) -> str:
 def _thumbnail(run: Path) -> str:
     """photo | render (the render when the run got that far) as a PNG data URI; empty when there is no photo."""
     files = [run / "artifacts" / name for name in ("image/image.png", "appearance/render.png")]
-    images = [cv2.imread(str(f)) for f in files if f.is_file()]
+    read = [cv2.imread(str(f)) for f in files if f.is_file()]
     images = [
         cv2.resize(i, (round(i.shape[1] * THUMB_HEIGHT / i.shape[0]), THUMB_HEIGHT), interpolation=cv2.INTER_AREA)
-        for i in images
+        for i in read
         if i is not None
     ]
     if not images:

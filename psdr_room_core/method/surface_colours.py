@@ -90,8 +90,7 @@ def edge_outliers(rgb8: np.ndarray, labels: np.ndarray, ratio: float, floor: flo
     something in front of a plain wall stands out, the grain of a textured floor, present everywhere on it,
     does not."""
     lightness = cv2.cvtColor(np.ascontiguousarray(rgb8), cv2.COLOR_RGB2LAB)[..., 0].astype(np.float32)
-    lightness = cv2.GaussianBlur(lightness, (0, 0), 1.0)
-    gy, gx = np.gradient(lightness)
+    gy, gx = np.gradient(cv2.GaussianBlur(lightness, (0, 0), 1.0))
     energy = cv2.blur(np.hypot(gx, gy), (window, window))
     out = np.zeros(labels.shape, bool)
     for surface in np.unique(labels[labels >= 0]):
@@ -121,9 +120,9 @@ def texture_energy(rgb: np.ndarray, side: int = 64, sigma: float = 4.0) -> float
     deviation of its luma minus a Gaussian blur of it (``sigma`` pixels: shading gradients go, grain stays),
     over the mean luma (+0.05, so dark crops do not blow up). Plain paint measures under ~0.05, wood, tiles,
     fabric and stone well above (calibration: ``benchmarks/materials.py``)."""
-    luma = np.asarray(rgb, np.float32) @ np.array([0.2126, 0.7152, 0.0722], np.float32)
-    scale = side / min(luma.shape)
-    size = (max(8, round(luma.shape[1] * scale)), max(8, round(luma.shape[0] * scale)))
-    luma = cv2.resize(luma, size, interpolation=cv2.INTER_AREA if scale < 1 else cv2.INTER_LINEAR)
+    full = np.asarray(rgb, np.float32) @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+    scale = side / min(full.shape)
+    size = (max(8, round(full.shape[1] * scale)), max(8, round(full.shape[0] * scale)))
+    luma = cv2.resize(full, size, interpolation=cv2.INTER_AREA if scale < 1 else cv2.INTER_LINEAR)
     residual = luma - cv2.GaussianBlur(luma, (0, 0), sigma)
     return float(residual.std() / (luma.mean() + 0.05))

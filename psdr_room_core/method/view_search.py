@@ -287,7 +287,9 @@ class _Scorer:
     def score_many(self, poses: list[np.ndarray]) -> list[tuple[float, float]]:
         """:meth:`score` of each pose, rendered in one cast."""
         terms, iou = self.terms_many(poses)
-        error = sum(terms.values())  # in the order the terms were added (as before they were named)
+        error = sum(
+            terms.values(), np.zeros(len(poses))
+        )  # in the order the terms were added (as before they were named)
         return [(float(e), float(i)) for e, i in zip(error, iou)]
 
     def terms_many(self, poses: list[np.ndarray]) -> tuple[dict[str, np.ndarray], np.ndarray]:
@@ -334,6 +336,7 @@ class _Scorer:
             return 0.0
         x0, y0 = window[0] + cols[0], window[1] + rows[0]
         x1, y1 = window[0] + cols[-1] + 1, window[1] + rows[-1] + 1
+        assert self.target.box is not None  # only targets with a prompt box are scored by it
         bx0, by0, bx1, by1 = self.target.box
         inter = max(0, min(x1, bx1) - max(x0, bx0)) * max(0, min(y1, by1) - max(y0, by0))
         return inter / max((x1 - x0) * (y1 - y0) + (bx1 - bx0) * (by1 - by0) - inter, 1)

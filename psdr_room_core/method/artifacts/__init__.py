@@ -42,6 +42,7 @@ from .geometry import (
     PointCloud,
     RoomBox,
     rotation_y,
+    vec3,
 )
 from .image import Camera, Image
 from .io import write_png
@@ -107,6 +108,7 @@ __all__ = [
     "appearance_fields",
     "panoptic_ids",
     "rotation_y",
+    "vec3",
     "write_coco_panoptic",
     "write_png",
 ]

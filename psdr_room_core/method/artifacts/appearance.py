@@ -11,6 +11,7 @@ import numpy as np
 from psdr_room_core.engine.errors import PsdrRoomError
 
 from ..geometry import TriangleMesh
+from .geometry import vec3
 from .io import load_meshes, read_json, read_npy, read_png, save_meshes, write_json, write_png
 
 Rect = tuple[int, int, int, int]
@@ -154,7 +155,7 @@ class Lights:
                     str(l["name"]),
                     str(l["kind"]),
                     meshes[l["name"]],
-                    tuple(float(v) for v in l["radiance"]),
+                    vec3(l["radiance"]),
                     l.get("part"),
                 )
                 for l in data["lights"]

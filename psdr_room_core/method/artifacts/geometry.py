@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
@@ -42,6 +43,12 @@ class PointCloud:
         points = np.stack([data["x"], data["y"], data["z"]], axis=1).astype(np.float32)
         colors = np.stack([data["red"], data["green"], data["blue"]], axis=1)
         return cls(points=points, colors=colors, segment=data["segment"].astype(np.int32), segments=segments)
+
+
+def vec3(values: Iterable[Any]) -> tuple[float, float, float]:
+    """Three numbers (a position, an RGB colour) as a typed tuple of floats."""
+    x, y, z = (float(v) for v in values)
+    return x, y, z
 
 
 def rotation_y(angle: float) -> np.ndarray:
@@ -263,7 +270,7 @@ class ObjectMesh:
                 if head == "newmtl":
                     name = rest.strip()
                 elif head == "Kd" and name in colors:
-                    colors[name] = tuple(float(v) for v in rest.split()[:3])
+                    colors[name] = vec3(rest.split()[:3])
         except FileNotFoundError:
             raise PsdrRoomError(f"{obj}: missing; the artifact directory is incomplete") from None
         except ValueError as exc:
@@ -359,7 +366,7 @@ class Placements:
                     label=str(o["label"]),
                     model_id=str(o["model_id"]),
                     mesh=ObjectMesh.read_obj(directory / o["mesh"]),
-                    position=tuple(float(v) for v in o["position"]),
+                    position=vec3(o["position"]),
                     yaw=float(o["yaw"]),
                     scale=float(o["scale"]),
                     support=str(o["support"]),

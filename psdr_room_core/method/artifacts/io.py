@@ -95,7 +95,7 @@ def save_meshes(path: Path, meshes: dict[str, TriangleMesh]) -> None:
     arrays = {}
     for k, (_name, mesh) in enumerate(meshes.items()):
         arrays[f"v{k}"], arrays[f"f{k}"] = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
-    np.savez(path, **arrays)
+    np.savez(path, **arrays)  # type: ignore[arg-type]  # numpy's stub lets ** fill allow_pickle
 
 
 def load_meshes(path: Path, names: list[str]) -> dict[str, TriangleMesh]:

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -44,6 +45,12 @@ class DepthMap:
         depth = read_npy(directory / "depth.npy").astype(np.float32)
         valid = read_png(directory / "valid.png") > 0
         return cls(depth=depth, valid=valid & np.isfinite(depth) & (depth > 0), **meta)
+
+
+def box4(values: Iterable[Any]) -> tuple[float, float, float, float]:
+    """``(x0, y0, x1, y1)`` as a typed tuple of floats."""
+    x0, y0, x1, y1 = (float(v) for v in values)
+    return x0, y0, x1, y1
 
 
 @dataclass(frozen=True)
@@ -102,7 +109,7 @@ class Detections:
                 Detection(
                     label=str(d["label"]),
                     category=str(d["category"]),
-                    box=tuple(map(float, d["box"])),
+                    box=box4(d["box"]),
                     score=float(d["score"]),
                 )
                 for d in data["items"]

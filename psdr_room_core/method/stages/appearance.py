@@ -23,6 +23,7 @@ from ..artifacts import (
     Placements,
     RoomBox,
     SceneAppearance,
+    vec3,
 )
 from ..capabilities import Denoiser, MaterialGraph, Optimizer, Renderer, TextureDescriptor
 from ..convergence import untimed
@@ -192,7 +193,7 @@ class AppearanceModel:
                     continue
                 base = values["base_color"][p.part]
                 mean_base = tuple(float(v) for v in base.reshape(-1, 3).mean(0))
-                common = dict(
+                common: dict[str, Any] = dict(
                     base_color=mean_base,
                     roughness=float(values["roughness"][p.part].mean()),
                     specular=float(values["specular"][p.part]),
@@ -204,7 +205,7 @@ class AppearanceModel:
                     constrained = self.library.material(p.material).values(self._graph(p.part))
                     common["params"] = {k: v.tolist() for k, v in constrained.items()}
                 parts.append(replace(p, **common))
-            radiance = {name: tuple(float(x) for x in v) for name, v in values["radiance"].items()}
+            radiance = {name: vec3(v) for name, v in values["radiance"].items()}
         return parts, radiance
 
 
@@ -382,7 +383,7 @@ def fit_appearance(
         metrics["denoiser"],
     )
     as8 = lambda x: (np.clip(x, 0, 1) * 255 + 0.5).astype(np.uint8)  # noqa: E731
-    curves = {
+    curves: dict[str, list[float]] = {
         k: [h[k] for h in history]
         for k in ("loss", "image", "colour", "texture", "paint")
         if history and k in history[0]

@@ -13,7 +13,7 @@ import torch
 from psdr_room_core.engine.dag import StageContext
 from psdr_room_core.engine.errors import PsdrRoomError
 
-from ..artifacts import Camera, Image, MaterialAssignment, Panoptic, PartMaterial, Placements, Rect, RoomBox
+from ..artifacts import Camera, Image, MaterialAssignment, Panoptic, PartMaterial, Placements, Rect, RoomBox, vec3
 from ..capabilities import MaterialGraph, Renderer, TextureDescriptor
 from ..crops import crop_windows, crops_file, read_crops
 from ..geometry import TriangleMesh
@@ -52,13 +52,13 @@ def scene_parts(
                 name,
                 TriangleMesh(quad, np.array([[0, 1, 2], [0, 2, 3]])),
                 panoptic.mask(category),
-                tuple(float(c) for c in room_colours[category]),
+                vec3(room_colours[category]),
             )
         )
     for p in placements.objects:
         target = panoptic.ids == p.segment_id
         for name, (mesh, colour) in object_parts(p).items():
-            parts.append(ScenePart(name, mesh, target, tuple(float(c) for c in colour)))
+            parts.append(ScenePart(name, mesh, target, vec3(colour)))
     return parts
 
 
@@ -109,7 +109,7 @@ def assign_materials(
     kernel = np.ones((2 * settings.erode_px + 1,) * 2, np.uint8)
     side = settings.min_crop_px
     for part in parts:
-        part.clean = part.region & clean  # type: ignore[operator]
+        part.clean = part.region & clean
         eroded = cv2.erode(part.clean.astype(np.uint8), kernel) > 0
         part.crops = tuple(crop_windows(eroded, settings.max_crops, side, side * side))
     _apply_user_crops(ctx, image, parts, ids)
@@ -132,7 +132,7 @@ def assign_materials(
     assigned, sheet_rows = [], []
     samples = np.full(labels.shape, -1, np.int16)
     for k, part in enumerate(ctx.progress(parts, total=len(parts))):
-        unseen_side = part.name.startswith(("wall", "ceiling")) and not part.region.any()  # type: ignore[union-attr]
+        unseen_side = part.name.startswith(("wall", "ceiling")) and not part.region.any()
         source = next((m for m in (part.clean, part.region) if m is not None and m.any()), None)
         if source is not None:
             samples[source] = k  # regions are disjoint
@@ -184,7 +184,7 @@ def assign_materials(
         with torch.no_grad():
             described = [(crop, descriptor.describe(crop), coords) for crop, _, coords in crops]
             flats = [
-                float(descriptor.distance(descriptor.describe(flat_image(albedo, c.shape[1:])), d))
+                float(descriptor.distance(descriptor.describe(flat_image(albedo, (c.shape[1], c.shape[2]))), d))
                 for c, d, _ in described
             ]
             per_crop = []
@@ -297,7 +297,9 @@ def crop_overlay(rgb8: np.ndarray, parts: list[ScenePart]) -> np.ndarray:
             dirty = part.region & ~part.clean
             out[dirty] = (0.5 * out[dirty] + [127, 0, 0]).astype(np.uint8)
     for k, part in enumerate(p for p in parts if p.crops):
-        colour = tuple(int(c) for c in cv2.applyColorMap(np.uint8([[53 * k % 255]]), cv2.COLORMAP_HSV)[0, 0][::-1])
+        colour = tuple(
+            int(c) for c in cv2.applyColorMap(np.array([[53 * k % 255]], np.uint8), cv2.COLORMAP_HSV)[0, 0][::-1]
+        )
         for x0, y0, x1, y1 in part.crops:
             cv2.rectangle(out, (x0, y0), (x1 - 1, y1 - 1), colour, 2)
             cv2.putText(out, part.name, (x0 + 3, y0 + 12), cv2.FONT_HERSHEY_SIMPLEX, 0.38, colour, 1, cv2.LINE_AA)

@@ -29,6 +29,7 @@ from ..artifacts import (
     PointCloud,
     RoomBox,
     rotation_y,
+    vec3,
 )
 from ..backs import BACKED, back_shown
 from ..capabilities import ObjectRetriever, Optimizer, Renderer
@@ -309,13 +310,14 @@ def place_objects(
                 continue
         else:
             kind, anchor = supports[0]
-            target = cv2.resize(q.mask.astype(np.uint8), (cam.width, cam.height), interpolation=cv2.INTER_AREA) > 0
+            silhouette = cv2.resize(q.mask.astype(np.uint8), (cam.width, cam.height), interpolation=cv2.INTER_AREA) > 0
             position, scale = initial_pose(q.points, mesh.vertices, settings.radius_factor)
-            yaw, _ = best_yaw(cam, c2w, mesh.vertices, mesh.faces, position, scale, target, search.n_yaw)
+            yaw, _ = best_yaw(cam, c2w, mesh.vertices, mesh.faces, position, scale, silhouette, search.n_yaw)
             height = _support_height(kind, anchor, placed, q, room)
             if height is not None:
                 position[1] = height
         if kind == "wall":
+            assert anchor is not None  # a wall support names its side of the box
             inward, _, offset = wall_frame(room, anchor)
             yaw = math.atan2(inward[0], inward[2])  # the model's front (+Z) faces into the room
             depth = float(np.ptp(mesh.vertices[:, 2]))
@@ -325,7 +327,7 @@ def place_objects(
             label=q.label,
             model_id=model_id,
             mesh=mesh,
-            position=tuple(map(float, position)),
+            position=vec3(position),
             yaw=float(yaw),
             scale=float(scale),
             support=kind,
@@ -404,8 +406,9 @@ def object_targets(placements: Placements, panoptic: Panoptic, depth: DepthMap, 
         masks.append(coverage)
         masked.append(coverage * mean_depth)
         free = np.zeros(mask.shape, bool)
-        if boxes.get(p.segment_id) is not None:
-            x0, y0, x1, y1 = (max(0, int(round(v))) for v in boxes[p.segment_id])
+        box = boxes.get(p.segment_id)
+        if box is not None:
+            x0, y0, x1, y1 = (max(0, int(round(v))) for v in box)
             free[y0:y1, x0:x1] = True
         weights.append(1.0 - area(free & ~mask))
     return ObjectTargets(
@@ -447,8 +450,7 @@ class PoseModel:
         self.unit = unit
         self.index = {p.segment_id: i for i, p in enumerate(self.placements)}
         self.rest = {
-            i: (p.position[1] - self.placements[self.index[p.anchor]].position[1])
-            / self.placements[self.index[p.anchor]].scale
+            i: (p.position[1] - self.placements[self.parent(p)].position[1]) / self.placements[self.parent(p)].scale
             for i, p in enumerate(self.placements)
             if p.support == "parent"
         }
@@ -476,6 +478,11 @@ class PoseModel:
         self.backed = [p.category in BACKED and p.support != "wall" for p in self.placements]
         """Per object: it stands with its back to a wall and may turn (wall objects face into the room)."""
 
+    def parent(self, placement: Placement) -> int:
+        """The index of the object ``placement`` rests on (its support is ``parent``)."""
+        assert placement.anchor is not None
+        return self.index[placement.anchor]
+
     def poses(self) -> list[tuple[torch.Tensor, torch.Tensor, torch.Tensor]]:
         """(position [3], yaw (radians), scale) per object, constraints applied."""
         t, log_s, yaw_deg = self.theta["translation"], self.theta["log_scale"], self.theta["yaw"]
@@ -487,10 +494,10 @@ class PoseModel:
             position = torch.tensor(p.position, dtype=torch.float32)
             yaw = p.yaw + torch.deg2rad(yaw_deg[i])
             if p.support == "wall":
-                inward, tangent, offset = (
-                    torch.as_tensor(v, dtype=torch.float32) if isinstance(v, np.ndarray) else v
-                    for v in wall_frame(self.room, p.anchor)
-                )
+                assert p.anchor is not None  # a wall support names its side of the box
+                frame = wall_frame(self.room, p.anchor)
+                inward, tangent = (torch.as_tensor(v, dtype=torch.float32) for v in frame[:2])
+                offset = frame[2]
                 depth = float(np.ptp(p.mesh.vertices[:, 2]))
                 moved = position + self.unit * (t[i, 0] * tangent + t[i, 1] * torch.tensor([0.0, 1.0, 0.0]))
                 position = moved + (offset + 0.5 * scale * depth - inward @ moved) * inward
@@ -499,7 +506,7 @@ class PoseModel:
                 horizontal = self.unit * torch.stack([t[i, 0], torch.zeros(()), t[i, 2]])
                 position = position + horizontal
                 if p.support == "parent":
-                    parent_position, _, parent_scale = poses[self.index[p.anchor]]
+                    parent_position, _, parent_scale = poses[self.parent(p)]
                     top = parent_position[1] + parent_scale * self.rest[i]
                     position = torch.stack([position[0], top, position[2]])
             poses[i] = (position, yaw, scale)
@@ -568,7 +575,7 @@ class PoseModel:
 
     def placements_now(self) -> list[Placement]:
         return [
-            replace(p, position=tuple(float(v) for v in position.detach()), yaw=float(yaw), scale=float(scale))
+            replace(p, position=vec3(position.detach()), yaw=float(yaw), scale=float(scale))
             for p, (position, yaw, scale) in zip(self.placements, self.poses())
         ]
 
@@ -797,7 +804,9 @@ def _outlines(rgb8: np.ndarray, camera: Camera, room: RoomBox, placements: Place
     for k, p in enumerate(placements.objects):
         mask = silhouette(camera, c2w, p.world_vertices(), p.mesh.faces).astype(np.uint8)
         contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
-        colour = tuple(int(c) for c in cv2.applyColorMap(np.uint8([[37 * k % 255]]), cv2.COLORMAP_HSV)[0, 0][::-1])
+        colour = tuple(
+            int(c) for c in cv2.applyColorMap(np.array([[37 * k % 255]], np.uint8), cv2.COLORMAP_HSV)[0, 0][::-1]
+        )
         cv2.drawContours(out, contours, -1, colour, 2)
         if contours:
             x, y = contours[0][0][0]
