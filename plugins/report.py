@@ -19,12 +19,23 @@ from psdr_room_core.engine.files import write_whole
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Registry
 from psdr_room_core.engine.settings import setting
-from psdr_room_core.method.artifacts import OptimizationLog
+from psdr_room_core.method.artifacts import (
+    Camera,
+    DepthMap,
+    Image,
+    Lights,
+    MaterialAssignment,
+    ObjectCandidates,
+    OptimizationLog,
+    Panoptic,
+    RoomBox,
+    SceneAppearance,
+)
 from psdr_room_core.method.guesses import guesses
 from psdr_room_core.method.visualize import depth_colormap, legend, room_edges_overlay, segment_overlay
 
-PICTURE_KINDS = ("optimization_log", "materials", "lights")
-"""Artifact kinds whose ``images`` the report shows."""
+PICTURE_TYPES = (OptimizationLog, MaterialAssignment, Lights)
+"""Artifact types whose ``images`` the report shows."""
 
 STYLE = """
 body { font-family: system-ui, sans-serif; margin: 2em; color: #222; max-width: 1400px; }
@@ -60,33 +71,35 @@ def _png(rgb8: np.ndarray) -> str:
 
 def _figures(run: RunRecord, alpha: float) -> list[tuple[str, np.ndarray]]:
     """(title, picture) of every stage, in pipeline order."""
-    art = run.artifacts
-    image = art.get("image")
+    image = run.artifact("image", Image)
     if image is None:
         return []
     rgb8 = image.to_uint8()
     figures = [("input (working resolution)", rgb8)]
-    if "panoptic" in art:
-        overlay = segment_overlay(rgb8, art["panoptic"], alpha)
+    panoptic, depth = run.artifact("panoptic", Panoptic), run.artifact("depth", DepthMap)
+    camera, room = run.artifact("camera", Camera), run.artifact("room_box", RoomBox)
+    candidates = run.artifact("object_candidates", ObjectCandidates)
+    if panoptic is not None:
+        overlay = segment_overlay(rgb8, panoptic, alpha)
         pad = np.full((legend().shape[0], overlay.shape[1], 3), 255, np.uint8)
         strip = legend()[:, : overlay.shape[1]]
         pad[:, : strip.shape[1]] = strip
         figures.append(("segmentation", np.vstack([overlay, pad])))
-    if "depth" in art:
-        figures.append(("depth", depth_colormap(art["depth"].depth, art["depth"].valid)))
-    if "camera" in art and "room_box" in art:
-        figures.append(("room box (room_init)", room_edges_overlay(rgb8, art["camera"], art["room_box"])))
-    if getattr(art.get("object_candidates"), "sheet", None) is not None:
-        figures.append(("retrieval: object crop, then the top-k models (score)", art["object_candidates"].sheet))
-    for name, artifact in art.items():
-        if artifact.kind in PICTURE_KINDS:
+    if depth is not None:
+        figures.append(("depth", depth_colormap(depth.depth, depth.valid)))
+    if camera is not None and room is not None:
+        figures.append(("room box (room_init)", room_edges_overlay(rgb8, camera, room)))
+    if candidates is not None and candidates.sheet is not None:
+        figures.append(("retrieval: object crop, then the top-k models (score)", candidates.sheet))
+    for name, artifact in run.artifacts.items():
+        if isinstance(artifact, PICTURE_TYPES):
             figures += [(f"{name}: {title}", picture) for title, picture in artifact.images.items()]
     return figures
 
 
 def _comparison(run: RunRecord) -> str:
     """The photo and the final render, one over the other, with a slider between them."""
-    image, appearance = run.artifacts.get("image"), run.artifacts.get("appearance")
+    image, appearance = run.artifact("image", Image), run.artifact("appearance", SceneAppearance)
     if image is None or appearance is None or "render" not in appearance.images:
         return ""
     render = appearance.images["render"]
@@ -123,21 +136,20 @@ def render_report(run: RunRecord, alpha: float) -> str:
         for r in run.stages
     )
     facts = []
-    camera = run.artifacts.get("camera")
+    camera = run.artifact("camera", Camera)
     if camera is not None:
         facts.append(
             f"vertical FoV {camera.vfov_deg:.2f}° ({html.escape(camera.method)}, confidence {camera.confidence:.2f})"
         )
-        if "camera_fit" in run.artifacts:
-            facts.append(f"vertical FoV after room_fit {run.artifacts['camera_fit'].vfov_deg:.2f}°")
-    room = next(
-        (run.artifacts[n] for n in ("room_box_objects", "room_box_fit", "room_box") if n in run.artifacts), None
-    )
+        fitted = run.artifact("camera_fit", Camera)
+        if fitted is not None:
+            facts.append(f"vertical FoV after room_fit {fitted.vfov_deg:.2f}°")
+    room = run.artifact(("room_box_objects", "room_box_fit", "room_box"), RoomBox)
     if room is not None:
         size = " × ".join(f"{2 * h:.2f}" for h in room.half_size)
         facts.append(f"room box {size} (x × y × z), camera height {room.extra.get('camera_height', float('nan')):.2f}")
-        facts.extend(f"guessed: {html.escape(guess)}" for guess in guesses(camera, run.artifacts.get("room_box")))
-    fit = run.artifacts.get("fit_appearance_log")
+        facts.extend(f"guessed: {html.escape(guess)}" for guess in guesses(camera, run.artifact("room_box", RoomBox)))
+    fit = run.artifact("fit_appearance_log", OptimizationLog)
     if fit is not None and "rmse" in fit.summary:
         s = fit.summary
         perceptual = (

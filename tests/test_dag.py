@@ -447,3 +447,11 @@ def test_references_load_only_when_a_stage_computes(tmp_path: Path, photo: Path,
     cfg["scaler"]["impl"] = "liar"
     with pytest.raises(PsdrRoomError, match=r"scaler.liar .* has external_files but was registered with reads_files"):
         run_lazy(cfg)
+
+
+def test_a_run_hands_its_artifacts_to_hooks_by_type(tmp_path: Path, photo: Path) -> None:
+    """``RunRecord.artifact(names, kind)``: the first of the names the run has, if it is a ``kind``."""
+    record = run(BASE, photo, Store(tmp_path / "cache"), tmp_path)
+    assert record.artifact("c", toy_plugin.Number) is record.artifacts["c"]
+    assert record.artifact(("missing", "b", "c"), toy_plugin.Number) is record.artifacts["b"]
+    assert record.artifact("missing", toy_plugin.Number) is None and record.artifact("c", Events) is None

@@ -211,6 +211,7 @@ class Pipeline:
 
 SettingsT = TypeVar("SettingsT")
 ImplT = TypeVar("ImplT")
+ArtifactT = TypeVar("ArtifactT")
 
 
 class Deferred:
@@ -305,6 +306,15 @@ class RunRecord:
     digests: dict[str, str] = field(default_factory=dict)
     implementations: dict[str, dict[str, str]] = field(default_factory=dict)
     """Capability → {name, version, origin} for every capability a stage of this run used."""
+
+    def artifact(self, names: str | Iterable[str], kind: type[ArtifactT]) -> ArtifactT | None:
+        """The first of the artifacts ``names`` the run has, when it is a ``kind`` (None otherwise): what a
+        run-event hook reads, typed (``run.artifact(("room_box_fit", "room_box"), RoomBox)``)."""
+        for name in [names] if isinstance(names, str) else names:
+            if name in self.artifacts:
+                found = self.artifacts[name]
+                return found if isinstance(found, kind) else None
+        return None
 
 
 class Runner:

@@ -125,7 +125,10 @@ def run_metrics(run: RunRecord) -> dict[str, Any]:
     """Key estimates for ``metrics.json``: the camera (and its error against a synthetic room's ground truth),
     every optimisation log's summary, the room box."""
     out: dict[str, Any] = {}
-    camera, room = _camera(run), _room(run, "room_box_fit", "room_box")
+    camera, room = (
+        run.artifact("camera", artifacts.Camera),
+        run.artifact(("room_box_fit", "room_box"), artifacts.RoomBox),
+    )
     if camera is not None:
         out["camera"] = {
             "vfov_deg": camera.vfov_deg,
@@ -135,8 +138,8 @@ def run_metrics(run: RunRecord) -> dict[str, Any]:
             "confidence": camera.confidence,
         }
         out["vfov_deg"] = camera.vfov_deg
-        fitted = run.artifacts.get("camera_fit")
-        if isinstance(fitted, artifacts.Camera):
+        fitted = run.artifact("camera_fit", artifacts.Camera)
+        if fitted is not None:
             out["camera"]["vfov_fit_deg"] = fitted.vfov_deg
         truth = run.photo.parent / "ground_truth.json"
         if truth.is_file():
@@ -155,26 +158,15 @@ def run_metrics(run: RunRecord) -> dict[str, Any]:
             "camera_height": room.extra.get("camera_height"),
             "ceiling_visible": room.ceiling_visible,
         }
-        held = _room(run, "room_box_objects")
+        held = run.artifact("room_box_objects", artifacts.RoomBox)
         if held is not None:  # grown where fit_objects' objects reach beyond it
             out["room_box"]["size_holding_objects"] = [2 * float(h) for h in held.half_size]
-    out["guessed"] = guesses(camera, _room(run, "room_box"))
+    out["guessed"] = guesses(camera, run.artifact("room_box", artifacts.RoomBox))
     return out
-
-
-def _camera(run: RunRecord) -> artifacts.Camera | None:
-    camera = run.artifacts.get("camera")
-    return camera if isinstance(camera, artifacts.Camera) else None
-
-
-def _room(run: RunRecord, *names: str) -> artifacts.RoomBox | None:
-    """The first of the artifacts ``names`` the run has, as a room box."""
-    room = next((run.artifacts[n] for n in names if n in run.artifacts), None)
-    return room if isinstance(room, artifacts.RoomBox) else None
 
 
 @hookimpl
 def after_run(run: RunRecord, run_dir: Path) -> None:
     """Say, one line each, what the run guessed because the photo did not show it (:mod:`.guesses`)."""
-    for guess in guesses(_camera(run), _room(run, "room_box")):
+    for guess in guesses(run.artifact("camera", artifacts.Camera), run.artifact("room_box", artifacts.RoomBox)):
         log.warning("guessed: %s", guess)
