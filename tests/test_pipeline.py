@@ -17,6 +17,7 @@ import pytest
 
 from browser import chromium
 from conftest import EXAMPLE
+from psdr_room_core.engine.cache import digest_dir
 
 STAGES = [
     "load_image",
@@ -198,6 +199,8 @@ def test_rerun_is_cached_and_identical(first_run: tuple[Path, dict[str, str]]) -
     )
     assert computed(root / "run2") == set()
     assert metrics(root / "run2")["digests"] == metrics(root / "run1")["digests"]
+    for name, digest in metrics(root / "run2")["digests"].items():  # published as copies of the cache entries
+        assert digest_dir(root / "run2" / "artifacts" / name) == digest, name
     assert "numpy" in imported(result.stderr) and not HEAVY & imported(result.stderr)
 
 

@@ -18,7 +18,7 @@ from conftest import EXAMPLE
 from psdr_room_core.engine.cache import Store
 from psdr_room_core.engine.cli import compose_config, preflight
 from psdr_room_core.engine.errors import PsdrRoomError
-from psdr_room_core.engine.fingerprint import code_fingerprint, code_modules
+from psdr_room_core.engine.fingerprint import _imports, code_fingerprint, code_modules
 from psdr_room_core.engine.plugins import plugin_system
 from psdr_room_core.engine.run import execute
 
@@ -149,3 +149,15 @@ def test_fingerprint_changes_with_an_imported_module(tmp_path: Path, monkeypatch
         assert (code_fingerprint(stage.run) != before) == differs, change
     for name in ("fp_toy.stage", "fp_toy.helper", "fp_toy"):
         sys.modules.pop(name, None)
+
+
+def test_the_fingerprint_reads_every_import_statement(tmp_path: Path) -> None:
+    """Imports at any depth, over several lines, after a comment's bracket; text that only reads like one
+    (a docstring line) may count too: a fingerprint may cover a module more, never one less."""
+    source = tmp_path / "mod.py"
+    source.write_text(
+        '"""Doc.\n\nfrom the top of the page\n"""\nimport a.b\nfrom .sibling import (\n    one,\n    two,\n)\n\n'
+        "def f():\n    if True:\n        from c import d  # (see e\n    import g, h as i\n"
+    )
+    found = set(_imports("pkg.mod", source))
+    assert {"a.b", "pkg.sibling", "pkg.sibling.one", "pkg.sibling.two", "c", "c.d", "g", "h"} <= found

@@ -306,6 +306,8 @@ class RunRecord:
     digests: dict[str, str] = field(default_factory=dict)
     implementations: dict[str, dict[str, str]] = field(default_factory=dict)
     """Capability → {name, version, origin} for every capability a stage of this run used."""
+    saved: dict[str, Path] = field(default_factory=dict)
+    """Artifact → the cache entry folder it was read from (its files exactly as its type saves them)."""
 
     def artifact(self, names: str | Iterable[str], kind: type[ArtifactT]) -> ArtifactT | None:
         """The first of the artifacts ``names`` the run has, when it is a ``kind`` (None otherwise): what a
@@ -509,6 +511,7 @@ class Runner:
         for name, artifact_name in node.outputs.items():
             record.artifacts[artifact_name] = outputs[name]
             record.digests[artifact_name] = entry.digests[name]
+            record.saved[artifact_name] = entry.path / name
         stage_record = StageRecord(
             name=node.name,
             function=stage.name,

@@ -94,7 +94,7 @@ def _imports(name: str, path: Path) -> list[str]:
     resolved against the package, and ``x.y`` in case ``y`` is a module."""
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     found: list[str] = []
-    for node in _import_statements(ast.parse(path.read_bytes(), filename=str(path))):
+    for node in _import_statements(path.read_text(encoding="utf-8")):
         if isinstance(node, ast.Import):
             found += [alias.name for alias in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -109,14 +109,25 @@ def _imports(name: str, path: Path) -> list[str]:
     return found
 
 
-def _import_statements(tree: ast.Module) -> Iterator[ast.Import | ast.ImportFrom]:
-    """The import statements of a module, those inside functions, classes and blocks included (only statements
-    are visited, not expressions: a tenth of :func:`ast.walk`'s nodes)."""
-    todo: list[ast.AST] = list(tree.body)
-    while todo:
-        node = todo.pop()
-        if isinstance(node, ast.Import | ast.ImportFrom):
-            yield node
+def _import_statements(source: str) -> Iterator[ast.Import | ast.ImportFrom]:
+    """The import statements of a module's source at any depth (in functions, classes and blocks), each parsed
+    alone from the lines that start with ``import`` or ``from`` (a tenth of the time of parsing the module). A
+    docstring line that reads as an import counts too: the fingerprint then covers a module more, never less."""
+    lines = source.splitlines()
+    i = 0
+    while i < len(lines):
+        first = lines[i].lstrip()
+        i += 1
+        if not first.startswith(("import ", "from ")):
             continue
-        for name in ("body", "orelse", "finalbody", "handlers", "cases"):
-            todo.extend(child for child in getattr(node, name, ()) if isinstance(child, ast.AST))
+        statement, end = first, i
+        while (statement.count("(") > statement.count(")") or statement.endswith("\\")) and end < len(lines):
+            statement, end = statement + "\n" + lines[end], end + 1
+        for text in (statement, first):  # a comment's bracket can spoil the joined lines: then the first alone
+            try:
+                nodes = ast.parse(text).body
+            except SyntaxError:
+                continue
+            yield from (n for n in nodes if isinstance(n, ast.Import | ast.ImportFrom))
+            i = end if text is statement else i
+            break

@@ -83,7 +83,7 @@ def execute(cfg: DictConfig, run_dir: Path, plugins: PluginSystem | None = None)
     with tempfile.TemporaryDirectory(prefix="psdr-room-scratch-") as scratch:
         runner = Runner(plugins, data, photo, store, Store(Path(scratch)), mode, injected)
         record = runner.run(selection)
-    publish(record, run_dir, data, plugins)
+        publish(record, run_dir, data, plugins)  # copies from the scratch store too
     plugins.hook.after_run(run=record, run_dir=run_dir)
     return record
 
@@ -121,10 +121,10 @@ def publish(record: RunRecord, run_dir: Path, data: Mapping[str, Any], plugins: 
     staging = Path(tempfile.mkdtemp(prefix=".publishing-", dir=run_dir))
     try:
         for name, artifact in record.artifacts.items():
-            _save(artifact, staging / "artifacts" / name)
+            _save(artifact, staging / "artifacts" / name, record.saved.get(name))
             top = getattr(type(artifact), "published_as", None)
             if top:
-                _save(artifact, staging / top)
+                _save(artifact, staging / top, record.saved.get(name))
         (staging / "metrics.json").write_text(json.dumps(metrics(record, plugins), indent=2) + "\n")
         (staging / "run.json").write_text(
             json.dumps(
@@ -148,6 +148,18 @@ def publish(record: RunRecord, run_dir: Path, data: Mapping[str, Any], plugins: 
         shutil.rmtree(staging, ignore_errors=True)
 
 
-def _save(artifact: Artifact, directory: Path) -> None:
+def _save(artifact: Artifact, directory: Path, entry: Path | None) -> None:
+    """``artifact``'s files in ``directory``: copied from the cache entry it was read from (the bytes its type
+    saved, without encoding them again), else saved anew (an entry pruned meanwhile, an injected artifact)."""
     directory.mkdir(parents=True)
+    if entry is not None and entry.is_dir():
+        try:
+            for file in sorted(entry.rglob("*")):
+                if file.is_file():  # contents only: the copies get the user's own permissions, as saved files do
+                    (directory / file.relative_to(entry)).parent.mkdir(parents=True, exist_ok=True)
+                    shutil.copyfile(file, directory / file.relative_to(entry))
+            return
+        except OSError:
+            shutil.rmtree(directory, ignore_errors=True)
+            directory.mkdir(parents=True)
     artifact.save(directory)
