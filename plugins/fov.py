@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Registry
@@ -16,7 +17,7 @@ from .vanishing_points import VanishingPointParams
 class VanishingPointsFov:
     """Focal length from orthogonal vanishing points of the photo's line segments (fallback: a fixed FoV)."""
 
-    def __init__(self, **params: object) -> None:
+    def __init__(self, **params: Any) -> None:
         self.params = VanishingPointParams(**params)
 
     def estimate(self, image: Image, photo: Path) -> Camera:

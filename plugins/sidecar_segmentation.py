@@ -28,7 +28,7 @@ import cv2
 import numpy as np
 from PIL import Image
 
-from psdr_room_core.method.artifacts import Segment, panoptic_ids
+from psdr_room_core.method.artifacts import Segment, box4, panoptic_ids
 
 from .sidecar_depth import SidecarError
 
@@ -345,7 +345,7 @@ def read_coco_panoptic(png: Path, json_path: Path) -> tuple[np.ndarray, list[Seg
                 category_of(cat_name),
                 label,
                 None if score is None else float(score),
-                None if box is None else tuple(float(v) for v in box),
+                None if box is None else box4(box),
             )
         )
 
@@ -475,7 +475,7 @@ def read_labelme(json_path: Path, shape: tuple[int, int] | None = None) -> tuple
             continue
         pts = _points(shp, k, json_path)
         where = f"{json_path}: shape {k} ({label!r}, {kind})"
-        mask = np.zeros((out_h, out_w), dtype=np.uint8)
+        mask: np.ndarray = np.zeros((out_h, out_w), dtype=np.uint8)
         if kind == "polygon":
             if len(pts) < 3:
                 raise SidecarError(

@@ -543,13 +543,13 @@ def _vfov_grid(params: VanishingPointParams) -> np.ndarray:
     return np.arange(params.min_vfov_deg, params.max_vfov_deg + 1e-9, params.vfov_step_deg)
 
 
-def _vfov_deg(focal: np.ndarray | float, height: float) -> np.ndarray | float:
-    """Vertical FoV in degrees for a focal length and image height in the same units."""
+def _vfov_deg(focal: np.ndarray | float, height: float) -> np.ndarray:
+    """Vertical FoV in degrees for focal lengths and an image height in the same units (elementwise)."""
     return np.degrees(2.0 * np.arctan(height / (2.0 * np.asarray(focal))))
 
 
-def _focal_for_vfov(vfov_deg: np.ndarray | float, height: float) -> np.ndarray | float:
-    """Focal length for a vertical FoV in degrees, in the units of ``height``."""
+def _focal_for_vfov(vfov_deg: np.ndarray | float, height: float) -> np.ndarray:
+    """Focal lengths for vertical FoVs in degrees, in the units of ``height`` (elementwise)."""
     return height / (2.0 * np.tan(np.radians(vfov_deg) / 2.0))
 
 
@@ -564,7 +564,7 @@ def _vps_to_input_pixels(vps: np.ndarray, scale: float, width: int, height: int)
     to_pixels = np.array([[scale, 0, (width - 1) / 2.0], [0, scale, (height - 1) / 2.0], [0, 0, 1]])
     out = vps @ to_pixels.T
     out /= np.linalg.norm(out, axis=1, keepdims=True)
-    return [tuple(float(c) for c in v) for v in out]
+    return [(float(x), float(y), float(w)) for x, y, w in out]
 
 
 def _fallback_result(width: int, height: int, n_segments: int, params: VanishingPointParams) -> VanishingPointResult:

@@ -33,7 +33,7 @@ import cv2
 import numpy as np
 
 from psdr_room_core.engine.errors import PsdrRoomError
-from psdr_room_core.method.artifacts import Detection, Detections, Image
+from psdr_room_core.method.artifacts import Detection, Detections, Image, box4
 
 from ..onnx_models.network import ModelFile, OnnxNetwork
 from .coco import COCO_80, INDOOR
@@ -93,10 +93,10 @@ def decode(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every (cell, kept class) pair scoring at least ``score_threshold``: (boxes [N,4] in input pixels, scores
     [N], COCO class indices [N]), before suppression."""
-    class_ids = np.asarray(class_ids, np.int64)
+    ids = np.asarray(class_ids, np.int64)
     boxes, scores, classes = [], [], []
     for level in levels:
-        probabilities = outputs[level.scores].reshape(-1, outputs[level.scores].shape[-1])[:, class_ids]
+        probabilities = outputs[level.scores].reshape(-1, outputs[level.scores].shape[-1])[:, ids]
         cells, k = np.nonzero(probabilities >= score_threshold)
         logits = outputs[level.distances].reshape(-1, 4, outputs[level.distances].shape[-1] // 4)[cells]
         logits = logits.astype(np.float64) - logits.max(axis=-1, keepdims=True)
@@ -108,7 +108,7 @@ def decode(
             np.stack([cx - distances[:, 0], cy - distances[:, 1], cx + distances[:, 2], cy + distances[:, 3]], axis=1)
         )
         scores.append(probabilities[cells, k].astype(np.float64))
-        classes.append(class_ids[k])
+        classes.append(ids[k])
     return np.concatenate(boxes), np.concatenate(scores), np.concatenate(classes)
 
 
@@ -185,7 +185,8 @@ class NanodetOnnx:
         inputs, outputs = self.network.inputs, self.network.outputs
         if len(inputs) != 1 or inputs[0].rank != 4 or inputs[0].shape[1] != 3 or None in inputs[0].shape[2:]:
             raise self._signature_error("expected one image input [1,3,H,W] of fixed size")
-        height, width = inputs[0].shape[2:]
+        height, width = inputs[0].shape[2], inputs[0].shape[3]
+        assert height is not None and width is not None  # a fixed size, checked just above
         scores = {p.shape[1]: p.name for p in outputs if p.rank == 3 and p.shape[2] == len(COCO_80)}
         distances = {
             p.shape[1]: p.name
@@ -234,12 +235,13 @@ class NanodetOnnx:
                     classes,
                 )
             )
-        boxes, scores, classes = suppress(*(np.concatenate(parts) for parts in zip(*found)), self.nms_iou)
+        all_boxes, all_scores, all_classes = (np.concatenate(parts) for parts in zip(*found))
+        boxes, scores, classes = suppress(all_boxes, all_scores, all_classes, self.nms_iou)
         scale = np.array([image.width / width, image.height / height] * 2)
         limit = np.array([image.width, image.height] * 2, np.float64)
         boxes = np.clip(boxes * scale, 0.0, limit)
         items = [
-            Detection(label=COCO_80[c], category="object", box=tuple(map(float, b)), score=float(s))
+            Detection(label=COCO_80[c], category="object", box=box4(b), score=float(s))
             for b, s, c in zip(boxes, scores, classes)
             if b[2] > b[0] and b[3] > b[1]
         ]

@@ -220,7 +220,7 @@ def _fit_in_frame(
     shape = _grid_shape(image, params.grid_side)
     rays = frame.rays(camera, shape[1], shape[0]).reshape(-1, 3)
     labelled = panoptic is not None and any(s.category in ("wall", "floor", "ceiling") for s in panoptic.segments)
-    if labelled:
+    if panoptic is not None and labelled:
         room, wall_index, n_walls = _room_labels(panoptic, shape)
 
     def score(boxes: np.ndarray) -> np.ndarray:

@@ -46,7 +46,7 @@ def grabcut_mask(
         return None
     background, foreground = np.zeros((1, 65), np.float64), np.zeros((1, 65), np.float64)
     cv2.setRNGSeed(0)
-    cv2.grabCut(crop, mask, None, background, foreground, params.iterations, cv2.GC_INIT_WITH_MASK)
+    cv2.grabCut(crop, mask, None, background, foreground, params.iterations, cv2.GC_INIT_WITH_MASK)  # type: ignore[call-overload]  # the stub lacks rect=None
     object_mask = ((mask == cv2.GC_FGD) | (mask == cv2.GC_PR_FGD)).astype(np.uint8)
     n, components, stats, _ = cv2.connectedComponentsWithStats(object_mask, connectivity=4)
     if n <= 1:

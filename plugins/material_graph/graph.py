@@ -171,9 +171,9 @@ class ProceduralMaterial:
             else:
                 x = source.to(device).reshape(-1, 1, 1).expand(source.numel(), ctx.height, ctx.width)
             maps[name] = OUTPUTS[name].finalise(x)
-        source = self.outputs.get("normal")
-        if isinstance(source, Ref):
-            maps["normal"] = OUTPUTS["normal"].finalise(results[source.node][source.port])
+        normal = self.outputs.get("normal")
+        if isinstance(normal, Ref):
+            maps["normal"] = OUTPUTS["normal"].finalise(results[normal.node][normal.port])
         elif "height" in self.outputs:
             maps["normal"] = normal_from_height(ctx, maps["height"])
         else:
@@ -316,7 +316,7 @@ def _parse_node(name: str, raw: Any, node_types: Mapping[str, NodeType], fail: A
     type_name = raw.get("type")
     if type_name not in node_types:
         raise fail(f"node '{name}': unknown type {type_name!r}; known: {', '.join(sorted(node_types))}")
-    node_type = node_types[type_name]
+    node_type = node_types[str(type_name)]
     where = f"node '{name}' ({type_name})"
     raw_params = _field(raw, "params", "a mapping", "parameter", node_type.params, "(none)", where, fail)
     params: dict[str, Any] = {}
@@ -325,7 +325,7 @@ def _parse_node(name: str, raw: Any, node_types: Mapping[str, NodeType], fail: A
             if key in raw_params:
                 params[key] = spec.parse(raw_params[key])
             else:
-                params[key] = spec.default_bound() if isinstance(spec, Continuous) else spec.default
+                params[key] = spec.default_bound() if isinstance(spec, Continuous) else spec.default  # type: ignore[attr-defined]  # every discrete spec has one
         except ParamError as exc:
             raise fail(f"{where}: parameter '{key}': {exc}") from None
     if node_type.check is not None:

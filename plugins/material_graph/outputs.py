@@ -60,4 +60,6 @@ def flat_normal(ctx: Context) -> torch.Tensor:
 
 def normal_from_height(ctx: Context, height: torch.Tensor, strength: float = DEFAULT_NORMAL_STRENGTH) -> torch.Tensor:
     """The normal a graph without a normal output gets from its height."""
-    return height_to_normal(ctx, {"height": height}, {"strength": torch.tensor(strength, dtype=ctx.dtype)})
+    normal = height_to_normal(ctx, {"height": height}, {"strength": torch.tensor(strength, dtype=ctx.dtype)})
+    assert isinstance(normal, torch.Tensor)  # a single-output node returns its map
+    return normal

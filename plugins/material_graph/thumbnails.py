@@ -82,6 +82,7 @@ class ThumbnailRenderer:
         self.map_size = int(map_size)
         self.requested_variant = variant
         self._scene: Any = None
+        self._shapes: dict[str, tuple[int, ...]] = {}
         self._keys: dict[str, list[str]] = {}
 
     def _mi(self) -> Any:

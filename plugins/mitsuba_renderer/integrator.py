@@ -84,9 +84,9 @@ def _make_class() -> type:
         def _values(self, shape: mi.ShapePtr, p: mi.Point3f, valid: mi.Bool) -> list[mi.Float]:
             """Every channel's value for a hit on ``shape`` at ``p`` (0 where ``valid`` is false)."""
             shape_id = dr.reinterpret_array(mi.UInt32, shape)
-            part = dr.gather(mi.Float, self.part_of_shape, shape_id, valid)
+            part = dr.gather(mi.Float, self.part_of_shape, shape_id, valid)  # type: ignore[arg-type]  # variant-generic stubs
             part = dr.select(valid, part, -10.0)
-            z = dr.dot(p - self.camera_origin, self.camera_axis)
+            z = dr.dot(p - self.camera_origin, self.camera_axis)  # type: ignore[misc]  # variant-generic stubs
             out = []
             for code in self.codes:
                 v = dr.select(code == part, 1.0, 0.0)
@@ -114,7 +114,7 @@ def _make_class() -> type:
                 si = si_shade
             else:
                 with dr.resume_grad(when=not primal):
-                    si = scene.ray_intersect(ray, ray_flags=mi.RayFlags.All, coherent=True, active=active)
+                    si = scene.ray_intersect(ray, ray_flags=mi.RayFlags.All, coherent=True, active=active)  # type: ignore[call-overload]  # variant-generic stubs
             valid = active & si.is_valid()
             with dr.resume_grad(when=not primal):
                 values = self._values(si.shape, si.p, valid)
@@ -199,6 +199,8 @@ _classes: dict[str, type] = {}
 def register() -> None:
     """Register ``psdr_geometry`` for the current variant (once per variant)."""
     variant = mi.variant()
+    if variant is None:
+        raise RuntimeError("set a Mitsuba variant before registering psdr_geometry")
     if variant not in _classes:
         cls = _make_class()
         mi.register_integrator(NAME, lambda props: cls(props))

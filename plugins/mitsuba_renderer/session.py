@@ -609,7 +609,7 @@ class _MitsubaScene:
 
             from .integrator import ALPHA, DEPTH, NAME
 
-            ids = {s.id(): int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(s))[0]) for s in scene.shapes()}
+            ids = {s.id(): int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(s))[0]) for s in scene.shapes()}  # type: ignore[index]  # variant-generic stubs
             table = [-1.0] * (max(ids.values()) + 1)
             for name, part in owner.parts.items():
                 table[ids[name]] = float(part)
@@ -724,7 +724,7 @@ def _owned(mi: Any, array: np.ndarray) -> Any:
 def _opaque_seed(seed: int) -> Any:
     import mitsuba as mi
 
-    return _opaque(mi.UInt32, seed) if not mi.variant().startswith("scalar") else seed
+    return _opaque(mi.UInt32, seed) if not (mi.variant() or "").startswith("scalar") else seed
 
 
 @contextlib.contextmanager

@@ -20,9 +20,13 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.method.artifacts import write_png
+
+if TYPE_CHECKING:
+    from .database import ObjectDatabase
 
 PROG = "psdr-room-db"
 
@@ -63,7 +67,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def open_database(
     root: Path | None = None, future: Path | None = None, subset: float | None = None, seed: int = 0
-) -> ObjectDatabase:  # noqa: F821
+) -> ObjectDatabase:
     from .builtin import builtin_database
     from .database import ObjectDatabase
 

@@ -171,7 +171,7 @@ def _field(data: Mapping[str, Any], key: str, kind: type, where: str, default: A
         value = float(value)
     if not isinstance(value, kind) or isinstance(value, bool):
         raise PsdrRoomError(f"{where}: field {key!r} must be a {kind.__name__}, got {value!r}")
-    if kind is str and "\n" in value:
+    if isinstance(value, str) and "\n" in value:
         raise PsdrRoomError(f"{where}: field {key!r} must be one line, got {value!r}")
     return value
 

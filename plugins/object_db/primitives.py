@@ -119,11 +119,11 @@ def lathe(
     angles = twist + np.linspace(0.0, 2 * math.pi, segments, endpoint=False)
     ring = np.stack([np.cos(angles), np.sin(angles)], axis=1)
     rows = len(prof)
-    vertices = np.zeros((rows, segments, 3))
-    vertices[..., 0] = prof[:, 0:1] * ring[None, :, 0]
-    vertices[..., 2] = prof[:, 0:1] * ring[None, :, 1] * scale_z
-    vertices[..., 1] = prof[:, 1:2]
-    vertices = vertices.reshape(-1, 3)
+    grid = np.zeros((rows, segments, 3))
+    grid[..., 0] = prof[:, 0:1] * ring[None, :, 0]
+    grid[..., 2] = prof[:, 0:1] * ring[None, :, 1] * scale_z
+    grid[..., 1] = prof[:, 1:2]
+    vertices = grid.reshape(-1, 3)
     faces = []
     for r in range(rows - 1):
         a = r * segments + np.arange(segments)
@@ -183,8 +183,8 @@ def tube(
     p0: Vec, p1: Vec, radius: float, segments: int = 12, radius1: float | None = None, square: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
     """A round (or, with ``square``, square) strut from ``p0`` to ``p1``, e.g. a splayed leg."""
-    p0, p1 = np.asarray(p0, dtype=np.float64), np.asarray(p1, dtype=np.float64)
-    axis = p1 - p0
+    start, end = np.asarray(p0, dtype=np.float64), np.asarray(p1, dtype=np.float64)
+    axis = end - start
     length = float(np.linalg.norm(axis))
     if square:
         vertices, faces = lathe(
@@ -198,7 +198,7 @@ def tube(
     x /= np.linalg.norm(x)
     z = np.cross(x, y)
     rotation = np.stack([x, y, z], axis=1)  # local (x, y, z) → world; proper, keeps winding
-    return vertices @ rotation.T + p0, faces
+    return vertices @ rotation.T + start, faces
 
 
 def polyline_tube(points: Sequence[Vec], radius: float, segments: int = 10) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -215,8 +215,8 @@ def transform(
     translate: Vec = (0.0, 0.0, 0.0),
 ) -> tuple[np.ndarray, np.ndarray]:
     """``part`` rotated about ``pivot`` by a proper rotation (winding kept), then translated."""
-    pivot = np.asarray(pivot, dtype=np.float64)
-    vertices = (part[0] - pivot) @ np.asarray(rotation, dtype=np.float64).T + pivot + np.asarray(translate)
+    centre = np.asarray(pivot, dtype=np.float64)
+    vertices = (part[0] - centre) @ np.asarray(rotation, dtype=np.float64).T + centre + np.asarray(translate)
     return vertices, part[1]
 
 

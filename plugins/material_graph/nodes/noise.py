@@ -7,6 +7,8 @@ are discrete parameters, fixed during optimisation. The continuous parameters (`
 
 from __future__ import annotations
 
+from typing import cast
+
 import torch
 
 from ..params import Choice, Float, Int, Seed
@@ -83,7 +85,7 @@ def fbm_sum(
 
 
 def _sum_sq(persistence: torch.Tensor, octaves: int) -> torch.Tensor:
-    return sum(persistence ** (2 * o) for o in range(octaves))
+    return cast(torch.Tensor, sum(persistence ** (2 * o) for o in range(octaves)))  # octaves >= 1: a tensor
 
 
 @node(

@@ -55,6 +55,7 @@ from .segmentation import (
     Detections,
     Panoptic,
     Segment,
+    box4,
     panoptic_ids,
     write_coco_panoptic,
 )
@@ -109,6 +110,7 @@ __all__ = [
     "panoptic_ids",
     "rotation_y",
     "vec3",
+    "box4",
     "write_coco_panoptic",
     "write_png",
 ]
