@@ -310,9 +310,9 @@ def place_objects(
                 continue
         else:
             kind, anchor = supports[0]
-            silhouette = cv2.resize(q.mask.astype(np.uint8), (cam.width, cam.height), interpolation=cv2.INTER_AREA) > 0
+            mask_target = cv2.resize(q.mask.astype(np.uint8), (cam.width, cam.height), interpolation=cv2.INTER_AREA) > 0
             position, scale = initial_pose(q.points, mesh.vertices, settings.radius_factor)
-            yaw, _ = best_yaw(cam, c2w, mesh.vertices, mesh.faces, position, scale, silhouette, search.n_yaw)
+            yaw, _ = best_yaw(cam, c2w, mesh.vertices, mesh.faces, position, scale, mask_target, search.n_yaw)
             height = _support_height(kind, anchor, placed, q, room)
             if height is not None:
                 position[1] = height
