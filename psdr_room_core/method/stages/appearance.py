@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import logging
-from dataclasses import asdict, replace
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import cv2
@@ -251,22 +252,94 @@ def fit_appearance(
         ctx.impl("texture", TextureDescriptor),
         ctx.impl("renderer", Renderer),
     )
+    # setup: the scene to render, what each term compares against, and the parameters
     c2w = np.asarray(room.camera_to_world)
     width = min(settings.render_width, camera.width)
-    scale = width / camera.width
     emitting = {light.part for light in lights.lights if light.part}  # lamp parts are lights now
-    paint = settings.paint
-    parts = [within_paint(p, paint) for p in initial_parts(materials, library) if p.part not in emitting]
+    parts = [within_paint(p, settings.paint) for p in initial_parts(materials, library) if p.part not in emitting]
     meshes = part_meshes(room, placements)
     scene = build_scene(meshes, parts, lights.lights, lights.fixtures, library, settings.map_size)
     geometry = scene.renderer(renderer, camera, c2w, width)
-    height = geometry.height
+    targets = eq4_targets(image, camera, c2w, materials, meshes, scene.meshes, renderer, descriptor, settings, width)
+    # Parts the camera does not see keep their initial material: only indirect light shows them, and it
+    # trades off freely against the lights' radiance.
+    model = AppearanceModel(
+        parts,
+        lights,
+        library,
+        settings.map_size,
+        free=targets.seen,
+        radiance_range=settings.radiance_range,
+        colour_range=settings.colour_range,
+        paint=settings.paint,
+    )
+    # optimise eq. 4
+    loss = eq4_loss(model, geometry, targets, descriptor, settings)
+    rates = {name: getattr(settings.learning_rates, group) for name, group in model.group.items()}
+    history = untimed(
+        ctx.impl("optimizer", Optimizer).minimize(
+            model.theta,
+            rates,
+            loss,
+            settings.iterations,
+            lambda it: ctx.progress(it, total=settings.iterations),
+            stop=settings.convergence,
+        ),
+        ctx.timings,
+    )
+    # decide: the final pictures, and which patterned parts read better plain
+    final_spp, denoiser = settings.final_spp, ctx.impl("denoiser", Denoiser)
+    with torch.no_grad():
+        initial = AppearanceModel(parts, lights, library, model.map_size, targets.seen, paint=settings.paint).inputs()
+        start = picture(geometry, denoiser, initial, final_spp, 10**6)
+        final = picture(geometry, denoiser, model.inputs(), final_spp, 10**6 + 1)
+        if settings.plain_check:
+            masks = {name: targets.ids == k for k, name in enumerate(targets.names)}
+            final = plain_parts(model, geometry, denoiser, final_spp, targets.photo, final, masks)
+    # report
+    return appearance_report(model, history, targets, start, final, denoiser)
 
+
+@dataclass
+class Eq4Targets:
+    """What eq. 4's terms compare the render against, at the fit's resolution."""
+
+    photo: np.ndarray
+    """The photo, sRGB [H, W, 3] in 0..1."""
+    target: torch.Tensor
+    target_small: torch.Tensor
+    """The photo area-downsampled by ``downsample`` (averaged in linear light)."""
+    regions: list[tuple[torch.Tensor, torch.Tensor]]
+    """(sampled mask, median photo colour C_i) of each seen part large enough for the colour term."""
+    crops: list[tuple[list[int], torch.Tensor]]
+    """(rectangle, texture descriptor of the photo's crop)."""
+    ids: np.ndarray
+    """The rendered part index of each pixel."""
+    names: list[str]
+    """Part names in the order of ``ids``."""
+    seen: set[str]
+    """Parts the fit may change: those the camera sees enough of."""
+
+
+def eq4_targets(
+    image: Image,
+    camera: Camera,
+    c2w: np.ndarray,
+    materials: MaterialAssignment,
+    meshes: dict[str, Any],
+    scene_meshes: dict[str, Any],
+    renderer: Renderer,
+    descriptor: TextureDescriptor,
+    settings: FitAppearance,
+    width: int,
+) -> Eq4Targets:
+    """The photo at the render's size, the parts' colour regions (the rendered part's pixels that ``C_i`` was
+    measured on; the whole rendered mask when that leaves fewer than ``min_region_px``) and the crop pairs'
+    photo descriptors."""
+    ids, _ = render_part_ids(renderer, camera.resized(width), c2w, meshes, width)
+    height = ids.shape[0]
     photo = cv2.resize(np.asarray(image.rgb, np.float32), (width, height), interpolation=cv2.INTER_AREA)
     target = torch.from_numpy(photo)
-    factor = settings.downsample
-    target_small = linear_to_srgb(downsampled(srgb_to_linear(target), factor))
-    ids, _ = render_part_ids(renderer, camera.resized(width), c2w, meshes, width)
     names = list(meshes)
     samples = (
         cv2.resize(materials.samples, (width, height), interpolation=cv2.INTER_NEAREST)
@@ -276,25 +349,14 @@ def fit_appearance(
     regions, seen = [], set()
     min_px = settings.min_region_px
     for k, p in enumerate(materials.parts):
-        if p.part in names and p.part in scene.meshes:
+        if p.part in names and p.part in scene_meshes:
             rendered = ids == names.index(p.part)
             if int(rendered.sum()) >= min_px:
                 sampled = rendered & (samples == k)  # where C_i was measured: not the clutter in front
                 mask = torch.from_numpy(sampled if int(sampled.sum()) >= min_px else rendered)
                 regions.append((mask, torch.tensor(p.albedo, dtype=torch.float32)))
                 seen.add(p.part)
-    # Parts the camera does not see keep their initial material: only indirect light shows them, and it
-    # trades off freely against the lights' radiance.
-    model = AppearanceModel(
-        parts,
-        lights,
-        library,
-        settings.map_size,
-        free=seen,
-        radiance_range=settings.radiance_range,
-        colour_range=settings.colour_range,
-        paint=paint,
-    )
+    scale = width / camera.width
     crops = []
     for p in materials.parts:
         for rect in p.crops[: settings.crops_per_part]:
@@ -302,24 +364,33 @@ def fit_appearance(
             if r[2] - r[0] >= 8 and r[3] - r[1] >= 8:
                 with torch.no_grad():
                     crops.append((r, descriptor.describe(target[r[1] : r[3], r[0] : r[2]].permute(2, 0, 1))))
+    target_small = linear_to_srgb(downsampled(srgb_to_linear(target), settings.downsample))
+    return Eq4Targets(photo, target, target_small, regions, crops, ids, names, seen)
+
+
+def eq4_loss(
+    model: AppearanceModel, geometry: Any, targets: Eq4Targets, descriptor: TextureDescriptor, settings: FitAppearance
+) -> Callable[[int], tuple[torch.Tensor, dict[str, float]]]:
+    """Eq. 4 for the optimizer: the weighted image, colour, texture and paint terms of a render of the model's
+    current parameters (``spp`` primal and ``grad_spp`` gradient samples per pixel)."""
     weights = asdict(settings.weights)
-    spp, grad_spp = settings.spp, settings.grad_spp
+    factor, spp, grad_spp = settings.downsample, settings.spp, settings.grad_spp
 
     def terms(linear: torch.Tensor) -> dict[str, torch.Tensor]:
         # Averages (the 1/8 image, a part's mean) are taken on linear radiance, then encoded: the sRGB curve is
         # concave, so averaging encoded noisy samples reads darker than the light is, and the fit brightens the
         # scene to make up for its own Monte-Carlo noise.
         srgb = linear_to_srgb(linear)
-        out = {"image": (linear_to_srgb(downsampled(linear, factor)) - target_small).abs().mean()}
-        if regions:
+        out = {"image": (linear_to_srgb(downsampled(linear, factor)) - targets.target_small).abs().mean()}
+        if targets.regions:
             out["colour"] = torch.stack(
-                [(linear_to_srgb(linear[m].mean(0)) - c).abs().mean() for m, c in regions]
+                [(linear_to_srgb(linear[m].mean(0)) - c).abs().mean() for m, c in targets.regions]
             ).mean()
-        if crops:
+        if targets.crops:
             out["texture"] = torch.stack(
                 [
                     descriptor.distance(descriptor.describe(srgb[y0:y1, x0:x1].permute(2, 0, 1)), d).reshape(())
-                    for (x0, y0, x1, y1), d in crops
+                    for (x0, y0, x1, y1), d in targets.crops
                 ]
             ).mean()
         return out
@@ -333,45 +404,33 @@ def fit_appearance(
         total = sum(weights[k] * v for k, v in parts.items())
         return total, {k: float(v.detach()) for k, v in parts.items()}
 
-    rates = {name: getattr(settings.learning_rates, group) for name, group in model.group.items()}
-    history = untimed(
-        ctx.impl("optimizer", Optimizer).minimize(
-            model.theta,
-            rates,
-            loss,
-            settings.iterations,
-            lambda it: ctx.progress(it, total=settings.iterations),
-            stop=settings.convergence,
-        ),
-        ctx.timings,
-    )
-    final_spp, denoiser = settings.final_spp, ctx.impl("denoiser", Denoiser)
-    with torch.no_grad():
-        initial = AppearanceModel(parts, lights, library, model.map_size, seen, paint=paint).inputs()
-        start_noisy, start = picture(geometry, denoiser, initial, final_spp, 10**6)
-        final_noisy, final = picture(geometry, denoiser, model.inputs(), final_spp, 10**6 + 1)
-        if settings.plain_check:
-            final_noisy, final = plain_parts(
-                model,
-                geometry,
-                denoiser,
-                final_spp,
-                photo,
-                (final_noisy, final),
-                {name: ids == k for k, name in enumerate(names)},
-            )
+    return loss
+
+
+def appearance_report(
+    model: AppearanceModel,
+    history: list[dict[str, float]],
+    targets: Eq4Targets,
+    start: tuple[np.ndarray, np.ndarray],
+    final: tuple[np.ndarray, np.ndarray],
+    denoiser: Denoiser,
+) -> dict[str, Any]:
+    """The stage's outputs: the fitted appearance, and a log whose summary compares the (noisy, denoised) initial
+    and final renders with the photo, with the photo | init | final strip, the crop pairs and the loss curves."""
+    photo = targets.photo
+    (start_noisy, start_clean), (final_noisy, final_clean) = start, final
     parts, radiance = model.result()
     metrics = {
-        **_agreement(start, final, photo),
+        **_agreement(start_clean, final_clean, photo),
         **_agreement(start_noisy, final_noisy, photo, "_noisy"),
         "denoiser": denoiser.describe(),
         "iterations": len(history),
-        "fitted_parts": sorted(seen),
+        "fitted_parts": sorted(targets.seen),
         "plain_parts": sorted(model.plain),
     }
     scorer = lpips.installed()
     if scorer is not None:  # the paper's perceptual metric, only with its real weights
-        metrics.update(lpips_init=scorer(start, photo), lpips=scorer(final, photo))
+        metrics.update(lpips_init=scorer(start_clean, photo), lpips=scorer(final_clean, photo))
     log.info(
         "fit_appearance: RMSE %.4f -> %.4f, SSIM %.3f -> %.3f, FLIP %.3f -> %.3f (denoiser: %s)",
         metrics["rmse_init"],
@@ -388,12 +447,12 @@ def fit_appearance(
         for k in ("loss", "image", "colour", "texture", "paint")
         if history and k in history[0]
     }
-    images = {"photo_init_final": np.hstack([as8(photo), as8(start), as8(final)])}
-    if crops:
-        images["crop_pairs"] = _crop_pairs(photo, start, final, [c[0] for c in crops])
+    images = {"photo_init_final": np.hstack([as8(photo), as8(start_clean), as8(final_clean)])}
+    if targets.crops:
+        images["crop_pairs"] = _crop_pairs(photo, start_clean, final_clean, [c[0] for c in targets.crops])
     if curves:
         images["loss"] = plot_curves(curves, title="fit_appearance (eq. 4)")
-    appearance = SceneAppearance(parts=parts, radiance=radiance, images={"render": as8(final)})
+    appearance = SceneAppearance(parts=parts, radiance=radiance, images={"render": as8(final_clean)})
     return {"appearance": appearance, "log": OptimizationLog(history=history, images=images, summary=metrics)}
 
 
