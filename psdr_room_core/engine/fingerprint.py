@@ -123,11 +123,11 @@ def _import_statements(source: str) -> Iterator[ast.Import | ast.ImportFrom]:
         statement, end = first, i
         while (statement.count("(") > statement.count(")") or statement.endswith("\\")) and end < len(lines):
             statement, end = statement + "\n" + lines[end], end + 1
-        for text in (statement, first):  # a comment's bracket can spoil the joined lines: then the first alone
+        for text, after in ((statement, end), (first, i)):  # a comment's bracket can spoil the joined lines
             try:
                 nodes = ast.parse(text).body
             except SyntaxError:
                 continue
             yield from (n for n in nodes if isinstance(n, ast.Import | ast.ImportFrom))
-            i = end if text is statement else i
+            i = after
             break

@@ -63,13 +63,8 @@ def load(target: Target) -> Callable[..., Any]:
 
 def docstring(target: Target) -> str:
     """The first line of ``target``'s docstring (a reference's read from its module's source)."""
-    if isinstance(target, str):
-        node = _definition(target)
-        text = ast.get_docstring(node) if node is not None else None
-        if node is None:
-            text = inspect.getdoc(load(target))
-    else:
-        text = inspect.getdoc(target)
+    node = _definition(target) if isinstance(target, str) else None
+    text = ast.get_docstring(node) if node is not None else inspect.getdoc(load(target))
     return (text or "").split("\n")[0]
 
 
