@@ -31,8 +31,8 @@ import time
 from pathlib import Path
 
 from psdr_room_core.engine.cache import Store
-from psdr_room_plugins.synth import write_scene
-from psdr_room_plugins.synth.scene import generate
+from psdr_room_core.libraries.synth import write_scene
+from psdr_room_core.libraries.synth.scene import generate
 
 
 def sweep(name: str, launcher: list[str], rooms: Path, cache: Path, out: Path, extra: list[str]) -> dict:

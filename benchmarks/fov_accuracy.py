@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from psdr_room_plugins.vanishing_points import VanishingPointParams, estimate_camera
+from psdr_room_core.libraries.vanishing_points import VanishingPointParams, estimate_camera
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 

@@ -35,10 +35,10 @@ import cv2
 import numpy as np
 from relit import render as relit  # sibling benchmark
 
+from psdr_room_core.applications.blender import build_blend, denoise_png, find_blender
+from psdr_room_core.applications.edit import render_folder
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.plugins import plugin_system
-from psdr_room_core.method.blender import build_blend, denoise_png, find_blender
-from psdr_room_core.method.edit import render_folder
 from psdr_room_core.method.image_metrics import ssim
 from psdr_room_core.method.material_priors import LUMINANCE
 from psdr_room_core.method.shading import linear_to_srgb

@@ -1,6 +1,6 @@
 """Object-stage benchmark (§4.3) on synthetic rooms furnished from the built-in object database.
 
-Each scene is a synthetic room and camera (``psdr_room_plugins.synth``) with 4-8 database models standing
+Each scene is a synthetic room and camera (``psdr_room_core.libraries.synth``) with 4-8 database models standing
 on its floor (random model, yaw and position in view, no overlaps). With ``--arrangement real`` (the default)
 a model of a category that stands with its back to a wall (:data:`~psdr_room_core.method.backs.BACKED`: beds,
 cabinets, shelves) shows the camera its front or side, as in a furnished room: a drawn yaw that would turn its
@@ -36,6 +36,8 @@ import cv2
 import numpy as np
 
 from psdr_room_core.engine.dag import StageContext
+from psdr_room_core.libraries.object_db.opening import object_mesh
+from psdr_room_core.libraries.synth.scene import generate
 from psdr_room_core.method.artifacts import (
     Camera,
     Candidate,
@@ -57,8 +59,7 @@ from psdr_room_core.method.stages.objects import fit_objects, footprint, place_o
 from psdr_room_core.method.stages.preprocess import backproject
 from psdr_room_plugins.mitsuba_renderer.session import MitsubaRenderer
 from psdr_room_plugins.optimizer_adam import Adam
-from psdr_room_plugins.retrieval_silhouette import SilhouetteRetrieval, object_mesh
-from psdr_room_plugins.synth.scene import generate
+from psdr_room_plugins.retrieval_silhouette import SilhouetteRetrieval
 
 OUT: Path | None = Path("outputs/benchmarks/objects")
 """Where the before/after overlays of each scene are written."""

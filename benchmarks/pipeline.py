@@ -167,7 +167,7 @@ def main() -> None:
     if args.ablations:
         ablations(env)
         return
-    from psdr_room_plugins.synth import parse_seeds
+    from psdr_room_core.applications.synth import parse_seeds
 
     scenes: list[tuple[str, Path]] = []
     for seed in parse_seeds(args.seeds) if args.seeds else []:

@@ -35,10 +35,10 @@ import numpy as np
 from psdr_room_core.engine.cli import compose_config
 from psdr_room_core.engine.plugins import plugin_system
 from psdr_room_core.engine.run import execute
+from psdr_room_core.libraries.sidecar_depth import read_depth
+from psdr_room_core.libraries.sidecar_segmentation import read_labelme
 from psdr_room_core.method.artifacts import ROOM_CATEGORIES, Panoptic
 from psdr_room_core.method.visualize import depth_colormap, segment_overlay
-from psdr_room_plugins.sidecar_depth import read_depth
-from psdr_room_plugins.sidecar_segmentation import read_labelme
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import detector as detector_benchmark  # noqa: E402  (sibling benchmark)

@@ -60,6 +60,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from psdr_room_core.libraries.object_db import ObjectDatabase, builtin_database
+from psdr_room_core.libraries.sidecar_depth import read_depth
 from psdr_room_core.method.artifacts import Camera, DepthMap, Image, Panoptic, Placements, RoomBox
 from psdr_room_core.method.guesses import guesses
 from psdr_room_core.method.objects import OBJECT_CATEGORIES
@@ -69,8 +71,6 @@ from psdr_room_core.method.sizes import scale_range
 from psdr_room_core.method.solids import overlap
 from psdr_room_core.method.visualize import segment_overlay
 from psdr_room_plugins.detectors.nanodet import box_iou
-from psdr_room_plugins.object_db import ObjectDatabase, builtin_database
-from psdr_room_plugins.sidecar_depth import read_depth
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from preprocess import depth_errors  # noqa: E402  (sibling benchmark)

@@ -21,9 +21,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from psdr_room_core.applications.edit import load_state, rebuild, render_folder
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.plugins import plugin_system
-from psdr_room_core.method.edit import load_state, rebuild, render_folder
 from psdr_room_core.method.geometry import TriangleMesh
 from psdr_room_core.method.material_priors import LUMINANCE, painted
 from psdr_room_core.method.stages.export import scene_folder

@@ -27,10 +27,10 @@ import numpy as np
 
 from psdr_room_core.engine.cli import compose_config
 from psdr_room_core.engine.run import execute
+from psdr_room_core.libraries.synth import write_scene
+from psdr_room_core.libraries.synth.scene import HARD_CASES, generate
 from psdr_room_core.method.artifacts import RoomBox
 from psdr_room_core.method.stages.room import room_iou
-from psdr_room_plugins.synth import write_scene
-from psdr_room_plugins.synth.scene import HARD_CASES, generate
 
 
 def iou(truth: dict, box: RoomBox) -> float:

@@ -17,9 +17,7 @@ from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Registry
 from psdr_room_core.engine.settings import setting
-from psdr_room_core.method.artifacts import Camera, DepthMap, Image, Panoptic
-
-from .sidecar_depth import (
+from psdr_room_core.libraries.sidecar_depth import (
     DEPTH_ENCODINGS,
     DEPTH_SUFFIXES,
     SidecarError,
@@ -27,6 +25,7 @@ from .sidecar_depth import (
     read_depth,
     read_depth_options,
 )
+from psdr_room_core.method.artifacts import Camera, DepthMap, Image, Panoptic
 
 
 class FileDepth:

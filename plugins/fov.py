@@ -9,9 +9,8 @@ from typing import Any
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Registry
 from psdr_room_core.engine.settings import setting
+from psdr_room_core.libraries.vanishing_points import VanishingPointParams
 from psdr_room_core.method.artifacts import Camera, Image
-
-from .vanishing_points import VanishingPointParams
 
 
 class VanishingPointsFov:
@@ -21,7 +20,7 @@ class VanishingPointsFov:
         self.params = VanishingPointParams(**params)
 
     def estimate(self, image: Image, photo: Path) -> Camera:
-        from .vanishing_points import estimate_camera
+        from psdr_room_core.libraries.vanishing_points import estimate_camera
 
         result = estimate_camera(image.rgb, self.params)
         return Camera(

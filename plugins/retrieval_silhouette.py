@@ -11,49 +11,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Registry
 from psdr_room_core.engine.settings import setting
+from psdr_room_core.libraries.object_db import ObjectDatabase
+from psdr_room_core.libraries.object_db.opening import object_mesh, open_database
 from psdr_room_core.method.artifacts import Camera, Candidate, ObjectMesh
 from psdr_room_core.method.backs import BACKED
 from psdr_room_core.method.objects import ObjectQuery
 from psdr_room_core.method.silhouette import MeshCaster
 from psdr_room_core.method.sizes import SizePrior
 from psdr_room_core.method.view_search import SearchParams, ViewSearch, ViewTarget
-
-
-def open_database(database: str, fraction: float, seed: int) -> Any:
-    """The object database: ``builtin`` (shipped with the package) or a folder in our format, optionally a
-    random ``fraction`` of it per category (the paper's Fig. 10 database-size ablation)."""
-    from psdr_room_plugins.object_db import ObjectDatabase, builtin_database
-
-    if database == "builtin":
-        db = builtin_database()
-    else:
-        root = Path(database).expanduser()
-        if not (root / "index.json").is_file():
-            raise PsdrRoomError(
-                f"{root}: not an object database (no index.json); set retrieval.<impl>.database=builtin "
-                "or a folder written by `psdr-room-db`"
-            )
-        db = ObjectDatabase.load(root)
-    return db if float(fraction) >= 1.0 else db.subset(float(fraction), int(seed))
-
-
-def object_mesh(db: Any, model_id: str) -> ObjectMesh:
-    """A database model's mesh, or a one-line error naming the unknown id."""
-    try:
-        return db.mesh(model_id)
-    except KeyError:
-        raise PsdrRoomError(
-            f"object model '{model_id}' is not in the database; pick one listed by `psdr-room-db list`"
-        ) from None
 
 
 class SilhouetteRetrieval:
@@ -105,11 +76,11 @@ class SilhouetteRetrieval:
         self.max_pixels = int(max_pixels)
         self.size_weight, self.range_weight = float(size_weight), float(range_weight)
         self.shortlist, self.shortlist_share = int(shortlist), float(shortlist_share)
-        self._db: Any = None
+        self._db: ObjectDatabase | None = None
         self._casters: dict[str, MeshCaster] = {}
 
     @property
-    def database(self) -> Any:
+    def database(self) -> ObjectDatabase:
         if self._db is None:
             self._db = open_database(*self.spec)
         return self._db

@@ -20,10 +20,14 @@ from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Registry
 from psdr_room_core.engine.settings import setting
+from psdr_room_core.libraries.sidecar_depth import SidecarError
+from psdr_room_core.libraries.sidecar_segmentation import (
+    find_segmentation_sidecar,
+    panoptic_json_for,
+    read_coco_panoptic,
+    read_labelme,
+)
 from psdr_room_core.method.artifacts import Camera, Detections, Image, Panoptic
-
-from .sidecar_depth import SidecarError
-from .sidecar_segmentation import find_segmentation_sidecar, panoptic_json_for, read_coco_panoptic, read_labelme
 
 
 class FileSegmentation:

@@ -16,6 +16,7 @@ import pytest
 import torch
 import yaml
 
+from psdr_room_core.applications.edit import main as edit_main
 from psdr_room_core.engine.dag import StageContext
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.method.artifacts import (
@@ -32,7 +33,6 @@ from psdr_room_core.method.artifacts import (
     RoomBox,
     Segment,
 )
-from psdr_room_core.method.edit import main as edit_main
 from psdr_room_core.method.lighting import behind_camera, in_view
 from psdr_room_core.method.rgb_scene import build_scene, initial_parts, part_meshes, render_part_ids, room_quads
 from psdr_room_core.method.shading import linear_to_srgb, srgb_to_linear
@@ -462,9 +462,9 @@ def test_usd_stage_opens_validates_and_reads_back(exported: Path) -> None:
 def test_blender_panels_block_light_as_in_mitsuba(exported: Path, tmp_path: Path) -> None:
     """The back wall's light sits behind the panel behind the camera: Mitsuba's black panel hides it, and so does
     Blender's (a panel that cast no shadow let it light the room from the front)."""
+    from psdr_room_core.applications.blender import build_blend
+    from psdr_room_core.applications.edit import render_folder
     from psdr_room_core.engine.plugins import plugin_system
-    from psdr_room_core.method.blender import build_blend
-    from psdr_room_core.method.edit import render_folder
 
     blender = shutil.which("blender")
     if blender is None:
@@ -495,9 +495,9 @@ def test_blender_builds_the_scene_lit_in_cycles_and_eevee(exported: Path, tmp_pa
     """``psdr-room-blender`` writes a .blend whose camera view renders like psdr-room's own render in Cycles (the
     same light and materials; denoised as psdr-room's render is, it matches it) and lit in EEVEE (area lights,
     not only emissive panels)."""
+    from psdr_room_core.applications.blender import build_blend, denoise_png
+    from psdr_room_core.applications.edit import render_folder
     from psdr_room_core.engine.plugins import plugin_system
-    from psdr_room_core.method.blender import build_blend, denoise_png
-    from psdr_room_core.method.edit import render_folder
     from psdr_room_core.method.image_metrics import ssim
 
     blender = shutil.which("blender")
@@ -572,7 +572,7 @@ def test_edits_rerender_without_optimising(exported: Path, tmp_path: Path, capsy
     err = capsys.readouterr().err
     assert "no part 'sofa'" in err and err.count("\n") == 1 and not (tmp_path / "bad").exists()
     with pytest.raises(PsdrRoomError, match="not a library material"):
-        from psdr_room_core.method.edit import apply_edit, load_state
+        from psdr_room_core.applications.edit import apply_edit, load_state
 
         library = TorchGraphLibrary(use_plugins=False)
         apply_edit(load_state(exported, library), "material.floor", "no_such_graph", library)

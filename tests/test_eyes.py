@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from psdr_room_core.applications.synth_data import label_maps, main, photo_textures, render_photo, sample_room, tools
 from psdr_room_core.engine.plugins import plugin_system
+from psdr_room_core.libraries.object_db.database import CATEGORIES
 from psdr_room_plugins.eyes import labels
-from psdr_room_plugins.object_db.database import CATEGORIES
-from psdr_room_plugins.synth.dataset import label_maps, main, photo_textures, render_photo, sample_room, tools
 
 
 @pytest.fixture(scope="module")
@@ -138,9 +138,9 @@ def pack(tmp_path_factory: pytest.TempPathFactory, made: dict):
 def test_two_training_steps_lower_the_loss(pack) -> None:
     import torch
 
+    from psdr_room_core.applications.train import LOSS_WEIGHTS, losses
     from psdr_room_plugins.eyes.data import example
     from psdr_room_plugins.eyes.network import EyesNet
-    from psdr_room_plugins.eyes.train import LOSS_WEIGHTS, losses
 
     torch.manual_seed(0)
     net = EyesNet()
@@ -166,8 +166,8 @@ def test_two_training_steps_lower_the_loss(pack) -> None:
 def test_psdr_room_train_resumes_and_exports_a_network_onnxruntime_runs(pack, tmp_path: Path) -> None:
     import onnxruntime as ort
 
+    from psdr_room_core.applications.train import main as train
     from psdr_room_plugins.eyes.network import OUTPUTS
-    from psdr_room_plugins.eyes.train import main as train
 
     pack_file = tmp_path / "pack.npz"
     pack.save(pack_file)
@@ -200,7 +200,7 @@ def test_the_data_engine_refuses_bad_arguments_in_one_line(
 
 
 def test_psdr_room_train_refuses_a_folder_without_samples(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
-    from psdr_room_plugins.eyes.train import main as train
+    from psdr_room_core.applications.train import main as train
 
     with pytest.raises(SystemExit) as exit_:
         train(["--data", str(tmp_path), "--out", str(tmp_path / "run")])

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from boxroom import checker_floor, render_box_room
+from psdr_room_core.libraries.vanishing_points import VanishingPointParams, estimate_camera
 from psdr_room_core.method.artifacts import Camera
-from psdr_room_plugins.vanishing_points import VanishingPointParams, estimate_camera
 
 # (vertical FoV, yaw, pitch, roll) in degrees
 VIEWS = [(45.0, 20.0, -5.0, 2.0), (60.0, -25.0, 5.0, -3.0), (75.0, 40.0, -10.0, 1.0)]

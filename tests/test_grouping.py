@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from psdr_room_core.libraries.object_db import CATEGORIES
 from psdr_room_core.method.artifacts import Camera, Panoptic, PointCloud, RoomBox, Segment
 from psdr_room_core.method.grouping import GroupParams, Part, group_segments
 from psdr_room_core.method.labels import ANY, LABELS, meaning, primary_category
@@ -15,7 +16,6 @@ from psdr_room_core.method.objects import ObjectQuery, pose_matrix, transform
 from psdr_room_core.method.silhouette import depth_map
 from psdr_room_core.method.stages.objects import _rank_by_label
 from psdr_room_plugins.detectors.coco import COCO_80
-from psdr_room_plugins.object_db import CATEGORIES
 from psdr_room_plugins.onnx_models.ade20k import CATEGORIES as ADE_CATEGORIES
 from psdr_room_plugins.onnx_models.ade20k import LABELS as ADE_LABELS
 from psdr_room_plugins.onnx_models.ade20k import STUFF

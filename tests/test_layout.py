@@ -13,6 +13,7 @@ import pytest
 
 from boxroom import checker_floor
 from psdr_room_core.engine.dag import RunRecord
+from psdr_room_core.libraries.vanishing_points import estimate_camera
 from psdr_room_core.method.artifacts import Camera, Detection, Detections, Image, Panoptic, Segment
 from psdr_room_core.method.guesses import FLOOR_GUESSES, fov_guesses
 from psdr_room_plugins.layout import box
@@ -21,7 +22,6 @@ from psdr_room_plugins.layout.fit import LayoutParams, fit_layout, floor_colour_
 from psdr_room_plugins.layout.manhattan import ManhattanFrame, frame_from_vanishing_points
 from psdr_room_plugins.layout.objects import GrabCutParams, grabcut_mask
 from psdr_room_plugins.layout.segmentation import LayoutSegmentation
-from psdr_room_plugins.vanishing_points import estimate_camera
 
 PHOTO = Path("room.png")  # named in logs only
 TRUE_BOX = np.array([-2.0, 1.6, 0.7, -3.0, 3.2])  # camera heights (see psdr_room_plugins.layout.box)

@@ -14,10 +14,11 @@ from pathlib import Path
 
 import pytest
 
+from psdr_room_core.applications import models as models_cli
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Origin, load_plugins
-from psdr_room_core.method import models, models_cli
+from psdr_room_core.method import models
 from psdr_room_core.method.models import USES
 
 CONTENT = b"tiny model weights\n" * 4096

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from psdr_room_core.engine.errors import PsdrRoomError
-from psdr_room_plugins.object_db import CATEGORIES, ObjectDatabase, parametric
-from psdr_room_plugins.object_db.builtin import builtin_database
-from psdr_room_plugins.object_db.database import build_index, write_model
-from psdr_room_plugins.object_db.future3d import read_3dfuture
-from psdr_room_plugins.object_db.objio import read_obj
+from psdr_room_core.libraries.object_db import CATEGORIES, ObjectDatabase, parametric
+from psdr_room_core.libraries.object_db.builtin import builtin_database
+from psdr_room_core.libraries.object_db.database import build_index, write_model
+from psdr_room_core.libraries.object_db.future3d import read_3dfuture
+from psdr_room_core.libraries.object_db.objio import read_obj
 
 FURNITURE = ("chair", "table", "sofa", "bed", "cabinet", "shelf", "desk", "lamp", "rug", "pillow")
 
@@ -254,7 +254,7 @@ def _good_db(root: Path) -> dict:
 
 
 def _record(model_id: str):  # type: ignore[no-untyped-def]
-    from psdr_room_plugins.object_db.database import ModelRecord
+    from psdr_room_core.libraries.object_db.database import ModelRecord
 
     mesh = parametric.rug(border=0.0)
     return ModelRecord(
@@ -417,7 +417,7 @@ def test_3dfuture_reader_on_a_fake_tree(tmp_path: Path, cache_dir: Path, capsys,
     with pytest.raises(PsdrRoomError, match="1 of 4 models"):
         read_3dfuture(tmp_path, workers=1, strict=True)
     # a second read takes the measurements from the cache
-    import psdr_room_plugins.object_db.future3d as future3d
+    import psdr_room_core.libraries.object_db.future3d as future3d
 
     monkeypatch.setattr(future3d, "_measure", lambda job: pytest.fail("re-parsed a cached mesh"))
     assert read_3dfuture(tmp_path).records == db.records
@@ -441,7 +441,7 @@ def test_subset_keeps_a_fraction_per_category(db: ObjectDatabase) -> None:
 
 # ------------------------------------------------------------------------------------------------ thumbnails
 def test_thumbnails_render_and_are_cached(db: ObjectDatabase, cache_dir: Path, monkeypatch) -> None:
-    from psdr_room_plugins.object_db import thumbnails
+    from psdr_room_core.libraries.object_db import thumbnails
 
     views = db.thumbnails("kenney/chair")
     assert len(views) == len(thumbnails.VIEWS) >= 3
@@ -459,7 +459,7 @@ def test_thumbnails_render_and_are_cached(db: ObjectDatabase, cache_dir: Path, m
 
 
 def test_a_contact_sheet_renders_only_the_view_it_shows(db: ObjectDatabase, cache_dir: Path, monkeypatch) -> None:
-    from psdr_room_plugins.object_db import thumbnails
+    from psdr_room_core.libraries.object_db import thumbnails
 
     rendered: list[list[int]] = []
     render = thumbnails.ThumbnailRenderer.render
@@ -479,7 +479,7 @@ def test_a_contact_sheet_renders_only_the_view_it_shows(db: ObjectDatabase, cach
 
 # ------------------------------------------------------------------------------------------------------- CLI
 def test_cli_list_export_and_errors(tmp_path: Path, cache_dir: Path, capsys) -> None:
-    from psdr_room_plugins.object_db.cli import main
+    from psdr_room_core.applications.db import main
 
     assert main(["list", "--category", "sofa"]) == 0
     out = capsys.readouterr()

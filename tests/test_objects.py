@@ -270,7 +270,7 @@ def test_a_box_prompted_mask_without_the_legs_is_not_shrunk_into_the_seat() -> N
     """A box-prompted cut of a table loses the thin legs: the mask is the top only. Pixels of the prompt box
     outside the mask are free, so the search poses the whole table on the floor at its size; without the box
     the legs count as wrong and the table shrinks into its top."""
-    from psdr_room_plugins.object_db.parametric import table
+    from psdr_room_core.libraries.object_db.parametric import table
 
     mesh = table(width=1.2, depth=0.7, height=0.75, leg_style="metal", apron=False)
     truth = pose_matrix(np.array([0.1, 0.0, 2.6]), math.radians(25), 1.0)

@@ -8,12 +8,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from psdr_room_core.libraries.object_db import ObjectDatabase, builtin_database
 from psdr_room_core.method.artifacts import Camera, ObjectMesh, Placement, RoomBox
 from psdr_room_core.method.geometry import box_mesh
 from psdr_room_core.method.physical import PhysicalParams, interpenetrations, room_excess, settle, support_top
 from psdr_room_core.method.sizes import CATEGORY_SIZES, SizePrior, dimensions, scale_range
 from psdr_room_core.method.solids import overlap, voxel_solid
-from psdr_room_plugins.object_db import ObjectDatabase, builtin_database
 
 C2W = np.eye(4)
 C2W[:3, :3] = np.diag([-1.0, -1.0, 1.0])  # OpenCV camera looking along world +Z, Y up

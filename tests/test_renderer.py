@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 
 from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.libraries.llvm import ensure_llvm, find_llvm, llvm_version
 from psdr_room_core.method.artifacts import Camera, RoomBox
 from psdr_room_core.method.geometry import TriangleMesh, box_mesh, quad_mesh
 from psdr_room_core.method.shading import Surface
-from psdr_room_plugins.mitsuba_renderer.llvm import ensure_llvm, find_llvm, llvm_version
 from psdr_room_plugins.mitsuba_renderer.session import weld_map
 
 

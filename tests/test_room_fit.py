@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 
 from psdr_room_core.engine.dag import StageContext
+from psdr_room_core.libraries.synth.raycast import raycast
+from psdr_room_core.libraries.synth.scene import generate
 from psdr_room_core.method.artifacts import Camera, DepthMap, Image, Panoptic, RoomBox
 from psdr_room_core.method.stages.room import room_fit, room_iou, room_targets
 from psdr_room_plugins.mitsuba_renderer.session import MitsubaRenderer
 from psdr_room_plugins.optimizer_adam import Adam
-from psdr_room_plugins.synth.raycast import raycast
-from psdr_room_plugins.synth.scene import generate
 
 PARAMS = {
     "iterations": 80,

@@ -13,21 +13,21 @@ import pytest
 from PIL import Image
 
 from psdr_room_core.engine.errors import PsdrRoomError
-from psdr_room_core.method.artifacts import CATEGORIES, Panoptic, Segment, write_coco_panoptic
-from psdr_room_plugins.sidecar_depth import (
+from psdr_room_core.libraries.sidecar_depth import (
     DEPTH_ENCODINGS,
     SidecarError,
     find_depth_sidecar,
     read_depth,
     read_depth_options,
 )
-from psdr_room_plugins.sidecar_segmentation import (
+from psdr_room_core.libraries.sidecar_segmentation import (
     category_of,
     find_segmentation_sidecar,
     panoptic_json_for,
     read_coco_panoptic,
     read_labelme,
 )
+from psdr_room_core.method.artifacts import CATEGORIES, Panoptic, Segment, write_coco_panoptic
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = REPO / "examples" / "nyu_basement"

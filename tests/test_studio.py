@@ -27,17 +27,17 @@ import yaml
 
 from browser import chromium
 from conftest import EXAMPLE
+from psdr_room_core.applications.studio.cli import studio_settings
+from psdr_room_core.applications.studio.scene_view import latest, overview, screen_to_photo, wxyz
+from psdr_room_core.applications.studio.session import PREVIEW, Session, studio_plugins
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.plugins import plugin_system
+from psdr_room_core.libraries.object_db.opening import open_database
+from psdr_room_core.libraries.synth import write_scene
+from psdr_room_core.libraries.synth.raycast import raycast
+from psdr_room_core.libraries.synth.scene import generate
 from psdr_room_core.method.artifacts import Camera, write_coco_panoptic
 from psdr_room_plugins.detectors.boxes_file import read_boxes
-from psdr_room_plugins.retrieval_silhouette import open_database
-from psdr_room_plugins.studio.cli import studio_settings
-from psdr_room_plugins.studio.scene_view import latest, overview, screen_to_photo, wxyz
-from psdr_room_plugins.studio.session import PREVIEW, Session, studio_plugins
-from psdr_room_plugins.synth import write_scene
-from psdr_room_plugins.synth.raycast import raycast
-from psdr_room_plugins.synth.scene import generate
 
 FAST = [
     "room_fit.iterations=8",

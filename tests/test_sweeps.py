@@ -19,8 +19,8 @@ from psdr_room_core.engine.cache import Store, damage
 from psdr_room_core.engine.cli import expand_photos, hydra_quote
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.inputs import find_photos
-from psdr_room_plugins.synth import write_scene
-from psdr_room_plugins.synth.scene import generate
+from psdr_room_core.libraries.synth import write_scene
+from psdr_room_core.libraries.synth.scene import generate
 
 UNTIL_ROOM_FIT = ["run.until=room_fit", "room_fit.iterations=8", "room_fit.render_width=64"]
 

@@ -11,12 +11,12 @@ import pytest
 
 from psdr_room_core.engine.cli import compose_config
 from psdr_room_core.engine.run import execute
+from psdr_room_core.libraries.synth import write_scene
+from psdr_room_core.libraries.synth.raycast import raycast
+from psdr_room_core.libraries.synth.room import camera_pose
+from psdr_room_core.libraries.synth.scene import CLOSE_UP_FRACTION, HARD_CASES, MIN_FRACTION, VISIBLE, generate
 from psdr_room_core.method.artifacts import Panoptic
 from psdr_room_core.method.room_box import box_iou_3d
-from psdr_room_plugins.synth import write_scene
-from psdr_room_plugins.synth.raycast import raycast
-from psdr_room_plugins.synth.room import camera_pose
-from psdr_room_plugins.synth.scene import CLOSE_UP_FRACTION, HARD_CASES, MIN_FRACTION, VISIBLE, generate
 
 
 def test_camera_pose_convention() -> None:
@@ -95,7 +95,7 @@ def test_room_init_recovers_the_synthetic_room(scene_dir: Path, tmp_path: Path, 
 def test_a_room_holds_the_number_of_objects_asked_for_where_they_fit() -> None:
     """psdr-room-synth --objects N (the speed benchmark's scaling rooms): N pieces where they fit; the default
     rooms are unchanged by the option's existence."""
-    from psdr_room_plugins.synth.scene import generate
+    from psdr_room_core.libraries.synth.scene import generate
 
     two, many = generate(0, objects=2), generate(0, objects=16)
     assert len(two.furniture) == 2 and 8 <= len(many.furniture) <= 16

@@ -1,4 +1,4 @@
-"""Build ``plugins/object_db/library/polyhaven/`` (OBJ + MTL per model, and the licence) from Poly Haven's glTF
+"""Build ``psdr_room_core/libraries/object_db/library/polyhaven/`` (OBJ + MTL per model, and the licence) from Poly Haven's glTF
 furniture as stored in ``../shared/data/meshes/polyhaven_robotlocomotion`` (CC0).
 
 A one-off build step, not run by the tests or at run time. For each model of :data:`MODELS`:
@@ -26,7 +26,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from psdr_room_plugins.object_db.objio import write_obj
+from psdr_room_core.libraries.object_db.objio import write_obj
 
 REPO = Path(__file__).resolve().parents[1]
 SOURCE = REPO.parent / "shared" / "data" / "meshes" / "polyhaven_robotlocomotion"

@@ -6,5 +6,5 @@
 - :mod:`.perception`: ``segmentation=eyes``, ``depth=eyes`` and ``detector=eyes`` (onnxruntime only), registered
   by :mod:`.plugin` (the entry point; this package imports nothing, so training runs with torch, onnx and cv2).
 
-The data it learns from comes from ``psdr-room-synth-data`` (:mod:`psdr_room_plugins.synth.dataset`).
+The data it learns from comes from ``psdr-room-synth-data`` (:mod:`psdr_room_core.applications.synth_data`).
 """

@@ -1,5 +1,5 @@
 """The eyes network's classes: what its surface and category outputs mean (fixed by the trained weights; the
-data engine :mod:`psdr_room_plugins.synth.dataset` labels its renders with them)."""
+data engine :mod:`psdr_room_core.applications.synth_data` labels its renders with them)."""
 
 SURFACES = ("none", "wall", "floor", "ceiling", "window", "door", "object")
 """Surface classes (index = value of a ``surface`` label or output channel)."""
@@ -25,4 +25,4 @@ CATEGORIES = (
     "other",
 )
 """Furniture categories (output channel k; a ``category`` label stores k + 1, 0 = none): the object
-database's :data:`~psdr_room_plugins.object_db.database.CATEGORIES` when the network was made."""
+database's :data:`~psdr_room_core.libraries.object_db.database.CATEGORIES` when the network was made."""

@@ -8,9 +8,9 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from psdr_room_core.libraries.vanishing_points import VanishingPointParams, estimate_camera, line_segments
 from psdr_room_core.method.artifacts import Camera, Detections, Image, Panoptic
 
-from ..vanishing_points import VanishingPointParams, estimate_camera, line_segments
 from . import box
 from .manhattan import ManhattanFrame, frame_from_vanishing_points, looking_down
 from .orientation import orientation_map, segment_families

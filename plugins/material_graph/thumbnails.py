@@ -86,7 +86,7 @@ class ThumbnailRenderer:
         self._keys: dict[str, list[str]] = {}
 
     def _mi(self) -> Any:
-        from psdr_room_plugins.mitsuba_renderer.llvm import resolve_variant
+        from psdr_room_core.libraries.llvm import resolve_variant
 
         variant = resolve_variant(self.requested_variant)
         import mitsuba as mi

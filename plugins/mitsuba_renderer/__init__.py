@@ -13,8 +13,8 @@ import contextlib
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.libraries.llvm import ensure_llvm
 
-from .llvm import ensure_llvm
 from .settings import MitsubaSettings
 
 with contextlib.suppress(PsdrRoomError):  # reported when the renderer is used, not when plugins load

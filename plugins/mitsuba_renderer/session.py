@@ -30,12 +30,12 @@ import numpy as np
 
 from psdr_room_core.engine import threads as run_threads
 from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.libraries.llvm import VARIANTS, resolve_variant
 from psdr_room_core.method.artifacts import Camera
 from psdr_room_core.method.geometry import TriangleMesh
 from psdr_room_core.method.rgb_scene import GUIDE_SPP
 from psdr_room_core.method.shading import Surface
 
-from .llvm import VARIANTS, resolve_variant
 from .settings import GUIDING
 
 if TYPE_CHECKING:

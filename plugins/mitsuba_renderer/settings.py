@@ -5,8 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from psdr_room_core.engine.settings import setting
-
-from .llvm import VARIANTS
+from psdr_room_core.libraries.llvm import VARIANTS
 
 GUIDING = ("none", "grid", "octree")
 """How ``rgb_sppi`` samples find indirect silhouettes."""

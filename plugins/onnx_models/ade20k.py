@@ -3,13 +3,13 @@
 Index ``k`` is the network's class ``k`` (SegFormer logits channel, Mask2Former class index; the
 "no object" class of mask-classification models is index 150). Each class is a comma-separated list of
 synonyms as in ``objectInfo150.csv``; the first one is the label kept on the segment, and the whole list
-goes through :func:`~psdr_room_plugins.sidecar_segmentation.category_of`, so ``windowpane, window`` is a
+goes through :func:`~psdr_room_core.libraries.sidecar_segmentation.category_of`, so ``windowpane, window`` is a
 window, ``blind, screen`` a window, ``screen door, screen`` a door and ``rug, carpet, carpeting`` floor.
 """
 
 from __future__ import annotations
 
-from ..sidecar_segmentation import category_of
+from psdr_room_core.libraries.sidecar_segmentation import category_of
 
 ADE20K_150: tuple[str, ...] = (
     "wall",

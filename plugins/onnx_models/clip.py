@@ -81,7 +81,7 @@ class ClipRetrieval:
     @property
     def database(self) -> Any:
         if self._db is None:
-            from psdr_room_plugins.retrieval_silhouette import open_database
+            from psdr_room_core.libraries.object_db.opening import open_database
 
             self._db = open_database(*self.spec)
         return self._db
@@ -99,7 +99,7 @@ class ClipRetrieval:
         return self.database.thumbnails(model_id, views=[0])[0]
 
     def mesh(self, model_id: str) -> ObjectMesh:
-        from psdr_room_plugins.retrieval_silhouette import object_mesh
+        from psdr_room_core.libraries.object_db.opening import object_mesh
 
         return object_mesh(self.database, model_id)
 

@@ -7,5 +7,7 @@
   §4.4 :mod:`.material_search`, :mod:`.crops`, :mod:`.surface_colours`, :mod:`.lighting`, :mod:`.shading`,
   :mod:`.rgb_scene`; shared :mod:`.geometry`, :mod:`.photo`, :mod:`.image_metrics`, :mod:`.lpips`;
 - :mod:`.capabilities` (the swappable parts and their protocols), :mod:`.hookspecs` (the method's own hooks);
-- commands: :mod:`.edit`, :mod:`.summary`, :mod:`.models_cli`; outputs: :mod:`.gltf`, :mod:`.visualize`.
+- outputs: :mod:`.gltf`, :mod:`.visualize`; the model-file registry :mod:`.models`.
+
+Its commands live in :mod:`psdr_room_core.applications`.
 """

@@ -16,7 +16,7 @@ and ``size`` are null where no checksum is published (such files are reported "u
 ``sha256_prefix`` holds a published leading part of a checksum (torchvision file names).
 :func:`download` writes to a temporary file in the models directory, checks the checksum and renames the
 file into place, so an interrupted or failed download leaves nothing behind. This module is used by the
-``psdr-room-models`` command (:mod:`psdr_room_core.method.models_cli`) and by the ONNX implementations; it does
+``psdr-room-models`` command (:mod:`psdr_room_core.applications.models`) and by the ONNX implementations; it does
 not import onnxruntime.
 """
 

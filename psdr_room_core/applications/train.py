@@ -35,7 +35,7 @@ def losses(out: dict, batch: dict) -> dict:
     import torch
     import torch.nn.functional as F
 
-    from .data import IGNORE
+    from psdr_room_plugins.eyes.data import IGNORE
 
     terms = {"surface": F.cross_entropy(out["surface"], batch["surface"])}
     labelled = (batch["category"] != IGNORE).sum()
@@ -62,9 +62,9 @@ def validate(net, pack, indices: Sequence[int], device: str, batch_size: int) ->
     a median scale, and instance recall (decoded instances with mask IoU ≥ 0.5 per reference instance)."""
     import torch
 
-    from .data import example
-    from .decode import instances, median_scaled
-    from .labels import OBJECT
+    from psdr_room_plugins.eyes.data import example
+    from psdr_room_plugins.eyes.decode import instances, median_scaled
+    from psdr_room_plugins.eyes.labels import OBJECT
 
     net.eval()
     counts = {"surface": [0, 0], "category": [0, 0], "recall": [0, 0]}
@@ -116,7 +116,7 @@ def _keep_pack(pack) -> None:  # a worker process's pack (inherited by fork, not
 
 
 def _make_batch(group: tuple[np.ndarray, np.ndarray]) -> dict[str, np.ndarray]:
-    from .data import example
+    from psdr_room_plugins.eyes.data import example
 
     items = [example(_PACK, int(i), np.random.default_rng(int(s))) for i, s in zip(*group)]
     return {key: np.stack([it[key] for it in items]) for key in items[0]}
@@ -179,8 +179,8 @@ def train(args: argparse.Namespace) -> dict:
     """Train (or resume) per ``args``; the final validation scores."""
     import torch
 
-    from .data import Pack, build_pack
-    from .network import EyesNet, export_onnx
+    from psdr_room_plugins.eyes.data import Pack, build_pack
+    from psdr_room_plugins.eyes.network import EyesNet, export_onnx
 
     torch.manual_seed(args.seed)
     device = ("cuda" if torch.cuda.is_available() else "cpu") if args.device == "auto" else args.device

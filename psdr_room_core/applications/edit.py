@@ -41,12 +41,11 @@ import yaml
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.ownership import check_replaceable, claim
 from psdr_room_core.engine.plugins import plugin_system
-
-from .artifacts import Light, PartAppearance, appearance_fields, vec3, write_png
-from .geometry import TriangleMesh
-from .rgb_scene import build_scene, to_srgb8
-from .scene_state import check_state, read_state
-from .stages.export import read_mesh_ply, scene_folder
+from psdr_room_core.method.artifacts import Light, PartAppearance, appearance_fields, vec3, write_png
+from psdr_room_core.method.geometry import TriangleMesh
+from psdr_room_core.method.rgb_scene import build_scene, to_srgb8
+from psdr_room_core.method.scene_state import check_state, read_state
+from psdr_room_core.method.stages.export import read_mesh_ply, scene_folder
 
 HOMOGENEOUS_KEYS = ("base_color", "roughness", "specular")
 

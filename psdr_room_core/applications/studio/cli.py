@@ -21,7 +21,7 @@ from psdr_room_core.engine import threads
 from psdr_room_core.engine.cli import compose_config, preflight
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.run import resolve_config
-from psdr_room_plugins.retrieval_silhouette import open_database
+from psdr_room_core.libraries.object_db.opening import open_database
 
 from .session import PREVIEW, Session, studio_plugins
 

@@ -72,7 +72,7 @@ class ThumbnailRenderer:
         return f"v{RENDER_VERSION} size={self.size} spp={self.spp} fov={self.fov:g} views={self.views}"
 
     def _mi(self) -> Any:
-        from psdr_room_plugins.mitsuba_renderer.llvm import resolve_variant
+        from psdr_room_core.libraries.llvm import resolve_variant
 
         variant = resolve_variant(self.variant)
         import mitsuba as mi

@@ -27,14 +27,13 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from psdr_room_core.libraries.synth.furnish import THEMES, Furnisher, to_world
+from psdr_room_core.libraries.synth.room import camera_pose
 from psdr_room_core.method.artifacts import Camera, RoomBox, rotation_y
 from psdr_room_core.method.geometry import TriangleMesh, quad_mesh
 from psdr_room_core.method.rgb_scene import object_parts, room_quads, to_srgb8
 from psdr_room_core.method.shading import Surface, planar_uv, srgb_to_linear, texture_transform
 from psdr_room_plugins.eyes.labels import CATEGORIES, OBJECT
-
-from .furnish import THEMES, Furnisher, to_world
-from .room import camera_pose
 
 PURE_PIXEL = 0.999
 """A pixel gets a depth label when one part covers at least this fraction of it."""
@@ -347,7 +346,7 @@ TOOLS: dict[str, object] = {}
 def tools(registry: object) -> dict[str, object]:
     """This process's object database, material library, renderer (one thread) and denoiser, made once."""
     if not TOOLS:
-        from psdr_room_plugins.object_db.builtin import builtin_database
+        from psdr_room_core.libraries.object_db.builtin import builtin_database
 
         TOOLS.update(
             database=builtin_database(),
@@ -364,7 +363,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     """Entry point of ``psdr-room-synth-data``: render a data set for the eyes network."""
     from joblib import Parallel, delayed
 
-    from . import parse_seeds
+    from psdr_room_core.applications.synth import parse_seeds
 
     parser = argparse.ArgumentParser(
         description="Render randomised furnished rooms with exact labels (a data set "

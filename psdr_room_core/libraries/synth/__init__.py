@@ -1,4 +1,6 @@
-"""Synthetic rooms with exact ground truth, the benchmark every stage is measured on (``psdr-room-synth``).
+"""Synthetic rooms with exact ground truth, the benchmark every stage is measured on.
+
+A library: ``psdr-room-synth`` (:mod:`psdr_room_core.applications.synth`) writes them from the command line.
 
 Each scene directory holds what the ``file`` implementations read beside a photo, plus the answers:
 
@@ -11,7 +13,6 @@ Each scene directory holds what the ``file`` implementations read beside a photo
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 
@@ -23,7 +24,6 @@ from psdr_room_core.method import artifacts
 from .raycast import raycast
 from .render import render_photo
 from .room import SyntheticRoom
-from .scene import HARD_CASES, generate
 
 
 def estimated_depth(depth: np.ndarray, noise: float, seed: int) -> np.ndarray:
@@ -55,35 +55,3 @@ def write_scene(room: SyntheticRoom, directory: Path, spp: int = 64, depth_noise
     artifacts.write_coco_panoptic(directory / "photo.panoptic.png", directory / "photo.panoptic.json", ids, segments)
     (directory / "ground_truth.json").write_text(json.dumps({**room.to_json(), "exposure": scale}, indent=2) + "\n")
     return photo
-
-
-def parse_seeds(text: str) -> list[int]:
-    """``"0-9"`` → 0..9; ``"1,5,7"`` → those."""
-    if "-" in text:
-        start, end = text.split("-", 1)
-        return list(range(int(start), int(end) + 1))
-    return [int(s) for s in text.split(",")]
-
-
-def main() -> None:
-    """Entry point of ``psdr-room-synth``."""
-    parser = argparse.ArgumentParser(description="Render synthetic rooms with exact ground truth.")
-    parser.add_argument("--out", type=Path, required=True, help="directory for scene_<case>_<seed>/ folders")
-    parser.add_argument("--seeds", default="0-9", help="e.g. 0-9 or 1,5,7")
-    parser.add_argument("--case", default="random", choices=("random", *HARD_CASES))
-    parser.add_argument("--width", type=int, default=320)
-    parser.add_argument("--height", type=int, default=240)
-    parser.add_argument("--spp", type=int, default=64)
-    parser.add_argument(
-        "--depth-noise",
-        type=float,
-        default=0.0,
-        help="relative error of an estimator-like depth sidecar (0: exact depth)",
-    )
-    parser.add_argument("--objects", type=int, help="pieces of furniture (as many as fit; default: 3-5 at random)")
-    args = parser.parse_args()
-    for seed in parse_seeds(args.seeds):
-        room = generate(seed, args.case, args.width, args.height, args.objects)
-        name = f"scene_{args.case}_{seed:04d}" + (f"_{args.objects}objects" if args.objects is not None else "")
-        photo = write_scene(room, args.out / name, args.spp, args.depth_noise)
-        print(f"{photo}  vfov {room.vfov_deg:.1f}°  {len(room.furniture)} objects")

@@ -19,8 +19,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from psdr_room_core.engine.errors import PsdrRoomError
-
-from . import models
+from psdr_room_core.method import models
 
 PROG = "psdr-room-models"
 

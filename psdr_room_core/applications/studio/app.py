@@ -17,7 +17,9 @@ import numpy as np
 import torch
 import viser
 
+from psdr_room_core.applications.edit import load_state
 from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.libraries.object_db import CATEGORIES as DB_CATEGORIES
 from psdr_room_core.method.artifacts import (
     CATEGORIES,
     Camera,
@@ -28,14 +30,12 @@ from psdr_room_core.method.artifacts import (
     Placements,
     RoomBox,
 )
-from psdr_room_core.method.edit import load_state
 from psdr_room_core.method.shading import linear_to_srgb, srgb_to_linear
 from psdr_room_core.method.view_search import ERROR_TERMS
 from psdr_room_core.method.visualize import segment_overlay
 from psdr_room_plugins.detectors.boxes_file import photo_scale, scaled
 from psdr_room_plugins.layout.objects import GrabCutParams, grabcut_mask
 from psdr_room_plugins.material_graph.thumbnails import to_uint8
-from psdr_room_plugins.object_db import CATEGORIES as DB_CATEGORIES
 
 from .scene_view import SceneView, latest, overview, screen_to_photo
 from .session import EDITED, PREVIEW, Session, StageEvent

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from psdr_room_core.applications.edit import edit_scene
 from psdr_room_core.engine.cli import compose_config, hydra_quote
 from psdr_room_core.engine.dag import RunRecord, StageRecord
 from psdr_room_core.engine.errors import PsdrRoomError
@@ -40,6 +41,7 @@ from psdr_room_core.engine.files import write_whole
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import Origin, PluginSystem, load_plugins
 from psdr_room_core.engine.run import execute
+from psdr_room_core.libraries.sidecar_segmentation import panoptic_json_for, studio_segmentation_path
 from psdr_room_core.method.artifacts import (
     CATEGORIES,
     Detection,
@@ -52,11 +54,9 @@ from psdr_room_core.method.artifacts import (
     write_coco_panoptic,
 )
 from psdr_room_core.method.crops import check_crops, crops_file, load_crops, write_crops
-from psdr_room_core.method.edit import edit_scene
 from psdr_room_plugins.detectors.boxes_file import photo_scale, read_boxes, scaled, sidecar_path, write_boxes
 from psdr_room_plugins.layout.objects import GrabCutParams, grabcut_mask
 from psdr_room_plugins.segmentation_file import read_segmentation
-from psdr_room_plugins.sidecar_segmentation import panoptic_json_for, studio_segmentation_path
 
 PREVIEW = "place_objects"
 """The last stage of a preview run (the first posed scene)."""

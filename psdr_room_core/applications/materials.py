@@ -19,9 +19,9 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from psdr_room_core.applications.models import text_table
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.method.artifacts import write_png
-from psdr_room_core.method.models_cli import text_table
 
 PROG = "psdr-room-materials"
 DEFAULT_OUT = Path("materials")
@@ -69,8 +69,14 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _run(args: argparse.Namespace) -> int:
     import torch
 
-    from .library import TorchGraphLibrary
-    from .thumbnails import ThumbnailRenderer, contact_sheet, map_images, shade, to_uint8
+    from psdr_room_plugins.material_graph.library import TorchGraphLibrary
+    from psdr_room_plugins.material_graph.thumbnails import (
+        ThumbnailRenderer,
+        contact_sheet,
+        map_images,
+        shade,
+        to_uint8,
+    )
 
     library = TorchGraphLibrary(extra_dirs=[str(d) for d in args.dir])
     if args.command == "list":

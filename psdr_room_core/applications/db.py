@@ -26,7 +26,7 @@ from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.method.artifacts import write_png
 
 if TYPE_CHECKING:
-    from .database import ObjectDatabase
+    from psdr_room_core.libraries.object_db.database import ObjectDatabase
 
 PROG = "psdr-room-db"
 
@@ -68,8 +68,8 @@ def _parser() -> argparse.ArgumentParser:
 def open_database(
     root: Path | None = None, future: Path | None = None, subset: float | None = None, seed: int = 0
 ) -> ObjectDatabase:
-    from .builtin import builtin_database
-    from .database import ObjectDatabase
+    from psdr_room_core.libraries.object_db.builtin import builtin_database
+    from psdr_room_core.libraries.object_db.database import ObjectDatabase
 
     if root is not None:
         db = ObjectDatabase.load(root)
@@ -110,11 +110,11 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     if args.command == "index":
-        from .database import build_index
+        from psdr_room_core.libraries.object_db.database import build_index
 
         print(f"wrote {build_index(args.root)}")
         return 0
-    from .thumbnails import build_thumbnails, cache_dir, contact_sheet
+    from psdr_room_core.libraries.object_db.thumbnails import build_thumbnails, cache_dir, contact_sheet
 
     db = open_database(args.root, args.future, args.subset, args.seed)
     if args.command == "list":

@@ -165,7 +165,9 @@ def _field(data: Mapping[str, Any], key: str, kind: type, where: str, default: A
     if key not in data:
         if default is not None:
             return default
-        raise PsdrRoomError(f"{where}: field {key!r} is missing; add it (see psdr_room_plugins.object_db.database)")
+        raise PsdrRoomError(
+            f"{where}: field {key!r} is missing; add it (see psdr_room_core.libraries.object_db.database)"
+        )
     value = data[key]
     if kind is float and isinstance(value, int) and not isinstance(value, bool):
         value = float(value)

@@ -26,11 +26,10 @@ import numpy as np
 
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.plugins import plugin_system
-
-from .artifacts import write_png
-from .capabilities import Denoiser
-from .rgb_scene import to_srgb8
-from .shading import srgb_to_linear
+from psdr_room_core.method.artifacts import write_png
+from psdr_room_core.method.capabilities import Denoiser
+from psdr_room_core.method.rgb_scene import to_srgb8
+from psdr_room_core.method.shading import srgb_to_linear
 
 SCRIPT = Path(__file__).with_name("blender_scene.py")
 """The script Blender runs (its own Python: nothing of psdr-room is imported there)."""
