@@ -6,8 +6,8 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from psdr_room_core.engine.dag import RunRecord, StageRecord
 from psdr_room_core.engine.hookspecs import hookimpl
+from psdr_room_core.engine.records import RunRecord, StageRecord
 
 log = logging.getLogger("psdr_room")
 

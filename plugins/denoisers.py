@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.registry import Registry
 from psdr_room_core.engine.settings import NoSettings, setting
 
 log = logging.getLogger(__name__)

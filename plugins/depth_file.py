@@ -15,7 +15,7 @@ import numpy as np
 
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.registry import Registry
 from psdr_room_core.engine.settings import setting
 from psdr_room_core.libraries.sidecar_depth import (
     DEPTH_ENCODINGS,

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.registry import Registry
 from psdr_room_core.engine.settings import setting
 from psdr_room_core.libraries.vanishing_points import VanishingPointParams
 from psdr_room_core.method.artifacts import Camera, Image

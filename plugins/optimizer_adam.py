@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.registry import Registry
 from psdr_room_core.engine.settings import setting
 
 

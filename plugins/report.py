@@ -14,10 +14,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from psdr_room_core.engine.dag import RunRecord
 from psdr_room_core.engine.files import write_whole
 from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.records import RunRecord
+from psdr_room_core.engine.registry import Registry
 from psdr_room_core.engine.settings import setting
 from psdr_room_core.method.artifacts import (
     Camera,

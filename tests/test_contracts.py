@@ -1,7 +1,9 @@
 """The repository's contracts in ``pyproject.toml``, checked by the test command through ``.pre-commit-config.yaml``:
 
-* [tool.importlinter]: three rooms (plugins build on the method, the method on the engine, never the other way),
-  an engine free of the rendering/vision/learning stack, and no package whose modules import each other in a circle;
+* [tool.importlinter]: five rooms (applications, plugins, libraries, method, engine: each on those below, never the
+  other way),
+  an engine free of the rendering/vision/learning stack, and no package whose modules import each other in a circle
+  (type-only imports included);
 * [tool.ruff]: ``ruff check`` (pyflakes, syntax errors, import order, bugbear, pyupgrade, simplify) and ``ruff format``
   everywhere;
 * [tool.mypy]: the engine type-checks under ``--strict``, the method at mypy's default strictness.

@@ -14,10 +14,12 @@ import pytest
 
 import toy_plugin
 from psdr_room_core.engine.cache import Store
-from psdr_room_core.engine.dag import Pipeline, Runner, RunRecord, StageContext, check_stage_inputs
+from psdr_room_core.engine.dag import Pipeline, Runner, StageContext, check_stage_inputs
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Origin, Registry, load_plugins
+from psdr_room_core.engine.plugins import load_plugins
+from psdr_room_core.engine.records import RunRecord
+from psdr_room_core.engine.registry import Origin, Registry
 
 TOY = Origin("toy", "tests", "toy = toy_plugin")
 

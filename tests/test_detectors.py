@@ -21,7 +21,7 @@ from onnx import TensorProto, helper, numpy_helper
 
 from conftest import REPO, SHARED_DATA
 from psdr_room_core.engine.errors import PsdrRoomError
-from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.registry import Registry
 from psdr_room_core.method.artifacts import Image
 from psdr_room_core.method.photo import read_photo, resize_to_working
 from psdr_room_core.method.plugin import register_capabilities

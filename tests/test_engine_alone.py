@@ -27,7 +27,8 @@ SCRIPT = textwrap.dedent("""
 
     from omegaconf import OmegaConf
     import toy_plugin
-    from psdr_room_core.engine.plugins import Origin, load_plugins
+    from psdr_room_core.engine.plugins import load_plugins
+    from psdr_room_core.engine.registry import Origin
     from psdr_room_core.engine.run import execute
 
     plugins = load_plugins(extra=[(toy_plugin, Origin("toy", "tests", "toy = toy_plugin"))], discover=False)

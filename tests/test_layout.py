@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from boxroom import checker_floor
-from psdr_room_core.engine.dag import RunRecord
+from psdr_room_core.engine.records import RunRecord
 from psdr_room_core.libraries.vanishing_points import estimate_camera
 from psdr_room_core.method.artifacts import Camera, Detection, Detections, Image, Panoptic, Segment
 from psdr_room_core.method.guesses import FLOOR_GUESSES, fov_guesses

@@ -15,7 +15,8 @@ from test_material_nodes import seam_ratio
 from conftest import REPO
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Origin, load_plugins
+from psdr_room_core.engine.plugins import load_plugins
+from psdr_room_core.engine.registry import Origin
 from psdr_room_plugins.material_graph.graph import GraphError, load_graph, parse_graph
 from psdr_room_plugins.material_graph.library import TorchGraphLibrary
 from psdr_room_plugins.material_graph.nodes import Input, NodeType, builtin_node_types

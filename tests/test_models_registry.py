@@ -17,7 +17,8 @@ import pytest
 from psdr_room_core.applications import models as models_cli
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Origin, load_plugins
+from psdr_room_core.engine.plugins import load_plugins
+from psdr_room_core.engine.registry import Origin
 from psdr_room_core.method import models
 from psdr_room_core.method.models import USES
 

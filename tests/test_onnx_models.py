@@ -501,7 +501,8 @@ def test_segmentation_missing_registry_model(tmp_path: Path) -> None:
 # ================================================================================ in the pipeline
 def _plugins():
     import psdr_room_plugins.onnx_models as onnx_models
-    from psdr_room_core.engine.plugins import Origin, load_plugins
+    from psdr_room_core.engine.plugins import load_plugins
+    from psdr_room_core.engine.registry import Origin
 
     installed = any(ep.value == onnx_models.__name__ for ep in importlib.metadata.entry_points(group="psdr_room"))
     extra = [] if installed else [(onnx_models, Origin("onnx_models", "tests", "onnx_models (test)"))]

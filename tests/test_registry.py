@@ -15,7 +15,8 @@ import pytest
 from conftest import EXAMPLE, REPO
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Origin, load_plugins
+from psdr_room_core.engine.plugins import load_plugins
+from psdr_room_core.engine.registry import Origin
 
 BUILTIN_IMPLEMENTATIONS = {("fov", "vanishing_points"), ("fov", "fixed"), ("depth", "file"), ("segmentation", "file")}
 

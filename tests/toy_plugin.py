@@ -11,7 +11,7 @@ from typing import ClassVar, Protocol, runtime_checkable
 
 from psdr_room_core.engine.dag import StageContext
 from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.registry import Registry
 
 CALLS: Counter[str] = Counter()
 VERSION = {"toy": "1"}

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.registry import Registry
 from psdr_room_core.engine.settings import NoSettings, setting
 from psdr_room_core.method.artifacts import Detections, Image
 

@@ -9,7 +9,7 @@ GrabCut, and get depth from where their mask meets the floor.
 from __future__ import annotations
 
 from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.registry import Registry
 
 from .settings import LayoutDepthSettings, LayoutSegmentationSettings
 

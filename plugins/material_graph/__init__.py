@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import pluggy
 
 from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.registry import Registry
 from psdr_room_core.engine.settings import setting
 
 from . import hookspecs

@@ -12,7 +12,7 @@ import contextlib
 
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.registry import Registry
 from psdr_room_core.libraries.llvm import ensure_llvm
 
 from .settings import MitsubaSettings

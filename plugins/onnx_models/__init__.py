@@ -18,7 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.registry import Registry
 from psdr_room_core.engine.settings import setting
 
 from .clip import ClipRetrieval

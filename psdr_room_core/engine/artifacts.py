@@ -1,6 +1,6 @@
 """What the engine knows of artifacts: the protocol every artifact type satisfies, and how a saved one is
 recognised. Which types exist is the plugins' business (the ``register_artifacts`` hook fills
-:attr:`~psdr_room_core.engine.plugins.Registry.artifacts`)."""
+:attr:`~psdr_room_core.engine.registry.Registry.artifacts`)."""
 
 from __future__ import annotations
 

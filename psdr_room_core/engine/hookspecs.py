@@ -23,8 +23,8 @@ from typing import TYPE_CHECKING, Any
 import pluggy
 
 if TYPE_CHECKING:
-    from .dag import RunRecord, StageRecord
-    from .plugins import Registry
+    from .records import RunRecord, StageRecord
+    from .registry import Registry
 
 PROJECT = "psdr_room"
 hookspec = pluggy.HookspecMarker(PROJECT)

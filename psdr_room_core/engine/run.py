@@ -16,10 +16,11 @@ from omegaconf.errors import InterpolationResolutionError, MissingMandatoryValue
 
 from .artifacts import Artifact
 from .cache import CACHE_MODES, Store
-from .dag import Pipeline, Runner, RunRecord, check_stage_inputs
+from .dag import Pipeline, Runner, check_stage_inputs
 from .errors import PsdrRoomError
 from .ownership import check_writable_into, claim
 from .plugins import PluginSystem, plugin_system
+from .records import RunRecord
 from .settings import check_config
 
 log = logging.getLogger("psdr_room")

@@ -29,7 +29,7 @@ from .dag import AUTO, StageNode, with_settings
 from .errors import PsdrRoomError
 
 if TYPE_CHECKING:
-    from .plugins import Registry
+    from .registry import Registry
 
 
 ENGINE_KEYS = ("image", "seed", "cache", "cache_dir", "run", "inject")

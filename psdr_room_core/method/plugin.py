@@ -11,9 +11,9 @@ from typing import Any
 
 import pluggy
 
-from psdr_room_core.engine.dag import RunRecord
 from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.records import RunRecord
+from psdr_room_core.engine.registry import Registry
 from psdr_room_core.engine.settings import NoSettings
 
 from . import artifacts, hookspecs

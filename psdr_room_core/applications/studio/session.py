@@ -35,11 +35,12 @@ import yaml
 
 from psdr_room_core.applications.edit import edit_scene
 from psdr_room_core.engine.cli import compose_config, hydra_quote
-from psdr_room_core.engine.dag import RunRecord, StageRecord
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.files import write_whole
 from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Origin, PluginSystem, load_plugins
+from psdr_room_core.engine.plugins import PluginSystem, load_plugins
+from psdr_room_core.engine.records import RunRecord, StageRecord
+from psdr_room_core.engine.registry import Origin
 from psdr_room_core.engine.run import execute
 from psdr_room_core.libraries.sidecar_segmentation import panoptic_json_for, studio_segmentation_path
 from psdr_room_core.method.artifacts import (

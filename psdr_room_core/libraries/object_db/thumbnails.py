@@ -16,16 +16,14 @@ import hashlib
 import math
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.files import write_whole
+from psdr_room_core.method.artifacts import ObjectMesh
 from psdr_room_core.method.shading import linear_to_srgb, srgb_to_linear
-
-if TYPE_CHECKING:
-    from .database import ObjectDatabase, ObjectMesh
 
 VIEWS: tuple[tuple[float, float], ...] = ((30.0, 22.0), (-40.0, 22.0), (150.0, 22.0), (-130.0, 22.0))
 """(azimuth, elevation) in degrees: front-right, front-left, back-right, back-left, at one elevation."""
@@ -33,6 +31,24 @@ SIZE = 128
 SPP = 32
 RENDER_VERSION = 1
 """Bump when the look of the thumbnails changes (it is part of the cache key)."""
+
+
+class Identified(Protocol):
+    @property
+    def id(self) -> str: ...
+
+
+class Models(Protocol):
+    """What thumbnails read of a database (an :class:`~.database.ObjectDatabase` is one): the digest naming its
+    cache folder, its records' ids and each model's mesh."""
+
+    @property
+    def digest(self) -> str: ...
+
+    @property
+    def records(self) -> Sequence[Identified]: ...
+
+    def mesh(self, model_id: str) -> ObjectMesh: ...
 
 
 def camera_for(
@@ -54,7 +70,7 @@ def camera_for(
 
 
 class ThumbnailRenderer:
-    """Renders a :class:`~.database.ObjectMesh` from :data:`VIEWS` (H×W×3 uint8 sRGB each, on white)."""
+    """Renders a :class:`~psdr_room_core.method.artifacts.ObjectMesh` from :data:`VIEWS` (H×W×3 uint8 sRGB each, on white)."""
 
     def __init__(
         self,
@@ -150,7 +166,7 @@ def default_renderer() -> ThumbnailRenderer:
     return _RENDERERS[key]
 
 
-def cache_dir(db: ObjectDatabase, renderer: ThumbnailRenderer | None = None) -> Path:
+def cache_dir(db: Models, renderer: ThumbnailRenderer | None = None) -> Path:
     """Where ``db``'s thumbnails live: ``<cache>/object_db/<digest of db and renderer settings>``."""
     from psdr_room_core.engine.cache import default_cache_dir
 
@@ -179,9 +195,7 @@ def _read_png(path: Path) -> np.ndarray | None:
     return None if image is None else np.ascontiguousarray(image[:, :, ::-1])
 
 
-def cached_thumbnails(
-    db: ObjectDatabase, model_id: str, renderer: ThumbnailRenderer | None = None
-) -> list[np.ndarray] | None:
+def cached_thumbnails(db: Models, model_id: str, renderer: ThumbnailRenderer | None = None) -> list[np.ndarray] | None:
     """The cached views of a model, or None if any is missing."""
     renderer = renderer or default_renderer()
     folder = cache_dir(db, renderer)
@@ -190,7 +204,7 @@ def cached_thumbnails(
 
 
 def thumbnails_for(
-    db: ObjectDatabase, model_id: str, renderer: ThumbnailRenderer | None = None, views: Sequence[int] | None = None
+    db: Models, model_id: str, renderer: ThumbnailRenderer | None = None, views: Sequence[int] | None = None
 ) -> list[np.ndarray]:
     """The model's ``views`` (indices into the renderer's; default all) from the cache; the missing ones are
     rendered, in one scene, and stored there first (a contact sheet needs one view: it renders only that)."""
@@ -207,7 +221,7 @@ def thumbnails_for(
 
 
 def build_thumbnails(
-    db: ObjectDatabase,
+    db: Models,
     renderer: ThumbnailRenderer | None = None,
     progress: Callable[[Iterable[Any]], Iterable[Any]] | None = None,
 ) -> tuple[int, int]:
