@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from psdr_room_core.engine.hookspecs import hookimpl
-from psdr_room_core.engine.plugins import Registry
+from psdr_room_core.engine.registry import Registry
 from psdr_room_core.engine.settings import setting
 from psdr_room_core.libraries.object_db import ObjectDatabase
 from psdr_room_core.libraries.object_db.opening import object_mesh, open_database

@@ -6,7 +6,8 @@
   (type-only imports included);
 * [tool.ruff]: ``ruff check`` (pyflakes, syntax errors, import order, bugbear, pyupgrade, simplify) and ``ruff format``
   everywhere;
-* [tool.mypy]: the engine type-checks under ``--strict``, the method at mypy's default strictness.
+* [tool.mypy] (``scripts/mypy.sh``): every package type-checks, the engine under ``--strict``, the rest at mypy's
+  default strictness.
 """
 
 from __future__ import annotations

@@ -51,8 +51,8 @@ def _nearest_hits(origin: np.ndarray, directions: np.ndarray, triangles: np.ndar
 
 def test_labels_of_a_generated_room_are_exact_at_pixel_centres(made: dict) -> None:
     """Every pixel's class, instance and depth match an independent ray cast through its centre."""
-    sample = sample_room(3, made["database"], made["library"], [], width=64, height=48)
-    maps = label_maps(sample, made["renderer"])
+    sample = sample_room(3, made.database, made.library, [], width=64, height=48)
+    maps = label_maps(sample, made.renderer)
     meshes = {**sample.meshes, **{n: m for n, (m, _) in sample.emitters.items()}}
     triangles = np.concatenate([m.vertices[m.faces] for m in meshes.values()])
     owner = np.concatenate([np.full(len(m.faces), k) for k, m in enumerate(meshes.values())])
@@ -93,9 +93,7 @@ def test_the_data_engine_is_deterministic_and_writes_whole_samples(tmp_path: Pat
     main(["--out", str(tmp_path), "--seeds", "5", "--spp", "2", "--width", "48", "--height", "36"])
     again = dict(np.load(tmp_path / "000005.npz"))
     assert all(np.array_equal(first[1][k], again[k]) for k in first[1])
-    image = render_photo(
-        sample_room(5, made["database"], made["library"], [], 48, 36), made["renderer"], made["denoiser"], 2
-    )
+    image = render_photo(sample_room(5, made.database, made.library, [], 48, 36), made.renderer, made.denoiser, 2)
     assert image.shape == (36, 48, 3) and image.std() > 5
 
 

@@ -36,7 +36,7 @@ from psdr_room_core.libraries.object_db.opening import open_database
 from psdr_room_core.libraries.synth import write_scene
 from psdr_room_core.libraries.synth.raycast import raycast
 from psdr_room_core.libraries.synth.scene import generate
-from psdr_room_core.method.artifacts import Camera, write_coco_panoptic
+from psdr_room_core.method.artifacts import Camera, ObjectCandidates, Panoptic, RoomBox, write_coco_panoptic
 from psdr_room_plugins.detectors.boxes_file import read_boxes
 
 FAST = [
@@ -114,7 +114,7 @@ def test_wrong_corrections_are_refused_and_change_nothing(
     session = Session(folder / "photo.png", FAST, tmp_path / "run", plugins, events)
     session.run(PREVIEW)
     database = open_database("builtin", 1.0, 0)
-    candidates = session.artifact("object_candidates").ranked
+    candidates = session.artifact("object_candidates", ObjectCandidates).ranked
     segment = next(iter(candidates))
     before = (folder / "photo.boxes.yaml").read_text()
     for wrong, message in [
@@ -178,9 +178,9 @@ def test_wrong_corrections_are_refused_and_change_nothing(
     assert (folder / "photo.boxes.yaml").read_text() == boxes_file  # the copy took the box, not the boxes file
     session.run(PREVIEW)
     assert session.record is not None and session.record.implementations["segmentation"]["name"] == "file"
-    marked = {s.id: s.category for s in session.artifact("panoptic").segments}
-    assert marked[segment] == "wall" and segment not in session.artifact("object_candidates").ranked
-    assert "table" in {s.label for s in session.artifact("panoptic").segments}
+    marked = {s.id: s.category for s in session.artifact("panoptic", Panoptic).segments}
+    assert marked[segment] == "wall" and segment not in session.artifact("object_candidates", ObjectCandidates).ranked
+    assert "table" in {s.label for s in session.artifact("panoptic", Panoptic).segments}
     session.reset_segmentation()
     assert not (folder / "photo.studio.panoptic.png").exists() and not (folder / "photo.studio.panoptic.json").exists()
     assert not list(folder.glob(".studio-*"))
@@ -201,7 +201,7 @@ def test_the_first_view_looks_at_the_placed_objects(
     client = SimpleNamespace(camera=SimpleNamespace(), atomic=contextlib.nullcontext)
     overview(client, artifacts)
     eye, target = np.asarray(client.camera.position), np.asarray(client.camera.look_at)
-    box = latest(artifacts, "room_box_objects", "room_box_fit", "room_box")
+    box = latest(artifacts, RoomBox, "room_box_objects", "room_box_fit", "room_box")
     assert np.all(np.abs(box.local(eye[None])[0]) < np.asarray(box.half_size))  # inside the room
     assert eye[1] > box.camera_to_world[1][3]  # above the photo's camera
     view = (target - eye) / np.linalg.norm(target - eye)
@@ -235,7 +235,7 @@ def test_boxes_over_a_users_segmentation_change_the_studios_copy(
     assert {name: (folder / name).read_bytes() for name in users} == users
     session.run(PREVIEW)
     assert session.record.implementations["segmentation"]["name"] == "file"
-    read = session.artifact("panoptic")
+    read = session.artifact("panoptic", Panoptic)
     labels = [s.label for s in sorted((s for s in read.segments if s.category == "object"), key=lambda s: s.id)]
     expected = [s.label for s in sorted(objects, key=lambda s: s.id)]
     expected = ["cabinet", *expected[2:], "sofa"]

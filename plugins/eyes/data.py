@@ -14,6 +14,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from psdr_room_core.engine.errors import PsdrRoomError
+
 from .labels import OBJECT
 from .network import INPUT_SIZE
 
@@ -40,7 +42,12 @@ class Pack:
     def photo(self, index: int) -> np.ndarray:
         """Sample ``index``'s photo, RGB uint8 [240, 320, 3]."""
         data = self.jpeg[self.offsets[index] : self.offsets[index + 1]]
-        return cv2.imdecode(data, cv2.IMREAD_COLOR)[..., ::-1]
+        image = cv2.imdecode(data, cv2.IMREAD_COLOR)
+        if image is None:
+            raise PsdrRoomError(
+                f"sample {index} (seed {self.seeds[index]}): damaged JPEG in the pack; delete the pack to rebuild it"
+            )
+        return image[..., ::-1]
 
     def split(self, validation: float) -> tuple[np.ndarray, np.ndarray]:
         """(training, validation) indices: the highest seeds are held out."""
@@ -74,9 +81,15 @@ def build_pack(folder: Path, path: Path, quality: int = 85, limit: int | None = 
         int(p.stem) for p in folder.glob("*.npz") if p.stem.isdigit() and (folder / f"{p.stem}.jpg").is_file()
     )
     seeds = seeds[:limit] if limit else seeds
-    chunks, offsets, labels = [], [0], {k: [] for k in ("surface", "category", "instance", "depth")}
+    chunks: list[np.ndarray] = []
+    offsets = [0]
+    labels: dict[str, list[np.ndarray]] = {k: [] for k in ("surface", "category", "instance", "depth")}
     for seed in seeds:
         image = cv2.imread(str(folder / f"{seed:06d}.jpg"), cv2.IMREAD_COLOR)
+        if image is None:
+            raise PsdrRoomError(
+                f"{folder / f'{seed:06d}.jpg'}: not a readable JPEG; delete it and render the sample again"
+            )
         image = cv2.resize(image, INPUT_SIZE[::-1], interpolation=cv2.INTER_AREA)
         chunks.append(cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, quality])[1].reshape(-1))
         offsets.append(offsets[-1] + len(chunks[-1]))
@@ -87,8 +100,10 @@ def build_pack(folder: Path, path: Path, quality: int = 85, limit: int | None = 
         np.array(seeds, np.int64),
         np.concatenate(chunks) if chunks else np.zeros(0, np.uint8),
         np.array(offsets, np.int64),
-        *(np.stack(labels[k]) for k in ("surface", "category", "instance")),
-        np.stack(labels["depth"]).astype(np.float16),
+        surface=np.stack(labels["surface"]),
+        category=np.stack(labels["category"]),
+        instance=np.stack(labels["instance"]),
+        depth=np.stack(labels["depth"]).astype(np.float16),
     )
     pack.save(path)
     return pack
@@ -109,7 +124,9 @@ def augment_photo(image: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     out = (np.clip(x, 0, 1) * 255.0 + 0.5).astype(np.uint8)
     if rng.random() < 0.5:
         data = cv2.imencode(".jpg", out[..., ::-1], [cv2.IMWRITE_JPEG_QUALITY, int(rng.integers(40, 96))])[1]
-        out = cv2.imdecode(data, cv2.IMREAD_COLOR)[..., ::-1]
+        decoded = cv2.imdecode(data, cv2.IMREAD_COLOR)
+        assert decoded is not None, "a JPEG encoded just now decodes"
+        out = decoded[..., ::-1]
     return out
 
 

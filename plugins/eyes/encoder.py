@@ -115,13 +115,15 @@ class OnnxEncoder(nn.Module):
         values: dict[str, torch.Tensor] = {self.input: x}
         resized_from: dict[str, torch.Tensor] = {}
         for op, inputs, output, attrs in self.nodes:
-            args = [
+            found = [
                 values[n] if n in values else self.params[self.names[n]] if n in self.names else None for n in inputs
             ]
+            args = [tensor for tensor in found if tensor is not None]  # constants (attrs) only ever follow tensors
+            first = args[0]
             if op == "Conv":
                 pads = attrs.get("pads", [0, 0, 0, 0])
                 out = F.conv2d(
-                    args[0],
+                    first,
                     args[1],
                     args[2] if len(args) > 2 else None,
                     tuple(attrs.get("strides", (1, 1))),
@@ -134,9 +136,9 @@ class OnnxEncoder(nn.Module):
                 half = len(pads) // 2  # ONNX: all begins, then all ends; torch: last axis first, (begin, end)
                 torch_pads = [p for axis in reversed(range(half)) for p in (pads[axis], pads[axis + half])]
                 value = float(attrs[f"const:{inputs[2]}"]) if len(inputs) > 2 else 0.0
-                out = F.pad(args[0], torch_pads[:4], value=value)
+                out = F.pad(first, torch_pads[:4], value=value)
             elif op == "LeakyRelu":
-                out = F.leaky_relu(args[0], attrs.get("alpha", 0.01))
+                out = F.leaky_relu(first, attrs.get("alpha", 0.01))
             elif op == "Concat":
                 out = torch.cat(args, dim=attrs["axis"])
             elif op == "Add":
@@ -153,12 +155,12 @@ class OnnxEncoder(nn.Module):
                 out = a + b
             elif op == "Resize":
                 scales = attrs[f"const:{inputs[2]}"]
-                size = [int(np.floor(s * f)) for s, f in zip(args[0].shape[-2:], scales[-2:])]
-                resized_from[output] = args[0]
-                out = F.interpolate(args[0], size=size, mode="bilinear", align_corners=False)
+                size = [int(np.floor(s * f)) for s, f in zip(first.shape[-2:], scales[-2:])]
+                resized_from[output] = first
+                out = F.interpolate(first, size=size, mode="bilinear", align_corners=False)
             elif op == "MaxPool":
                 out = F.max_pool2d(
-                    args[0],
+                    first,
                     tuple(attrs["kernel_shape"]),
                     tuple(attrs["strides"]),
                     tuple(attrs.get("pads", [0, 0, 0, 0])[:2]),

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import torch
 import torch.nn.functional as F
@@ -23,6 +24,9 @@ from torch import nn
 
 from .encoder import CHANNELS, OnnxEncoder, normalise
 from .labels import CATEGORIES, SURFACES
+
+if TYPE_CHECKING:
+    import onnx
 
 WIDTH = 64
 """Channels of the heads' shared map."""
@@ -47,8 +51,11 @@ class EyesNet(nn.Module):
         self.lateral = nn.ModuleDict({name: nn.Conv2d(CHANNELS[name], WIDTH, 1) for name in ("p3", "p4", "p5", "c2")})
         self.smooth8 = nn.Sequential(nn.Conv2d(WIDTH, WIDTH, 3, padding=1), nn.LeakyReLU(0.1))
         self.smooth4 = nn.Sequential(nn.Conv2d(WIDTH, WIDTH, 3, padding=1), nn.LeakyReLU(0.1))
-        self.heads = nn.ModuleDict({name: _block(WIDTH, channels) for name, channels in OUTPUTS.items()})
-        nn.init.constant_(self.heads["center"][-1].bias, -4.0)  # a centre is rare: start near probability 0.02
+        heads = {name: _block(WIDTH, channels) for name, channels in OUTPUTS.items()}
+        centre = heads["center"][-1]
+        assert isinstance(centre, nn.Conv2d) and centre.bias is not None
+        nn.init.constant_(centre.bias, -4.0)  # a centre is rare: start near probability 0.02
+        self.heads = nn.ModuleDict(heads)
 
     def features(self, rgb: torch.Tensor) -> torch.Tensor:
         """The shared stride-4 map [B, WIDTH, H/4, W/4]."""
@@ -116,7 +123,7 @@ def export_onnx(net: EyesNet, path: Path, half: bool = False) -> Path:
     return path
 
 
-def _half_weights(model: onnx.ModelProto) -> onnx.ModelProto:  # noqa: F821
+def _half_weights(model: onnx.ModelProto) -> onnx.ModelProto:
     """Float32 initializers stored as float16, each read through a Cast back to float32."""
     import numpy as np
     import onnx

@@ -609,7 +609,7 @@ class _MitsubaScene:
 
             from .integrator import ALPHA, DEPTH, NAME
 
-            ids = {s.id(): int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(s))[0]) for s in scene.shapes()}  # type: ignore[index]  # variant-generic stubs
+            ids = {s.id(): int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(s))[0]) for s in scene.shapes()}
             table = [-1.0] * (max(ids.values()) + 1)
             for name, part in owner.parts.items():
                 table[ids[name]] = float(part)
@@ -674,9 +674,10 @@ class _MitsubaScene:
         if not self.owner.renderer.freeze or self.mi.variant().startswith("scalar"):
             return fn
         import drjit as dr
-        from mitsuba.ad.integrators.common import PSIntegrator
 
-        if isinstance(integrator, PSIntegrator):
+        from .integrator import projective_base
+
+        if isinstance(integrator, projective_base()):
             return fn
         key = (kind, id(integrator))
         if key not in self._frozen:

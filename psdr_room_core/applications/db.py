@@ -18,7 +18,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -26,7 +26,7 @@ from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.method.artifacts import write_png
 
 if TYPE_CHECKING:
-    from psdr_room_core.libraries.object_db.database import ObjectDatabase
+    from psdr_room_core.libraries.object_db.database import ModelRecord, ObjectDatabase
 
 PROG = "psdr-room-db"
 
@@ -74,7 +74,7 @@ def open_database(
     if root is not None:
         db = ObjectDatabase.load(root)
     elif future is not None:
-        from .future3d import read_3dfuture
+        from psdr_room_core.libraries.object_db.future3d import read_3dfuture
 
         db = read_3dfuture(future)
     else:
@@ -82,7 +82,7 @@ def open_database(
     return db.subset(subset, seed) if subset is not None else db
 
 
-def _progress(total: int, what: str):  # type: ignore[no-untyped-def]
+def _progress(total: int, what: str) -> Callable[[Iterable[ModelRecord]], Iterable[ModelRecord]]:
     from tqdm import tqdm
 
     return lambda items: tqdm(

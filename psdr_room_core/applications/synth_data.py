@@ -23,17 +23,25 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
 
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.registry import Registry
+from psdr_room_core.libraries.object_db import ObjectDatabase
 from psdr_room_core.libraries.synth.furnish import THEMES, Furnisher, to_world
 from psdr_room_core.libraries.synth.room import camera_pose
-from psdr_room_core.method.artifacts import Camera, RoomBox, rotation_y
+from psdr_room_core.method.artifacts import Camera, RoomBox, rotation_y, vec3
+from psdr_room_core.method.capabilities import Denoiser, Renderer
 from psdr_room_core.method.geometry import TriangleMesh, quad_mesh
 from psdr_room_core.method.rgb_scene import object_parts, room_quads, to_srgb8
 from psdr_room_core.method.shading import Surface, planar_uv, srgb_to_linear, texture_transform
 from psdr_room_plugins.eyes.labels import CATEGORIES, OBJECT
+
+if TYPE_CHECKING:
+    from psdr_room_plugins.material_graph.library import TorchGraphLibrary
 
 PURE_PIXEL = 0.999
 """A pixel gets a depth label when one part covers at least this fraction of it."""
@@ -61,9 +69,9 @@ class Sample:
 class Looks:
     """Random surfaces: flat colours, the material library's graphs at random parameters, photo textures."""
 
-    def __init__(self, library: object, textures: Sequence[Path], rng: np.random.Generator) -> None:
+    def __init__(self, library: TorchGraphLibrary, textures: Sequence[Path], rng: np.random.Generator) -> None:
         self.library = library
-        self.names = list(library.names())  # type: ignore[attr-defined]
+        self.names = list(library.names())
         self.textures = list(textures)
         self.rng = rng
 
@@ -87,20 +95,22 @@ class Looks:
                 [[[self.rng.uniform(0, 180), self.rng.uniform(0, 255), self.rng.uniform(30, 240)]]], np.uint8
             )
         rgb = cv2.cvtColor(hsv, cv2.COLOR_HSV2RGB)[0, 0] / 255.0
-        return tuple(float(v) for v in srgb_to_linear(rgb))
+        return vec3(srgb_to_linear(rgb))
 
     def _map(self) -> tuple[np.ndarray, np.ndarray, float]:
         """(linear base colour map, roughness map, tile size m) from a graph or a photo texture."""
         if self.textures and self.rng.random() < 0.4:
             path = self.textures[int(self.rng.integers(len(self.textures)))]
-            image = cv2.imread(str(path), cv2.IMREAD_COLOR)
-            image = cv2.resize(image, (TEXTURE_SIZE, TEXTURE_SIZE), interpolation=cv2.INTER_AREA)[..., ::-1] / 255.0
+            read = cv2.imread(str(path), cv2.IMREAD_COLOR)
+            if read is None:
+                raise PsdrRoomError(f"{path}: not a readable image; remove it from the textures folder")
+            image = cv2.resize(read, (TEXTURE_SIZE, TEXTURE_SIZE), interpolation=cv2.INTER_AREA)[..., ::-1] / 255.0
             image = image * self.rng.uniform(0.7, 1.2, 3)  # tinted
             rough = np.full((TEXTURE_SIZE, TEXTURE_SIZE, 1), self.rng.uniform(0.3, 0.9), np.float32)
             return srgb_to_linear(np.clip(image, 0, 1)).astype(np.float32), rough, float(self.rng.uniform(0.4, 2.0))
         import torch
 
-        material = self.library.material(self.names[int(self.rng.integers(len(self.names)))])  # type: ignore[attr-defined]
+        material = self.library.material(self.names[int(self.rng.integers(len(self.names)))])
         values = {}  # half way from the graph's own values towards random ones in range
         for key, b in material.bounds.items():
             value, lo, hi = (t.numpy().astype(float) for t in (b.value, b.lo, b.hi))
@@ -150,7 +160,12 @@ def _light_colour(rng: np.random.Generator, daylight: bool) -> np.ndarray:
 
 
 def sample_room(
-    seed: int, database: object, library: object, textures: Sequence[Path], width: int = 320, height: int = 240
+    seed: int,
+    database: ObjectDatabase,
+    library: TorchGraphLibrary,
+    textures: Sequence[Path],
+    width: int = 320,
+    height: int = 240,
 ) -> Sample:
     """A random furnished room and camera for ``seed``: room size and shape (corridors too), camera height,
     pitch, roll and FoV, a theme's furniture arrangement, materials, windows, a door and lights."""
@@ -222,7 +237,7 @@ def sample_room(
         top = min(sill + rng.uniform(1.0, 1.8), 2 * half[1] - 0.15)
         name = f"window_{k}"
         radiance = _light_colour(rng, True) * rng.uniform(3.0, 25.0)
-        sample.emitters[name] = (wall_rect(wall, along, sill, top, half_width, 0.004), tuple(map(float, radiance)))
+        sample.emitters[name] = (wall_rect(wall, along, sill, top, half_width, 0.004), vec3(radiance))
         sample.labels[name] = (4, 0, 0)
     if rng.random() < 0.5:  # a door
         wall, half_width = int(rng.integers(3)), float(rng.uniform(0.4, 0.5))
@@ -240,7 +255,7 @@ def sample_room(
         for name, (mesh, srgb) in object_parts(world).items():
             if rng.random() < 0.35:  # the model's own colour, varied
                 colour = srgb_to_linear(np.clip(np.asarray(srgb) * rng.uniform(0.7, 1.3, 3), 0, 1))
-                mesh_, look = mesh, Surface(tuple(map(float, colour)), float(rng.uniform(0.3, 0.9)), 0.5)
+                mesh_, look = mesh, Surface(vec3(colour), float(rng.uniform(0.3, 0.9)), 0.5)
             else:
                 mesh_, look = looks.surface("object", mesh, 0.5)
             sample.meshes[name], sample.surfaces[name] = mesh_, look
@@ -259,13 +274,13 @@ def sample_room(
                 axis_to_world(np.array([0, 0, size[1]])),
                 np.array([0.0, -1.0, 0.0]),
             ),
-            tuple(map(float, radiance)),
+            vec3(radiance),
         )
         sample.labels[name] = (OBJECT, CATEGORIES.index("lamp") + 1, 1000 + k)
     return sample
 
 
-def label_maps(sample: Sample, renderer: object) -> dict[str, np.ndarray]:
+def label_maps(sample: Sample, renderer: Renderer) -> dict[str, np.ndarray]:
     """Exact labels of ``sample`` from one render of every shape and emitter as its own part: a pixel's
     surface, category and instance are those of the part covering most of it, its depth the z-depth averaged
     over its area (the renderer's samples) where one part covers it (:data:`PURE_PIXEL`), else 0 (none)."""
@@ -276,7 +291,7 @@ def label_maps(sample: Sample, renderer: object) -> dict[str, np.ndarray]:
     geometry = renderer.geometry(
         sample.camera,
         sample.camera_to_world,
-        meshes,  # type: ignore[attr-defined]
+        meshes,
         {n: i for i, n in enumerate(names)},
     )
     with torch.no_grad():
@@ -293,7 +308,7 @@ def label_maps(sample: Sample, renderer: object) -> dict[str, np.ndarray]:
     }
 
 
-def render_photo(sample: Sample, renderer: object, denoiser: object, spp: int) -> np.ndarray:
+def render_photo(sample: Sample, renderer: Renderer, denoiser: Denoiser, spp: int) -> np.ndarray:
     """The sample's photo: path traced at ``spp``, denoised, auto-exposed to a random brightness, sRGB uint8."""
     import torch
 
@@ -301,13 +316,13 @@ def render_photo(sample: Sample, renderer: object, denoiser: object, spp: int) -
         sample.camera,
         sample.camera_to_world,
         sample.meshes,
-        {},  # type: ignore[attr-defined]
+        {},
         surfaces=sample.surfaces,
         emitters=sample.emitters,
     )
     with torch.no_grad():
         noisy = geometry.render_rgb(spp=spp).numpy()
-    clean = denoiser.denoise(noisy, *geometry.render_guides(spp=4))  # type: ignore[attr-defined]
+    clean = denoiser.denoise(noisy, *geometry.render_guides(spp=4))
     rng = np.random.default_rng(sample.seed + 7)
     scale = rng.uniform(0.6, 1.0) / max(float(np.percentile(clean, 97)), 1e-6)
     return to_srgb8(np.clip(clean * scale, 0.0, 1.0))
@@ -323,40 +338,54 @@ def write_sample(seed: int, out: Path, spp: int, width: int, height: int, textur
         return 0.0
     registry = plugin_system().registry
     made = tools(registry)
-    sample = sample_room(seed, made["database"], made["library"], textures, width, height)
-    maps = label_maps(sample, made["renderer"])
-    image = render_photo(sample, made["renderer"], made["denoiser"], spp)
+    sample = sample_room(seed, made.database, made.library, textures, width, height)
+    maps = label_maps(sample, made.renderer)
+    image = render_photo(sample, made.renderer, made.denoiser, spp)
     partial = labels.with_suffix(".part.npz")
-    np.savez_compressed(
-        partial,
+    arrays: dict[str, Any] = {  # Any: numpy's stub would read a dict of arrays as its allow_pickle flag
         **maps,
-        room=np.r_[sample.room.center, sample.room.half_size, sample.room.yaw],
-        camera=np.array([sample.camera.fx, sample.camera.fy, sample.camera.cx, sample.camera.cy]),
-        camera_to_world=sample.camera_to_world,
-    )
+        "room": np.r_[sample.room.center, sample.room.half_size, sample.room.yaw],
+        "camera": np.array([sample.camera.fx, sample.camera.fy, sample.camera.cx, sample.camera.cy]),
+        "camera_to_world": sample.camera_to_world,
+    }
+    np.savez_compressed(partial, **arrays)
     cv2.imwrite(str(photo.with_suffix(".part.jpg")), image[..., ::-1], [cv2.IMWRITE_JPEG_QUALITY, 95])
     os.replace(partial, labels)
     os.replace(photo.with_suffix(".part.jpg"), photo)
     return time.monotonic() - start
 
 
-TOOLS: dict[str, object] = {}
+@dataclass(frozen=True)
+class Tools:
+    """What a worker process renders samples with: the object database, the material library, a one-thread
+    renderer and the denoiser."""
+
+    database: ObjectDatabase
+    library: TorchGraphLibrary
+    renderer: Renderer
+    denoiser: Denoiser
 
 
-def tools(registry: object) -> dict[str, object]:
-    """This process's object database, material library, renderer (one thread) and denoiser, made once."""
-    if not TOOLS:
+_TOOLS: list[Tools] = []
+"""This process's tools, made on its first sample."""
+
+
+def tools(registry: Registry) -> Tools:
+    """This process's :class:`Tools`, made once."""
+    if not _TOOLS:
         from psdr_room_core.libraries.object_db.builtin import builtin_database
 
-        TOOLS.update(
-            database=builtin_database(),
-            library=registry.implementation("material_graph", "torch_graph").factory(),  # type: ignore[attr-defined]
-            renderer=registry.implementation("renderer", "mitsuba").factory(  # type: ignore[attr-defined]
-                variant="llvm_ad_rgb", max_depth=4, threads=1
-            ),
-            denoiser=registry.implementation("denoiser", "oidn").factory(),
-        )  # type: ignore[attr-defined]
-    return TOOLS
+        _TOOLS.append(
+            Tools(
+                database=builtin_database(),
+                library=registry.implementation("material_graph", "torch_graph").factory(),
+                renderer=registry.implementation("renderer", "mitsuba").factory(
+                    variant="llvm_ad_rgb", max_depth=4, threads=1
+                ),
+                denoiser=registry.implementation("denoiser", "oidn").factory(),
+            )
+        )
+    return _TOOLS[0]
 
 
 def main(argv: Sequence[str] | None = None) -> None:

@@ -20,8 +20,12 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from psdr_room_plugins.eyes.data import Pack
 
 LOSS_WEIGHTS = {"surface": 1.0, "category": 1.0, "center": 1.0, "offset": 0.1, "depth": 1.0}
 TIMING_STEPS = 20
@@ -57,7 +61,7 @@ def losses(out: dict, batch: dict) -> dict:
     return terms
 
 
-def validate(net, pack, indices: Sequence[int], device: str, batch_size: int) -> dict[str, float]:
+def validate(net, pack, indices: Sequence[int] | np.ndarray, device: str, batch_size: int) -> dict[str, float]:
     """Held-out scores: surface pixel accuracy, object-pixel category accuracy, depth AbsRel and δ<1.25 after
     a median scale, and instance recall (decoded instances with mask IoU ≥ 0.5 per reference instance)."""
     import torch
@@ -107,10 +111,10 @@ def validate(net, pack, indices: Sequence[int], device: str, batch_size: int) ->
     }
 
 
-_PACK = None
+_PACK: Pack | None = None
 
 
-def _keep_pack(pack) -> None:  # a worker process's pack (inherited by fork, not pickled)
+def _keep_pack(pack: Pack) -> None:  # a worker process's pack (inherited by fork, not pickled)
     global _PACK
     _PACK = pack
 
@@ -118,6 +122,7 @@ def _keep_pack(pack) -> None:  # a worker process's pack (inherited by fork, not
 def _make_batch(group: tuple[np.ndarray, np.ndarray]) -> dict[str, np.ndarray]:
     from psdr_room_plugins.eyes.data import example
 
+    assert _PACK is not None, "the pool's initializer keeps the pack"
     items = [example(_PACK, int(i), np.random.default_rng(int(s))) for i, s in zip(*group)]
     return {key: np.stack([it[key] for it in items]) for key in items[0]}
 
@@ -225,7 +230,8 @@ def train(args: argparse.Namespace) -> dict:
     first = step
     began = timed = time.monotonic()
     while step < total:
-        sums, count = {}, 0
+        sums: dict[str, float] = {}
+        count = 0
         for batch in _batches(training, args.batch, args.seed, epoch, pool):
             if step >= total:
                 break

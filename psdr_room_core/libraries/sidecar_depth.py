@@ -239,7 +239,7 @@ def _read_exr(path: Path) -> np.ndarray:
         raise SidecarError(
             f"{path}: damaged or not an OpenEXR file; re-export the depth as float EXR or .npy"
         ) from None
-    names = [field.name for field in bitmap.struct_()]  # type: ignore[attr-defined]  # missing from Mitsuba's stub
+    names = [field.name for field in bitmap.struct_()]
     data = np.array(bitmap)
     if data.ndim == 3:
         data = data[..., _pick_channel(names, path)]

@@ -136,10 +136,11 @@ class GeometryRenderer(Protocol):
     n_parts: int
 
     def render(
-        self, vertices: dict[str, torch.Tensor], iteration: int = 0
+        self, vertices: Mapping[str, torch.Tensor] | None = None, iteration: int = 0
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """(masks [P,H,W] in [0,1], z-depth [H,W] (0 where empty), alpha [H,W]), differentiable with respect to
-        the vertex tensors (N×3 world positions per mesh) including through visibility."""
+        the vertex tensors (N×3 world positions per mesh; meshes left out keep their last positions) including
+        through visibility."""
         ...
 
     def render_rgb(

@@ -220,8 +220,15 @@ class StudioApp:
         self.param_edits: dict[str, dict[str, float | list[float]]] = {}
         self.scene_parts: dict[str, dict[str, Any]] = {}
         self.param_handles: list[Any] = []
-        self.preview_button.on_click(lambda _: self.start_run(PREVIEW))
-        self.full_button.on_click(lambda _: self.start_run(None))
+
+        def preview(_: Any) -> None:
+            self.start_run(PREVIEW)
+
+        def full(_: Any) -> None:
+            self.start_run(None)
+
+        self.preview_button.on_click(preview)
+        self.full_button.on_click(full)
         self.overlay.on_update(lambda _: self.refresh_photo())
         self.exported.on_update(lambda _: self.view.exported(self.exported.value))
         self.plane.on_update(lambda _: self.view.photo_plane(self.plane.value))
@@ -345,14 +352,14 @@ class StudioApp:
         self.view.show(record.artifacts, scene_dir)
         if self.exported.disabled == (scene_dir is not None):  # a first exported scene is shown; none, nothing to tick
             self.exported.disabled = scene_dir is None
-            self.exported.value = scene_dir is not None
+            self.exported.value = scene_dir is not None  # type: ignore[misc]  # viser 1.1: a setter apart from its getter reads as read-only
         self.view.exported(self.exported.value)
-        camera: Camera | None = latest(record.artifacts, "camera_fit", "camera")
+        camera = latest(record.artifacts, Camera, "camera_fit", "camera")
         if camera is not None:
-            self.fov.value = self.initial_fov = round(camera.vfov_deg * 2) / 2
+            self.fov.value = self.initial_fov = round(camera.vfov_deg * 2) / 2  # type: ignore[misc]  # viser 1.1: a setter apart from its getter reads as read-only
         for client in self.server.get_clients().values():
             self._greet(client)
-        placements: Placements | None = latest(record.artifacts, "placements_fit", "placements")
+        placements = latest(record.artifacts, Placements, "placements_fit", "placements")
         self.objects.content = "\n".join(
             [
                 "| segment | label | model |",
@@ -376,8 +383,8 @@ class StudioApp:
         self.part.options = list(self.scene_parts)
         self.material_edits = {}
         self.param_edits = {}
-        self.light_scale.value = 1.0
-        self.light_colour.value = (255, 255, 255)
+        self.light_scale.value = 1.0  # type: ignore[misc]  # viser 1.1: a setter apart from its getter reads as read-only
+        self.light_colour.value = (255, 255, 255)  # type: ignore[misc]  # viser 1.1: a setter apart from its getter reads as read-only
         self._show_edits()
         self._show_material_look()
         self.refresh_parameters()
@@ -483,7 +490,9 @@ class StudioApp:
 
     def _set_parameter(self, part: str, key: str, value: Any) -> None:
         self.param_edits.setdefault(part, {})[key] = (
-            round(float(value), 6) if np.isscalar(value) else [round(float(v), 6) for v in value]
+            [round(float(v), 6) for v in value]
+            if isinstance(value, (list, tuple, np.ndarray))
+            else round(float(value), 6)
         )
         self._show_edits()
         self._show_part_look()
@@ -519,7 +528,11 @@ class StudioApp:
         except PsdrRoomError as exc:
             self.say(f"**Not changed:** {plain(str(exc))}")
             return
-        self.render.image = cv2.cvtColor(cv2.imread(str(out / "render.png")), cv2.COLOR_BGR2RGB)
+        render = cv2.imread(str(out / "render.png"))
+        if render is None:
+            self.say(f"**Not shown:** {out / 'render.png'} could not be read")
+            return
+        self.render.image = cv2.cvtColor(render, cv2.COLOR_BGR2RGB)
         self.view.show_scene(out / "scene.glb")
         self.say(
             f"Edited ({len(edits)} edit{'' if len(edits) == 1 else 's'}): `{out}` (render.png, scene.glb, scene.xml)."
@@ -531,13 +544,14 @@ class StudioApp:
         except PsdrRoomError:
             boxes = []
         self.box.options = [f"{i}: {b.label}" for i, b in enumerate(boxes)] or ["(none)"]
-        panoptic: Panoptic | None = self.session.artifact("panoptic")
+        panoptic = self.session.artifact("panoptic", Panoptic)
         self.region.options = [
             f"{s.id}: {s.label} ({s.category})" for s in (panoptic.segments if panoptic is not None else [])
         ] or ["(none)"]
-        candidates: ObjectCandidates | None = self.session.artifact("object_candidates")
+        candidates = self.session.artifact("object_candidates", ObjectCandidates)
         segments = sorted(candidates.ranked) if candidates is not None else []
-        self.segment.options = [f"{s}: {candidates.labels.get(s, '')}" for s in segments] or ["(none)"]
+        labels = candidates.labels if candidates is not None else {}
+        self.segment.options = [f"{s}: {labels.get(s, '')}" for s in segments] or ["(none)"]
         self.crop.options = [f"{i}: {c.get('part', 'render window')}" for i, c in enumerate(self._crops())] or [
             "(none)"
         ]
@@ -553,14 +567,14 @@ class StudioApp:
     def refresh_photo(self) -> None:
         """The photo panel: the photo at :data:`PHOTO_WIDTH` with the segmentation, the object boxes, the GrabCut mask
         of a box just drawn and (asked for) the crop windows, captioned legibly at the panel's width."""
-        image: Image | None = self.session.artifact("image")
+        image = self.session.artifact("image", Image)
         if image is None:
             return
         photo = image.to_uint8()
         zoom = PHOTO_WIDTH / photo.shape[1]
         size = (PHOTO_WIDTH, round(photo.shape[0] * zoom))
         photo = cv2.resize(photo, size, interpolation=cv2.INTER_LINEAR)
-        panoptic: Panoptic | None = self.session.artifact("panoptic")
+        panoptic = self.session.artifact("panoptic", Panoptic)
         if self.overlay.value and panoptic is not None:
             ids = cv2.resize(panoptic.ids, size, interpolation=cv2.INTER_NEAREST)
             photo = segment_overlay(photo, Panoptic(ids=ids, segments=panoptic.segments), text_scale=PHOTO_TEXT * 0.9)
@@ -589,7 +603,7 @@ class StudioApp:
         self.photo.image = photo
 
     def refresh_candidates(self) -> None:
-        candidates: ObjectCandidates | None = self.session.artifact("object_candidates")
+        candidates = self.session.artifact("object_candidates", ObjectCandidates)
         segment = self._segment_id()
         if candidates is None or segment is None:
             self.candidate.options = ["(none)"]
@@ -683,14 +697,14 @@ class StudioApp:
     def photo_box(self, client_camera: Any, screen_min: tuple[float, float], screen_max: tuple[float, float]) -> Box:
         """The box (photo pixels) a rectangle on the canvas covers on the photo, clipped to it."""
         working = self._working_box(client_camera, screen_min, screen_max)
-        sx, sy = photo_scale(self.session.record.artifacts["image"])  # type: ignore[union-attr]
+        sx, sy = photo_scale(self.session.run_image())
         return scaled(working, 1 / sx, 1 / sy)
 
     def _working_box(self, client_camera: Any, screen_min: tuple[float, float], screen_max: tuple[float, float]) -> Box:
         artifacts = self.session.record.artifacts if self.session.record is not None else {}
-        image: Image | None = artifacts.get("image")
-        camera: Camera | None = latest(artifacts, "camera_fit", "camera")
-        room: RoomBox | None = latest(artifacts, "room_box_objects", "room_box_fit", "room_box")
+        image = latest(artifacts, Image, "image")
+        camera = latest(artifacts, Camera, "camera_fit", "camera")
+        room = latest(artifacts, RoomBox, "room_box_objects", "room_box_fit", "room_box")
         if image is None or camera is None or room is None:
             raise PsdrRoomError("run the preview first: a rectangle is drawn on the photo's camera")
         corners = [
@@ -710,7 +724,7 @@ class StudioApp:
     ) -> None:
         """Add the box a rectangle on the canvas covers on the photo, and show its GrabCut mask."""
         working = self._working_box(client_camera, screen_min, screen_max)
-        image: Image = self.session.record.artifacts["image"]  # type: ignore[union-attr]
+        image = self.session.run_image()
         self.mask = grabcut_mask(image.to_uint8(), working, GrabCutParams())
         sx, sy = photo_scale(image)
         self.session.add_box(scaled(working, 1 / sx, 1 / sy), label=self.label.value, mask=self.mask)

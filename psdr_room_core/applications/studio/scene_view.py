@@ -11,15 +11,19 @@ runs; the viewer's own lights stand in for the glb's photometric ones, which it 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import viser
 import viser.transforms as vtf
 
+from psdr_room_core.engine.artifacts import Artifact
 from psdr_room_core.method.artifacts import Camera, Image, Placements, PointCloud, RoomBox, rotation_y
 from psdr_room_core.method.gltf import without_lights
+
+ArtifactT = TypeVar("ArtifactT")
 
 MAX_POINTS = 60_000
 """Point-cloud points sent to the browser (a random subset beyond this)."""
@@ -30,9 +34,11 @@ def wxyz(rotation: np.ndarray) -> np.ndarray:
     return vtf.SO3.from_matrix(np.asarray(rotation, dtype=np.float64)).wxyz
 
 
-def latest(artifacts: dict[str, Any], *names: str) -> Any:
-    """The first of ``names`` the run produced (the fitted artifact before its initial estimate)."""
-    return next((artifacts[name] for name in names if name in artifacts), None)
+def latest(artifacts: Mapping[str, Artifact], kind: type[ArtifactT], *names: str) -> ArtifactT | None:
+    """The first of ``names`` the run produced (the fitted artifact before its initial estimate), when it is a
+    ``kind`` (None otherwise)."""
+    found = next((artifacts[name] for name in names if name in artifacts), None)
+    return found if isinstance(found, kind) else None
 
 
 def box_edges(room: RoomBox) -> np.ndarray:
@@ -60,28 +66,31 @@ class SceneView:
         """Draw ``artifacts`` (a run's, by name); ``scene_dir``: the exported ``scene/`` folder, if the run
         reached ``export_scene``."""
         self.clear()
-        image: Image | None = artifacts.get("image")
-        camera: Camera | None = latest(artifacts, "camera_fit", "camera")
-        room: RoomBox | None = latest(artifacts, "room_box_objects", "room_box_fit", "room_box")
+        image = latest(artifacts, Image, "image")
+        camera = latest(artifacts, Camera, "camera_fit", "camera")
+        room = latest(artifacts, RoomBox, "room_box_objects", "room_box_fit", "room_box")
         if image is None or camera is None or room is None:
             return
         c2w = np.asarray(room.camera_to_world, dtype=np.float64)
         scene = self.server.scene
-        frustum = dict(
-            fov=math.radians(camera.vfov_deg),
-            aspect=camera.width / camera.height,
-            scale=0.3,
-            wxyz=wxyz(c2w[:3, :3]),
-            position=c2w[:3, 3],
-            color=(240, 120, 20),
-            thickness=0.006,
-        )
-        self.nodes["/photo"] = scene.add_camera_frustum("/photo", **frustum)
-        self.nodes["/photo_plane"] = scene.add_camera_frustum(
-            "/photo_plane", image=image.to_uint8(), visible=self.plane_visible, **frustum
-        )
+
+        def frustum(name: str, **extra: Any) -> Any:
+            return scene.add_camera_frustum(
+                name,
+                fov=math.radians(camera.vfov_deg),
+                aspect=camera.width / camera.height,
+                scale=0.3,
+                wxyz=wxyz(c2w[:3, :3]),
+                position=c2w[:3, 3],
+                color=(240, 120, 20),
+                thickness=0.006,
+                **extra,
+            )
+
+        self.nodes["/photo"] = frustum("/photo")
+        self.nodes["/photo_plane"] = frustum("/photo_plane", image=image.to_uint8(), visible=self.plane_visible)
         self.nodes["/room"] = scene.add_line_segments("/room", box_edges(room), colors=(40, 40, 40), thickness=0.015)
-        cloud: PointCloud | None = artifacts.get("point_cloud")
+        cloud = latest(artifacts, PointCloud, "point_cloud")
         if cloud is not None and len(cloud.points):
             keep = np.random.default_rng(0).permutation(len(cloud.points))[:MAX_POINTS]
             points = cloud.points[keep] @ c2w[:3, :3].T + c2w[:3, 3]
@@ -91,16 +100,18 @@ class SceneView:
         glb = scene_dir / "scene.glb" if scene_dir is not None else None
         if glb is not None and glb.is_file():
             self.show_scene(glb)
-        placements: Placements | None = latest(artifacts, "placements_fit", "placements")
+        placements = latest(artifacts, Placements, "placements_fit", "placements")
         for placement in placements.objects if placements is not None else []:
             name = f"/objects/{placement.segment_id}"
             colors = np.asarray(placement.mesh.colors, dtype=np.float64).reshape(-1, 3)
-            colour = tuple(int(c) for c in np.clip(colors.mean(axis=0) if len(colors) else (0.6, 0.6, 0.6), 0, 1) * 255)
+            red, green, blue = (
+                int(c) for c in np.clip(colors.mean(axis=0) if len(colors) else (0.6, 0.6, 0.6), 0, 1) * 255
+            )
             self.nodes[name] = scene.add_mesh_simple(
                 name,
                 placement.world_vertices().astype(np.float32),
                 np.asarray(placement.mesh.faces, np.int32),
-                color=colour,
+                color=(red, green, blue),
                 flat_shading=True,
             )
 
@@ -127,8 +138,8 @@ class SceneView:
 
     def photo_view(self, client: viser.ClientHandle, artifacts: dict[str, Any]) -> None:
         """Put ``client``'s view at the photo's camera (where a box dragged on the canvas is a box on the photo)."""
-        camera: Camera | None = latest(artifacts, "camera_fit", "camera")
-        room: RoomBox | None = latest(artifacts, "room_box_objects", "room_box_fit", "room_box")
+        camera = latest(artifacts, Camera, "camera_fit", "camera")
+        room = latest(artifacts, RoomBox, "room_box_objects", "room_box_fit", "room_box")
         if camera is None or room is None:
             return
         c2w = np.asarray(room.camera_to_world, dtype=np.float64)
@@ -143,13 +154,13 @@ class SceneView:
 def overview(client: viser.ClientHandle, artifacts: dict[str, Any]) -> None:
     """Put ``client``'s view inside the room, above and behind the photo's camera, looking down at the placed objects
     (at the room's middle when there are none): the camera's frustum and the scene it became, together."""
-    room: RoomBox | None = latest(artifacts, "room_box_objects", "room_box_fit", "room_box")
+    room = latest(artifacts, RoomBox, "room_box_objects", "room_box_fit", "room_box")
     if room is None:
         return
     c2w = np.asarray(room.camera_to_world, dtype=np.float64)
     forward = c2w[:3, 2] * np.array([1.0, 0.0, 1.0])
     forward /= max(float(np.linalg.norm(forward)), 1e-9)
-    placements: Placements | None = latest(artifacts, "placements_fit", "placements")
+    placements = latest(artifacts, Placements, "placements_fit", "placements")
     placed = [p.world_vertices() for p in (placements.objects if placements is not None else [])]
     target = np.concatenate(placed).mean(axis=0) if placed else np.asarray(room.center, dtype=np.float64)
     eye = c2w[:3, 3] - 0.8 * forward + np.array([0.0, 0.6, 0.0])

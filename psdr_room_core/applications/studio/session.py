@@ -28,7 +28,7 @@ import threading
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import yaml
@@ -58,6 +58,8 @@ from psdr_room_core.method.crops import check_crops, crops_file, load_crops, wri
 from psdr_room_plugins.detectors.boxes_file import photo_scale, read_boxes, scaled, sidecar_path, write_boxes
 from psdr_room_plugins.layout.objects import GrabCutParams, grabcut_mask
 from psdr_room_plugins.segmentation_file import read_segmentation
+
+ArtifactT = TypeVar("ArtifactT")
 
 PREVIEW = "place_objects"
 """The last stage of a preview run (the first posed scene)."""
@@ -183,9 +185,9 @@ class Session:
     def running(self) -> bool:
         return self._lock.locked()
 
-    def artifact(self, name: str) -> Any:
-        """An artifact of the latest run, or None."""
-        return self.record.artifacts.get(name) if self.record is not None else None
+    def artifact(self, name: str, kind: type[ArtifactT]) -> ArtifactT | None:
+        """Artifact ``name`` of the latest run when it is a ``kind``, or None."""
+        return self.record.artifact(name, kind) if self.record is not None else None
 
     # -- object boxes -------------------------------------------------------------------------------------------
 
@@ -193,8 +195,9 @@ class Session:
     def boxes_file(self) -> Path:
         return sidecar_path(self.photo)
 
-    def _image(self) -> Image:
-        image = self.artifact("image")
+    def run_image(self) -> Image:
+        """The latest run's image (the photo at working size), or a one-line error before the first run."""
+        image = self.artifact("image", Image)
         if image is None:
             raise PsdrRoomError("no run yet: run the preview first, then correct its boxes")
         return image
@@ -202,7 +205,7 @@ class Session:
     def boxes(self) -> list[Detection]:
         """The object boxes in photo pixels: where the segments come from a file (:meth:`from_file`), the boxes of
         its object segments (in id order); else the boxes file's, else the latest run's detections."""
-        image = self._image()
+        image = self.run_image()
         sx, sy = photo_scale(image)
         if self.from_file():
             panoptic = self._editable()
@@ -214,7 +217,7 @@ class Session:
             ]
         if self.boxes_file.is_file():
             return read_boxes(self.boxes_file, image.photo_size)
-        detections: Detections | None = self.artifact("detections")
+        detections = self.artifact("detections", Detections)
         return [
             Detection(label=d.label, category=d.category, box=scaled(d.box, 1 / sx, 1 / sy))
             for d in (detections.items if detections is not None else [])
@@ -228,7 +231,7 @@ class Session:
                 f"detector={self.detector} ignores the boxes file {self.boxes_file}; restart the "
                 "studio without detector= (auto takes the boxes file)"
             )
-        write_boxes(self.boxes_file, boxes, self._image().photo_size)
+        write_boxes(self.boxes_file, boxes, self.run_image().photo_size)
         self._drop_object_crops("object_")
         self._save_state({}, self.marks)
 
@@ -252,7 +255,7 @@ class Session:
         if not self.from_file():
             self._write_boxes([*self.boxes(), Detection(label=label, category=category, box=(x0, y0, x1, y1))])
             return
-        image = self._image()
+        image = self.run_image()
         width, height = image.photo_size
         if x0 < 0 or y0 < 0 or x1 > width or y1 > height:
             raise PsdrRoomError(f"box {[x0, y0, x1, y1]} is outside the {width}x{height} photo; drag it over the photo")
@@ -317,7 +320,7 @@ class Session:
     def pick(self, segment_id: int, choice: int | str, database: Any) -> None:
         """Place ``choice`` (a candidate rank, 0 = best, or any model id of ``database``) for object segment
         ``segment_id`` at the next run."""
-        candidates: ObjectCandidates | None = self.artifact("object_candidates")
+        candidates = self.artifact("object_candidates", ObjectCandidates)
         if candidates is None or segment_id not in candidates.ranked:
             known = sorted(candidates.ranked) if candidates is not None else []
             raise PsdrRoomError(f"no object segment {segment_id}; segments with candidates: {known}")
@@ -354,12 +357,12 @@ class Session:
 
     def _editable(self) -> Panoptic:
         """The segmentation a box or mark changes: the studio's copy when there is one, else the latest run's."""
-        panoptic: Panoptic | None = self.artifact("panoptic")
+        panoptic = self.artifact("panoptic", Panoptic)
         if panoptic is None:
             raise PsdrRoomError("no run yet: run the preview first, then correct its segments")
         if not self.segmentation_file.is_file():
             return panoptic
-        return read_segmentation("coco_panoptic", self.segmentation_file, self._image())
+        return read_segmentation("coco_panoptic", self.segmentation_file, self.run_image())
 
     def _write_segmentation(self, ids: np.ndarray, segments: list[Segment], marks: dict[int, str]) -> None:
         """Write the studio's copy of the segmentation (whole files only; segments left with no pixels dropped)
@@ -414,12 +417,13 @@ class Session:
     def crops(self) -> list[dict[str, Any]]:
         """The crop windows as crops-file entries in photo pixels (``{image, part}`` or ``{image, render}``): the
         crops file's, else the latest full run's automatic ones."""
-        image = self._image()
+        image = self.run_image()
         if self.crops_file.is_file():
             data = load_crops(self.crops_file)
             check_crops(self.crops_file, data, image.photo_size, image.photo_size)  # one line when the file is wrong
+            assert isinstance(data, dict), "check_crops refuses anything else"
             return list(data["crops"])
-        materials: MaterialAssignment | None = self.artifact("materials")
+        materials = self.artifact("materials", MaterialAssignment)
         sx, sy = photo_scale(image)
         return [
             {"image": [round(v, 1) for v in scaled(rect, 1 / sx, 1 / sy)], "part": p.part}
@@ -429,7 +433,7 @@ class Session:
 
     def crop_parts(self) -> list[str]:
         """The scene parts a crop can show (those of the latest full run's material assignment)."""
-        materials: MaterialAssignment | None = self.artifact("materials")
+        materials = self.artifact("materials", MaterialAssignment)
         return [p.part for p in materials.parts] if materials is not None else []
 
     def _write_crops(self, entries: list[dict[str, Any]]) -> None:
@@ -437,7 +441,7 @@ class Session:
         unknown = sorted({str(e["part"]) for e in entries if "part" in e} - set(parts))
         if unknown:
             raise PsdrRoomError(f"part {unknown[0]} is not in the scene; parts: {', '.join(parts)}")
-        write_crops(self.crops_file, entries, self._image().photo_size)
+        write_crops(self.crops_file, entries, self.run_image().photo_size)
 
     def _drop_object_crops(self, prefix: str) -> None:
         """Remove the crops file's entries of parts named ``prefix…``: new boxes renumber the objects and a new
@@ -447,10 +451,10 @@ class Session:
         entries = self.crops()
         kept = [e for e in entries if not str(e.get("part", "")).startswith(prefix)]
         if len(kept) < len(entries):
-            write_crops(self.crops_file, kept, self._image().photo_size)
+            write_crops(self.crops_file, kept, self.run_image().photo_size)
 
     def _full_fit_crops(self) -> list[dict[str, Any]]:
-        if self.artifact("materials") is None:
+        if self.artifact("materials", MaterialAssignment) is None:
             raise PsdrRoomError("no crops yet: run the full fit first, then move its crop windows")
         return self.crops()
 

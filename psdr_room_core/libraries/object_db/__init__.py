@@ -12,13 +12,16 @@ library), :mod:`.future3d` (the 3D-FUTURE layout), :mod:`.thumbnails` (Mitsuba v
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Any
+
 from .builtin import builtin_database
 from .database import CATEGORIES, ModelRecord, ObjectDatabase, ObjectMesh
 
 __all__ = ["CATEGORIES", "ObjectMesh", "ModelRecord", "ObjectDatabase", "builtin_database", "read_3dfuture"]
 
 
-def read_3dfuture(root, **kwargs):  # type: ignore[no-untyped-def]
+def read_3dfuture(root: Path, **kwargs: Any) -> ObjectDatabase:
     """See :func:`.future3d.read_3dfuture` (imported lazily)."""
     from .future3d import read_3dfuture as read
 

@@ -226,7 +226,7 @@ def read_3dfuture(
                 known.pop(result[0], None)
                 missing.append(str(result[1]))
             else:
-                model_id, groups, extent = result  # type: ignore[misc]
+                model_id, groups, extent = result
                 known[model_id] = {"stamp": stamps[model_id], "groups": groups, "extent": extent}
         with contextlib.suppress(OSError):
             write_whole(
@@ -261,7 +261,7 @@ def read_3dfuture(
                 groups=tuple(entry["groups"]),
                 extent=tuple(entry["extent"]),
             )
-        )  # type: ignore[arg-type]
+        )
         image = models_dir / item["model_id"] / IMAGE_FILE
         if image.is_file():
             images[model_id] = image

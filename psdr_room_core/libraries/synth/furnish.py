@@ -337,7 +337,7 @@ def to_world(placement: Placement, center: np.ndarray, yaw: float) -> Placement:
         placement.label,
         placement.model_id,
         placement.mesh,
-        tuple(float(v) for v in world),
+        (float(world[0]), float(world[1]), float(world[2])),
         placement.yaw + yaw,
         placement.scale,
         category=placement.category,

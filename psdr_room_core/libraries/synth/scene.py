@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from psdr_room_core.method.artifacts import rotation_y
+from psdr_room_core.method.artifacts import rotation_y, vec3
 
 from .raycast import raycast
 from .room import Box, Furniture, Light, SyntheticRoom, camera_pose
@@ -21,8 +21,14 @@ photos that show too little of the room to stand it on its floor: the floor alon
 wall alone, the ceiling alone (looking up 40-70°), a close-up of one piece of furniture."""
 
 
-def _furniture_parts(kind: str, rng: np.random.Generator) -> tuple[tuple[float, float, float], list[tuple]]:
+Vec3 = tuple[float, float, float]
+Part = tuple[Vec3, Vec3]
+"""A part of a box-built piece: its local centre and half-size."""
+
+
+def _furniture_parts(kind: str, rng: np.random.Generator) -> tuple[Vec3, list[Part]]:
     """Footprint half-size and parts (local center, half) of a parametric piece standing at y = 0."""
+    parts: list[Part]
     if kind == "table":
         w, d, h = rng.uniform(0.5, 0.9), rng.uniform(0.4, 0.6), rng.uniform(0.7, 0.78)
         leg = 0.03
@@ -62,7 +68,7 @@ def _furniture_parts(kind: str, rng: np.random.Generator) -> tuple[tuple[float, 
 def _place_furniture(room: Box, rng: np.random.Generator, count: int) -> list[Furniture]:
     """Pieces against the walls and in the room, inside it, not overlapping, in front of the camera."""
     placed: list[tuple[float, float, float, float]] = []  # local x, z, half x, half z
-    result = []
+    result: list[Furniture] = []
     cam_local = rotation_y(room.yaw).T @ (np.zeros(3) - np.array(room.center))
     hx, _, hz = room.half
     for _ in range(200):
@@ -92,13 +98,13 @@ def _place_furniture(room: Box, rng: np.random.Generator, count: int) -> list[Fu
         origin = np.array(room.center) + rotation_y(room.yaw) @ np.array([x, -room.half[1], z])
         boxes = tuple(
             Box(
-                center=tuple(float(v) for v in origin + rotation_y(yaw) @ np.array(c)),
-                half=tuple(map(float, h)),
+                center=vec3(origin + rotation_y(yaw) @ np.array(c)),
+                half=vec3(h),
                 yaw=yaw,
             )
             for c, h in parts
         )
-        albedo = tuple(float(v) for v in rng.uniform(0.08, 0.75, 3))
+        albedo = vec3(rng.uniform(0.08, 0.75, 3))
         result.append(Furniture(id=len(result) + 1, label=kind, parts=boxes, albedo=albedo))
     return result
 
@@ -188,7 +194,7 @@ def _sample(
     local_camera = np.array([lateral, 0.0, -half[2] + back])
     center = -(rotation_y(room_yaw) @ local_camera)
     center[1] = half[1]
-    room = Box(center=tuple(map(float, center)), half=tuple(map(float, half)), yaw=room_yaw)
+    room = Box(center=vec3(center), half=vec3(half), yaw=room_yaw)
     count = int(rng.integers(3, 6))  # drawn either way, so the default rooms stay as they were
     furniture = _place_furniture(room, rng, count if objects is None else objects)
     light_local = [np.array([0.0, half[1] - 0.01, 0.15 * half[2]])]
@@ -196,7 +202,7 @@ def _sample(
         light_local.append(np.array([0.0, half[1] - 0.01, 0.6 * half[2]]))
     lights = [
         Light(
-            center=tuple(map(float, center + rotation_y(room_yaw) @ p)),
+            center=vec3(center + rotation_y(room_yaw) @ p),
             half=(0.3, 0.3),
             yaw=room_yaw,
             radiance=float(rng.uniform(8.0, 14.0)),
@@ -204,8 +210,8 @@ def _sample(
         for p in light_local
     ]
     albedo = {
-        "wall": tuple(map(float, rng.uniform(0.45, 0.85, 3))),
-        "floor": tuple(map(float, rng.uniform(0.15, 0.5, 3))),
+        "wall": vec3(rng.uniform(0.45, 0.85, 3)),
+        "floor": vec3(rng.uniform(0.15, 0.5, 3)),
         "ceiling": (0.85, 0.85, 0.85),
     }
     return SyntheticRoom(
