@@ -14,7 +14,6 @@ from psdr_room_core.method.surface_colours import SurfaceColours, unprompted
 from psdr_room_plugins.layout import box
 from psdr_room_plugins.layout.discovery import (
     Candidate,
-    DiscoveryParams,
     Footing,
     Selection,
     absorbs,
@@ -26,8 +25,9 @@ from psdr_room_plugins.layout.discovery import (
     vote_labels,
 )
 from psdr_room_plugins.layout.manhattan import frame_from_vanishing_points
-from psdr_room_plugins.layout.proposals import ProposalParams, clutter_proposals
+from psdr_room_plugins.layout.proposals import clutter_proposals
 from psdr_room_plugins.layout.segmentation import LayoutSegmentation
+from psdr_room_plugins.layout.settings import DiscoveryParams, ProposalParams
 
 PHOTO = Path("room.png")
 ROOM = np.array([-2.0, 1.6, 0.7, -3.0, 3.2])  # camera heights (psdr_room_plugins.layout.box)
@@ -203,7 +203,7 @@ def test_what_the_room_cannot_explain_becomes_an_object(room: dict) -> None:
     assert len(proposals) == 1 and proposals[0].label == "object"
     assert proposals[0].score < DiscoveryParams().trusted_score  # weak: every check applies
     image = Image(rgb=rgb8.astype(np.float32) / 255.0, source=str(PHOTO), original_size=(WIDTH, HEIGHT))
-    segmentation = LayoutSegmentation(n_random=1500, proposals=vars(ProposalParams()))
+    segmentation = LayoutSegmentation(n_random=1500, proposals=ProposalParams())
     panoptic = segmentation.segment(image, room["camera"], Detections(items=[]), PHOTO)
     objects = [s for s in panoptic.segments if s.category == "object"]
     assert len(objects) == 1 and objects[0].label == "object" and objects[0].score == pytest.approx(0.2)

@@ -18,10 +18,11 @@ from psdr_room_core.method.artifacts import Camera, Detection, Detections, Image
 from psdr_room_core.method.guesses import FLOOR_GUESSES, fov_guesses
 from psdr_room_plugins.layout import box
 from psdr_room_plugins.layout.depth import LayoutDepth, object_depth
-from psdr_room_plugins.layout.fit import LayoutParams, fit_layout, floor_colour_region
+from psdr_room_plugins.layout.fit import fit_layout, floor_colour_region
 from psdr_room_plugins.layout.manhattan import ManhattanFrame, frame_from_vanishing_points
-from psdr_room_plugins.layout.objects import GrabCutParams, grabcut_mask
+from psdr_room_plugins.layout.objects import grabcut_mask
 from psdr_room_plugins.layout.segmentation import LayoutSegmentation
+from psdr_room_plugins.layout.settings import GrabCutParams, LayoutParams
 
 PHOTO = Path("room.png")  # named in logs only
 TRUE_BOX = np.array([-2.0, 1.6, 0.7, -3.0, 3.2])  # camera heights (see psdr_room_plugins.layout.box)

@@ -9,32 +9,16 @@ nearest of the six planes it hits.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
+
+from .settings import SearchRange
 
 WALL_X0, WALL_X1, FLOOR, CEILING, WALL_Z0, WALL_Z1 = range(6)
 SURFACES = ("wall_x0", "wall_x1", "floor", "ceiling", "wall_z0", "wall_z1")
 WALLS = (WALL_X0, WALL_X1, WALL_Z0, WALL_Z1)
 NORMAL_AXIS = np.array([0, 0, 1, 1, 2, 2])
 """Frame axis each surface is normal to (the orientation map's classes)."""
-
-
-@dataclass(frozen=True)
-class SearchRange:
-    """Where hypotheses are sampled, in camera heights."""
-
-    wall_min: float = 0.5
-    wall_max: float = 12.0
-    ceiling_min: float = 0.15
-    ceiling_max: float = 3.0
-
-    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Lower and upper bounds of the log-parameters (log |x0|, log x1, log ceiling, log |z0|, log z1)."""
-        w = (np.log(self.wall_min), np.log(self.wall_max))
-        c = (np.log(self.ceiling_min), np.log(self.ceiling_max))
-        lo, hi = zip(w, w, c, w, w)
-        return np.array(lo), np.array(hi)
 
 
 def boxes_from_log(u: np.ndarray) -> np.ndarray:

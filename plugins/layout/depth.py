@@ -10,7 +10,7 @@ import numpy as np
 from psdr_room_core.method.artifacts import Camera, DepthMap, Image, Panoptic
 
 from .fit import Layout, fit_layout
-from .segmentation import layout_params
+from .settings import LayoutDepthSettings
 
 ROOM = ("wall", "floor", "ceiling")
 
@@ -48,13 +48,13 @@ class LayoutDepth:
     """Depth without a network: the room box fitted to the segmentation's wall/floor/ceiling and the
     photo's lines, objects placed on its floor; metres if the camera is ``camera_height_m`` above it."""
 
-    def __init__(self, camera_height_m: float = 1.5, search: dict[str, Any] | None = None, **layout: Any) -> None:
-        self.camera_height_m = float(camera_height_m)
-        self.layout = layout_params(search, **layout)
+    def __init__(self, **settings: Any) -> None:
+        """``settings``: the fields of :class:`~.settings.LayoutDepthSettings` (its defaults for those left out)."""
+        self.settings = LayoutDepthSettings(**settings)
 
     def fit(self, image: Image, camera: Camera, panoptic: Panoptic) -> Layout:
         """The box room used for the depth."""
-        return fit_layout(image, camera, self.layout, panoptic=panoptic)
+        return fit_layout(image, camera, self.settings, panoptic=panoptic)
 
     def estimate(self, image: Image, camera: Camera, panoptic: Panoptic, photo: Path) -> DepthMap:
         fitted = self.fit(image, camera, panoptic)
@@ -69,11 +69,11 @@ class LayoutDepth:
                 placed = object_depth(mask, rays, room, segment.box)
                 depth = np.where(mask, placed, depth)
         valid = np.isfinite(depth) & (depth > 0)
-        depth = np.where(valid, depth * self.camera_height_m, 0.0).astype(np.float32)
+        depth = np.where(valid, depth * self.settings.camera_height_m, 0.0).astype(np.float32)
         return DepthMap(
             depth=depth,
             valid=valid,
             metric=False,
             source=f"layout (box {np.round(fitted.box, 2).tolist()} camera heights; "
-            f"camera {self.camera_height_m} m above the floor assumed)",
+            f"camera {self.settings.camera_height_m} m above the floor assumed)",
         )

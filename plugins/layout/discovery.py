@@ -26,8 +26,8 @@ dropped prompt is logged with its reason.
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -35,8 +35,9 @@ from psdr_room_core.method.artifacts import Detection
 from psdr_room_core.method.labels import primary_category
 from psdr_room_core.method.surface_colours import SurfaceColours
 
-from .objects import GrabCutParams, grabcut_mask
-from .proposals import ProposalParams, clutter_proposals
+from .objects import grabcut_mask
+from .proposals import clutter_proposals
+from .settings import DiscoveryParams, GrabCutParams, ProposalParams
 
 log = logging.getLogger("psdr_room")
 
@@ -44,71 +45,6 @@ FLOOR_STANDING = ("chair", "sofa", "ottoman", "bed", "table", "desk", "refrigera
 """Database categories that cannot float: their contact must be on the floor (below the horizon). ``object``
 (no known class: a class-agnostic proposal) too: a region the room does not explain above the horizon is more
 often a window, a poster or a shadow than a thing the database holds."""
-
-
-@dataclass(frozen=True)
-class DiscoveryParams:
-    """Knobs of :func:`discover` (``segmentation.layout.discovery`` in the config)."""
-
-    min_score: float = 0.15
-    """Prompts scoring less are ignored."""
-    trusted_score: float = 0.3
-    """Prompts scoring less are weak: the room must not explain their mask ..."""
-    max_explained: float = 0.6
-    """... more than this share of it (:mod:`psdr_room_core.method.surface_colours`): a weak prompt on what looks like the floor is floor."""
-    nms_iou: float = 0.6
-    """Boxes overlapping more than this are one object (the better prompt is kept), whatever their labels."""
-    part_overlap: float = 0.85
-    """A prompt with this share of its box inside a better prompt's box may be a part of it (``parts``)."""
-    floor_line: float = 0.05
-    """... or a second box on it: same category, bottoms this close (share of the better box's height)."""
-    absorb_score: float = 0.3
-    """A prompt takes a better-scoring kept object of its category or its ``parts`` inside its box as a piece of
-    itself when it scores at least this share of it."""
-    group_score: float = 0.5
-    """Prompts of a box's category scoring at least this share of it that lie inside it, two or more of them
-    side by side (not stacked in the same columns), make it a box round a group: dropped."""
-    max_covered: float = 0.5
-    """A prompt whose box holds two or more kept objects, their masks covering more than this share of it, is
-    a box round a group of them: dropped."""
-    min_visible: float = 0.2
-    """An object showing less than this share of its mask once nearer objects are painted is dropped."""
-    parts: Mapping[str, Sequence[str]] = field(
-        default_factory=lambda: {
-            "sofa": ("chair", "pillow", "ottoman"),
-            "bed": ("pillow", "sofa", "chair", "table"),
-            "shelf": ("tv", "box", "frame"),
-            "cabinet": ("tv", "appliance", "refrigerator", "box", "frame"),
-        }
-    )
-    """Database category → categories a detector calls parts of it (a sofa's seat is a "chair")."""
-    heights: Mapping[str, Sequence[float]] = field(
-        default_factory=lambda: {
-            "chair": (0.45, 1.3),
-            "sofa": (0.5, 1.2),
-            "ottoman": (0.25, 0.6),
-            "bed": (0.3, 1.7),
-            "table": (0.35, 1.15),
-            "desk": (0.6, 1.5),
-            "cabinet": (0.3, 2.6),
-            "shelf": (0.5, 2.6),
-            "refrigerator": (0.7, 2.1),
-            "appliance": (0.2, 1.3),
-            "tv": (0.25, 1.8),
-            "lamp": (0.25, 2.1),
-            "plant": (0.2, 2.6),
-            "box": (0.08, 1.2),
-            "pillow": (0.2, 0.7),
-            "object": (0.1, 2.8),
-        }
-    )
-    """Database category (``object``: unknown) → (lowest, highest) top height above the floor, metres."""
-    size_slack: float = 1.8
-    """Height ranges are widened by this factor both ways (the camera height is assumed, the layout approximate)."""
-    camera_height_m: float = 1.5
-    max_objects: int = 40
-    """At most this many objects are kept (best prompts first)."""
-    grabcut: GrabCutParams = field(default_factory=GrabCutParams)
 
 
 @dataclass(frozen=True)
@@ -303,8 +239,16 @@ def vote_labels(prompts: Sequence[Detection], iou: float) -> list[Detection]:
 class Selection:
     """The objects kept so far and why others were dropped, as prompts are considered one by one."""
 
-    def __init__(self, rgb8: np.ndarray, rays: np.ndarray, surfaces: SurfaceColours, params: DiscoveryParams) -> None:
+    def __init__(
+        self,
+        rgb8: np.ndarray,
+        rays: np.ndarray,
+        surfaces: SurfaceColours,
+        params: DiscoveryParams,
+        grabcut: GrabCutParams | None = None,
+    ) -> None:
         self.rgb8, self.rays, self.surfaces, self.params = rgb8, rays, surfaces, params
+        self.grabcut = grabcut or GrabCutParams()
         self.kept: list[Candidate] = []
         self.dropped: dict[str, list[str]] = {}
 
@@ -349,7 +293,7 @@ class Selection:
             if len(rest) >= params.max_objects:
                 self.drop("over max_objects", probe)
                 continue
-            mask = grabcut_mask(self.rgb8, tuple(probe.box), params.grabcut, taken=occupied)
+            mask = grabcut_mask(self.rgb8, tuple(probe.box), self.grabcut, taken=occupied)
             if mask is None:
                 self.drop("GrabCut found no object", probe)
                 continue
@@ -377,7 +321,7 @@ class Selection:
         lit differently from its back)."""
         others = [k.mask for k in self.kept if k is not whole]
         taken = np.any(others, axis=0) if others else np.zeros(self.rgb8.shape[:2], bool)
-        mask = grabcut_mask(self.rgb8, tuple(piece.box), self.params.grabcut, taken=taken | whole.mask)
+        mask = grabcut_mask(self.rgb8, tuple(piece.box), self.grabcut, taken=taken | whole.mask)
         if mask is None:
             self.drop("GrabCut found no object", piece)
             return
@@ -410,11 +354,13 @@ def discover(
     prompts: Sequence[Detection],
     params: DiscoveryParams,
     proposals: ProposalParams | None = None,
+    grabcut: GrabCutParams | None = None,
 ) -> list[Discovered]:
     """The objects among ``prompts`` and then among the class-agnostic proposals round what they leave
     unexplained (:func:`~.proposals.clutter_proposals`, unless ``proposals`` is None), far to near (see the
-    module docstring); ``rays`` as :func:`footing`'s, ``surfaces`` the colour models of the fitted room."""
-    selection = Selection(rgb8, rays, surfaces, params)
+    module docstring); ``rays`` as :func:`footing`'s, ``surfaces`` the colour models of the fitted room; each
+    prompt's mask cut by GrabCut with ``grabcut`` (its defaults when None)."""
+    selection = Selection(rgb8, rays, surfaces, params, grabcut)
     selection.consider(prompts)
     if proposals is not None:
         selection.consider(clutter_proposals(surfaces, selection.occupied, proposals))

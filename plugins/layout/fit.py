@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -14,45 +14,9 @@ from psdr_room_core.method.artifacts import Camera, Detections, Image, Panoptic
 from . import box
 from .manhattan import ManhattanFrame, frame_from_vanishing_points, looking_down
 from .orientation import orientation_map, segment_families
+from .settings import LayoutParams
 
 log = logging.getLogger("psdr_room")
-
-
-@dataclass(frozen=True)
-class LayoutParams:
-    """Knobs of the box-layout fit (shared by ``segmentation=layout`` and ``depth=layout``)."""
-
-    grid_side: int = 160
-    """Hypotheses are scored on a grid with this long side."""
-    family_tolerance_deg: float = 4.0
-    """A segment belongs to a vanishing point when it points at it within this angle."""
-    sweep_fraction: float = 0.12
-    """Segments are swept this fraction of the image diagonal towards/away from the other vanishing points."""
-    clutter_weight: float = 0.25
-    """Weight of orientation evidence inside object boxes (furniture lines say little about the room)."""
-    box_score: float = 0.3
-    """Object boxes scoring at least this inform the fit (clutter weights, floor prior at their bottoms)."""
-    label_weight: float = 1.0
-    """Weight of agreement with a given segmentation's wall/floor/ceiling labels (depth=layout)."""
-    floor_band: float = 0.08
-    """Rows at the bottom of the photo (this fraction of its height) below the horizon that are likely floor ..."""
-    floor_prior: float = 0.5
-    """... with this orientation evidence per pixel; box bottoms (objects stand on the floor) get it too."""
-    floor_colour: float = 14.0
-    """Pixels below the horizon joined to that bottom band by colours within this CIELAB distance of the band's
-    median (lightness counted half) get the floor prior too: the floor's material running up to the far wall
-    (a corridor's carpet has no lines to say so). 0: off."""
-    n_random: int = 3000
-    """Random hypotheses scored before the local search."""
-    n_starts: int = 8
-    """Best random hypotheses refined by pattern search."""
-    min_floor: float = 0.02
-    """A fitted box showing less floor than this fraction of the photo is fitted again looking down ..."""
-    look_down_deg: float = 30.0
-    """... when an axis points at least this far below the optical axis (90: never)."""
-    search_range: box.SearchRange = field(default_factory=box.SearchRange)
-    """Where hypotheses are sampled."""
-    seed: int = 0
 
 
 @dataclass(frozen=True)
@@ -231,6 +195,6 @@ def _fit_in_frame(
         return agreement
 
     best, best_score = box.search(
-        score, params.search_range, np.random.default_rng(params.seed), params.n_random, params.n_starts
+        score, params.search, np.random.default_rng(params.seed), params.n_random, params.n_starts
     )
     return Layout(frame=frame, box=best, score=best_score)

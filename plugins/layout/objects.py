@@ -2,24 +2,10 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import cv2
 import numpy as np
 
-
-@dataclass(frozen=True)
-class GrabCutParams:
-    """Knobs of the box-prompted GrabCut."""
-
-    iterations: int = 5
-    margin: float = 0.15
-    """Context around the box (fraction of its size) given to GrabCut as known background."""
-    min_fill: float = 0.08
-    """Masks covering less than this fraction of their box are dropped (GrabCut found no object)."""
-    min_part: float = 0.2
-    """Connected pieces of the mask at least this share of the largest are kept with it (an object's parts
-    that its thin pieces join outside the mask, as a chair's back and seat); smaller ones are noise."""
+from .settings import GrabCutParams
 
 
 def grabcut_mask(

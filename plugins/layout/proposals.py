@@ -9,31 +9,13 @@ nightstand, a bookcase, a box) wherever it stands out from the room.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import cv2
 import numpy as np
 
 from psdr_room_core.method.artifacts import Detection
 from psdr_room_core.method.surface_colours import SurfaceColours
 
-
-@dataclass(frozen=True)
-class ProposalParams:
-    """Knobs of :func:`clutter_proposals` (``segmentation.layout.proposals`` in the config)."""
-
-    score: float = 0.2
-    """The score a proposal carries: weak (below ``discovery.trusted_score``), so every check applies."""
-    open_px: int = 7
-    """Side of the square opening that cleans the unexplained pixels."""
-    min_area: float = 0.004
-    """Regions covering less than this share of the photo are not proposed ..."""
-    max_area: float = 0.3
-    """... nor those covering more (a surface the colour model missed)."""
-    min_fill: float = 0.3
-    """Regions filling less than this share of their box are not compact enough to be one object."""
-    max_proposals: int = 8
-    """The largest this many regions are proposed."""
+from .settings import ProposalParams
 
 
 def clutter_proposals(surfaces: SurfaceColours, taken: np.ndarray, params: ProposalParams) -> list[Detection]:

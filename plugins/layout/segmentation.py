@@ -12,10 +12,9 @@ from psdr_room_core.method.artifacts import Camera, Detections, Image, Panoptic,
 from psdr_room_core.method.surface_colours import SurfaceColours, unprompted
 
 from . import box
-from .discovery import DiscoveryParams, discover
-from .fit import LayoutParams, fit_layout
-from .objects import GrabCutParams
-from .proposals import ProposalParams
+from .discovery import discover
+from .fit import fit_layout
+from .settings import LayoutSegmentationSettings
 
 log = logging.getLogger("psdr_room")
 
@@ -29,44 +28,37 @@ SURFACE_CATEGORY = {
 }
 
 
-def layout_params(search: dict[str, Any] | None, **params: Any) -> LayoutParams:
-    """LayoutParams from config values (``search`` holds the SearchRange fields)."""
-    return LayoutParams(search_range=box.SearchRange(**(search or {})), **params)
-
-
 class LayoutSegmentation:
     """Box-layout room surfaces (one segment per visible wall) with the discovered objects on top
     (:mod:`.discovery`: the prompts GrabCut cuts out and the fitted room finds plausible, far to near)."""
 
-    def __init__(
-        self,
-        grabcut: dict[str, Any] | None = None,
-        discovery: dict[str, Any] | None = None,
-        proposals: dict[str, Any] | None = None,
-        min_surface_fraction: float = 0.002,
-        search: dict[str, Any] | None = None,
-        **layout: Any,
-    ) -> None:
-        self.layout = layout_params(search, **layout)
-        self.discovery = DiscoveryParams(grabcut=GrabCutParams(**(grabcut or {})), **(discovery or {}))
-        self.proposals = ProposalParams(**proposals) if proposals is not None else None
-        self.min_surface_fraction = float(min_surface_fraction)
+    def __init__(self, **settings: Any) -> None:
+        """``settings``: the fields of :class:`~.settings.LayoutSegmentationSettings` (its defaults for those left out)."""
+        self.settings = LayoutSegmentationSettings(**settings)
 
     def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic:
-        fitted = fit_layout(image, camera, self.layout, detections=detections)
+        fitted = fit_layout(image, camera, self.settings, detections=detections)
         labels, _ = fitted.trace(camera, image.width, image.height)
         ids = np.zeros(labels.shape, dtype=np.int32)
         segments: list[Segment] = []
         for surface in range(6):
             mask = labels == surface
-            if mask.mean() >= self.min_surface_fraction:
+            if mask.mean() >= self.settings.min_surface_fraction:
                 segments.append(Segment(len(segments) + 1, SURFACE_CATEGORY[surface], box.SURFACES[surface]))
                 ids[mask] = segments[-1].id
         rays = fitted.frame.rays(camera, image.width, image.height)
         rgb8 = image.to_uint8()
-        trusted = [d.box for d in detections.items if d.score >= self.discovery.trusted_score]
+        trusted = [d.box for d in detections.items if d.score >= self.settings.discovery.trusted_score]
         surfaces = SurfaceColours(rgb8, labels, unprompted(labels.shape, trusted))
-        found = discover(rgb8, rays, surfaces, detections.items, self.discovery, self.proposals)
+        found = discover(
+            rgb8,
+            rays,
+            surfaces,
+            detections.items,
+            self.settings.discovery,
+            self.settings.proposals,
+            self.settings.grabcut,
+        )
         for item in found:
             segments.append(
                 Segment(

@@ -1,88 +1,180 @@
-"""Settings of ``segmentation=layout`` and ``depth=layout``: types and ranges (:mod:`psdr_room_core.engine.settings`);
-the values and what they mean are in ``conf/segmentation/layout.yaml`` and ``conf/depth/layout.yaml``."""
+"""Settings of ``segmentation=layout`` and ``depth=layout``, each declared once: the type, range and default of
+every knob (:mod:`psdr_room_core.engine.settings`), and the objects the implementations keep and hand to the
+functions that use them. The values and what they mean are in ``conf/segmentation/layout.yaml`` and
+``conf/depth/layout.yaml``. Light on purpose: loading the plugin imports this module, not the fit."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+
+import numpy as np
 
 from psdr_room_core.engine.settings import setting
 
 
 @dataclass
 class SearchRange:
-    wall_min: float = setting(gt=0)
-    wall_max: float = setting(gt=0)
-    ceiling_min: float = setting(gt=0)
-    ceiling_max: float = setting(gt=0)
+    """Where hypotheses are sampled, in camera heights (``search`` in the layout settings)."""
+
+    wall_min: float = setting(0.5, gt=0)
+    wall_max: float = setting(12.0, gt=0)
+    ceiling_min: float = setting(0.15, gt=0)
+    ceiling_max: float = setting(3.0, gt=0)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the log-parameters (log |x0|, log x1, log ceiling, log |z0|, log z1)."""
+        w = (np.log(self.wall_min), np.log(self.wall_max))
+        c = (np.log(self.ceiling_min), np.log(self.ceiling_max))
+        lo, hi = zip(w, w, c, w, w)
+        return np.array(lo), np.array(hi)
 
 
 @dataclass
-class LayoutFit:
-    """The box-layout fit both implementations run."""
+class LayoutParams:
+    """Knobs of the box-layout fit (shared by ``segmentation=layout`` and ``depth=layout``)."""
 
-    grid_side: int = setting(ge=16)
-    family_tolerance_deg: float = setting(gt=0, le=45)
-    sweep_fraction: float = setting(gt=0, le=1)
-    floor_band: float = setting(ge=0, le=1)
-    floor_prior: float = setting(ge=0)
-    floor_colour: float = setting(ge=0)
-    n_random: int = setting(ge=1)
-    n_starts: int = setting(ge=1)
-    min_floor: float = setting(ge=0, le=1)
-    look_down_deg: float = setting(ge=0, le=90)
-    search: SearchRange = setting()
-    seed: int = setting()
-
-
-@dataclass
-class LayoutDepthSettings(LayoutFit):
-    camera_height_m: float = setting(gt=0)
-    label_weight: float = setting(ge=0)
-
-
-@dataclass
-class GrabCut:
-    iterations: int = setting(ge=1)
-    margin: float = setting(ge=0)
-    min_fill: float = setting(ge=0, le=1)
-    min_part: float = setting(ge=0, le=1)
-
-
-@dataclass
-class Discovery:
-    min_score: float = setting(ge=0, le=1)
-    trusted_score: float = setting(ge=0, le=1)
-    max_explained: float = setting(ge=0, le=1)
-    nms_iou: float = setting(ge=0, le=1)
-    part_overlap: float = setting(ge=0, le=1)
-    floor_line: float = setting(ge=0, le=1)
-    absorb_score: float = setting(ge=0)
-    group_score: float = setting(ge=0)
-    max_covered: float = setting(ge=0, le=1)
-    min_visible: float = setting(ge=0, le=1)
-    parts: dict[str, list[str]] = setting()
-    heights: dict[str, list[Any]] = setting()
-    size_slack: float = setting(ge=1)
-    camera_height_m: float = setting(gt=0)
-    max_objects: int = setting(ge=0)
+    grid_side: int = setting(160, ge=16)
+    """Hypotheses are scored on a grid with this long side."""
+    family_tolerance_deg: float = setting(4.0, gt=0, le=45)
+    """A segment belongs to a vanishing point when it points at it within this angle."""
+    sweep_fraction: float = setting(0.12, gt=0, le=1)
+    """Segments are swept this fraction of the image diagonal towards/away from the other vanishing points."""
+    clutter_weight: float = setting(0.25, ge=0)
+    """Weight of orientation evidence inside object boxes (furniture lines say little about the room)."""
+    box_score: float = setting(0.3, ge=0, le=1)
+    """Object boxes scoring at least this inform the fit (clutter weights, floor prior at their bottoms)."""
+    label_weight: float = setting(1.0, ge=0)
+    """Weight of agreement with a given segmentation's wall/floor/ceiling labels (depth=layout)."""
+    floor_band: float = setting(0.08, ge=0, le=1)
+    """Rows at the bottom of the photo (this fraction of its height) below the horizon that are likely floor ..."""
+    floor_prior: float = setting(0.5, ge=0)
+    """... with this orientation evidence per pixel; box bottoms (objects stand on the floor) get it too."""
+    floor_colour: float = setting(14.0, ge=0)
+    """Pixels below the horizon joined to that bottom band by colours within this CIELAB distance of the band's
+    median (lightness counted half) get the floor prior too: the floor's material running up to the far wall
+    (a corridor's carpet has no lines to say so). 0: off."""
+    n_random: int = setting(3000, ge=1)
+    """Random hypotheses scored before the local search."""
+    n_starts: int = setting(8, ge=1)
+    """Best random hypotheses refined by pattern search."""
+    min_floor: float = setting(0.02, ge=0, le=1)
+    """A fitted box showing less floor than this fraction of the photo is fitted again looking down ..."""
+    look_down_deg: float = setting(30.0, ge=0, le=90)
+    """... when an axis points at least this far below the optical axis (90: never)."""
+    search: SearchRange = setting(SearchRange())
+    """Where hypotheses are sampled."""
+    seed: int = setting(0)
 
 
 @dataclass
-class Proposals:
-    score: float = setting(ge=0, le=1)
-    open_px: int = setting(ge=0)
-    min_area: float = setting(ge=0, le=1)
-    max_area: float = setting(ge=0, le=1)
-    min_fill: float = setting(ge=0, le=1)
-    max_proposals: int = setting(ge=0)
+class GrabCutParams:
+    """Knobs of the box-prompted GrabCut (``segmentation.layout.grabcut`` in the config)."""
+
+    iterations: int = setting(5, ge=1)
+    margin: float = setting(0.15, ge=0)
+    """Context around the box (fraction of its size) given to GrabCut as known background."""
+    min_fill: float = setting(0.08, ge=0, le=1)
+    """Masks covering less than this fraction of their box are dropped (GrabCut found no object)."""
+    min_part: float = setting(0.2, ge=0, le=1)
+    """Connected pieces of the mask at least this share of the largest are kept with it (an object's parts
+    that its thin pieces join outside the mask, as a chair's back and seat); smaller ones are noise."""
 
 
 @dataclass
-class LayoutSegmentationSettings(LayoutFit):
-    clutter_weight: float = setting(ge=0)
-    box_score: float = setting(ge=0, le=1)
-    min_surface_fraction: float = setting(ge=0, le=1)
-    grabcut: GrabCut = setting()
-    discovery: Discovery = setting()
-    proposals: Proposals | None = setting()
+class DiscoveryParams:
+    """Knobs of :func:`discover` (``segmentation.layout.discovery`` in the config)."""
+
+    min_score: float = setting(0.15, ge=0, le=1)
+    """Prompts scoring less are ignored."""
+    trusted_score: float = setting(0.3, ge=0, le=1)
+    """Prompts scoring less are weak: the room must not explain their mask ..."""
+    max_explained: float = setting(0.6, ge=0, le=1)
+    """... more than this share of it (:mod:`psdr_room_core.method.surface_colours`): a weak prompt on what looks like the floor is floor."""
+    nms_iou: float = setting(0.6, ge=0, le=1)
+    """Boxes overlapping more than this are one object (the better prompt is kept), whatever their labels."""
+    part_overlap: float = setting(0.85, ge=0, le=1)
+    """A prompt with this share of its box inside a better prompt's box may be a part of it (``parts``)."""
+    floor_line: float = setting(0.05, ge=0, le=1)
+    """... or a second box on it: same category, bottoms this close (share of the better box's height)."""
+    absorb_score: float = setting(0.3, ge=0)
+    """A prompt takes a better-scoring kept object of its category or its ``parts`` inside its box as a piece of
+    itself when it scores at least this share of it."""
+    group_score: float = setting(0.5, ge=0)
+    """Prompts of a box's category scoring at least this share of it that lie inside it, two or more of them
+    side by side (not stacked in the same columns), make it a box round a group: dropped."""
+    max_covered: float = setting(0.5, ge=0, le=1)
+    """A prompt whose box holds two or more kept objects, their masks covering more than this share of it, is
+    a box round a group of them: dropped."""
+    min_visible: float = setting(0.2, ge=0, le=1)
+    """An object showing less than this share of its mask once nearer objects are painted is dropped."""
+    parts: dict[str, list[str]] = setting(
+        {
+            "sofa": ["chair", "pillow", "ottoman"],
+            "bed": ["pillow", "sofa", "chair", "table"],
+            "shelf": ["tv", "box", "frame"],
+            "cabinet": ["tv", "appliance", "refrigerator", "box", "frame"],
+        }
+    )
+    """Database category → categories a detector calls parts of it (a sofa's seat is a "chair")."""
+    heights: dict[str, list[float]] = setting(
+        {
+            "chair": [0.45, 1.3],
+            "sofa": [0.5, 1.2],
+            "ottoman": [0.25, 0.6],
+            "bed": [0.3, 1.7],
+            "table": [0.35, 1.15],
+            "desk": [0.6, 1.5],
+            "cabinet": [0.3, 2.6],
+            "shelf": [0.5, 2.6],
+            "refrigerator": [0.7, 2.1],
+            "appliance": [0.2, 1.3],
+            "tv": [0.25, 1.8],
+            "lamp": [0.25, 2.1],
+            "plant": [0.2, 2.6],
+            "box": [0.08, 1.2],
+            "pillow": [0.2, 0.7],
+            "object": [0.1, 2.8],
+        }
+    )
+    """Database category (``object``: unknown) → (lowest, highest) top height above the floor, metres."""
+    size_slack: float = setting(1.8, ge=1)
+    """Height ranges are widened by this factor both ways (the camera height is assumed, the layout approximate)."""
+    camera_height_m: float = setting(1.5, gt=0)
+    max_objects: int = setting(40, ge=0)
+    """At most this many objects are kept (best prompts first)."""
+
+
+@dataclass
+class ProposalParams:
+    """Knobs of :func:`clutter_proposals` (``segmentation.layout.proposals`` in the config)."""
+
+    score: float = setting(0.2, ge=0, le=1)
+    """The score a proposal carries: weak (below ``discovery.trusted_score``), so every check applies."""
+    open_px: int = setting(7, ge=0)
+    """Side of the square opening that cleans the unexplained pixels."""
+    min_area: float = setting(0.004, ge=0, le=1)
+    """Regions covering less than this share of the photo are not proposed ..."""
+    max_area: float = setting(0.3, ge=0, le=1)
+    """... nor those covering more (a surface the colour model missed)."""
+    min_fill: float = setting(0.3, ge=0, le=1)
+    """Regions filling less than this share of their box are not compact enough to be one object."""
+    max_proposals: int = setting(8, ge=0)
+    """The largest this many regions are proposed."""
+
+
+@dataclass
+class LayoutDepthSettings(LayoutParams):
+    """``depth=layout``: the fit, and the camera height that turns its camera-height units into metres."""
+
+    camera_height_m: float = setting(1.5, gt=0)
+
+
+@dataclass
+class LayoutSegmentationSettings(LayoutParams):
+    """``segmentation=layout``: the fit, and how objects are found on it."""
+
+    min_surface_fraction: float = setting(0.002, ge=0, le=1)
+    grabcut: GrabCutParams = setting(GrabCutParams())
+    discovery: DiscoveryParams = setting(DiscoveryParams())
+    proposals: ProposalParams | None = setting(None)
+    """Class-agnostic proposals round what the room cannot explain; None: none."""

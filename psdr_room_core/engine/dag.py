@@ -17,6 +17,7 @@ progress display: the :class:`Runner` does those, and announces each step throug
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import gc
 import logging
@@ -223,6 +224,14 @@ class Deferred:
         self.construct = construct
 
 
+def typed_settings(schema: type[SettingsT], values: Mapping[str, Any]) -> SettingsT:
+    """``values`` (a config node :mod:`.settings` checked against ``schema``) as an instance of ``schema``: typed
+    fields, nested settings as their dataclasses, the schema's defaults where the node leaves a key out."""
+    from omegaconf import OmegaConf
+
+    return cast(SettingsT, OmegaConf.to_object(OmegaConf.merge(OmegaConf.structured(schema), dict(values))))
+
+
 @dataclass
 class StageContext:
     """What a stage function gets besides its input artifacts."""
@@ -239,9 +248,7 @@ class StageContext:
     def settings(self, schema: type[SettingsT]) -> SettingsT:
         """:attr:`params` as an instance of ``schema``, the dataclass the stage registered them with (checked
         before the run: :mod:`.settings`): typed fields instead of dict lookups and casts."""
-        from omegaconf import OmegaConf
-
-        return cast(SettingsT, OmegaConf.to_object(OmegaConf.merge(OmegaConf.structured(schema), self.params)))
+        return typed_settings(schema, self.params)
 
     @overload
     def impl(self, capability: str) -> Any: ...
@@ -369,6 +376,9 @@ class Runner:
     def _construct(self, capability: str, name: str, node: Mapping[str, Any]) -> Any:
         impl = self.plugins.registry.implementation(capability, name)
         params = dict(node.get(name) or {})
+        if impl.params is not None and dataclasses.is_dataclass(impl.params):  # the factory gets typed values
+            settings = typed_settings(impl.params, params)
+            params = {f.name: getattr(settings, f.name) for f in dataclasses.fields(settings)}
         try:
             instance = impl.factory(**params)
         except TypeError as exc:

@@ -55,7 +55,8 @@ def register_implementations(registry: Registry) -> None:
     """Add capability implementations with ``registry.add_implementation(capability, name, factory)``.
 
     Called once per plugin when plugins are loaded. ``factory(**params)`` is called with the parameters of
-    the implementation's config node (``<capability>.<name>`` in the composed config) and returns an object
+    the implementation's config node (``<capability>.<name>`` in the composed config), typed by its ``params``
+    schema (nested settings as their dataclasses, the schema's defaults for keys left out), and returns an object
     satisfying the capability's protocol (the method's are in :mod:`psdr_room_core.method.capabilities`). Factories must be cheap:
     load model weights lazily, on first use. ``factory`` may be a reference ``"module:attribute"``, imported when
     first constructed; with ``reads_files=False`` a cached stage never constructs it (:mod:`.references`).

@@ -57,7 +57,7 @@ def setting(
     """A schema field with bounds (applied to a number, or to every number of a list), allowed words
     (``choices``) or a list ``length``; ``default`` only for keys a config may leave out."""
     rules = {k: v for k, v in dict(ge=ge, gt=gt, le=le, lt=lt, choices=choices, length=length).items() if v is not None}
-    if isinstance(default, (list, dict)):
+    if isinstance(default, (list, dict)) or dataclasses.is_dataclass(default):  # each instance its own copy
         return dataclasses.field(default_factory=lambda: copy.deepcopy(default), metadata=rules)
     return dataclasses.field(default=default, metadata=rules)
 

@@ -34,7 +34,8 @@ from psdr_room_core.method.shading import linear_to_srgb, srgb_to_linear
 from psdr_room_core.method.view_search import ERROR_TERMS
 from psdr_room_core.method.visualize import segment_overlay
 from psdr_room_plugins.detectors.boxes_file import photo_scale, scaled
-from psdr_room_plugins.layout.objects import GrabCutParams, grabcut_mask
+from psdr_room_plugins.layout.objects import grabcut_mask
+from psdr_room_plugins.layout.settings import GrabCutParams
 from psdr_room_plugins.material_graph.thumbnails import to_uint8
 
 from .scene_view import SceneView, latest, overview, screen_to_photo

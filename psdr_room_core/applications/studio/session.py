@@ -56,7 +56,8 @@ from psdr_room_core.method.artifacts import (
 )
 from psdr_room_core.method.crops import check_crops, crops_file, load_crops, write_crops
 from psdr_room_plugins.detectors.boxes_file import photo_scale, read_boxes, scaled, sidecar_path, write_boxes
-from psdr_room_plugins.layout.objects import GrabCutParams, grabcut_mask
+from psdr_room_plugins.layout.objects import grabcut_mask
+from psdr_room_plugins.layout.settings import GrabCutParams
 from psdr_room_plugins.segmentation_file import read_segmentation
 
 ArtifactT = TypeVar("ArtifactT")
