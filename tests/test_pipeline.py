@@ -409,7 +409,8 @@ def test_the_preview_preset_reuses_the_room_and_stops_at_place_objects(
     m = metrics(tmp_path / "run")
     assert list(m["stages"]) == STAGES[: STAGES.index("place_objects") + 1]
     assert computed(tmp_path / "run") == {"group_objects", "retrieve_objects", "place_objects"}  # they use retrieval
-    assert all(s["peak_rss_mb"] > 100 for s in m["stages"].values())  # torch and Mitsuba alone are more
+    assert all(s["peak_rss_mb"] > 50 for s in m["stages"].values())  # each stage records its peak memory
+    assert all(m["stages"][s]["peak_rss_mb"] > 200 for s in ("retrieve_objects", "place_objects"))  # torch, Mitsuba
     placed = json.loads((tmp_path / "run" / "artifacts" / "placements" / "placements.json").read_text())["objects"]
     assert placed and (tmp_path / "run" / "report.html").is_file()
 
