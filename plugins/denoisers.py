@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -96,3 +96,10 @@ def _distribution_version(name: str) -> str:
 def register_implementations(registry: Registry) -> None:
     registry.add_implementation("denoiser", "oidn", OidnDenoiser, params=OidnSettings, reads_files=False)
     registry.add_implementation("denoiser", "none", NoDenoiser, params=NoSettings, reads_files=False)
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import Denoiser
+
+    _NoDenoiser_is_a_denoiser: type[Denoiser] = NoDenoiser
+    _OidnDenoiser_is_a_denoiser: type[Denoiser] = OidnDenoiser

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -90,3 +91,9 @@ class FileDepthSettings:
 @hookimpl
 def register_implementations(registry: Registry) -> None:
     registry.add_implementation("depth", "file", FileDepth, params=FileDepthSettings, reads_files=True)
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import DepthEstimator
+
+    _FileDepth_is_a_depth: type[DepthEstimator] = FileDepth

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.registry import Registry
@@ -58,3 +58,10 @@ def register_implementations(registry: Registry) -> None:
         "fov", "vanishing_points", VanishingPointsFov, params=VanishingPointParams, reads_files=False
     )
     registry.add_implementation("fov", "fixed", FixedFov, params=FixedFovSettings, reads_files=False)
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import FovEstimator
+
+    _FixedFov_is_a_fov: type[FovEstimator] = FixedFov
+    _VanishingPointsFov_is_a_fov: type[FovEstimator] = VanishingPointsFov

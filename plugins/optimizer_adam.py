@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.registry import Registry
@@ -64,3 +64,9 @@ class AdamSettings:
 @hookimpl
 def register_implementations(registry: Registry) -> None:
     registry.add_implementation("optimizer", "adam", Adam, params=AdamSettings, reads_files=False)
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import Optimizer
+
+    _Adam_is_a_optimizer: type[Optimizer] = Adam

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -177,3 +178,9 @@ def register_implementations(registry: Registry) -> None:
     registry.add_implementation(
         "retrieval", "silhouette", SilhouetteRetrieval, version="5", params=SilhouetteSettings, reads_files=False
     )
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import ObjectRetriever
+
+    _SilhouetteRetrieval_is_a_retrieval: type[ObjectRetriever] = SilhouetteRetrieval

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -98,3 +99,9 @@ def register_implementations(registry: Registry) -> None:
     registry.add_implementation(
         "segmentation", "file", FileSegmentation, params=FileSegmentationSettings, reads_files=True
     )
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import Segmenter
+
+    _FileSegmentation_is_a_segmentation: type[Segmenter] = FileSegmentation

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.registry import Registry
@@ -68,3 +69,9 @@ def register_implementations(registry: Registry) -> None:
     registry.add_implementation(
         "detector", "none", NoDetector, version="1", description="no object boxes", params=NoSettings, reads_files=False
     )
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import Detector
+
+    _NoDetector_is_a_detector: type[Detector] = NoDetector

@@ -15,7 +15,7 @@ score 1.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import yaml
 
@@ -136,3 +136,9 @@ class BoxesFile:
             for d in read_boxes(file, image.photo_size)
         ]
         return Detections(items=items, source=str(file))
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import Detector
+
+    _BoxesFile_is_a_detector: type[Detector] = BoxesFile

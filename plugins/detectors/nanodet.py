@@ -28,6 +28,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -246,3 +247,9 @@ class NanodetOnnx:
             if b[2] > b[0] and b[3] > b[1]
         ]
         return Detections(items=items[: self.max_detections], source=f"nanodet_onnx ({self.path.name})")
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import Detector
+
+    _NanodetOnnx_is_a_detector: type[Detector] = NanodetOnnx

@@ -13,6 +13,7 @@ import functools
 import hashlib
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -201,3 +202,11 @@ class EyesDetector(Eyes):
             box = (float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1))
             items.append(Detection(name, _category(name), box, min(max(score, 0.0), 1.0)))
         return Detections(sorted(items, key=lambda d: -d.score), source=self.describe())
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import DepthEstimator, Detector, Segmenter
+
+    _EyesDepth_is_a_depth: type[DepthEstimator] = EyesDepth
+    _EyesDetector_is_a_detector: type[Detector] = EyesDetector
+    _EyesSegmentation_is_a_segmentation: type[Segmenter] = EyesSegmentation

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -77,3 +77,9 @@ class LayoutDepth:
             source=f"layout (box {np.round(fitted.box, 2).tolist()} camera heights; "
             f"camera {self.settings.camera_height_m} m above the floor assumed)",
         )
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import DepthEstimator
+
+    _LayoutDepth_is_a_depth: type[DepthEstimator] = LayoutDepth

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -80,3 +80,9 @@ class LayoutSegmentation:
             len(detections.items),
         )
         return Panoptic(ids=ids, segments=kept)
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import Segmenter
+
+    _LayoutSegmentation_is_a_segmentation: type[Segmenter] = LayoutSegmentation

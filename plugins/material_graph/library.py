@@ -12,7 +12,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import torch
 
@@ -133,3 +133,9 @@ class TorchGraphLibrary:
         """Bilinear samples [C, H', W'] of a tileable image [C, H, W] at texture coordinates ``u``, ``v``
         (1 = one tile, wrapped), differentiable."""
         return sample_periodic(image, u, v)
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import MaterialGraph
+
+    _TorchGraphLibrary_is_a_material_graph: type[MaterialGraph] = TorchGraphLibrary

@@ -877,3 +877,9 @@ def _mesh(mi: Any, name: str, shape: _Shape, bsdf: Any, emitter: Any = None) -> 
         )
     params.update()
     return mesh
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import Renderer
+
+    _MitsubaRenderer_is_a_renderer: type[Renderer] = MitsubaRenderer

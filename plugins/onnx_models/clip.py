@@ -12,7 +12,7 @@ import hashlib
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
@@ -157,3 +157,9 @@ class ClipRetrieval:
         scored = [Candidate(r.id, float(np.max(thumbs[r.id] @ crop)), r.category) for r in models]
         scored.sort(key=lambda c: (-c.score, c.model_id))
         return scored[:k]
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import ObjectRetriever
+
+    _ClipRetrieval_is_a_retrieval: type[ObjectRetriever] = ClipRetrieval

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -99,3 +100,9 @@ class OnnxDepth:
                 f"('{net.model.family}') matches the model"
             )
         return DepthMap(depth=depth, valid=valid, metric=False, source=f"onnx:{net.model.name} ({net.model.path.name})")
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import DepthEstimator
+
+    _OnnxDepth_is_a_depth: type[DepthEstimator] = OnnxDepth

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -164,3 +165,9 @@ def _pick(net: OnnxNetwork, *, rank: int, name: str, detail: str) -> Port:
     if len(candidates) != 1:
         raise net.signature_error(detail)
     return candidates[0]
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import Segmenter
+
+    _OnnxSegmentation_is_a_segmentation: type[Segmenter] = OnnxSegmentation

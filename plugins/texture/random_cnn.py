@@ -15,6 +15,8 @@ gets the same descriptor.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import torch
 import torch.nn.functional as F
 
@@ -99,3 +101,9 @@ class RandomCnnDescriptor(GramDescriptor):
         parts.append(colour_stats(x) * (self.colour_weight / 9.0))
         out = torch.cat(parts, -1)
         return out[0] if single else out
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import TextureDescriptor
+
+    _RandomCnnDescriptor_is_a_texture: type[TextureDescriptor] = RandomCnnDescriptor

@@ -19,7 +19,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import torch
 import torch.nn.functional as F
@@ -186,3 +186,9 @@ class Vgg19Descriptor(GramDescriptor):
             parts.append(colour_stats(x) * (self.colour_weight / 9.0))
         out = torch.cat(parts, -1)
         return out[0] if single else out
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import TextureDescriptor
+
+    _Vgg19Descriptor_is_a_texture: type[TextureDescriptor] = Vgg19Descriptor

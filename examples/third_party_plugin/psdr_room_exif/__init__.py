@@ -3,6 +3,7 @@
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import PIL.Image
 
@@ -50,3 +51,9 @@ def register_implementations(registry):
 @hookimpl
 def conf_searchpath():
     return "pkg://psdr_room_exif"  # holds fov/exif.yaml
+
+
+if TYPE_CHECKING:  # mypy checks ExifFov against the fov capability's protocol
+    from psdr_room_core.method.capabilities import FovEstimator
+
+    _ExifFov_is_a_fov: type[FovEstimator] = ExifFov
