@@ -15,6 +15,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -35,3 +36,15 @@ def test_the_pre_commit_hooks_pass() -> None:
     assert all(hook in result.stdout for hook in ("ruff check", "ruff format", "import contracts", "mypy")), (
         result.stdout
     )
+
+
+def test_the_wheel_lists_every_package() -> None:
+    """``pyproject.toml`` names its packages one by one, so a package folder left off the list is missing from a wheel
+    (an editable install still finds it): every folder with an ``__init__.py`` must be listed."""
+    setuptools = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    found = {
+        ".".join([name, *init.parent.relative_to(ROOT / folder).parts])
+        for name, folder in setuptools["package-dir"].items()
+        for init in (ROOT / folder).rglob("__init__.py")
+    }
+    assert found - set(setuptools["packages"]) == set()
