@@ -2,7 +2,7 @@
 
 - :mod:`.labels`: its classes; :mod:`.encoder`: the bundled NanoDet-g read from its ONNX as a torch module;
   :mod:`.network`: encoder + heads, ONNX export; :mod:`.data`: packs, augmentation, targets;
-  :mod:`.train`: ``psdr-room-train``; :mod:`.decode`: what the outputs mean (numpy);
+  :mod:`psdr_room_core.applications.train`: ``psdr-room-train``; :mod:`.decode`: what the outputs mean (numpy);
 - :mod:`.perception`: ``segmentation=eyes``, ``depth=eyes`` and ``detector=eyes`` (onnxruntime only), registered
   by :mod:`.plugin` (the entry point; this package imports nothing, so training runs with torch, onnx and cv2).
 

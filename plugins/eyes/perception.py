@@ -1,6 +1,6 @@
 """``segmentation=eyes``, ``depth=eyes`` and ``detector=eyes``: psdr-room's own network, trained on its renders
-(:mod:`.train`) and shipped in the package (``eyes.onnx`` with ``eyes.json``: its sha256 and how it was made),
-run with onnxruntime alone.
+(:mod:`psdr_room_core.applications.train`) and shipped in the package (``eyes.onnx`` with ``eyes.json``: its
+sha256 and how it was made), run with onnxruntime alone.
 
 The photo is stretched to the network's 320×240 input; its outputs (a quarter of that) are resized back to the
 working image: surface logits bilinearly, then argmax; depth bilinearly; instances (:func:`.decode.instances`)

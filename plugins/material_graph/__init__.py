@@ -4,8 +4,8 @@ The paper optimises the parameters of Substance-like node graphs (DiffMatV2) thr
 package is the same idea in plain torch: tileable generator and filter nodes (:mod:`.nodes`), typed and
 bounded parameters with a sigmoid reparameterisation (:mod:`.params`), graph files that are data
 (:mod:`.graph`, ``library/*.yaml``), the library (:mod:`.library`), thumbnails (:mod:`.thumbnails`) and the
-``psdr-room-materials`` command (:mod:`.cli`). The library is registered by reference: torch loads when it is
-constructed.
+``psdr-room-materials`` command (:mod:`psdr_room_core.applications.materials`). The library is registered by
+reference: torch loads when it is constructed.
 
     from psdr_room_plugins.material_graph.library import TorchGraphLibrary
 

@@ -51,7 +51,8 @@ HOMOGENEOUS_KEYS = ("base_color", "roughness", "specular")
 
 
 def load_state(scene_dir: Path, library: Any) -> dict[str, Any]:
-    """A scene folder's ``appearance.json``, checked against the schema (:mod:`..scene_state`) and ``library``."""
+    """A scene folder's ``appearance.json``, checked against the schema (:mod:`psdr_room_core.method.scene_state`)
+    and ``library``."""
     path = scene_dir / "appearance.json"
     if not path.is_file():
         raise PsdrRoomError(f"{scene_dir}: no appearance.json; pass the scene/ folder of a psdr-room run")
@@ -60,7 +61,7 @@ def load_state(scene_dir: Path, library: Any) -> dict[str, Any]:
 
 def apply_edit(state: dict[str, Any], key: str, raw: str, library: Any) -> None:
     """Apply one ``KEY=VALUE`` edit to a scene state in place (see the module docstring); a value outside its
-    range is refused with the range (the scene's schema, :func:`..scene_state.check_state`)."""
+    range is refused with the range (the scene's schema, :func:`psdr_room_core.method.scene_state.check_state`)."""
     try:
         value = yaml.safe_load(raw)
     except yaml.YAMLError:

@@ -1,7 +1,7 @@
 """The data engine of psdr-room's own eyes (``psdr-room-synth-data``): randomised rooms furnished from the object
-database (:mod:`.furnish`), dressed in the material library's graphs, photo textures and random colours, lit by
-ceiling panels and daylight windows, path traced with the Mitsuba plugin and denoised, with exact per-pixel
-labels from one primary ray per pixel.
+database (:mod:`psdr_room_core.libraries.synth.furnish`), dressed in the material library's graphs, photo
+textures and random colours, lit by ceiling panels and daylight windows, path traced with the Mitsuba plugin and
+denoised, with exact per-pixel labels from one primary ray per pixel.
 
 One sample ``<seed>`` of a data set folder:
 

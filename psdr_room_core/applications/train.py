@@ -31,11 +31,12 @@ LOSS_WEIGHTS = {"surface": 1.0, "category": 1.0, "center": 1.0, "offset": 0.1, "
 TIMING_STEPS = 20
 """``--minutes`` times steps TIMING_STEPS..2·TIMING_STEPS of a run (after its warm-up) to set the number of steps."""
 FREEZE = ("none", "stride8", "encoder")
-"""What of the encoder stays fixed: nothing, the layers up to stride 8, or all of it (:meth:`.encoder.OnnxEncoder.frozen`)."""
+"""What of the encoder stays fixed: nothing, the layers up to stride 8, or all of it
+(:meth:`psdr_room_plugins.eyes.encoder.OnnxEncoder.frozen`)."""
 
 
 def losses(out: dict, batch: dict) -> dict:
-    """Each head's loss on a batch (torch tensors; targets from :func:`.data.example`)."""
+    """Each head's loss on a batch (torch tensors; targets from :func:`psdr_room_plugins.eyes.data.example`)."""
     import torch
     import torch.nn.functional as F
 

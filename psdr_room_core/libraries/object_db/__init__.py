@@ -7,7 +7,8 @@
 
 :mod:`.database` (records, meshes, our on-disk format), :mod:`.builtin` and :mod:`.parametric` (the shipped
 library), :mod:`.future3d` (the 3D-FUTURE layout), :mod:`.thumbnails` (Mitsuba views) and the
-``psdr-room-db`` command (:mod:`.cli`). A library, not a plugin: retrieval implementations use it.
+``psdr-room-db`` command (:mod:`psdr_room_core.applications.db`). A library, not a plugin: retrieval
+implementations use it.
 """
 
 from __future__ import annotations
