@@ -18,14 +18,15 @@ import numpy as np
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.registry import Registry
 from psdr_room_core.engine.settings import setting
-from psdr_room_core.libraries.object_db import ObjectDatabase
-from psdr_room_core.libraries.object_db.opening import object_mesh, open_database
 from psdr_room_core.method.artifacts import Camera, Candidate, ObjectMesh
 from psdr_room_core.method.backs import BACKED
 from psdr_room_core.method.objects import ObjectQuery
 from psdr_room_core.method.silhouette import MeshCaster
 from psdr_room_core.method.sizes import SizePrior
 from psdr_room_core.method.view_search import SearchParams, ViewSearch, ViewTarget
+
+if TYPE_CHECKING:
+    from psdr_room_core.libraries.object_db import ObjectDatabase
 
 
 class SilhouetteRetrieval:
@@ -83,6 +84,8 @@ class SilhouetteRetrieval:
     @property
     def database(self) -> ObjectDatabase:
         if self._db is None:
+            from psdr_room_core.libraries.object_db.opening import open_database  # loaded when first used
+
             self._db = open_database(*self.spec)
         return self._db
 
@@ -94,6 +97,8 @@ class SilhouetteRetrieval:
         return self.database.thumbnails(model_id, views=[0])[0]
 
     def mesh(self, model_id: str) -> ObjectMesh:
+        from psdr_room_core.libraries.object_db.opening import object_mesh
+
         return object_mesh(self.database, model_id)
 
     def category(self, model_id: str) -> str:

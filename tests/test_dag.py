@@ -6,6 +6,7 @@ import copy
 import gc
 import sys
 import weakref
+from dataclasses import dataclass
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
@@ -20,6 +21,7 @@ from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import load_plugins
 from psdr_room_core.engine.records import RunRecord
 from psdr_room_core.engine.registry import Origin, Registry
+from psdr_room_core.engine.settings import setting
 
 TOY = Origin("toy", "tests", "toy = toy_plugin")
 
@@ -457,3 +459,56 @@ def test_a_run_hands_its_artifacts_to_hooks_by_type(tmp_path: Path, photo: Path)
     assert record.artifact("c", toy_plugin.Number) is record.artifacts["c"]
     assert record.artifact(("missing", "b", "c"), toy_plugin.Number) is record.artifacts["b"]
     assert record.artifact("missing", toy_plugin.Number) is None and record.artifact("c", Events) is None
+
+
+@dataclass
+class Shift:
+    by: float = setting(ge=0)
+
+
+@dataclass
+class ShiftingSettings:
+    factor: float = setting(gt=0)
+    shift: Shift = setting()
+
+
+class Shifting:
+    """Multiplies by ``factor``, then adds ``shift.by``; records what its factory was given."""
+
+    made: list[tuple[Any, Any]] = []
+
+    def __init__(self, factor: float = 5.0, shift: Shift | None = None) -> None:
+        Shifting.made.append((factor, shift))
+        self.factor, self.by = factor, shift.by if shift is not None else 0.0
+
+    def apply(self, value: float, photo: Path) -> float:
+        return value * self.factor + self.by
+
+
+def test_a_factory_gets_its_node_typed_and_its_own_defaults_without_one(tmp_path: Path, photo: Path) -> None:
+    """The factory is called with its schema's fields: an int in the config arrives as the float the schema
+    declares, a nested node as its dataclass. An implementation named only in ``auto.order`` has no node: its
+    factory's own defaults apply (the schema's bare fields are not demanded of a node that is not there)."""
+
+    def register(registry: Any) -> None:
+        registry.add_implementation("scaler", "shifting", Shifting, params=ShiftingSettings)
+
+    plugins = load_plugins(
+        extra=[(toy_plugin, TOY), (SimpleNamespace(register_implementations=hookimpl(register)), Origin("s", "t", "s"))]
+    )
+    typed = copy.deepcopy(BASE)
+    typed["scaler"] = {"impl": "shifting", "shifting": {"factor": 3, "shift": {"by": 1}}}
+    Shifting.made.clear()
+    record = Runner(plugins, typed, photo, Store(tmp_path / "c1"), Store(tmp_path / "s1"), "readwrite").run(
+        Pipeline.from_config(typed).select()
+    )
+    (factor, shift), *_ = Shifting.made
+    assert type(factor) is float and shift == Shift(by=1.0) and type(shift.by) is float
+    assert record.artifacts["b"].value == 4.0
+    absent = copy.deepcopy(BASE)
+    absent["scaler"] = {"impl": "auto", "auto": {"order": ["shifting"]}}
+    Shifting.made.clear()
+    record = Runner(plugins, absent, photo, Store(tmp_path / "c2"), Store(tmp_path / "s2"), "readwrite").run(
+        Pipeline.from_config(absent).select()
+    )
+    assert Shifting.made[0] == (5.0, None) and record.artifacts["b"].value == 5.0

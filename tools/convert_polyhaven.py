@@ -30,7 +30,7 @@ from psdr_room_core.libraries.object_db.objio import write_obj
 
 REPO = Path(__file__).resolve().parents[1]
 SOURCE = REPO.parent / "shared" / "data" / "meshes" / "polyhaven_robotlocomotion"
-OUT = REPO / "plugins" / "object_db" / "library" / "polyhaven"
+OUT = REPO / "psdr_room_core" / "libraries" / "object_db" / "library" / "polyhaven"
 
 MODELS: dict[str, tuple[str, dict[str, str]]] = {
     "painted_wooden_cabinet_1k.gltf": (

@@ -119,6 +119,10 @@ class OnnxEncoder(nn.Module):
                 values[n] if n in values else self.params[self.names[n]] if n in self.names else None for n in inputs
             ]
             args = [tensor for tensor in found if tensor is not None]  # constants (attrs) only ever follow tensors
+            if not args or (op in ("Concat", "Add") and len(args) != len(found)):
+                raise NotImplementedError(
+                    f"ONNX node {output} ({op}) has constant inputs the eyes encoder does not read"
+                )
             first = args[0]
             if op == "Conv":
                 pads = attrs.get("pads", [0, 0, 0, 0])

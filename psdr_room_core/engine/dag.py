@@ -376,7 +376,9 @@ class Runner:
     def _construct(self, capability: str, name: str, node: Mapping[str, Any]) -> Any:
         impl = self.plugins.registry.implementation(capability, name)
         params = dict(node.get(name) or {})
-        if impl.params is not None and dataclasses.is_dataclass(impl.params):  # the factory gets typed values
+        # the factory gets its node's values typed by the schema; with no node (an auto.order name the config
+        # leaves out), its own defaults
+        if name in node and impl.params is not None and dataclasses.is_dataclass(impl.params):
             settings = typed_settings(impl.params, params)
             params = {f.name: getattr(settings, f.name) for f in dataclasses.fields(settings)}
         try:
