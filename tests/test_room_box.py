@@ -1,4 +1,4 @@
-"""Room-box initialisation (plugins/room_box.py) on synthetic point clouds with known geometry."""
+"""Room-box initialisation (psdr_room_core/method/room_box.py) on synthetic point clouds with known geometry."""
 
 from __future__ import annotations
 
