@@ -28,10 +28,11 @@ import yaml
 from browser import chromium
 from conftest import EXAMPLE
 from psdr_room_core.applications.studio.cli import studio_settings
-from psdr_room_core.applications.studio.scene_view import latest, overview, screen_to_photo, wxyz
+from psdr_room_core.applications.studio.scene_view import overview, screen_to_photo, wxyz
 from psdr_room_core.applications.studio.session import PREVIEW, Session, studio_plugins
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.plugins import plugin_system
+from psdr_room_core.engine.records import first_artifact
 from psdr_room_core.libraries.object_db.opening import open_database
 from psdr_room_core.libraries.synth import write_scene
 from psdr_room_core.libraries.synth.raycast import raycast
@@ -201,7 +202,7 @@ def test_the_first_view_looks_at_the_placed_objects(
     client = SimpleNamespace(camera=SimpleNamespace(), atomic=contextlib.nullcontext)
     overview(client, artifacts)
     eye, target = np.asarray(client.camera.position), np.asarray(client.camera.look_at)
-    box = latest(artifacts, RoomBox, "room_box_objects", "room_box_fit", "room_box")
+    box = first_artifact(artifacts, ("room_box_objects", "room_box_fit", "room_box"), RoomBox)
     assert np.all(np.abs(box.local(eye[None])[0]) < np.asarray(box.half_size))  # inside the room
     assert eye[1] > box.camera_to_world[1][3]  # above the photo's camera
     view = (target - eye) / np.linalg.norm(target - eye)

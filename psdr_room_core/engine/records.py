@@ -3,7 +3,7 @@ record (artifacts in memory, where each was saved), the objects the run-event ho
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
@@ -53,8 +53,16 @@ class RunRecord:
     def artifact(self, names: str | Iterable[str], kind: type[ArtifactT]) -> ArtifactT | None:
         """The first of the artifacts ``names`` the run has, when it is a ``kind`` (None otherwise): what a
         run-event hook reads, typed (``run.artifact(("room_box_fit", "room_box"), RoomBox)``)."""
-        for name in [names] if isinstance(names, str) else names:
-            if name in self.artifacts:
-                found = self.artifacts[name]
-                return found if isinstance(found, kind) else None
-        return None
+        return first_artifact(self.artifacts, names, kind)
+
+
+def first_artifact(
+    artifacts: Mapping[str, Artifact], names: str | Iterable[str], kind: type[ArtifactT]
+) -> ArtifactT | None:
+    """The first of ``names`` in ``artifacts`` (the fitted artifact before its initial estimate), when it is a
+    ``kind`` (None otherwise)."""
+    for name in [names] if isinstance(names, str) else names:
+        if name in artifacts:
+            found = artifacts[name]
+            return found if isinstance(found, kind) else None
+    return None

@@ -19,6 +19,7 @@ import viser
 
 from psdr_room_core.applications.edit import load_state
 from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.records import first_artifact
 from psdr_room_core.libraries.object_db import CATEGORIES as DB_CATEGORIES
 from psdr_room_core.method.artifacts import (
     CATEGORIES,
@@ -38,7 +39,7 @@ from psdr_room_plugins.layout.objects import grabcut_mask
 from psdr_room_plugins.layout.settings import GrabCutParams
 from psdr_room_plugins.material_graph.thumbnails import to_uint8
 
-from .scene_view import SceneView, latest, overview, screen_to_photo
+from .scene_view import SceneView, overview, screen_to_photo
 from .session import EDITED, PREVIEW, Session, StageEvent
 
 THUMB = 112
@@ -355,12 +356,12 @@ class StudioApp:
             self.exported.disabled = scene_dir is None
             self.exported.value = scene_dir is not None  # type: ignore[misc]  # viser 1.1: a setter apart from its getter reads as read-only
         self.view.exported(self.exported.value)
-        camera = latest(record.artifacts, Camera, "camera_fit", "camera")
+        camera = record.artifact(("camera_fit", "camera"), Camera)
         if camera is not None:
             self.fov.value = self.initial_fov = round(camera.vfov_deg * 2) / 2  # type: ignore[misc]  # viser 1.1: a setter apart from its getter reads as read-only
         for client in self.server.get_clients().values():
             self._greet(client)
-        placements = latest(record.artifacts, Placements, "placements_fit", "placements")
+        placements = record.artifact(("placements_fit", "placements"), Placements)
         self.objects.content = "\n".join(
             [
                 "| segment | label | model |",
@@ -703,9 +704,9 @@ class StudioApp:
 
     def _working_box(self, client_camera: Any, screen_min: tuple[float, float], screen_max: tuple[float, float]) -> Box:
         artifacts = self.session.record.artifacts if self.session.record is not None else {}
-        image = latest(artifacts, Image, "image")
-        camera = latest(artifacts, Camera, "camera_fit", "camera")
-        room = latest(artifacts, RoomBox, "room_box_objects", "room_box_fit", "room_box")
+        image = first_artifact(artifacts, "image", Image)
+        camera = first_artifact(artifacts, ("camera_fit", "camera"), Camera)
+        room = first_artifact(artifacts, ("room_box_objects", "room_box_fit", "room_box"), RoomBox)
         if image is None or camera is None or room is None:
             raise PsdrRoomError("run the preview first: a rectangle is drawn on the photo's camera")
         corners = [

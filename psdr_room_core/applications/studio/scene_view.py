@@ -11,19 +11,16 @@ runs; the viewer's own lights stand in for the glb's photometric ones, which it 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 import numpy as np
 import viser
 import viser.transforms as vtf
 
-from psdr_room_core.engine.artifacts import Artifact
+from psdr_room_core.engine.records import first_artifact
 from psdr_room_core.method.artifacts import Camera, Image, Placements, PointCloud, RoomBox, rotation_y
 from psdr_room_core.method.gltf import without_lights
-
-ArtifactT = TypeVar("ArtifactT")
 
 MAX_POINTS = 60_000
 """Point-cloud points sent to the browser (a random subset beyond this)."""
@@ -32,13 +29,6 @@ MAX_POINTS = 60_000
 def wxyz(rotation: np.ndarray) -> np.ndarray:
     """A rotation matrix as viser's (w, x, y, z) quaternion."""
     return vtf.SO3.from_matrix(np.asarray(rotation, dtype=np.float64)).wxyz
-
-
-def latest(artifacts: Mapping[str, Artifact], kind: type[ArtifactT], *names: str) -> ArtifactT | None:
-    """The first of ``names`` the run produced (the fitted artifact before its initial estimate), when it is a
-    ``kind`` (None otherwise)."""
-    found = next((artifacts[name] for name in names if name in artifacts), None)
-    return found if isinstance(found, kind) else None
 
 
 def box_edges(room: RoomBox) -> np.ndarray:
@@ -66,9 +56,9 @@ class SceneView:
         """Draw ``artifacts`` (a run's, by name); ``scene_dir``: the exported ``scene/`` folder, if the run
         reached ``export_scene``."""
         self.clear()
-        image = latest(artifacts, Image, "image")
-        camera = latest(artifacts, Camera, "camera_fit", "camera")
-        room = latest(artifacts, RoomBox, "room_box_objects", "room_box_fit", "room_box")
+        image = first_artifact(artifacts, "image", Image)
+        camera = first_artifact(artifacts, ("camera_fit", "camera"), Camera)
+        room = first_artifact(artifacts, ("room_box_objects", "room_box_fit", "room_box"), RoomBox)
         if image is None or camera is None or room is None:
             return
         c2w = np.asarray(room.camera_to_world, dtype=np.float64)
@@ -90,7 +80,7 @@ class SceneView:
         self.nodes["/photo"] = frustum("/photo")
         self.nodes["/photo_plane"] = frustum("/photo_plane", image=image.to_uint8(), visible=self.plane_visible)
         self.nodes["/room"] = scene.add_line_segments("/room", box_edges(room), colors=(40, 40, 40), thickness=0.015)
-        cloud = latest(artifacts, PointCloud, "point_cloud")
+        cloud = first_artifact(artifacts, "point_cloud", PointCloud)
         if cloud is not None and len(cloud.points):
             keep = np.random.default_rng(0).permutation(len(cloud.points))[:MAX_POINTS]
             points = cloud.points[keep] @ c2w[:3, :3].T + c2w[:3, 3]
@@ -100,7 +90,7 @@ class SceneView:
         glb = scene_dir / "scene.glb" if scene_dir is not None else None
         if glb is not None and glb.is_file():
             self.show_scene(glb)
-        placements = latest(artifacts, Placements, "placements_fit", "placements")
+        placements = first_artifact(artifacts, ("placements_fit", "placements"), Placements)
         for placement in placements.objects if placements is not None else []:
             name = f"/objects/{placement.segment_id}"
             colors = np.asarray(placement.mesh.colors, dtype=np.float64).reshape(-1, 3)
@@ -138,8 +128,8 @@ class SceneView:
 
     def photo_view(self, client: viser.ClientHandle, artifacts: dict[str, Any]) -> None:
         """Put ``client``'s view at the photo's camera (where a box dragged on the canvas is a box on the photo)."""
-        camera = latest(artifacts, Camera, "camera_fit", "camera")
-        room = latest(artifacts, RoomBox, "room_box_objects", "room_box_fit", "room_box")
+        camera = first_artifact(artifacts, ("camera_fit", "camera"), Camera)
+        room = first_artifact(artifacts, ("room_box_objects", "room_box_fit", "room_box"), RoomBox)
         if camera is None or room is None:
             return
         c2w = np.asarray(room.camera_to_world, dtype=np.float64)
@@ -154,13 +144,13 @@ class SceneView:
 def overview(client: viser.ClientHandle, artifacts: dict[str, Any]) -> None:
     """Put ``client``'s view inside the room, above and behind the photo's camera, looking down at the placed objects
     (at the room's middle when there are none): the camera's frustum and the scene it became, together."""
-    room = latest(artifacts, RoomBox, "room_box_objects", "room_box_fit", "room_box")
+    room = first_artifact(artifacts, ("room_box_objects", "room_box_fit", "room_box"), RoomBox)
     if room is None:
         return
     c2w = np.asarray(room.camera_to_world, dtype=np.float64)
     forward = c2w[:3, 2] * np.array([1.0, 0.0, 1.0])
     forward /= max(float(np.linalg.norm(forward)), 1e-9)
-    placements = latest(artifacts, Placements, "placements_fit", "placements")
+    placements = first_artifact(artifacts, ("placements_fit", "placements"), Placements)
     placed = [p.world_vertices() for p in (placements.objects if placements is not None else [])]
     target = np.concatenate(placed).mean(axis=0) if placed else np.asarray(room.center, dtype=np.float64)
     eye = c2w[:3, 3] - 0.8 * forward + np.array([0.0, 0.6, 0.0])
