@@ -229,3 +229,51 @@ def test_the_shipped_network_is_whole_and_sees_the_example_room() -> None:
     rows = np.nonzero(floor.any(axis=1))[0]
     near, far = rows.max(), rows.min()  # the floor recedes up the photo
     assert np.median(depth.depth[near][floor[near]]) < np.median(depth.depth[far][floor[far]])
+
+
+def test_nanodet_and_eyes_together_name_the_desks_nanodet_calls_beds() -> None:
+    """``detector=nanodet_eyes`` built from its config: each member gets its own node's settings. On a classroom
+    of desks (SUN RGB-D, held out) NanoDet calls the desks "bed" or "dining table" (COCO has no desk); the
+    combination keeps every NanoDet box, adds the eyes network's desks, and leaves out an eyes box of a class
+    COCO names where NanoDet boxed the same thing (its label, learnt on real photos, stands)."""
+    from conftest import SHARED_DATA
+    from psdr_room_core.engine.cli import compose_config
+    from psdr_room_core.engine.dag import typed_settings
+    from psdr_room_core.engine.plugins import plugin_system
+    from psdr_room_core.engine.run import resolve_config
+    from psdr_room_core.method.artifacts import Image
+    from psdr_room_core.method.labels import primary_category
+    from psdr_room_core.method.photo import read_photo, resize_to_working
+    from psdr_room_plugins.detectors.nanodet import box_iou
+    from psdr_room_plugins.eyes.with_nanodet import COCO_NAMED
+
+    photo = SHARED_DATA / "photos" / "sunrgbd_total3d_04" / "img.jpg"
+    if not photo.is_file():
+        pytest.skip(f"{photo} is not here")
+    system = plugin_system()
+    config = resolve_config(
+        compose_config(
+            [f"image={photo}", "detector=nanodet_eyes", "detector.nanodet_onnx.score_threshold=0.25"], system
+        )
+    )
+    implementation = system.registry.implementation("detector", "nanodet_eyes")
+    settings = typed_settings(implementation.params, config["detector"]["nanodet_eyes"])
+    detector = implementation.factory(**{f: getattr(settings, f) for f in ("nanodet", "eyes", "same_iou")})
+    assert detector.nanodet.score_threshold == 0.25 and detector.eyes.center_threshold == 0.3
+    assert detector.unavailable(photo) is None and len(detector.external_files(photo)) == 2
+    rgb = read_photo(photo, 10**8)
+    image = Image(rgb=resize_to_working(rgb, 800), original_size=(rgb.shape[1], rgb.shape[0]))
+    both = detector.detect(image, photo)
+    coco, eyes = detector.nanodet.detect(image, photo), detector.eyes.detect(image, photo)
+    assert both.source == f"{coco.source} + {eyes.source}"
+    scores = [d.score for d in both.items]
+    assert scores == sorted(scores, reverse=True)
+    assert set(coco.items) <= set(both.items) <= set(coco.items) | set(eyes.items)
+    boxes = np.array([d.box for d in coco.items])
+    for d in eyes.items:
+        named = primary_category(d.label, d.category) in (*COCO_NAMED, "object")
+        same = box_iou(np.array(d.box), boxes).max() >= 0.5
+        assert (d in both.items) == (not (named and same)), d
+    assert "desk" not in {d.label for d in coco.items} and {"bed", "chair"} <= {d.label for d in coco.items}
+    assert sum(d.label == "desk" for d in both.items) >= 3
+    assert any(d not in both.items for d in eyes.items)  # the eyes chair NanoDet boxed too is left to NanoDet

@@ -177,7 +177,8 @@ def test_box_prompts_become_object_segments(room: tuple) -> None:
 
 
 def test_boxes_yaml_replaces_the_detector(tmp_path: Path) -> None:
-    """With detector=auto a boxes file beside the photo is used instead of NanoDet (cached by its content)."""
+    """With detector=auto a boxes file beside the photo is used instead of NanoDet with eyes (cached by its content);
+    without eyes.onnx, NanoDet alone."""
     from psdr_room_core.engine.cli import compose_config
     from psdr_room_core.engine.plugins import plugin_system
     from psdr_room_core.engine.run import execute
@@ -189,7 +190,11 @@ def test_boxes_yaml_replaces_the_detector(tmp_path: Path) -> None:
     plugins = plugin_system()
     overrides = [f"image={photo}", f"cache_dir={tmp_path / 'cache'}", "run.until=detect", "report.enabled=false"]
     record = execute(compose_config(overrides, plugins), tmp_path / "run1", plugins)
+    assert record.implementations["detector"]["name"] == "nanodet_eyes"
+    no_eyes = [*overrides, f"detector.eyes.path={tmp_path / 'none.onnx'}"]
+    record = execute(compose_config(no_eyes, plugins), tmp_path / "run0", plugins)
     assert record.implementations["detector"]["name"] == "nanodet_onnx"
+    assert "not nanodet_eyes: no eyes network at" in record.implementations["detector"]["selected_by"]
     photo.with_suffix(".boxes.yaml").write_text(
         "boxes:\n  - {label: sofa, category: object, box: [100, 120, 220, 200]}\n"
     )

@@ -3,8 +3,10 @@
 - :mod:`.labels`: its classes; :mod:`.encoder`: the bundled NanoDet-g read from its ONNX as a torch module;
   :mod:`.network`: encoder + heads, ONNX export; :mod:`.data`: packs, augmentation, targets;
   :mod:`psdr_room_core.applications.train`: ``psdr-room-train``; :mod:`.decode`: what the outputs mean (numpy);
-- :mod:`.perception`: ``segmentation=eyes``, ``depth=eyes`` and ``detector=eyes`` (onnxruntime only), registered
-  by :mod:`.plugin` (the entry point; this package imports nothing, so training runs with torch, onnx and cv2).
+- :mod:`.perception`: ``segmentation=eyes``, ``depth=eyes`` and ``detector=eyes`` (onnxruntime only);
+  :mod:`.with_nanodet`: ``detector=nanodet_eyes`` (``detector=auto``'s choice on a bare photo), NanoDet's boxes
+  and the eyes boxes that add to them; all registered by :mod:`.plugin` (the entry point; this package imports
+  nothing, so training runs with torch, onnx and cv2).
 
 The data it learns from comes from ``psdr-room-synth-data`` (:mod:`psdr_room_core.applications.synth_data`).
 """

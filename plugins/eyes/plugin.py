@@ -8,6 +8,8 @@ from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.registry import Registry
 from psdr_room_core.engine.settings import setting
 
+from ..detectors import NanodetSettings
+
 
 @dataclass
 class EyesSettings:
@@ -17,6 +19,16 @@ class EyesSettings:
     intra_op_threads: int = setting(ge=0)
     center_threshold: float = setting(gt=0, lt=1)
     min_instance_fraction: float = setting(ge=0, lt=1)
+
+
+@dataclass
+class NanodetAndEyesSettings:
+    """``detector=nanodet_eyes``: each member's own settings (the config takes them from its node), and the box
+    IoU from which an eyes box and a NanoDet box are one thing."""
+
+    nanodet: NanodetSettings = setting()
+    eyes: EyesSettings = setting()
+    same_iou: float = setting(0.5, ge=0, le=1)
 
 
 DESCRIPTIONS = {
@@ -43,3 +55,11 @@ def register_implementations(registry: Registry) -> None:
             reads_files=True,
             description=DESCRIPTIONS[capability],
         )
+    registry.add_implementation(
+        "detector",
+        "nanodet_eyes",
+        "psdr_room_plugins.eyes.with_nanodet:NanodetAndEyes",
+        params=NanodetAndEyesSettings,
+        reads_files=True,
+        description="the bundled NanoDet's COCO boxes and psdr-room's own network's furniture boxes together",
+    )
