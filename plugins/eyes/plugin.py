@@ -41,7 +41,8 @@ DESCRIPTIONS = {
 
 @hookimpl
 def register_implementations(registry: Registry) -> None:
-    """By reference: onnxruntime and cv2 load when one is constructed."""
+    """By reference: the eyes modules load when one is constructed (the settings need the detectors plugin,
+    loaded beside this one anyway)."""
     for capability, kind in (
         ("segmentation", "EyesSegmentation"),
         ("depth", "EyesDepth"),
