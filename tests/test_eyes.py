@@ -97,6 +97,25 @@ def test_the_data_engine_is_deterministic_and_writes_whole_samples(tmp_path: Pat
     assert image.shape == (36, 48, 3) and image.std() > 5
 
 
+def test_windows_and_doors_are_dressed_as_real_ones_and_labelled_as_them(made: dict) -> None:
+    """Frames, mullions, blinds, curtains and the view beyond the glass are window; a door's casing and handle are
+    door: none of them is furniture for the network to learn."""
+    seen: set[str] = set()
+    for seed in range(60):
+        sample = sample_room(seed, made.database, made.library, [], width=64, height=48)
+        for name, label in sample.labels.items():
+            kind, *part = name.split("_")
+            if kind == "window":
+                assert label == (labels.SURFACES.index("window"), 0, 0), name
+                seen.add(part[1] if len(part) > 1 else "glass")
+            elif kind == "door":
+                assert label == (labels.SURFACES.index("door"), 0, 0), name
+                seen.add(part[0] if part else "door")
+        if seen >= {"glass", "frame", "blind", "curtain", "view", "door", "trim", "handle"}:
+            break
+    assert seen >= {"glass", "frame", "blind", "curtain", "view", "door", "trim", "handle"}, seen
+
+
 def test_photo_textures_take_the_colour_map_of_a_set(tmp_path: Path) -> None:
     for name in ("set/wood_diff_1k.jpg", "set/wood_nor_gl_1k.jpg", "set/wood_rough_1k.jpg", "plain/brick.png"):
         (tmp_path / name).parent.mkdir(exist_ok=True)
@@ -125,12 +144,32 @@ def test_the_encoder_read_from_the_onnx_gives_the_onnxs_feature_maps() -> None:
 
 
 @pytest.fixture(scope="module")
-def pack(tmp_path_factory: pytest.TempPathFactory, made: dict):
-    from psdr_room_plugins.eyes.data import build_pack
-
+def eyes_data(tmp_path_factory: pytest.TempPathFactory, made: dict) -> Path:
     folder = tmp_path_factory.mktemp("eyes_data")
     main(["--out", str(folder), "--seeds", "1-4", "--spp", "2"])
-    return build_pack(folder, folder / "pack.npz")
+    return folder
+
+
+@pytest.fixture(scope="module")
+def pack(eyes_data: Path):
+    from psdr_room_plugins.eyes.data import build_pack
+
+    return build_pack(eyes_data, eyes_data / "pack.npz")
+
+
+def test_a_pack_keeps_each_samples_depth_to_the_centimetre(pack, eyes_data: Path, tmp_path: Path) -> None:
+    from psdr_room_plugins.eyes.data import LABEL_SIZE, Pack, example
+
+    again = Pack.load(pack.save(tmp_path / "pack.npz"))
+    for index, seed in enumerate(again.seeds):
+        depth = example(again, index, None)["depth"][0]
+        full = np.load(eyes_data / f"{seed:06d}.npz")["depth"].astype(np.float32)
+        rows = ((np.arange(LABEL_SIZE[0]) + 0.5) * full.shape[0] / LABEL_SIZE[0]).astype(int)
+        cols = ((np.arange(LABEL_SIZE[1]) + 0.5) * full.shape[1] / LABEL_SIZE[1]).astype(int)
+        truth = full[rows[:, None], cols[None, :]]  # the label at each quarter-resolution cell's centre
+        assert depth.shape == LABEL_SIZE and (depth > 0).mean() > 0.5
+        assert np.abs(depth - truth).max() <= 0.005 + 1e-6
+        assert np.array_equal(depth > 0, truth >= 0.005)
 
 
 def test_two_training_steps_lower_the_loss(pack) -> None:

@@ -2,8 +2,8 @@
 per-batch augmentation that makes a render look like any photo, and the targets of each head.
 
 A pack (:func:`build_pack`) holds each sample's photo as JPEG bytes at the network's input size and its labels
-at the heads' quarter resolution (surface, category, instance, depth): small enough to copy to another machine,
-fast enough to read every epoch.
+at the heads' quarter resolution (surface, category, instance, depth in whole centimetres): small enough to copy
+to another machine (about 12 KB a sample: 3,000 samples in 36 MB), fast enough to read every epoch.
 """
 
 from __future__ import annotations
@@ -34,7 +34,8 @@ class Pack:
     surface: np.ndarray
     category: np.ndarray
     instance: np.ndarray
-    depth: np.ndarray
+    depth_cm: np.ndarray
+    """z-depth in centimetres, uint16 (0: none); half the size of float16 metres once compressed."""
 
     def __len__(self) -> int:
         return len(self.seeds)
@@ -75,7 +76,7 @@ def _quarter(array: np.ndarray) -> np.ndarray:
     return array[ys.astype(int)[:, None], xs.astype(int)[None, :]]
 
 
-def build_pack(folder: Path, path: Path, quality: int = 85, limit: int | None = None) -> Pack:
+def build_pack(folder: Path, path: Path, quality: int = 80, limit: int | None = None) -> Pack:
     """Pack every complete sample of ``folder`` (at most ``limit``, lowest seeds first) into ``path``."""
     seeds = sorted(
         int(p.stem) for p in folder.glob("*.npz") if p.stem.isdigit() and (folder / f"{p.stem}.jpg").is_file()
@@ -103,7 +104,7 @@ def build_pack(folder: Path, path: Path, quality: int = 85, limit: int | None = 
         surface=np.stack(labels["surface"]),
         category=np.stack(labels["category"]),
         instance=np.stack(labels["instance"]),
-        depth=np.stack(labels["depth"]).astype(np.float16),
+        depth_cm=np.round(np.stack(labels["depth"]).astype(np.float32) * 100.0).astype(np.uint16),
     )
     pack.save(path)
     return pack
@@ -156,7 +157,7 @@ def example(pack: Pack, index: int, rng: np.random.Generator | None) -> dict[str
     targets surface, category (IGNORE off objects), center, offset, offset_weight, depth (0: none)."""
     image = pack.photo(index)
     surface, category = pack.surface[index].astype(np.int64), pack.category[index].astype(np.int64)
-    instance, depth = pack.instance[index], pack.depth[index].astype(np.float32)
+    instance, depth = pack.instance[index], pack.depth_cm[index].astype(np.float32) / 100.0
     if rng is not None:
         zoom = rng.uniform(1.0, 1.4)
         lh, lw = int(round(LABEL_SIZE[0] / zoom)), int(round(LABEL_SIZE[1] / zoom))

@@ -20,8 +20,9 @@ import argparse
 import math
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -35,7 +36,7 @@ from psdr_room_core.libraries.synth.furnish import THEMES, Furnisher, to_world
 from psdr_room_core.libraries.synth.room import camera_pose
 from psdr_room_core.method.artifacts import Camera, RoomBox, rotation_y, vec3
 from psdr_room_core.method.capabilities import Denoiser, Renderer
-from psdr_room_core.method.geometry import TriangleMesh, quad_mesh
+from psdr_room_core.method.geometry import TriangleMesh, box_mesh, quad_mesh
 from psdr_room_core.method.rgb_scene import object_parts, room_quads, to_srgb8
 from psdr_room_core.method.shading import Surface, planar_uv, srgb_to_linear, texture_transform
 from psdr_room_plugins.eyes.labels import CATEGORIES, OBJECT
@@ -153,6 +154,71 @@ def _rectangle(center: np.ndarray, u: np.ndarray, v: np.ndarray, normal: np.ndar
     return quad_mesh(quad)
 
 
+def _merge(meshes: Sequence[TriangleMesh]) -> TriangleMesh:
+    """One mesh of several (vertices stacked, faces renumbered)."""
+    offsets = np.cumsum([0] + [len(m.vertices) for m in meshes[:-1]])
+    return TriangleMesh(
+        vertices=np.concatenate([m.vertices for m in meshes]),
+        faces=np.concatenate([m.faces + o for m, o in zip(meshes, offsets, strict=True)]),
+    )
+
+
+WallBox = Callable[[float, float, float, float, float, float], TriangleMesh]
+"""``(along, bottom, top, half_width, inset, depth)`` → a box on a wall, ``inset`` in front of it."""
+
+
+def window_dressing(
+    rng: np.random.Generator, box: WallBox, along: float, sill: float, top: float, half_width: float
+) -> dict[str, TriangleMesh]:
+    """What real windows have round and over their glass, all labelled window: a frame with mullions and
+    transoms, and (by chance) a blind of slats lowered part way or curtains hanging beside (and over) it."""
+    bar, depth = float(rng.uniform(0.025, 0.07)), float(rng.uniform(0.02, 0.08))
+    parts = [
+        box(along - half_width + bar / 2, sill, top, bar / 2, 0.0, depth),
+        box(along + half_width - bar / 2, sill, top, bar / 2, 0.0, depth),
+        box(along, sill, sill + bar, half_width, 0.0, depth),
+        box(along, top - bar, top, half_width, 0.0, depth),
+    ]
+    columns, rows = int(rng.choice([0, 1, 1, 2, 3])), int(rng.choice([0, 0, 1, 2]))
+    thin = 0.6 * bar
+    parts += [
+        box(along - half_width + 2 * half_width * (i + 1) / (columns + 1), sill, top, thin / 2, 0.0, depth)
+        for i in range(columns)
+    ]
+    parts += [
+        box(along, y - thin / 2, y + thin / 2, half_width, 0.0, depth)
+        for y in sill + (top - sill) * (np.arange(rows) + 1) / (rows + 1)
+    ]
+    dressing = {"frame": _merge(parts)}
+    if rng.random() < 0.25:  # a blind, lowered part way
+        pitch = float(rng.uniform(0.025, 0.06))
+        bottom = top - float(rng.uniform(0.3, 1.0)) * (top - sill)
+        slats = [
+            box(along, y, y + 0.85 * pitch, half_width - bar, depth + 0.01, 0.004)
+            for y in np.arange(top - bar - pitch, bottom, -pitch)
+        ]
+        if slats:
+            dressing["blind"] = _merge(slats)
+    if rng.random() < 0.35:  # curtains: one or two folded panels, from above the window to the sill or floor
+        drop = 0.02 if rng.random() < 0.6 else max(sill - 0.15, 0.02)
+        for side in [-1, 1] if rng.random() < 0.7 else [int(rng.choice([-1, 1]))]:
+            width = float(rng.uniform(0.15, 0.55))
+            centre = along + side * (half_width + width / 2 - float(rng.uniform(0.0, 0.6)) * width)
+            folds = [
+                box(
+                    centre - width / 2 + width * (i + 0.5) / 6,
+                    drop,
+                    top + 0.12,
+                    width / 12,
+                    depth + 0.04 + 0.03 * (i % 2),
+                    0.03,
+                )
+                for i in range(6)
+            ]
+            dressing[f"curtain_{side:+d}"] = _merge(folds)
+    return dressing
+
+
 def _light_colour(rng: np.random.Generator, daylight: bool) -> np.ndarray:
     """A light's RGB tint: warm to cool white (daylight cooler)."""
     warm = rng.uniform(0.0, 0.4) if daylight else rng.uniform(0.0, 1.0)
@@ -228,6 +294,16 @@ def sample_room(
             axis_to_world(-direction),
         )
 
+    def wall_box(
+        wall: int, along: float, bottom: float, top: float, half_width: float, inset: float, depth: float
+    ) -> TriangleMesh:
+        direction = walls[wall]
+        tangent = np.array([1.0, 0.0, 0.0]) if wall == 0 else np.array([0.0, 0.0, 1.0])
+        centre = direction * ((half[2] if wall == 0 else half[0]) - inset - depth / 2) + tangent * along
+        centre[1] = (bottom + top) / 2
+        size = tangent * half_width + np.array([0.0, (top - bottom) / 2, 0.0]) + np.abs(direction) * depth / 2
+        return box_mesh(local_to_world(centre), size, rotation_y(yaw))
+
     for k in range(int(rng.choice([0, 1, 1, 2, 3]))):  # windows, daylight
         wall, half_width = int(rng.integers(3)), float(rng.uniform(0.4, 1.1))
         along = opening(wall, half_width)
@@ -237,8 +313,18 @@ def sample_room(
         top = min(sill + rng.uniform(1.0, 1.8), 2 * half[1] - 0.15)
         name = f"window_{k}"
         radiance = _light_colour(rng, True) * rng.uniform(3.0, 25.0)
-        sample.emitters[name] = (wall_rect(wall, along, sill, top, half_width, 0.004), vec3(radiance))
+        horizon = float(rng.uniform(sill, top)) if rng.random() < 0.6 else sill  # a view: sky above, darker below
+        sample.emitters[name] = (wall_rect(wall, along, horizon, top, half_width, 0.004), vec3(radiance))
         sample.labels[name] = (4, 0, 0)
+        if horizon > sill:
+            ground = np.asarray(looks.colour("object")) * radiance.max() * rng.uniform(0.2, 0.8)
+            sample.emitters[f"{name}_view"] = (wall_rect(wall, along, sill, horizon, half_width, 0.004), vec3(ground))
+            sample.labels[f"{name}_view"] = (4, 0, 0)
+        box = partial(wall_box, wall)
+        for part, mesh in window_dressing(rng, box, along, sill, top, half_width).items():
+            kind = "object" if part.startswith("curtain") else "door"
+            sample.meshes[f"{name}_{part}"], sample.surfaces[f"{name}_{part}"] = looks.surface(kind, mesh, 0.4)
+            sample.labels[f"{name}_{part}"] = (4, 0, 0)
     if rng.random() < 0.5:  # a door
         wall, half_width = int(rng.integers(3)), float(rng.uniform(0.4, 0.5))
         along = opening(wall, half_width)
@@ -248,6 +334,18 @@ def sample_room(
             )
             sample.meshes["door"], sample.surfaces["door"] = mesh, look
             sample.labels["door"] = (5, 0, 0)
+            door_top, casing = min(2.05, 2 * half[1] - 0.1), float(rng.uniform(0.04, 0.1))
+            trim = [
+                wall_box(wall, along - half_width - casing / 2, 0.0, door_top + casing, casing / 2, 0.0, 0.02),
+                wall_box(wall, along + half_width + casing / 2, 0.0, door_top + casing, casing / 2, 0.0, 0.02),
+                wall_box(wall, along, door_top, door_top + casing, half_width, 0.0, 0.02),
+            ]
+            side = float(rng.choice([-1.0, 1.0]))
+            handle = wall_box(wall, along + side * (half_width - 0.08), 0.95, 1.0, 0.05, 0.008, 0.05)
+            sample.meshes["door_trim"], sample.surfaces["door_trim"] = looks.surface("door", _merge(trim), 0.3)
+            sample.meshes["door_handle"] = handle
+            sample.surfaces["door_handle"] = Surface(looks.colour("object"), 0.3, 0.5)
+            sample.labels["door_trim"] = sample.labels["door_handle"] = (5, 0, 0)
 
     furnisher = Furnisher(database, half, camera_local, rng)
     for placement, _ in furnisher.furnish(str(rng.choice(THEMES))):
@@ -341,16 +439,16 @@ def write_sample(seed: int, out: Path, spp: int, width: int, height: int, textur
     sample = sample_room(seed, made.database, made.library, textures, width, height)
     maps = label_maps(sample, made.renderer)
     image = render_photo(sample, made.renderer, made.denoiser, spp)
-    partial = labels.with_suffix(".part.npz")
+    unfinished = labels.with_suffix(".part.npz")
     arrays: dict[str, Any] = {  # Any: numpy's stub would read a dict of arrays as its allow_pickle flag
         **maps,
         "room": np.r_[sample.room.center, sample.room.half_size, sample.room.yaw],
         "camera": np.array([sample.camera.fx, sample.camera.fy, sample.camera.cx, sample.camera.cy]),
         "camera_to_world": sample.camera_to_world,
     }
-    np.savez_compressed(partial, **arrays)
+    np.savez_compressed(unfinished, **arrays)
     cv2.imwrite(str(photo.with_suffix(".part.jpg")), image[..., ::-1], [cv2.IMWRITE_JPEG_QUALITY, 95])
-    os.replace(partial, labels)
+    os.replace(unfinished, labels)
     os.replace(photo.with_suffix(".part.jpg"), photo)
     return time.monotonic() - start
 
