@@ -168,10 +168,11 @@ WallBox = Callable[[float, float, float, float, float, float], TriangleMesh]
 
 
 def window_dressing(
-    rng: np.random.Generator, box: WallBox, along: float, sill: float, top: float, half_width: float
+    rng: np.random.Generator, box: WallBox, along: float, sill: float, top: float, half_width: float, reach: float
 ) -> dict[str, TriangleMesh]:
     """What real windows have round and over their glass, all labelled window: a frame with mullions and
-    transoms, and (by chance) a blind of slats lowered part way or curtains hanging beside (and over) it."""
+    transoms, and (by chance) a blind of slats lowered part way or curtains hanging beside (and over) it, cut
+    to the wall (``along`` within ±``reach``)."""
     bar, depth = float(rng.uniform(0.025, 0.07)), float(rng.uniform(0.02, 0.08))
     parts = [
         box(along - half_width + bar / 2, sill, top, bar / 2, 0.0, depth),
@@ -204,12 +205,15 @@ def window_dressing(
         for side in [-1, 1] if rng.random() < 0.7 else [int(rng.choice([-1, 1]))]:
             width = float(rng.uniform(0.15, 0.55))
             centre = along + side * (half_width + width / 2 - float(rng.uniform(0.0, 0.6)) * width)
+            left, right = max(centre - width / 2, -reach), min(centre + width / 2, reach)
+            if right - left < 0.1:
+                continue
             folds = [
                 box(
-                    centre - width / 2 + width * (i + 0.5) / 6,
+                    left + (right - left) * (i + 0.5) / 6,
                     drop,
                     top + 0.12,
-                    width / 12,
+                    (right - left) / 12,
                     depth + 0.04 + 0.03 * (i % 2),
                     0.03,
                 )
@@ -321,7 +325,8 @@ def sample_room(
             sample.emitters[f"{name}_view"] = (wall_rect(wall, along, sill, horizon, half_width, 0.004), vec3(ground))
             sample.labels[f"{name}_view"] = (4, 0, 0)
         box = partial(wall_box, wall)
-        for part, mesh in window_dressing(rng, box, along, sill, top, half_width).items():
+        reach = (half[2] if wall else half[0]) - 0.02
+        for part, mesh in window_dressing(rng, box, along, sill, top, half_width, reach).items():
             kind = "object" if part.startswith("curtain") else "door"
             sample.meshes[f"{name}_{part}"], sample.surfaces[f"{name}_{part}"] = looks.surface(kind, mesh, 0.4)
             sample.labels[f"{name}_{part}"] = (4, 0, 0)
@@ -329,12 +334,11 @@ def sample_room(
         wall, half_width = int(rng.integers(3)), float(rng.uniform(0.4, 0.5))
         along = opening(wall, half_width)
         if along is not None:
-            mesh, look = looks.surface(
-                "door", wall_rect(wall, along, 0.0, min(2.05, 2 * half[1] - 0.1), half_width, 0.008), 0.5
-            )
+            door_top = min(2.05, 2 * half[1] - 0.1)
+            mesh, look = looks.surface("door", wall_rect(wall, along, 0.0, door_top, half_width, 0.008), 0.5)
             sample.meshes["door"], sample.surfaces["door"] = mesh, look
             sample.labels["door"] = (5, 0, 0)
-            door_top, casing = min(2.05, 2 * half[1] - 0.1), float(rng.uniform(0.04, 0.1))
+            casing = float(rng.uniform(0.04, 0.1))
             trim = [
                 wall_box(wall, along - half_width - casing / 2, 0.0, door_top + casing, casing / 2, 0.0, 0.02),
                 wall_box(wall, along + half_width + casing / 2, 0.0, door_top + casing, casing / 2, 0.0, 0.02),
@@ -517,9 +521,12 @@ def main(argv: Sequence[str] | None = None) -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     textures = photo_textures(args.textures)
     start = time.monotonic()
-    times = Parallel(n_jobs=args.jobs, batch_size=4)(
-        delayed(write_sample)(seed, args.out, args.spp, args.width, args.height, textures) for seed in seeds
-    )
+    try:
+        times = Parallel(n_jobs=args.jobs, batch_size=4)(
+            delayed(write_sample)(seed, args.out, args.spp, args.width, args.height, textures) for seed in seeds
+        )
+    except PsdrRoomError as exc:
+        parser.exit(PsdrRoomError.exit_code, f"psdr-room-synth-data: error: {exc}\n")
     made = sum(t > 0 for t in times)
     minutes = (time.monotonic() - start) / 60.0
     print(

@@ -350,4 +350,9 @@ def main(argv: Sequence[str] | None = None) -> None:
         parser.error(f"--data {args.data}: no samples there (make them with psdr-room-synth-data --out {args.data})")
     if min(args.batch, args.epochs) < 1 or not 0 < args.validation < 1:
         parser.error("--batch and --epochs must be at least 1 and --validation between 0 and 1")
-    train(args)
+    from psdr_room_core.engine.errors import PsdrRoomError
+
+    try:
+        train(args)
+    except PsdrRoomError as exc:
+        parser.exit(PsdrRoomError.exit_code, f"psdr-room-train: error: {exc}\n")
