@@ -286,13 +286,21 @@ def sample_room(
                 return along
         return None
 
-    def wall_rect(wall: int, along: float, bottom: float, top: float, half_width: float, inset: float) -> TriangleMesh:
+    def on_wall(
+        wall: int, along: float, bottom: float, top: float, inset: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(the room-local centre of a span from ``bottom`` to ``top`` at ``along``, ``inset`` in front of the
+        wall; the wall's outward normal; its tangent)."""
         direction = walls[wall]
         tangent = np.array([1.0, 0.0, 0.0]) if wall == 0 else np.array([0.0, 0.0, 1.0])
-        base = direction * (half[2] if wall == 0 else half[0]) - direction * inset + tangent * along
-        base[1] = (bottom + top) / 2
+        centre = direction * (half[2] if wall == 0 else half[0]) - direction * inset + tangent * along
+        centre[1] = (bottom + top) / 2
+        return centre, direction, tangent
+
+    def wall_rect(wall: int, along: float, bottom: float, top: float, half_width: float, inset: float) -> TriangleMesh:
+        centre, direction, tangent = on_wall(wall, along, bottom, top, inset)
         return _rectangle(
-            local_to_world(base),
+            local_to_world(centre),
             axis_to_world(tangent * half_width),
             np.array([0.0, (top - bottom) / 2, 0.0]),
             axis_to_world(-direction),
@@ -301,12 +309,9 @@ def sample_room(
     def wall_box(
         wall: int, along: float, bottom: float, top: float, half_width: float, inset: float, depth: float
     ) -> TriangleMesh:
-        direction = walls[wall]
-        tangent = np.array([1.0, 0.0, 0.0]) if wall == 0 else np.array([0.0, 0.0, 1.0])
-        centre = direction * ((half[2] if wall == 0 else half[0]) - inset - depth / 2) + tangent * along
-        centre[1] = (bottom + top) / 2
+        centre, direction, tangent = on_wall(wall, along, bottom, top, inset)
         size = tangent * half_width + np.array([0.0, (top - bottom) / 2, 0.0]) + np.abs(direction) * depth / 2
-        return box_mesh(local_to_world(centre), size, rotation_y(yaw))
+        return box_mesh(local_to_world(centre - direction * depth / 2), size, rotation_y(yaw))
 
     for k in range(int(rng.choice([0, 1, 1, 2, 3]))):  # windows, daylight
         wall, half_width = int(rng.integers(3)), float(rng.uniform(0.4, 1.1))

@@ -24,6 +24,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from psdr_room_core.engine.errors import PsdrRoomError
+
 if TYPE_CHECKING:
     from psdr_room_plugins.eyes.data import Pack
 
@@ -350,8 +352,6 @@ def main(argv: Sequence[str] | None = None) -> None:
         parser.error(f"--data {args.data}: no samples there (make them with psdr-room-synth-data --out {args.data})")
     if min(args.batch, args.epochs) < 1 or not 0 < args.validation < 1:
         parser.error("--batch and --epochs must be at least 1 and --validation between 0 and 1")
-    from psdr_room_core.engine.errors import PsdrRoomError
-
     try:
         train(args)
     except PsdrRoomError as exc:
