@@ -19,6 +19,8 @@ copied alone into a temporary folder and run through the ``psdr-room`` command w
   ``size``: fitted
   objects outside their category's real sizes (:mod:`psdr_room_core.method.sizes`); ``pen``: pairs passing
   through each other by more than 5 cm; ``out``: objects reaching more than 5 cm beyond the final room box;
+  ``hid``: fitted objects the others hide (in the scene's render from the photo's camera they explain less than
+  half of the pixels of their segment they explain alone);
 * ``si-log`` / ``AbsRel`` / ``δ1`` (share of pixels within 1.25× after a median scale) of the estimated depth
   against sensor depth (a ``*depth*`` image in the photo's folder, decoded as ``gt_depth_format`` says), on
   the pixels both have;
@@ -65,8 +67,8 @@ from psdr_room_core.libraries.sidecar_depth import read_depth
 from psdr_room_core.method.artifacts import Camera, DepthMap, Image, Panoptic, Placements, RoomBox
 from psdr_room_core.method.guesses import guesses
 from psdr_room_core.method.objects import OBJECT_CATEGORIES
-from psdr_room_core.method.physical import interpenetrations, room_excess
-from psdr_room_core.method.silhouette import silhouette
+from psdr_room_core.method.physical import PhysicalParams, hidden_by, interpenetrations, room_excess
+from psdr_room_core.method.silhouette import depth_map, silhouette
 from psdr_room_core.method.sizes import scale_range
 from psdr_room_core.method.solids import overlap
 from psdr_room_core.method.visualize import segment_overlay
@@ -327,12 +329,14 @@ def evaluate(entry: Entry, run_dir: Path, db: ObjectDatabase, seconds: float, sh
     placements = Placements.load(fitted) if fitted.is_dir() else Placements(objects=[])
     row["fitted"] = len(placements.objects)
     room_dir = next((art / n for n in ("room_box_objects", "room_box_fit") if (art / n).is_dir()), None)
+    grouped = art / ("panoptic_grouped" if (art / "panoptic_grouped").is_dir() else "panoptic")
     row.update(
         physical_rows(
             placements,
             RoomBox.load(room_dir) if room_dir else None,
             db,
             Camera.load(art / ("camera_fit" if (art / "camera_fit").is_dir() else "camera")),
+            Panoptic.load(grouped),
         )
     )
     fitted_boxes, fitted_masks, categories = [], [], []
@@ -444,12 +448,16 @@ def room_labels(entry: Entry, size: tuple[int, int]) -> np.ndarray | None:
     return None
 
 
-def physical_rows(placements: Placements, room: RoomBox | None, db: ObjectDatabase, camera: Camera) -> dict:
-    """The fitted scene's duplicates, implausible sizes, interpenetrations and reach beyond the room box."""
+def physical_rows(
+    placements: Placements, room: RoomBox | None, db: ObjectDatabase, camera: Camera, panoptic: Panoptic
+) -> dict:
+    """The fitted scene's duplicates, implausible sizes, interpenetrations, reach beyond the room box and objects
+    the others hide (``panoptic``: the segmentation the placements' segment ids name)."""
     objects = placements.objects
     small = camera.resized(min(160, camera.width))
     c2w = np.asarray(room.camera_to_world) if room is not None else None
-    looks = [silhouette(small, c2w, p.world_vertices(), p.mesh.faces) for p in objects] if c2w is not None else []
+    depths = [depth_map(small, c2w, p.world_vertices(), p.mesh.faces) for p in objects] if c2w is not None else []
+    looks = [d > 0 for d in depths]
     kinds = [db.record(p.model_id).category if p.model_id in db else p.category for p in objects]
     duplicates = []
     for i, a in enumerate(objects):
@@ -474,7 +482,17 @@ def physical_rows(placements: Placements, room: RoomBox | None, db: ObjectDataba
         "implausible": sizes,
         "through": interpenetrations(objects, PENETRATION),
         "outside": out,
+        "hidden": hidden_objects(objects, depths, panoptic, small),
     }
+
+
+def hidden_objects(objects: list, depths: list[np.ndarray], panoptic: Panoptic, camera: Camera) -> list[int]:
+    """Segment ids of the objects the others hide (:func:`~psdr_room_core.method.physical.hidden_by` with the
+    default ``hidden_share``; ``depths``: each object's depth map from ``camera``, 0 where it is not seen)."""
+    by_id = {p.segment_id: np.where(d > 0, d, np.inf) for p, d in zip(objects, depths)}
+    ids = panoptic.ids_at(camera.width, camera.height)
+    share = PhysicalParams().hidden_share
+    return [k for k in by_id if hidden_by(k, by_id, ids, share) is not None]
 
 
 def write_sheet(
@@ -533,7 +551,14 @@ def _count(row: dict, key: str) -> int:
     return len(row.get(key, []))
 
 
-PHYSICAL = (("lost", "lost"), ("dup", "duplicates"), ("size", "implausible"), ("pen", "through"), ("out", "outside"))
+PHYSICAL = (
+    ("lost", "lost"),
+    ("dup", "duplicates"),
+    ("size", "implausible"),
+    ("pen", "through"),
+    ("out", "outside"),
+    ("hid", "hidden"),
+)
 """Column → row key of the object stage's counts."""
 
 
@@ -576,7 +601,7 @@ def format_table(rows: list[dict]) -> str:
         "pixel accuracy; RMSE/SSIM/FLIP: photos improved by "
         "the fit (renders denoised unless denoiser=none); recall at box IoU >= 0.5; lost: references a segment "
         "matches and no fitted object does; dup, size, pen, out: duplicate pairs, implausible sizes, pairs "
-        f"through each other and objects beyond the room by > {PENETRATION * 100:g} cm)"
+        f"through each other and objects beyond the room by > {PENETRATION * 100:g} cm; hid: objects the others hide)"
     )
     for r in rows:
         details = [f"{c} {r[key]}" for c, key in PHYSICAL if r.get(key)]

@@ -12,6 +12,7 @@ from psdr_room_core.libraries.object_db import ObjectDatabase, builtin_database
 from psdr_room_core.method.artifacts import Camera, ObjectMesh, Placement, RoomBox
 from psdr_room_core.method.geometry import box_mesh
 from psdr_room_core.method.physical import PhysicalParams, interpenetrations, room_excess, settle, support_top
+from psdr_room_core.method.silhouette import silhouette
 from psdr_room_core.method.sizes import CATEGORY_SIZES, SizePrior, dimensions, scale_range
 from psdr_room_core.method.solids import overlap, voxel_solid
 
@@ -138,6 +139,73 @@ def test_a_mirror_duplicate_is_removed(db: ObjectDatabase) -> None:
     settled = settle([bed, mirrored], ROOM, CAMERA, drawn=set(), pixels={5: 5000, 9: 5000}, params=PARAMS)
     assert [p.segment_id for p in settled.placements] == [5]
     assert settled.dropped[0].startswith("9:bed (bed_003): occupies the space of 5:bed (bedDouble)")
+
+
+def _shown(front: Placement, behind: Placement) -> tuple[np.ndarray, dict[int, int]]:
+    """(id map, pixel counts) of a photo that shows ``behind`` whole and ``front`` around it, as a segmentation
+    gives them: the object behind is seen on every pixel of its silhouette."""
+    ids = np.zeros((CAMERA.height, CAMERA.width), np.int32)
+    ids[silhouette(CAMERA, C2W, front.world_vertices(), front.mesh.faces)] = front.segment_id
+    ids[silhouette(CAMERA, C2W, behind.world_vertices(), behind.mesh.faces)] = behind.segment_id
+    return ids, {k: int((ids == k).sum()) for k in (front.segment_id, behind.segment_id)}
+
+
+def test_an_object_of_no_named_kind_in_front_of_what_the_photo_shows_is_dropped(db: ObjectDatabase) -> None:
+    """A clutter blob (label `object`) posed as a panel standing in front of a chair the photo shows: the panel
+    cannot move back behind the chair within a frame's sizes and its silhouette, nor the chair forward in front
+    of it within a chair's; the blob yields to the chair a label names (a panel labelled `frame` stays: between
+    two named objects the photo does not say whose depth is wrong)."""
+    panel = replace(
+        placed(db, "parametric/frame_003", 1, (0.0, 0.0, 0.5), yaw_deg=180.0, explained=0.9), label="object"
+    )
+    chair = placed(db, "parametric/chair_005", 2, (0.1, 0.0, 2.5), yaw_deg=180.0, explained=0.9)
+    ids, pixels = _shown(panel, chair)
+    assert pixels[1] > 5 * pixels[2]  # the panel explains far more pixels than the chair
+    settled = settle([panel, chair], ROOM, CAMERA, drawn=set(), pixels=pixels, params=PARAMS, ids=ids)
+    assert [p.segment_id for p in settled.placements] == [2] and settled.placements[0] == chair
+    assert settled.dropped == [
+        "1:object (frame_003): hides 2:chair (chair_005), which the photo shows there; neither can move, and its "
+        "label names no kind"
+    ]
+    named = settle(
+        [replace(panel, label="frame"), chair], ROOM, CAMERA, drawn=set(), pixels=pixels, params=PARAMS, ids=ids
+    )
+    assert len(named.placements) == 2 and not named.dropped  # which named one's depth is wrong the photo does not say
+    unchecked = settle([panel, chair], ROOM, CAMERA, drawn=set(), pixels=pixels, params=PARAMS)
+    assert len(unchecked.placements) == 2  # without the segmentation nothing says the chair is seen
+
+
+def test_a_blob_is_not_dropped_where_that_would_not_show_what_it_hides(db: ObjectDatabase) -> None:
+    """The blob in front of the chair is not all that hides it: a cabinet stands between them. Dropping the blob
+    would leave the chair hidden, so it stays (which of the named two is wrong the photo does not say)."""
+    panel = replace(
+        placed(db, "parametric/frame_003", 1, (0.0, 0.0, 0.5), yaw_deg=180.0, explained=0.9), label="object"
+    )
+    chair = placed(db, "parametric/chair_005", 2, (0.1, 0.0, 2.5), yaw_deg=180.0, explained=0.9)
+    cabinet = placed(db, "parametric/cabinet_002", 3, (0.1, 0.0, 1.6), yaw_deg=180.0, explained=0.9)
+    ids, pixels = _shown(panel, chair)
+    settled = settle([panel, chair, cabinet], ROOM, CAMERA, drawn=set(), pixels=pixels, params=PARAMS, ids=ids)
+    assert len(settled.placements) == 3 and not settled.dropped
+
+
+def test_an_object_in_front_of_what_the_photo_shows_moves_back_behind_it(db: ObjectDatabase) -> None:
+    """A free-hanging panel posed too near, in front of a chair the photo shows, moves back along its camera ray
+    (keeping its silhouette) until the chair is in sight, as a panel of a frame's size."""
+    panel = replace(
+        placed(db, "parametric/frame_003", 1, (0.0, 0.5, 0.5), yaw_deg=180.0, scale=0.6, explained=0.9),
+        support="free",
+        label="frame",
+    )
+    chair = placed(db, "parametric/chair_005", 2, (0.1, 0.0, 1.2), yaw_deg=180.0, explained=0.9)
+    ids, pixels = _shown(panel, chair)
+    settled = settle([panel, chair], ROOM, CAMERA, drawn=set(), pixels=pixels, params=PARAMS, ids=ids)
+    assert not settled.dropped and settled.placements[1] == chair
+    moved = settled.placements[0]
+    assert moved.scale > panel.scale and moved.position[2] > 1.2 + 0.4  # behind the chair
+    assert settled.changed[0].startswith("1:frame (frame_003): moved back along its ray (scale 0.60 -> ")
+    before = silhouette(CAMERA, C2W, panel.world_vertices(), panel.mesh.faces)
+    after = silhouette(CAMERA, C2W, moved.world_vertices(), moved.mesh.faces)
+    assert (before & after).sum() / (before | after).sum() > 0.9
 
 
 def test_two_objects_passing_through_each_other_are_moved_apart(db: ObjectDatabase) -> None:

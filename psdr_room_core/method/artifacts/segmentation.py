@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
 
+import cv2
 import numpy as np
 
 from psdr_room_core.engine.errors import PsdrRoomError
@@ -235,6 +236,10 @@ class Panoptic:
     def mask(self, category: str) -> np.ndarray:
         wanted = [s.id for s in self.segments if s.category == category]
         return np.isin(self.ids, wanted)
+
+    def ids_at(self, width: int, height: int) -> np.ndarray:
+        """The id map resampled to ``width`` × ``height`` (each pixel the id at its centre)."""
+        return cv2.resize(self.ids, (width, height), interpolation=cv2.INTER_NEAREST_EXACT)
 
     def save(self, directory: Path) -> None:
         write_coco_panoptic(directory / "panoptic.png", directory / "panoptic.json", self.ids, self.segments)

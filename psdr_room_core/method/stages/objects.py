@@ -357,7 +357,9 @@ def _settle(
     drawn = {s.id for s in panoptic.segments if s.score is None}
     counts = np.bincount(panoptic.ids.ravel())
     pixels = {s.id: int(counts[s.id]) for s in panoptic.segments if s.id < len(counts)}
-    settled = settle(objects, room, camera, drawn, pixels, physical, final)
+    settled = settle(
+        objects, room, camera, drawn, pixels, physical, final, panoptic.ids_at(camera.width, camera.height)
+    )
     for note in settled.changed:
         log.info("%s: %s", stage, note)
     if settled.dropped:
