@@ -164,8 +164,8 @@ def test_an_object_of_no_named_kind_in_front_of_what_the_photo_shows_is_dropped(
     settled = settle([panel, chair], ROOM, CAMERA, drawn=set(), pixels=pixels, params=PARAMS, ids=ids)
     assert [p.segment_id for p in settled.placements] == [2] and settled.placements[0] == chair
     assert settled.dropped == [
-        "1:object (frame_003): hides 2:chair (chair_005), which the photo shows there; neither can move, and its "
-        "label names no kind"
+        "1:object (frame_003): hides 2:chair (chair_005), which the photo shows there; it cannot move back, and "
+        "its label names no kind"
     ]
     named = settle(
         [replace(panel, label="frame"), chair], ROOM, CAMERA, drawn=set(), pixels=pixels, params=PARAMS, ids=ids
@@ -189,12 +189,12 @@ def test_a_blob_is_not_dropped_where_that_would_not_show_what_it_hides(db: Objec
 
 
 def test_an_object_in_front_of_what_the_photo_shows_moves_back_behind_it(db: ObjectDatabase) -> None:
-    """A free-hanging panel posed too near, in front of a chair the photo shows, moves back along its camera ray
-    (keeping its silhouette) until the chair is in sight, as a panel of a frame's size."""
+    """A free-hanging blob (label `object`) posed as a panel too near, in front of a chair the photo shows, moves
+    back along its camera ray (keeping its silhouette) until the chair is in sight, as a panel of a frame's size."""
     panel = replace(
         placed(db, "parametric/frame_003", 1, (0.0, 0.5, 0.5), yaw_deg=180.0, scale=0.6, explained=0.9),
         support="free",
-        label="frame",
+        label="object",
     )
     chair = placed(db, "parametric/chair_005", 2, (0.1, 0.0, 1.2), yaw_deg=180.0, explained=0.9)
     ids, pixels = _shown(panel, chair)
@@ -202,7 +202,7 @@ def test_an_object_in_front_of_what_the_photo_shows_moves_back_behind_it(db: Obj
     assert not settled.dropped and settled.placements[1] == chair
     moved = settled.placements[0]
     assert moved.scale > panel.scale and moved.position[2] > 1.2 + 0.4  # behind the chair
-    assert settled.changed[0].startswith("1:frame (frame_003): moved back along its ray (scale 0.60 -> ")
+    assert settled.changed[0].startswith("1:object (frame_003): moved back along its ray (scale 0.60 -> ")
     before = silhouette(CAMERA, C2W, panel.world_vertices(), panel.mesh.faces)
     after = silhouette(CAMERA, C2W, moved.world_vertices(), moved.mesh.faces)
     assert (before & after).sum() / (before | after).sum() > 0.9

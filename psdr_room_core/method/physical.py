@@ -25,14 +25,14 @@ keeps its place in the picture, and logged), dropping an object only as the last
    is left to the joint fit, which pays for interpenetration;
 5. **what the photo shows stays in sight**: an object the others hide (seen from the camera, it shows less than
    ``hidden_share`` of the pixels of its segment it covers alone) contradicts the photo, which shows it there,
-   and no gradient of the joint fit reaches a fully hidden object. The object in front of it there moves back
-   along its camera ray behind it, or the hidden one comes forward, within their categories' sizes, the room
-   and ``keep_iou`` of their silhouettes, reaching no farther out of the room, passing through nothing new and
-   hiding nothing else (an object on a wall or holding others stays); where neither can, an object in front
-   whose label names no kind (a clutter blob posed as a panel in front of a row of chairs) is dropped where that
-   shows the hidden one, in either settling, so that the joint fit refines what it hid (unless a person drew
-   it). Between two named objects nothing is dropped: which one's depth is wrong the photo does not say, and
-   what stays hidden is reported (``benchmarks/real_photos.py``, column ``hid``).
+   and no gradient of the joint fit reaches a fully hidden object. Where the object in front of it is a blob
+   whose label names no kind (a clutter proposal posed as a panel in front of a row of chairs) and the hidden
+   one's label names its kind, the blob moves back along its camera ray behind it (within its category's
+   sizes and ``keep_iou`` of its silhouette, reaching no farther out of the room, passing no deeper through
+   anything, hiding nothing else; a wall or a child holds it in place), else it is dropped where that shows
+   the hidden one, in either settling, so that the joint fit refines what it hid (unless a person drew it).
+   Between two named objects nothing changes: which one's depth is wrong the photo does not say, and what
+   stays hidden is reported (``benchmarks/real_photos.py``, column ``hid``).
 
 How much an object explains is the share of its segment its posed model covers (IoU) times the segment's
 pixels: a bed that explains most of a large segment outweighs a picture that explains all of a small one.
@@ -95,7 +95,7 @@ class Settled:
 
 
 _MOVABLE = ("floor", "free")
-"""Supports whose objects rule 5 may move along their camera ray (a wall or parent holds the others in place)."""
+"""Supports whose objects rule 5 may move back along their camera ray (a wall or parent holds the others in place)."""
 MIN_SEEN = 10
 """Fewest pixels of its segment an object must cover (in the settling's picture) to count as hidden or not."""
 
@@ -475,61 +475,54 @@ class _Scene:
 
     def show(self, front: int, back: int, depths: dict[int, np.ndarray]) -> bool:
         """Rule 5 for ``back``, where ``front`` still hides it (``depths``: each object's :meth:`depth`, kept up to
-        date): ``front`` moved back, else ``back`` moved forward, else ``front`` dropped where its label names no
-        kind, ``back``'s does and dropping it shows ``back``. Returns whether anything changed."""
+        date) and ``front``'s label names no kind but ``back``'s does: ``front`` moved back, else dropped where
+        that shows ``back``. Returns whether anything changed."""
         if self.hider(back, depths) != front:
             return False
-        hider, hidden = self.objects[front], self.objects[back]
-        largest = scale_range(hider.category, np.ptp(hider.mesh.vertices, axis=0))[1]
-        for mover, ratios, biggest, how in (
-            (front, np.geomspace(1.05, 3.0, 16), largest * math.exp(self.params.size_tolerance), ("back", "behind")),
-            (back, np.geomspace(0.95, 0.4, 12), math.inf, ("forward", "in front of")),
-        ):
-            moved = self.along_ray_to_show(mover, back, ratios, biggest, depths)
-            if moved is not None:
-                before, other = self.objects[mover], hidden if mover == front else hider
-                self.put(
-                    moved,
-                    f"moved {how[0]} along its ray (scale {before.scale:.2f} -> {moved.scale:.2f}) {how[1]} "
-                    f"{_name(other)}, which the photo shows there",
-                )
-                depths[mover] = self.depth(moved)
-                return True
-        without = {k: d for k, d in depths.items() if k != front}
-        if not _unknown(hider) or _unknown(hidden) or front in self.drawn or self.hider(back, without) is not None:
+        blob, hidden = self.objects[front], self.objects[back]
+        if not _unknown(blob) or _unknown(hidden) or front in self.drawn:
+            return False
+        moved = self.back_to_show(front, back, depths)
+        if moved is not None:
+            self.put(
+                moved,
+                f"moved back along its ray (scale {blob.scale:.2f} -> {moved.scale:.2f}) behind {_name(hidden)}, "
+                "which the photo shows there",
+            )
+            depths[front] = self.depth(moved)
+            return True
+        if self.hider(back, {k: d for k, d in depths.items() if k != front}) is not None:
             return False
         self.drop(
-            front, f"hides {_name(hidden)}, which the photo shows there; neither can move, and its label names no kind"
+            front,
+            f"hides {_name(hidden)}, which the photo shows there; it cannot move back, and its label names no kind",
         )
         for gone in [k for k in depths if k not in self.objects]:  # with its children
             del depths[gone]
         return True
 
-    def along_ray_to_show(
-        self, mover: int, hidden: int, ratios: np.ndarray, biggest: float, depths: Mapping[int, np.ndarray]
-    ) -> Placement | None:
-        """``mover`` scaled by the first of ``ratios`` and moved along its camera ray (:func:`along_ray`) so
-        that ``hidden`` is no longer hidden, within its sizes (up to ``biggest``) and ``keep_iou`` of its
-        silhouette, reaching no farther beyond the room, passing through nothing it did not, and hiding nothing
-        else; None where no ratio does, or its support holds it in place, or something stands on it."""
-        p = self.objects[mover]
+    def back_to_show(self, front: int, hidden: int, depths: Mapping[int, np.ndarray]) -> Placement | None:
+        """``front`` moved back along its camera ray, grown to keep its apparent size (:func:`along_ray`, by up to
+        3x), just far enough that ``hidden`` is no longer hidden, within its category's sizes and ``keep_iou`` of
+        its silhouette, reaching no farther beyond the room, passing no deeper through anything, and hiding
+        nothing else; None where nothing does, or its support holds it in place, or something stands on it."""
+        p = self.objects[front]
         if p.support not in _MOVABLE or any(_stands_on(c, p) for c in self.objects.values()):
             return None
+        largest = scale_range(p.category, np.ptp(p.mesh.vertices, axis=0))[1] * math.exp(self.params.size_tolerance)
         keeps, reach = self.kept_look(p), self.reach(p)
-        through = {k for k, _ in self.collisions(p)}
+        through = dict(self.collisions(p))
         already = self.hidden(depths) - {hidden}
 
         def ok(c: Placement) -> bool:
-            if not (self.smallest(c) <= c.scale <= biggest or mover in self.drawn):
+            if c.scale > largest or self.reach(c) > reach + 1e-3 or keeps(c) < self.params.keep_iou:
                 return False
-            if self.reach(c) > reach + 1e-3 or not {k for k, _ in self.collisions(c)} <= through:
+            if any(t > through.get(k, 0.0) + 1e-3 for k, t in self.collisions(c)):
                 return False
-            if keeps(c) < self.params.keep_iou:
-                return False
-            trial = {**depths, mover: self.depth(c)}
+            trial = {**depths, front: self.depth(c)}
             return self.hider(hidden, trial) is None and self.hidden(trial) <= already
 
-        return self.first(lambda r: along_ray(p, p.scale * r, self.origin), ok, ratios)
+        return self.first(lambda r: along_ray(p, p.scale * r, self.origin), ok, np.geomspace(1.05, 3.0, 16))
 
     def separate(self, final: bool, rounds: int = 3) -> None:
         for _ in range(rounds):
