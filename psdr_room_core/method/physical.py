@@ -463,9 +463,7 @@ class _Scene:
             pairs, changed = [], False
             for k in sorted(self.objects, key=self.strength, reverse=True):
                 front = self.hider(k, depths)
-                if front is not None and not (
-                    _stands_on(self.objects[k], self.objects[front]) or _stands_on(self.objects[front], self.objects[k])
-                ):
+                if front is not None and self.blob_hides(front, k):
                     pairs.append((front, k))
             for front, back in pairs:
                 if front in self.objects and back in self.objects:
@@ -473,15 +471,24 @@ class _Scene:
             if not changed:
                 return
 
+    def blob_hides(self, front: int, back: int) -> bool:
+        """Whether rule 5 acts on ``front`` hiding ``back``: ``front`` is a blob (its label names no kind, no person
+        drew it) in front of a named object, neither standing on the other."""
+        blob, hidden = self.objects[front], self.objects[back]
+        return (
+            _unknown(blob)
+            and not _unknown(hidden)
+            and front not in self.drawn
+            and not (_stands_on(blob, hidden) or _stands_on(hidden, blob))
+        )
+
     def show(self, front: int, back: int, depths: dict[int, np.ndarray]) -> bool:
         """Rule 5 for ``back``, where ``front`` still hides it (``depths``: each object's :meth:`depth`, kept up to
-        date) and ``front``'s label names no kind but ``back``'s does: ``front`` moved back, else dropped where
-        that shows ``back``. Returns whether anything changed."""
+        date) and :meth:`blob_hides` it: ``front`` moved back, else dropped where that shows ``back``. Returns
+        whether anything changed."""
         if self.hider(back, depths) != front:
             return False
         blob, hidden = self.objects[front], self.objects[back]
-        if not _unknown(blob) or _unknown(hidden) or front in self.drawn:
-            return False
         moved = self.back_to_show(front, back, depths)
         if moved is not None:
             self.put(
