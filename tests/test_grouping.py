@@ -187,3 +187,27 @@ def test_a_floor_region_labelled_bed_under_a_bed_stays_apart(retriever: Silhouet
     )
     assert sorted(s.id for s in grouped.segments if s.category == "object") == [6, 7]
     assert all("kept apart" in note for note in notes), notes
+
+
+def test_two_desks_of_a_row_put_on_the_wall_stay_two(retriever: SilhouetteRetrieval) -> None:
+    """A classroom row seen from behind, the room's back wall fitted too near: layout depth finds the floor contact
+    of neither desk inside the room and puts both on the wall (2% in front of it). Their footprints then share a
+    sliver of that wall, which says in which direction each desk is, not how far: they are not the same space.
+    Measured depth that puts them there would be believed."""
+    room = RoomBox(camera_to_world=C2W, center=np.array([0.0, 1.5, 1.0]), half_size=np.array([3.0, 1.5, 1.5]), yaw=0.0)
+    ids = np.ones((CAMERA.height, CAMERA.width), np.int32)
+    ids[70:90, 45:90] = 7  # the desk behind, its lower part hidden by ...
+    ids[85:100, 40:80] = 6  # ... the desk in front
+    segments = [Segment(1, "wall", "wall"), Segment(6, "object", "desk", 0.6), Segment(7, "object", "desk", 0.5)]
+    on_wall = CAMERA.pixel_rays() * (0.98 * (2.5 - C2W[2, 3]))  # camera frame; the back wall is at world z = 2.5
+    cloud = PointCloud(
+        points=on_wall[ids > 1].astype(np.float32),
+        colors=np.zeros((int((ids > 1).sum()), 3), np.uint8),
+        segment=ids[ids > 1],
+        segments=segments,
+    )
+    panoptic = Panoptic(ids=ids, segments=segments)
+    grouped, _, notes = group_segments(panoptic, cloud, CAMERA, room, False, GroupParams(), _judge(retriever))
+    assert grouped is panoptic and notes == []
+    _, _, measured = group_segments(panoptic, cloud, CAMERA, room, True, GroupParams(), _judge(retriever))
+    assert measured and "6 and 7 occupy the same space" in measured[0]

@@ -11,7 +11,11 @@ standing behind the first). Two guessed segments may be one thing where the fitt
   its lowest pixel meets it, which puts a headboard far behind its bed), the upper part is stood on the
   lower one's top, as the support rules of §4.3 would, before the size is measured;
 * **the same space**: their floor footprints overlap (``same_space`` of the smaller, each grown by
-  ``margin``) at overlapping heights, and their categories agree (or one is unknown).
+  ``margin``) at overlapping heights, and their categories agree (or one is unknown). Where the depth is not
+  measured, a part whose floor contact lies beyond the room has been put on the room's surface (``depth=layout``
+  does so), so its footprint says only in which direction it is, not how far: two desks of a classroom row, one
+  behind the other, both beyond a wall fitted too near, would share a sliver of that wall. Such a part is the same
+  space as nothing.
 
 Such a pair is merged only where one model explains it: ``judge`` (the stage's model search) scores the best
 model of the whole's category on the two together and on each alone, and the pair is merged where the union
@@ -57,6 +61,9 @@ class GroupParams:
     same_space: float = setting(0.5, gt=0, le=1)
     """Footprints overlapping this share of the smaller one (each grown by ``margin``) are the same space."""
     margin: float = setting(0.1, ge=0)
+    on_surface: float = setting(0.95, gt=0, le=1)
+    """Unmeasured depth: a part whose median point lies at least this share of the way along its camera ray to
+    the room's surface was put there (its floor contact is beyond the room); its footprint is unknown."""
     keep_score: float = setting(0.95, ge=0)
     """The union's model score must reach this share of the better part's score."""
 
@@ -73,6 +80,8 @@ class Part:
     """(N, 3) world points."""
     index: np.ndarray
     """(N,) their indices in the point cloud."""
+    placed: bool = True
+    """Whether its points say where it stands (not put on the room's surface for want of a floor contact)."""
 
 
 Judge = Callable[[str, Part, Sequence[Part]], tuple[float, list[float]]]
@@ -143,6 +152,20 @@ def _footprint_share(a: np.ndarray, b: np.ndarray, room: RoomBox, margin: float)
     return float(overlap / max(smaller, 1e-9))
 
 
+def _surface_share(points: np.ndarray, origin: np.ndarray, room: RoomBox) -> float:
+    """The median of the points' distances from ``origin`` (the camera, world) as a share of the distance along
+    the same ray to the room box's surface (1: on the surface)."""
+    start = room.local(origin[None])[0]
+    offsets = room.local(points) - start
+    lengths = np.linalg.norm(offsets, axis=1)
+    directions = offsets / np.maximum(lengths, 1e-9)[:, None]
+    half = np.asarray(room.half_size, np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        exits = np.where(directions > 0, (half - start) / directions, (-half - start) / directions)
+    exits = np.where(np.isfinite(exits) & (exits > 0), exits, np.inf).min(axis=1)
+    return float(np.median(lengths / exits))
+
+
 def _whole(a: Part, b: Part, params: GroupParams) -> str | None:
     """The category of the thing ``a`` and ``b`` would be parts of when stacked, or None."""
     if a.category == b.category and a.category in params.splittable:
@@ -169,7 +192,12 @@ def _candidate(
                     order = np.concatenate([upper.index, lower.index])
                     return whole, union, order, f"{upper.segment.id} rests on {lower.segment.id}"
     agree = a.category == b.category or "object" in (a.category, b.category) or _whole(a, b, params) is not None
-    if agree and _footprint_share(a.points, b.points, room, params.margin) >= params.same_space:
+    if (
+        agree
+        and a.placed
+        and b.placed
+        and _footprint_share(a.points, b.points, room, params.margin) >= params.same_space
+    ):
         whole = b.category if a.category == "object" else a.category
         union = np.vstack([a.points, b.points])
         if _fits(whole, union, room, params.slack):
@@ -205,7 +233,9 @@ def group_segments(
         category = primary_category(segment.label, segment.category)
         index = np.flatnonzero(cloud.segment == segment.id)
         if category is not None and len(index) >= 3:
-            parts[segment.id] = Part(segment, category, panoptic.ids == segment.id, world[index], index)
+            points = world[index]
+            placed = metric or _surface_share(points, to_world[:3, 3], room) < params.on_surface
+            parts[segment.id] = Part(segment, category, panoptic.ids == segment.id, points, index, placed)
     merged_into: dict[int, int] = {}
     notes = []
     judged: set[tuple[int, int]] = set()
@@ -236,7 +266,7 @@ def group_segments(
                     else None
                 )
                 segment = replace(keep.segment, score=max(a.segment.score or 0.0, b.segment.score or 0.0), box=box)
-                union = Part(segment, whole, a.mask | b.mask, points, index)
+                union = Part(segment, whole, a.mask | b.mask, points, index, a.placed and b.placed)
                 together, apart = judge(whole, union, (a, b))
                 verdict = together >= params.keep_score * max(apart)
                 notes.append(
