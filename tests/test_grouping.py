@@ -191,10 +191,10 @@ def test_a_floor_region_labelled_bed_under_a_bed_stays_apart(retriever: Silhouet
 
 def test_two_desks_of_a_row_put_on_the_wall_stay_two(retriever: SilhouetteRetrieval) -> None:
     """A classroom row seen from behind, the room's back wall fitted too near: layout depth finds the floor contact
-    of neither desk inside the room and puts both on the wall (2% in front of it). Their footprints then share a
-    sliver of that wall, which says in which direction each desk is, not how far: they are not the same space.
-    Measured depth that puts them there would be believed."""
-    room = RoomBox(camera_to_world=C2W, center=np.array([0.0, 1.5, 1.0]), half_size=np.array([3.0, 1.5, 1.5]), yaw=0.0)
+    of neither desk inside the room and puts both just in front of the wall (``DepthMap.unplaced``). Their
+    footprints then share a sliver of that wall, which says in which direction each desk is, not how far: they are
+    not the same space. Had the layout found them there, standing on the floor, they would be."""
+    room = RoomBox(camera_to_world=C2W, center=np.array([0.0, 1.5, 0.5]), half_size=np.array([3.0, 1.5, 2.0]), yaw=0.0)
     ids = np.ones((CAMERA.height, CAMERA.width), np.int32)
     ids[70:90, 45:90] = 7  # the desk behind, its lower part hidden by ...
     ids[85:100, 40:80] = 6  # ... the desk in front
@@ -207,7 +207,8 @@ def test_two_desks_of_a_row_put_on_the_wall_stay_two(retriever: SilhouetteRetrie
         segments=segments,
     )
     panoptic = Panoptic(ids=ids, segments=segments)
-    grouped, _, notes = group_segments(panoptic, cloud, CAMERA, room, False, GroupParams(), _judge(retriever))
+    judge = _judge(retriever)
+    grouped, _, notes = group_segments(panoptic, cloud, CAMERA, room, False, GroupParams(), judge, unplaced={6, 7})
     assert grouped is panoptic and notes == []
-    _, _, measured = group_segments(panoptic, cloud, CAMERA, room, True, GroupParams(), _judge(retriever))
-    assert measured and "6 and 7 occupy the same space" in measured[0]
+    _, _, found = group_segments(panoptic, cloud, CAMERA, room, False, GroupParams(), judge)
+    assert found and "6 and 7 occupy the same space" in found[0]

@@ -14,7 +14,7 @@ import pytest
 from boxroom import checker_floor
 from psdr_room_core.engine.records import RunRecord
 from psdr_room_core.libraries.vanishing_points import estimate_camera
-from psdr_room_core.method.artifacts import Camera, Detection, Detections, Image, Panoptic, Segment
+from psdr_room_core.method.artifacts import Camera, DepthMap, Detection, Detections, Image, Panoptic, Segment
 from psdr_room_core.method.guesses import FLOOR_GUESSES, fov_guesses
 from psdr_room_plugins.layout import box
 from psdr_room_plugins.layout.depth import LayoutDepth, object_depth
@@ -121,6 +121,21 @@ def test_layout_depth_from_true_labels_is_the_room_depth(room: tuple) -> None:
     assert np.median(relative) < 0.02 and np.mean(relative < 0.05) > 0.9
 
 
+def test_layout_depth_names_the_objects_it_found_no_floor_contact_for(room: tuple, tmp_path: Path) -> None:
+    """An object standing on the floor is placed; one above the horizon is put just in front of the wall and named
+    in ``DepthMap.unplaced``, which the artifact keeps."""
+    camera, image, labels, _ = room
+    ids = labels.astype(np.int32) + 1
+    segments = [Segment(int(s) + 1, CATEGORY.get(int(s), "wall"), box.SURFACES[int(s)]) for s in np.unique(labels)]
+    ids[120:200, 140:170] = 20  # its bottom row on the floor
+    ids[10:30, 140:170] = 21  # a picture on the wall
+    segments += [Segment(20, "object", "cabinet", 0.5), Segment(21, "object", "picture", 0.5)]
+    depth = LayoutDepth(camera_height_m=1.5, n_random=1500).estimate(image, camera, Panoptic(ids, segments), PHOTO)
+    assert depth.unplaced == (21,)
+    depth.save(tmp_path)
+    assert DepthMap.load(tmp_path).unplaced == (21,)
+
+
 def test_object_stands_on_the_floor(room: tuple) -> None:
     camera, _, labels, t = room
     frame = frame_from_vanishing_points(camera, camera.vanishing_points)
@@ -128,7 +143,8 @@ def test_object_stands_on_the_floor(room: tuple) -> None:
     mask = np.zeros(labels.shape, dtype=bool)
     mask[120:200, 140:170] = True  # bottom row 199 lies on the floor
     assert labels[199, 155] == box.FLOOR
-    depth = object_depth(mask, rays, t)
+    depth, on_floor = object_depth(mask, rays, t)
+    assert on_floor
     assert depth[199, 155] == pytest.approx(t[199, 155], rel=1e-4)  # touches the floor where it stands
     assert np.all(depth[mask] <= t[mask] + 1e-6) and np.all(depth[~mask] == 0)
     column = rays[120:200, 154] * depth[120:200, 154, None]  # frame coordinates up the contact column
@@ -136,12 +152,13 @@ def test_object_stands_on_the_floor(room: tuple) -> None:
     assert column[-1, 1] == pytest.approx(-1.0, abs=1e-3) and column[0, 1] > -0.8  # ... rising from the floor
     wall = np.zeros(labels.shape, dtype=bool)
     wall[10:30, 140:170] = True  # above the horizon: no floor contact, just in front of the wall
-    assert np.allclose(object_depth(wall, rays, t)[wall], 0.98 * t[wall])
+    above, on_floor = object_depth(wall, rays, t)
+    assert np.allclose(above[wall], 0.98 * t[wall]) and not on_floor
     seat = np.zeros(labels.shape, dtype=bool)
     seat[120:170, 140:170] = True  # a box-prompted cut that lost the legs: its prompt box reaches row 199
-    legs = object_depth(seat, rays, t, box=(138.0, 118.0, 172.0, 200.0))
+    legs, _ = object_depth(seat, rays, t, box=(138.0, 118.0, 172.0, 200.0))
     assert legs[169, 155] == pytest.approx(depth[169, 155], rel=1e-4)  # the plane of the whole object
-    assert object_depth(seat, rays, t)[169, 155] > 1.05 * legs[169, 155]  # the seat's edge taken for the floor
+    assert object_depth(seat, rays, t)[0][169, 155] > 1.05 * legs[169, 155]  # the seat's edge taken for the floor
 
 
 def test_grabcut_cuts_the_object_out_of_its_box() -> None:

@@ -17,14 +17,16 @@ ROOM = ("wall", "floor", "ceiling")
 
 def object_depth(
     mask: np.ndarray, rays: np.ndarray, room_depth: np.ndarray, box: tuple[float, float, float, float] | None = None
-) -> np.ndarray:
-    """Z-depth (H, W) of an object's pixels (0 elsewhere) on the vertical plane through its floor contact.
+) -> tuple[np.ndarray, bool]:
+    """(Z-depth (H, W) of an object's pixels (0 elsewhere) on the vertical plane through its floor contact,
+    whether it has one).
 
     The contact is the lowest mask pixel (median column of the lowest row), or, for a box-prompted segment,
     that column on its prompt ``box``'s bottom row (a box-prompted cut loses thin legs: the mask ends at the
     seat, the box at the floor); it is put on the floor ``y = -1`` of the frame; the plane faces the camera
     (normal = the contact ray's horizontal direction). An object whose contact ray misses the floor, or lands
-    beyond the room, lies just in front of the room surface (2% nearer). Depths never exceed the room's.
+    beyond the room, has none: it lies just in front of the room surface (2% nearer). Depths never exceed the
+    room's.
     """
     rows = np.flatnonzero(mask.any(axis=1))
     col = int(np.median(np.flatnonzero(mask[rows[-1]])))
@@ -34,14 +36,14 @@ def object_depth(
     behind = 0.98 * room_depth
     if ray[1] >= 0 or -1.0 / ray[1] > 1.0001 * room_depth[bottom, col]:
         depth[mask] = behind[mask]
-        return depth
+        return depth, False
     contact = ray * (-1.0 / ray[1])
     normal = np.array([ray[0], 0.0, ray[2]])
     normal /= np.linalg.norm(normal)
     along = rays[mask] @ normal
     t = np.where(along > 1e-6, float(contact @ normal) / np.maximum(along, 1e-6), np.inf)
     depth[mask] = np.minimum(t, room_depth[mask])
-    return depth
+    return depth, True
 
 
 class LayoutDepth:
@@ -61,13 +63,16 @@ class LayoutDepth:
         _, room = fitted.trace(camera, image.width, image.height)
         depth = room.copy()
         rays = fitted.frame.rays(camera, image.width, image.height)
+        unplaced = []
         for segment in panoptic.segments:
             if segment.category in ROOM:
                 continue
             mask = panoptic.ids == segment.id
             if mask.any():
-                placed = object_depth(mask, rays, room, segment.box)
+                placed, on_floor = object_depth(mask, rays, room, segment.box)
                 depth = np.where(mask, placed, depth)
+                if not on_floor:
+                    unplaced.append(segment.id)
         valid = np.isfinite(depth) & (depth > 0)
         depth = np.where(valid, depth * self.settings.camera_height_m, 0.0).astype(np.float32)
         return DepthMap(
@@ -76,6 +81,7 @@ class LayoutDepth:
             metric=False,
             source=f"layout (box {np.round(fitted.box, 2).tolist()} camera heights; "
             f"camera {self.settings.camera_height_m} m above the floor assumed)",
+            unplaced=tuple(unplaced),
         )
 
 

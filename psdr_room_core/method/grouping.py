@@ -11,11 +11,11 @@ standing behind the first). Two guessed segments may be one thing where the fitt
   its lowest pixel meets it, which puts a headboard far behind its bed), the upper part is stood on the
   lower one's top, as the support rules of §4.3 would, before the size is measured;
 * **the same space**: their floor footprints overlap (``same_space`` of the smaller, each grown by
-  ``margin``) at overlapping heights, and their categories agree (or one is unknown). Where the depth is not
-  measured, a part whose floor contact lies beyond the room has been put on the room's surface (``depth=layout``
-  does so), so its footprint says only in which direction it is, not how far: two desks of a classroom row, one
-  behind the other, both beyond a wall fitted too near, would share a sliver of that wall. Such a part is the same
-  space as nothing.
+  ``margin``) at overlapping heights, and their categories agree (or one is unknown). A part whose depth gives
+  its direction only (``DepthMap.unplaced``: ``depth=layout`` found no floor contact for it inside the room and put
+  it just in front of the room's surface) has no footprint: two desks of a classroom row, one behind the other,
+  both beyond a wall fitted too near, would share a sliver of that wall. It is never the same space as another
+  part.
 
 Such a pair is merged only where one model explains it: ``judge`` (the stage's model search) scores the best
 model of the whole's category on the two together and on each alone, and the pair is merged where the union
@@ -29,7 +29,7 @@ Segments a person drew (no score) are never merged.
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -61,9 +61,6 @@ class GroupParams:
     same_space: float = setting(0.5, gt=0, le=1)
     """Footprints overlapping this share of the smaller one (each grown by ``margin``) are the same space."""
     margin: float = setting(0.1, ge=0)
-    on_surface: float = setting(0.95, gt=0, le=1)
-    """Unmeasured depth: a part whose median point lies at least this share of the way along its camera ray to
-    the room's surface was put there (its floor contact is beyond the room); its footprint is unknown."""
     keep_score: float = setting(0.95, ge=0)
     """The union's model score must reach this share of the better part's score."""
 
@@ -80,8 +77,8 @@ class Part:
     """(N, 3) world points."""
     index: np.ndarray
     """(N,) their indices in the point cloud."""
-    placed: bool = True
-    """Whether its points say where it stands (not put on the room's surface for want of a floor contact)."""
+    placed: bool
+    """Whether its points say where it stands (see ``DepthMap.unplaced``)."""
 
 
 Judge = Callable[[str, Part, Sequence[Part]], tuple[float, list[float]]]
@@ -152,20 +149,6 @@ def _footprint_share(a: np.ndarray, b: np.ndarray, room: RoomBox, margin: float)
     return float(overlap / max(smaller, 1e-9))
 
 
-def _surface_share(points: np.ndarray, origin: np.ndarray, room: RoomBox) -> float:
-    """The median of the points' distances from ``origin`` (the camera, world) as a share of the distance along
-    the same ray to the room box's surface (1: on the surface)."""
-    start = room.local(origin[None])[0]
-    offsets = room.local(points) - start
-    lengths = np.linalg.norm(offsets, axis=1)
-    directions = offsets / np.maximum(lengths, 1e-9)[:, None]
-    half = np.asarray(room.half_size, np.float64)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        exits = np.where(directions > 0, (half - start) / directions, (-half - start) / directions)
-    exits = np.where(np.isfinite(exits) & (exits > 0), exits, np.inf).min(axis=1)
-    return float(np.median(lengths / exits))
-
-
 def _whole(a: Part, b: Part, params: GroupParams) -> str | None:
     """The category of the thing ``a`` and ``b`` would be parts of when stacked, or None."""
     if a.category == b.category and a.category in params.splittable:
@@ -179,9 +162,10 @@ def _whole(a: Part, b: Part, params: GroupParams) -> str | None:
 
 def _candidate(
     a: Part, b: Part, camera: Camera, camera_to_world: np.ndarray, room: RoomBox, metric: bool, params: GroupParams
-) -> tuple[str, np.ndarray, np.ndarray, str] | None:
-    """(whole's category, the union's world points, their cloud indices, why) where ``a`` and ``b`` may be one
-    thing, else None (a resting part's points are stood on the part below, where the depth is not measured)."""
+) -> tuple[str, np.ndarray, np.ndarray, str, bool] | None:
+    """(whole's category, the union's world points, their cloud indices, why, whether those points say where it
+    stands) where ``a`` and ``b`` may be one thing, else None (a resting part's points are stood on the part below,
+    where the depth is not measured)."""
     if mask_distance(a.mask, b.mask) <= params.edge_px:
         whole = _whole(a, b, params)
         for upper, lower in ((a, b), (b, a)):
@@ -190,7 +174,8 @@ def _candidate(
                 union = np.vstack([points, lower.points])
                 if _fits(whole, union, room, params.slack):
                     order = np.concatenate([upper.index, lower.index])
-                    return whole, union, order, f"{upper.segment.id} rests on {lower.segment.id}"
+                    placed = lower.placed and (upper.placed or not metric)  # not measured: stood on the lower
+                    return whole, union, order, f"{upper.segment.id} rests on {lower.segment.id}", placed
     agree = a.category == b.category or "object" in (a.category, b.category) or _whole(a, b, params) is not None
     if (
         agree
@@ -206,6 +191,7 @@ def _candidate(
                 union,
                 np.concatenate([a.index, b.index]),
                 f"{a.segment.id} and {b.segment.id} occupy the same space",
+                True,
             )
     return None
 
@@ -218,9 +204,11 @@ def group_segments(
     metric: bool,
     params: GroupParams,
     judge: Judge,
+    unplaced: Collection[int] = (),
 ) -> tuple[Panoptic, PointCloud, list[str]]:
     """The segmentation and point cloud with each group of parts merged into one segment (module docstring);
-    ``metric``: the depth is measured (its points are where the parts are). Also one line per pair judged.
+    ``metric``: the depth is measured (its points are where the parts are); ``unplaced``: segments whose depth
+    gives their direction only (``DepthMap.unplaced``). Also one line per pair judged.
 
     A merged segment keeps the id, label and score of its part of the whole's category with the most pixels,
     the union of the parts' masks, points and prompt boxes."""
@@ -233,9 +221,9 @@ def group_segments(
         category = primary_category(segment.label, segment.category)
         index = np.flatnonzero(cloud.segment == segment.id)
         if category is not None and len(index) >= 3:
-            points = world[index]
-            placed = metric or _surface_share(points, to_world[:3, 3], room) < params.on_surface
-            parts[segment.id] = Part(segment, category, panoptic.ids == segment.id, points, index, placed)
+            parts[segment.id] = Part(
+                segment, category, panoptic.ids == segment.id, world[index], index, segment.id not in unplaced
+            )
     merged_into: dict[int, int] = {}
     notes = []
     judged: set[tuple[int, int]] = set()
@@ -252,7 +240,7 @@ def group_segments(
                 if found is None:
                     continue
                 judged.add((a_id, b_id))
-                whole, points, index, why = found
+                whole, points, index, why, placed = found
                 keep, gone = sorted((a, b), key=lambda p: (p.category != whole, -int(p.mask.sum())))
                 boxes = [p.segment.box for p in (a, b) if p.segment.box is not None]
                 box = (
@@ -266,7 +254,7 @@ def group_segments(
                     else None
                 )
                 segment = replace(keep.segment, score=max(a.segment.score or 0.0, b.segment.score or 0.0), box=box)
-                union = Part(segment, whole, a.mask | b.mask, points, index, a.placed and b.placed)
+                union = Part(segment, whole, a.mask | b.mask, points, index, placed)
                 together, apart = judge(whole, union, (a, b))
                 verdict = together >= params.keep_score * max(apart)
                 notes.append(

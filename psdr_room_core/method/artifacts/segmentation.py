@@ -34,17 +34,23 @@ class DepthMap:
     valid: np.ndarray
     metric: bool = True
     source: str = ""
+    unplaced: tuple[int, ...] = ()
+    """Segments whose depth gives their direction only: ``depth=layout`` found no floor contact for them inside
+    the room and put them just in front of its surface."""
 
     def save(self, directory: Path) -> None:
         np.save(directory / "depth.npy", self.depth.astype(np.float32))
         write_png(directory / "valid.png", self.valid.astype(np.uint8) * 255)
-        write_json(directory / "depth.json", {"metric": self.metric, "source": self.source})
+        write_json(
+            directory / "depth.json", {"metric": self.metric, "source": self.source, "unplaced": list(self.unplaced)}
+        )
 
     @classmethod
     def load(cls, directory: Path) -> DepthMap:
         meta = read_json(directory / "depth.json")
         depth = read_npy(directory / "depth.npy").astype(np.float32)
         valid = read_png(directory / "valid.png") > 0
+        meta["unplaced"] = tuple(meta.get("unplaced", ()))
         return cls(depth=depth, valid=valid & np.isfinite(depth) & (depth > 0), **meta)
 
 

@@ -101,7 +101,9 @@ def group_objects(
 
         return best(union), [best(p) for p in parts]
 
-    grouped, regrouped, notes = group_segments(panoptic, cloud, camera, room, depth.metric, group, judge)
+    grouped, regrouped, notes = group_segments(
+        panoptic, cloud, camera, room, depth.metric, group, judge, set(depth.unplaced)
+    )
     for note in notes:
         log.info("group_objects: %s", note)
     return {"panoptic": grouped, "cloud": regrouped}
