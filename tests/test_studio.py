@@ -635,6 +635,7 @@ def _close_notes(driver: Any) -> None:
         close.click()
 
 
+@pytest.mark.slow  # 3 minutes; the synthetic room's browser test above runs the same steps in CI
 def test_first_use_of_the_studio_on_the_bundled_example(example: SimpleNamespace, tmp_path: Path) -> None:
     """What a new user does first, following the README, in a real browser: open the studio on the bundled example,
     draw a box around an object its LabelMe file missed, preview, see the object in the 3D view and the objects table,
