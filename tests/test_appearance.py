@@ -36,9 +36,17 @@ from psdr_room_core.method.artifacts import (
 from psdr_room_core.method.lighting import behind_camera, in_view
 from psdr_room_core.method.rgb_scene import build_scene, initial_parts, part_meshes, render_part_ids, room_quads
 from psdr_room_core.method.shading import linear_to_srgb, srgb_to_linear
-from psdr_room_core.method.stages.appearance import AppearanceModel, fit_appearance, picture, plain_parts
+from psdr_room_core.method.stages.appearance import (
+    AppearanceModel,
+    eq4_targets,
+    eq4_terms,
+    fit_appearance,
+    picture,
+    plain_parts,
+)
 from psdr_room_core.method.stages.export import export_scene
 from psdr_room_core.method.stages.lighting import init_lights, white_balance
+from psdr_room_core.method.stages.settings import FitAppearance
 from psdr_room_plugins.denoisers import OidnDenoiser
 from psdr_room_plugins.material_graph.library import TorchGraphLibrary
 from psdr_room_plugins.mitsuba_renderer.session import MitsubaRenderer
@@ -182,7 +190,7 @@ def test_initial_radiance_is_recovered_from_one_render(
 
 @pytest.fixture(scope="module")
 def fitted(library: TorchGraphLibrary, photo: tuple[Image, Panoptic, Lights]) -> dict:
-    """fit_appearance from grey materials and dim lights, with the photo's median colours as eq. 4's C_i; the
+    """fit_appearance from dim lights, the parts starting at the photo's median colours (grey where unseen); the
     floor starts as a procedural graph."""
     image, panoptic, layout = photo
     meshes = part_meshes(ROOM, Placements(objects=[]))
@@ -240,6 +248,32 @@ def test_fit_appearance_matches_the_photo_better(fitted: dict, library: TorchGra
     for hidden in ("wall_x_neg", "wall_x_pos", "wall_z_neg"):
         assert appearance.part(hidden) == start[hidden]
     assert set(log.images) == {"photo_init_final", "crop_pairs", "loss"}
+
+
+def test_the_photo_itself_scores_zero_on_every_term_of_eq4(
+    library: TorchGraphLibrary, photo: tuple[Image, Panoptic, Lights]
+) -> None:
+    """Each part's colour target is the photo's mean over the pixels the render's mean is taken over, so a render
+    equal to the photo leaves no term of eq. 4 to lower. The paper's C_i, the median photo colour of those
+    pixels, is not the mean of a lit wall: it would ask the render for a colour the photo does not have."""
+    image, _, _ = photo
+    meshes = part_meshes(ROOM, Placements(objects=[]))
+    assignment = MaterialAssignment(
+        parts=[
+            PartMaterial(n, "homogeneous", (0.5, 0.5, 0.5), crops=((40, 2, 70, 20),) if n == "wall_z_pos" else ())
+            for n in TRUE_SRGB
+        ]
+    )
+    ctx = StageContext("fit_appearance", FIT_PARAMS, 0, Path("photo.png"), _implementations(library))
+    settings, descriptor = ctx.settings(FitAppearance), RandomCnnDescriptor()
+    renderer = MitsubaRenderer(spp=4)
+    targets = eq4_targets(image, CAMERA, C2W, assignment, meshes, meshes, renderer, descriptor, settings, 96)
+    assert len(targets.regions) == 2 and targets.crops  # the floor and the far wall
+    terms = eq4_terms(srgb_to_linear(torch.from_numpy(targets.photo)), targets, descriptor, settings.downsample)
+    assert set(terms) == {"image", "colour", "texture"}
+    assert all(float(value) < 1e-5 for value in terms.values()), terms
+    medians = [np.median(targets.photo[mask.numpy()], axis=0) for mask, _ in targets.regions]
+    assert max(float(np.abs(m - c.numpy()).mean()) for m, (_, c) in zip(medians, targets.regions)) > 0.002
 
 
 def test_fit_appearance_stops_on_a_plateau(library: TorchGraphLibrary, photo: tuple[Image, Panoptic, Lights]) -> None:

@@ -27,7 +27,8 @@ class PartMaterial:
     kind: str
     """``homogeneous`` (constant albedo and roughness) or ``procedural`` (a library graph)."""
     albedo: tuple[float, float, float]
-    """sRGB median colour of the part's pixels: the homogeneous albedo and eq. 4's colour target ``C_i``."""
+    """sRGB median colour of the part's pixels (the paper's ``C_i``): the homogeneous albedo the fit starts from;
+    ``samples`` names the pixels it was measured on, where eq. 4's colour term compares means."""
     roughness: float = 0.5
     material: str | None = None
     """The library graph of a procedural part."""

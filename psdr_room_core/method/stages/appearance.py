@@ -222,17 +222,18 @@ def fit_appearance(
     """Optimise all materials and light radiances jointly (§4.4, eq. 4) by path tracing (``renderer``, its
     ``max_depth`` bounces) at ``render_width``:
 
-    ``w_image · L1(R↓, I↓) + w_colour · mean_i L1(μ(R on part i's sampled mask), C_i)
+    ``w_image · L1(R↓, I↓) + w_colour · mean_i L1(μ(R on M_i), μ(I on M_i))
     + w_texture · mean_crops d(T(R crop), T(I crop)) + w_paint · P``
 
-    with ↓ an area down-sampling by ``downsample``, ``C_i`` the part's median photo colour from
-    ``assign_materials`` and its sampled mask the rendered part's pixels that median was taken over (the
-    assignment's ``samples``; the whole rendered mask when that leaves fewer than ``min_region_px``): the
-    paper's mean over the whole mask also averages the clutter in front of a wall, which ``C_i`` leaves out,
-    and pulls the wall towards a colour it does not have. ``T`` is the ``texture`` descriptor on the crop
-    pairs, and ``P`` the paint prior on procedural walls and ceilings (:meth:`AppearanceModel.paint_penalty`).
-    All terms compare sRGB values; the down-sampled image and the means are averaged in linear light
-    first. Parameters: see
+    with ↓ an area down-sampling by ``downsample``, ``M_i`` part i's sampled mask: the rendered part's pixels
+    that ``assign_materials`` measured its colour on (the assignment's ``samples``; the whole rendered mask
+    when that leaves fewer than ``min_region_px``): the paper's mean over the whole mask also averages the
+    clutter in front of a wall and pulls the wall towards a colour it does not have. The paper's ``C_i`` is the
+    part's median photo colour; here it is the photo's mean over the same pixels as the render's mean
+    (:func:`eq4_targets`), so the photo itself scores zero on every term. ``T`` is the ``texture`` descriptor
+    on the crop pairs, and ``P`` the paint prior on procedural walls and ceilings
+    (:meth:`AppearanceModel.paint_penalty`). All terms compare sRGB values; the down-sampled images and the
+    means are averaged in linear light first. Parameters: see
     :class:`AppearanceModel` (procedural maps evaluated at ``map_size``); ``learning_rates`` per group
     (graph, base_color, roughness, specular, radiance, light_colour), ``iterations``, ``spp`` / ``grad_spp`` (primal and
     gradient samples per pixel), ``final_spp`` (the final render), ``min_region_px`` (smaller parts get no
@@ -310,7 +311,8 @@ class Eq4Targets:
     target_small: torch.Tensor
     """The photo area-downsampled by ``downsample`` (averaged in linear light)."""
     regions: list[tuple[torch.Tensor, torch.Tensor]]
-    """(sampled mask, median photo colour C_i) of each seen part large enough for the colour term."""
+    """(sampled mask M_i, the photo's colour on it: its linear mean, sRGB-encoded) of each seen part large enough
+    for the colour term."""
     crops: list[tuple[list[int], torch.Tensor]]
     """(rectangle, texture descriptor of the photo's crop)."""
     ids: np.ndarray
@@ -333,13 +335,20 @@ def eq4_targets(
     settings: FitAppearance,
     width: int,
 ) -> Eq4Targets:
-    """The photo at the render's size, the parts' colour regions (the rendered part's pixels that ``C_i`` was
-    measured on; the whole rendered mask when that leaves fewer than ``min_region_px``) and the crop pairs'
-    photo descriptors."""
+    """The photo at the render's size, the parts' colour regions (the rendered part's pixels that
+    ``assign_materials`` measured its colour on; the whole rendered mask when that leaves fewer than
+    ``min_region_px``) with the photo's colour there, and the crop pairs' photo descriptors.
+
+    The colour is the photo's mean over the region, averaged in linear light and encoded, the statistic the
+    colour term takes of the render, not the assignment's median: a median of a lit wall (bright near a lamp,
+    darker below) is not the mean of the same pixels, so the paper's ``C_i`` asks the render for a mean the photo
+    does not have, and the fit buys it by re-weighting the lights against the image term (on the shared photos
+    the fit then lost RMSE on two and SSIM on one)."""
     ids, _ = render_part_ids(renderer, camera.resized(width), c2w, meshes, width)
     height = ids.shape[0]
     photo = cv2.resize(np.asarray(image.rgb, np.float32), (width, height), interpolation=cv2.INTER_AREA)
     target = torch.from_numpy(photo)
+    linear = srgb_to_linear(target)
     names = list(meshes)
     samples = (
         cv2.resize(materials.samples, (width, height), interpolation=cv2.INTER_NEAREST)
@@ -352,9 +361,9 @@ def eq4_targets(
         if p.part in names and p.part in scene_meshes:
             rendered = ids == names.index(p.part)
             if int(rendered.sum()) >= min_px:
-                sampled = rendered & (samples == k)  # where C_i was measured: not the clutter in front
+                sampled = rendered & (samples == k)  # where the part's colour was measured: not the clutter in front
                 mask = torch.from_numpy(sampled if int(sampled.sum()) >= min_px else rendered)
-                regions.append((mask, torch.tensor(p.albedo, dtype=torch.float32)))
+                regions.append((mask, linear_to_srgb(linear[mask].mean(0))))
                 seen.add(p.part)
     scale = width / camera.width
     crops = []
@@ -364,7 +373,7 @@ def eq4_targets(
             if r[2] - r[0] >= 8 and r[3] - r[1] >= 8:
                 with torch.no_grad():
                     crops.append((r, descriptor.describe(target[r[1] : r[3], r[0] : r[2]].permute(2, 0, 1))))
-    target_small = linear_to_srgb(downsampled(srgb_to_linear(target), settings.downsample))
+    target_small = linear_to_srgb(downsampled(linear, settings.downsample))
     return Eq4Targets(photo, target, target_small, regions, crops, ids, names, seen)
 
 
@@ -374,30 +383,12 @@ def eq4_loss(
     """Eq. 4 for the optimizer: the weighted image, colour, texture and paint terms of a render of the model's
     current parameters (``spp`` primal and ``grad_spp`` gradient samples per pixel)."""
     weights = asdict(settings.weights)
-    factor, spp, grad_spp = settings.downsample, settings.spp, settings.grad_spp
-
-    def terms(linear: torch.Tensor) -> dict[str, torch.Tensor]:
-        # Averages (the 1/8 image, a part's mean) are taken on linear radiance, then encoded: the sRGB curve is
-        # concave, so averaging encoded noisy samples reads darker than the light is, and the fit brightens the
-        # scene to make up for its own Monte-Carlo noise.
-        srgb = linear_to_srgb(linear)
-        out = {"image": (linear_to_srgb(downsampled(linear, factor)) - targets.target_small).abs().mean()}
-        if targets.regions:
-            out["colour"] = torch.stack(
-                [(linear_to_srgb(linear[m].mean(0)) - c).abs().mean() for m, c in targets.regions]
-            ).mean()
-        if targets.crops:
-            out["texture"] = torch.stack(
-                [
-                    descriptor.distance(descriptor.describe(srgb[y0:y1, x0:x1].permute(2, 0, 1)), d).reshape(())
-                    for (x0, y0, x1, y1), d in targets.crops
-                ]
-            ).mean()
-        return out
+    spp, grad_spp = settings.spp, settings.grad_spp
 
     def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
         inputs = model.inputs()
-        parts = terms(geometry.render_rgb(**inputs, iteration=iteration, spp=spp, grad_spp=grad_spp))
+        render = geometry.render_rgb(**inputs, iteration=iteration, spp=spp, grad_spp=grad_spp)
+        parts = eq4_terms(render, targets, descriptor, settings.downsample)
         paint_term = model.paint_penalty(inputs)
         if paint_term is not None:
             parts["paint"] = paint_term
@@ -405,6 +396,29 @@ def eq4_loss(
         return total, {k: float(v.detach()) for k, v in parts.items()}
 
     return loss
+
+
+def eq4_terms(
+    linear: torch.Tensor, targets: Eq4Targets, descriptor: TextureDescriptor, factor: int
+) -> dict[str, torch.Tensor]:
+    """Eq. 4's image, colour and texture terms (unweighted) of a linear render [H, W, 3] at the fit's size
+    (``factor``: the image term's down-sampling). Averages (the 1/8 image, a part's mean) are taken on linear
+    radiance, then encoded: the sRGB curve is concave, so averaging encoded noisy samples reads darker than the
+    light is, and the fit brightens the scene to make up for its own Monte-Carlo noise."""
+    srgb = linear_to_srgb(linear)
+    out = {"image": (linear_to_srgb(downsampled(linear, factor)) - targets.target_small).abs().mean()}
+    if targets.regions:
+        out["colour"] = torch.stack(
+            [(linear_to_srgb(linear[m].mean(0)) - c).abs().mean() for m, c in targets.regions]
+        ).mean()
+    if targets.crops:
+        out["texture"] = torch.stack(
+            [
+                descriptor.distance(descriptor.describe(srgb[y0:y1, x0:x1].permute(2, 0, 1)), d).reshape(())
+                for (x0, y0, x1, y1), d in targets.crops
+            ]
+        ).mean()
+    return out
 
 
 def appearance_report(
