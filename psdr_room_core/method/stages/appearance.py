@@ -363,7 +363,7 @@ def eq4_targets(
             if int(rendered.sum()) >= min_px:
                 sampled = rendered & (samples == k)  # where the part's colour was measured: not the clutter in front
                 mask = torch.from_numpy(sampled if int(sampled.sum()) >= min_px else rendered)
-                regions.append((mask, linear_to_srgb(linear[mask].mean(0))))
+                regions.append((mask, mean_colour(linear, mask)))
                 seen.add(p.part)
     scale = width / camera.width
     crops = []
@@ -408,9 +408,7 @@ def eq4_terms(
     srgb = linear_to_srgb(linear)
     out = {"image": (linear_to_srgb(downsampled(linear, factor)) - targets.target_small).abs().mean()}
     if targets.regions:
-        out["colour"] = torch.stack(
-            [(linear_to_srgb(linear[m].mean(0)) - c).abs().mean() for m, c in targets.regions]
-        ).mean()
+        out["colour"] = torch.stack([(mean_colour(linear, m) - c).abs().mean() for m, c in targets.regions]).mean()
     if targets.crops:
         out["texture"] = torch.stack(
             [
@@ -419,6 +417,12 @@ def eq4_terms(
             ]
         ).mean()
     return out
+
+
+def mean_colour(linear: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    """The colour term's statistic of an image [H, W, 3] on a mask [H, W]: the linear mean, sRGB-encoded (taken
+    alike of the render and of the photo, so the photo scores zero on it)."""
+    return linear_to_srgb(linear[mask].mean(0))
 
 
 def appearance_report(
