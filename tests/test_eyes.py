@@ -362,3 +362,61 @@ def test_nanodet_and_eyes_together_name_the_desks_nanodet_calls_beds() -> None:
     assert "desk" not in {d.label for d in coco.items} and {"bed", "chair"} <= {d.label for d in coco.items}
     assert sum(d.label == "desk" for d in both.items) >= 3
     assert any(d not in both.items for d in eyes.items)  # an eyes chair NanoDet boxed too is left to NanoDet
+
+
+def test_auto_takes_the_layout_helped_by_the_eyes_for_segmentation_and_depth(tmp_path: Path) -> None:
+    """On a bare photo (the example without its files) ``segmentation=auto`` takes ``layout_eyes``: layout's box
+    room, fitted to the eyes network's walls, floor and ceiling as well as to the lines, agrees with them better
+    than layout's alone; ``depth=auto`` takes ``layout_eyes`` too, which places every object; without eyes.onnx,
+    layout alone for both, and the run says why."""
+    import shutil
+
+    from conftest import EXAMPLE
+    from psdr_room_core.engine.cli import compose_config
+    from psdr_room_core.engine.dag import typed_settings
+    from psdr_room_core.engine.run import execute, resolve_config
+    from psdr_room_plugins.eyes.perception import Eyes
+
+    photo = tmp_path / EXAMPLE.name
+    shutil.copy(EXAMPLE, photo)
+    plugins = plugin_system()
+    overrides = [
+        f"image={photo}",
+        f"cache_dir={tmp_path / 'cache'}",
+        "run.until=estimate_depth",
+        "report.enabled=false",
+        "segmentation.layout.n_random=800",
+        "depth.layout.n_random=800",
+    ]
+    records = {
+        name: execute(compose_config(overrides + extra, plugins), tmp_path / name, plugins)
+        for name, extra in (
+            ("eyes", []),
+            (
+                "alone",
+                [f"segmentation.eyes.path={tmp_path / 'none.onnx'}", f"depth.eyes.path={tmp_path / 'none.onnx'}"],
+            ),
+        )
+    }
+    assert records["eyes"].implementations["segmentation"]["name"] == "layout_eyes"
+    assert records["eyes"].implementations["depth"]["name"] == "layout_eyes"
+    assert records["alone"].implementations["depth"]["name"] == "layout"
+    assert records["eyes"].artifacts["depth"].unplaced == () and records["alone"].artifacts["depth"].unplaced
+    config = resolve_config(compose_config([*overrides, "segmentation=layout_eyes"], plugins))
+    implementation = plugins.registry.implementation("segmentation", "layout_eyes")
+    settings = typed_settings(implementation.params, config["segmentation"]["layout_eyes"])
+    assert settings.layout.n_random == 800 and settings.eyes.center_threshold == 0.3  # each member's own node
+    assert records["alone"].implementations["segmentation"]["name"] == "layout"
+    assert "not layout_eyes: no eyes network at" in records["alone"].implementations["segmentation"]["selected_by"]
+    image = records["eyes"].artifacts["image"]
+    eyes = Eyes()
+    seen = eyes.surfaces(image, eyes.outputs(image))
+    room = np.isin(seen, [labels.SURFACES.index(s) for s in ("wall", "floor", "ceiling")])
+    agreement = {}
+    for name, record in records.items():
+        panoptic = record.artifacts["panoptic"]
+        surfaces = {s: panoptic.mask(s) for s in ("wall", "floor", "ceiling")}
+        both = room & np.logical_or.reduce(list(surfaces.values()))
+        same = [surfaces[s] & (seen == labels.SURFACES.index(s)) for s in surfaces]
+        agreement[name] = np.logical_or.reduce(same).sum() / both.sum()  # where both see the room
+    assert agreement["eyes"] > agreement["alone"], agreement

@@ -18,7 +18,7 @@ from psdr_room_core.method.artifacts import Camera, DepthMap, Detection, Detecti
 from psdr_room_core.method.guesses import FLOOR_GUESSES, fov_guesses
 from psdr_room_plugins.layout import box
 from psdr_room_plugins.layout.depth import LayoutDepth, object_depth
-from psdr_room_plugins.layout.fit import fit_layout, floor_colour_region
+from psdr_room_plugins.layout.fit import _room_labels, fit_layout, floor_colour_region
 from psdr_room_plugins.layout.manhattan import ManhattanFrame, frame_from_vanishing_points
 from psdr_room_plugins.layout.objects import grabcut_mask
 from psdr_room_plugins.layout.segmentation import LayoutSegmentation
@@ -111,6 +111,43 @@ def test_layout_segmentation_recovers_the_room(room: tuple) -> None:
     assert len(walls) == len({box.SURFACES[s] for s in np.unique(labels) if s in box.WALLS})  # one per visible wall
 
 
+def test_a_wall_segment_of_no_plane_may_lie_on_any_wall() -> None:
+    """A layout's wall segment (``wall_x1``) is explained on one wall only; a network's ``wall``, one segment
+    for every wall it sees, on any; windows and doors are on walls too."""
+    labels = np.array([[box.WALL_X0, box.WALL_X0, box.WALL_Z1, box.WALL_Z1, box.FLOOR, box.FLOOR]], np.int8)
+    room = np.array([1, 1, 1, 1, 2, 2])
+    assert box.label_score(labels, room, np.zeros(6, np.int64), 1)[0] == pytest.approx(4 / 6)
+    assert box.label_score(labels, room, np.full(6, -1, np.int64), 0)[0] == pytest.approx(1.0)
+    ids = np.array([[1, 1, 2, 2, 3, 3]], np.int32)
+    for wall, window, n_planes in (("wall", "window", 0), ("wall_x0", "door", 1)):
+        panoptic = Panoptic(ids, [Segment(1, "wall", wall), Segment(2, window, window), Segment(3, "floor", "floor")])
+        kinds, planes, n = _room_labels(panoptic, (1, 6))
+        assert kinds.tolist() == [1, 1, 1, 1, 2, 2] and n == n_planes
+        assert planes[:4].tolist() == [n_planes - 1] * 2 + [-1] * 2
+
+
+def test_a_networks_walls_floor_and_ceiling_give_the_room_a_plain_photo_cannot(room: tuple) -> None:
+    """A photo of plain walls and ceiling painted alike over a darker floor (no line where a wall meets another
+    or the ceiling): the box fitted to it alone misses the room; fitted also to a network's surfaces (walls
+    one segment, as ``segmentation=layout_eyes`` gives them) it is the room."""
+    camera, _, labels, _ = room
+    grey = np.where(labels == box.FLOOR, 0.35, 0.7).astype(np.float32)
+    plain = Image(rgb=np.repeat(grey[..., None], 3, axis=2), source=str(PHOTO))
+    names = np.array(["wall", "wall", "floor", "ceiling", "wall", "wall"])[labels]
+    ids = np.zeros(labels.shape, np.int32)
+    segments = []
+    for k, name in enumerate(("wall", "floor", "ceiling")):
+        ids[names == name] = k + 1
+        segments.append(Segment(k + 1, name, name))
+    layout = LayoutSegmentation(n_random=1500)
+    alone = _category_iou(layout.segment(plain, camera, Detections(items=[]), PHOTO), labels)
+    seen = _category_iou(
+        layout.segment(plain, camera, Detections(items=[]), PHOTO, surfaces=Panoptic(ids, segments)), labels
+    )
+    assert min(alone.values()) < 0.5, alone
+    assert min(seen.values()) > 0.9, seen
+
+
 def test_layout_depth_from_true_labels_is_the_room_depth(room: tuple) -> None:
     camera, image, labels, t = room
     segments = [Segment(int(s) + 1, CATEGORY.get(int(s), "wall"), box.SURFACES[int(s)]) for s in np.unique(labels)]
@@ -134,6 +171,27 @@ def test_layout_depth_names_the_objects_it_found_no_floor_contact_for(room: tupl
     assert depth.unplaced == (21,)
     depth.save(tmp_path)
     assert DepthMap.load(tmp_path).unplaced == (21,)
+
+
+def test_a_networks_relative_depth_gives_an_object_with_no_floor_contact_its_own(room: tuple) -> None:
+    """Given a depth up to scale (a network's), an object the layout cannot stand on the floor (a lamp hanging
+    halfway to the wall) takes it, scaled to the layout's on the pixels the layout places, and is placed; the
+    room and the object on the floor keep the layout's depth."""
+    camera, image, labels, t = room
+    ids = labels.astype(np.int32) + 1
+    segments = [Segment(int(s) + 1, CATEGORY.get(int(s), "wall"), box.SURFACES[int(s)]) for s in np.unique(labels)]
+    ids[120:200, 140:170] = 20
+    ids[10:30, 140:170] = 21
+    segments += [Segment(20, "object", "cabinet", 0.5), Segment(21, "object", "lamp", 0.5)]
+    relative = 7.0 * t * np.where(ids == 21, 0.5, 1.0)  # the network's own units
+    layout = LayoutDepth(camera_height_m=1.5, n_random=1500)
+    alone = layout.estimate(image, camera, Panoptic(ids, segments), PHOTO)
+    depth = layout.estimate(image, camera, Panoptic(ids, segments), PHOTO, relative=relative)
+    assert depth.unplaced == ()
+    lamp, rest = ids == 21, ids != 21
+    assert np.median(depth.depth[lamp] / (1.5 * 0.5 * t[lamp])) == pytest.approx(1.0, abs=0.03)
+    assert np.array_equal(depth.depth[rest], alone.depth[rest])
+    assert np.median(alone.depth[lamp] / (1.5 * t[lamp])) == pytest.approx(0.98, abs=0.03)  # against the wall
 
 
 def test_object_stands_on_the_floor(room: tuple) -> None:

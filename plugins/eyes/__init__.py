@@ -5,8 +5,9 @@
   :mod:`psdr_room_core.applications.train`: ``psdr-room-train``; :mod:`.decode`: what the outputs mean (numpy);
 - :mod:`.perception`: ``segmentation=eyes``, ``depth=eyes`` and ``detector=eyes`` (onnxruntime only);
   :mod:`.with_nanodet`: ``detector=nanodet_eyes`` (``detector=auto``'s choice on a bare photo), NanoDet's boxes
-  and the eyes boxes that add to them; all registered by :mod:`.plugin` (the entry point; this package imports
-  nothing, so training runs with torch, onnx and cv2).
+  and the eyes boxes that add to them; :mod:`.with_layout`: ``segmentation=layout_eyes`` (``segmentation=auto``'s
+  choice on a bare photo), layout's box room fitted to the eyes walls, floor and ceiling too; all registered by
+  :mod:`.plugin` (the entry point; this package imports nothing, so training runs with torch, onnx and cv2).
 
 The data it learns from comes from ``psdr-room-synth-data`` (:mod:`psdr_room_core.applications.synth_data`).
 """

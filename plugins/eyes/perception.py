@@ -118,6 +118,25 @@ class Eyes:
         )
         return logits.argmax(axis=0)
 
+    def room(self, surface: np.ndarray) -> Panoptic:
+        """The room's segments of a :meth:`surfaces` map: wall, floor and ceiling one each, windows and doors
+        one per connected region (regions under ``min_instance_fraction`` of the photo dropped)."""
+        ids = np.zeros(surface.shape, np.int32)
+        segments: list[Segment] = []
+        least = max(1, int(self.min_instance_fraction * surface.size))
+        for name in ("wall", "floor", "ceiling", "window", "door"):
+            mask = (surface == SURFACES.index(name)).astype(np.uint8)
+            if name in STUFF:
+                parts = [mask.astype(bool)]
+            else:
+                count, labels = cv2.connectedComponents(mask, connectivity=8)
+                parts = [labels == c for c in range(1, count)]
+            for part in parts:
+                if part.sum() >= least:
+                    segments.append(Segment(len(segments) + 1, name, name))
+                    ids[part] = segments[-1].id
+        return Panoptic(ids=ids, segments=segments)
+
     def objects(
         self, image: Image, out: dict[str, np.ndarray], surface: np.ndarray
     ) -> list[tuple[np.ndarray, str, float]]:
@@ -160,24 +179,12 @@ class EyesSegmentation(Eyes):
     def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic:
         out = self.outputs(image)
         surface = self.surfaces(image, out)
-        ids = np.zeros(surface.shape, np.int32)
-        segments: list[Segment] = []
-        least = max(1, int(self.min_instance_fraction * surface.size))
-        for name in ("wall", "floor", "ceiling", "window", "door"):
-            mask = (surface == SURFACES.index(name)).astype(np.uint8)
-            if name in STUFF:
-                parts = [mask.astype(bool)]
-            else:
-                count, labels = cv2.connectedComponents(mask, connectivity=8)
-                parts = [labels == c for c in range(1, count)]
-            for part in parts:
-                if part.sum() >= least:
-                    segments.append(Segment(len(segments) + 1, name, name))
-                    ids[part] = segments[-1].id
+        room = self.room(surface)
+        segments = list(room.segments)
         for mask, name, _ in self.objects(image, out, surface):
             segments.append(Segment(len(segments) + 1, _category(name), name))
-            ids[mask] = segments[-1].id
-        return Panoptic(ids=ids, segments=segments)
+            room.ids[mask] = segments[-1].id
+        return Panoptic(ids=room.ids, segments=segments)
 
 
 class EyesDepth(Eyes):

@@ -9,6 +9,7 @@ from psdr_room_core.engine.registry import Registry
 from psdr_room_core.engine.settings import setting
 
 from ..detectors import NanodetSettings
+from ..layout.settings import LayoutDepthSettings, LayoutSegmentationSettings
 
 
 @dataclass
@@ -29,6 +30,22 @@ class NanodetAndEyesSettings:
     nanodet: NanodetSettings = setting()
     eyes: EyesSettings = setting()
     same_iou: float = setting(0.5, ge=0, le=1)
+
+
+@dataclass
+class LayoutAndEyesSettings:
+    """``segmentation=layout_eyes``: each member's own settings (the config takes them from its node)."""
+
+    layout: LayoutSegmentationSettings = setting()
+    eyes: EyesSettings = setting()
+
+
+@dataclass
+class LayoutDepthAndEyesSettings:
+    """``depth=layout_eyes``: each member's own settings (the config takes them from its node)."""
+
+    layout: LayoutDepthSettings = setting()
+    eyes: EyesSettings = setting()
 
 
 DESCRIPTIONS = {
@@ -63,4 +80,22 @@ def register_implementations(registry: Registry) -> None:
         params=NanodetAndEyesSettings,
         reads_files=True,
         description="the bundled NanoDet's COCO boxes and psdr-room's own network's furniture boxes together",
+    )
+    registry.add_implementation(
+        "segmentation",
+        "layout_eyes",
+        "psdr_room_plugins.eyes.with_layout:LayoutWithEyesSurfaces",
+        params=LayoutAndEyesSettings,
+        reads_files=True,
+        description="segmentation=layout with its box room fitted to psdr-room's own network's walls, floor and "
+        "ceiling too",
+    )
+    registry.add_implementation(
+        "depth",
+        "layout_eyes",
+        "psdr_room_plugins.eyes.with_layout:LayoutDepthWithEyes",
+        params=LayoutDepthAndEyesSettings,
+        reads_files=True,
+        description="depth=layout whose objects with no floor contact take psdr-room's own network's depth, scaled "
+        "to the layout's",
     )

@@ -52,14 +52,16 @@ def orientation_score(labels: np.ndarray, evidence: np.ndarray, total: float | N
 
 
 def label_score(labels: np.ndarray, room: np.ndarray, wall_segment: np.ndarray, n_wall_segments: int) -> np.ndarray:
-    """(M,) fraction of labelled room pixels explained: floor on floor, ceiling on ceiling, and each wall
-    segment on a single wall (its most common one).
+    """(M,) fraction of labelled room pixels explained: floor on floor, ceiling on ceiling, each wall segment
+    on a single wall (its most common one), and wall pixels of no segment on any wall.
 
-    ``room``: (N,) 0 unlabelled, 1 wall, 2 floor, 3 ceiling; ``wall_segment``: (N,) 0..S-1 for wall pixels.
+    ``room``: (N,) 0 unlabelled, 1 wall, 2 floor, 3 ceiling; ``wall_segment``: (N,) 0..S-1 for the pixels of
+    a wall segment that lies on one wall, -1 for wall pixels that may lie on any (a network's "wall" class).
     """
     n_room = max(int((room > 0).sum()), 1)
     score = ((labels == FLOOR) & (room == 2)[None]).sum(axis=1) + ((labels == CEILING) & (room == 3)[None]).sum(axis=1)
-    walls = room == 1
+    score = score + np.isin(labels[:, (room == 1) & (wall_segment < 0)], WALLS).sum(axis=1)
+    walls = (room == 1) & (wall_segment >= 0)
     if n_wall_segments and walls.any():
         m = labels.shape[0]
         index = (np.arange(m)[:, None] * n_wall_segments + wall_segment[walls][None]) * 6 + labels[:, walls]

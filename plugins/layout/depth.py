@@ -46,6 +46,15 @@ def object_depth(
     return depth, True
 
 
+def scaled_to(relative: np.ndarray, depth: np.ndarray, where: np.ndarray) -> np.ndarray:
+    """``relative`` (a depth up to scale) times the scale that matches it to ``depth`` on the pixels ``where``
+    both are positive: the median of their log ratios there (1 when there are none)."""
+    both = where & (relative > 0) & (depth > 0) & np.isfinite(depth)
+    if not both.any():
+        return relative
+    return relative * float(np.exp(np.median(np.log(depth[both]) - np.log(relative[both]))))
+
+
 class LayoutDepth:
     """Depth without a network: the room box fitted to the segmentation's wall/floor/ceiling and the
     photo's lines, objects placed on its floor; metres if the camera is ``camera_height_m`` above it."""
@@ -58,7 +67,11 @@ class LayoutDepth:
         """The box room used for the depth."""
         return fit_layout(image, camera, self.settings, panoptic=panoptic)
 
-    def estimate(self, image: Image, camera: Camera, panoptic: Panoptic, photo: Path) -> DepthMap:
+    def estimate(
+        self, image: Image, camera: Camera, panoptic: Panoptic, photo: Path, relative: np.ndarray | None = None
+    ) -> DepthMap:
+        """The depth map; ``relative``: a network's depth of the photo (H, W) up to scale, which gives the objects
+        with no floor contact theirs (:func:`scaled_to`) instead of the room surface's behind them."""
         fitted = self.fit(image, camera, panoptic)
         _, room = fitted.trace(camera, image.width, image.height)
         depth = room.copy()
@@ -73,6 +86,10 @@ class LayoutDepth:
                 depth = np.where(mask, placed, depth)
                 if not on_floor:
                     unplaced.append(segment.id)
+        if relative is not None and unplaced:
+            lost = np.isin(panoptic.ids, unplaced)
+            depth = np.where(lost, np.minimum(scaled_to(relative, depth, ~lost & (panoptic.ids > 0)), room), depth)
+            unplaced = []
         valid = np.isfinite(depth) & (depth > 0)
         depth = np.where(valid, depth * self.settings.camera_height_m, 0.0).astype(np.float32)
         return DepthMap(

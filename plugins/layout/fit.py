@@ -94,18 +94,21 @@ def _floor_prior(
 
 
 def _room_labels(panoptic: Panoptic, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray, int]:
-    """Per grid pixel: 0 none / 1 wall / 2 floor / 3 ceiling, the wall segment index, the number of walls."""
+    """Per grid pixel: 0 none / 1 wall / 2 floor / 3 ceiling, the wall segment index, the number of walls.
+
+    A wall segment labelled with a box surface's name (``wall_x0``: a layout's) lies on one wall and gets an
+    index; any other wall segment (a network's "wall", one for every wall it sees), window or door may lie on
+    any wall (index -1)."""
     ids = cv2.resize(panoptic.ids, (shape[1], shape[0]), interpolation=cv2.INTER_NEAREST).ravel()
     room = np.zeros(ids.shape, dtype=np.int64)
-    wall_index = np.zeros(ids.shape, dtype=np.int64)
-    walls = [s for s in panoptic.segments if s.category == "wall"]
-    for i, s in enumerate(walls):
-        room[ids == s.id] = 1
+    wall_index = np.full(ids.shape, -1, dtype=np.int64)
+    planes = [s for s in panoptic.segments if s.category == "wall" and s.label in box.SURFACES]
+    for i, s in enumerate(planes):
         wall_index[ids == s.id] = i
     for s in panoptic.segments:
-        if s.category in ("floor", "ceiling"):
-            room[ids == s.id] = 2 if s.category == "floor" else 3
-    return room, wall_index, len(walls)
+        if s.category in ("wall", "window", "door", "floor", "ceiling"):
+            room[ids == s.id] = {"floor": 2, "ceiling": 3}.get(s.category, 1)
+    return room, wall_index, len(planes)
 
 
 def fit_layout(

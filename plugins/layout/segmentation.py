@@ -36,8 +36,12 @@ class LayoutSegmentation:
         """``settings``: the fields of :class:`~.settings.LayoutSegmentationSettings` (its defaults for those left out)."""
         self.settings = LayoutSegmentationSettings(**settings)
 
-    def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic:
-        fitted = fit_layout(image, camera, self.settings, detections=detections)
+    def segment(
+        self, image: Image, camera: Camera, detections: Detections, photo: Path, surfaces: Panoptic | None = None
+    ) -> Panoptic:
+        """The panoptic segmentation; ``surfaces``: another segmenter's wall, floor and ceiling labels (a
+        network's) that the box must also agree with (``label_weight``), as ``depth=layout``'s does."""
+        fitted = fit_layout(image, camera, self.settings, detections=detections, panoptic=surfaces)
         labels, _ = fitted.trace(camera, image.width, image.height)
         ids = np.zeros(labels.shape, dtype=np.int32)
         segments: list[Segment] = []

@@ -44,7 +44,8 @@ class LayoutParams:
     box_score: float = setting(0.3, ge=0, le=1)
     """Object boxes scoring at least this inform the fit (clutter weights, floor prior at their bottoms)."""
     label_weight: float = setting(1.0, ge=0)
-    """Weight of agreement with a given segmentation's wall/floor/ceiling labels (depth=layout)."""
+    """Weight of agreement with given wall/floor/ceiling labels: the segmentation's (depth=layout), or a
+    network's (segmentation=layout_eyes)."""
     floor_band: float = setting(0.08, ge=0, le=1)
     """Rows at the bottom of the photo (this fraction of its height) below the horizon that are likely floor ..."""
     floor_prior: float = setting(0.5, ge=0)

@@ -1,0 +1,92 @@
+"""``segmentation=layout_eyes`` and ``depth=layout_eyes``: the offline box layout, helped by the eyes network.
+
+``segmentation=layout`` fits its box room to the photo's lines and a floor prior alone. Where a room has few
+lines (a plain wall meeting a plain ceiling) or many that are not the room's (rows of desks, shelves), the box
+can put the ceiling on a wall or the floor on furniture; every stage after it stands objects on that floor and
+scales them by it. The eyes network, trained on psdr-room's renders, labels wall, floor and ceiling pixels
+directly. ``segmentation=layout_eyes`` fits the box to its labels too, as ``depth=layout`` fits the
+segmentation's (``label_weight``: agreement with them, against the lines'); its walls, windows and doors may
+lie on any wall of the box. The objects are layout's own: the detector's prompts cut out by GrabCut, so the
+user's boxes still apply.
+
+``depth=layout`` stands each object where its mask meets the floor. An object whose contact is hidden (a desk
+behind another, feet below the frame) has none, and is put against the room surface behind it.
+``depth=layout_eyes`` gives such an object the eyes network's relative depth instead, scaled to the layout's
+on the pixels the layout places (room surfaces and the objects it stood on the floor), never beyond the room.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import asdict
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from psdr_room_core.method.artifacts import Camera, DepthMap, Detections, Image, Panoptic
+
+from ..layout.depth import LayoutDepth
+from ..layout.segmentation import LayoutSegmentation
+from ..layout.settings import LayoutDepthSettings, LayoutSegmentationSettings
+from .perception import Eyes, EyesDepth
+from .plugin import EyesSettings
+
+log = logging.getLogger("psdr_room")
+
+
+class LayoutWithEyesSurfaces:
+    """``segmentation=layout`` whose box also agrees with the eyes network's room surfaces. Set a member's
+    settings on its own node (``segmentation.layout.X``, ``segmentation.eyes.X``)."""
+
+    def __init__(self, layout: LayoutSegmentationSettings | None = None, eyes: EyesSettings | None = None) -> None:
+        self.layout = (
+            LayoutSegmentation(**vars(layout)) if layout else LayoutSegmentation()
+        )  # nested settings kept typed
+        self.eyes = Eyes(**asdict(eyes)) if eyes else Eyes()
+
+    def external_files(self, photo: Path) -> list[Path]:
+        return self.eyes.external_files(photo)
+
+    def unavailable(self, photo: Path) -> str | None:
+        return self.eyes.unavailable(photo)
+
+    def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic:
+        surfaces = self.eyes.room(self.eyes.surfaces(image, self.eyes.outputs(image)))
+        log.info(
+            "layout_eyes: the box also fits %s's %s",
+            self.eyes.describe(),
+            ", ".join(sorted({s.category for s in surfaces.segments})) or "no room surfaces",
+        )
+        return self.layout.segment(image, camera, detections, photo, surfaces=surfaces)
+
+
+class LayoutDepthWithEyes:
+    """``depth=layout`` whose objects with no floor contact take the eyes network's depth, scaled to the layout's.
+    Set a member's settings on its own node (``depth.layout.X``, ``depth.eyes.X``)."""
+
+    def __init__(self, layout: LayoutDepthSettings | None = None, eyes: EyesSettings | None = None) -> None:
+        self.layout = LayoutDepth(**vars(layout)) if layout else LayoutDepth()  # nested settings kept typed
+        self.eyes = EyesDepth(**asdict(eyes)) if eyes else EyesDepth()
+
+    def external_files(self, photo: Path) -> list[Path]:
+        return self.eyes.external_files(photo)
+
+    def unavailable(self, photo: Path) -> str | None:
+        return self.eyes.unavailable(photo)
+
+    def estimate(self, image: Image, camera: Camera, panoptic: Panoptic, photo: Path) -> DepthMap:
+        relative = self.eyes.estimate(image, camera, panoptic, photo)
+        depth = self.layout.estimate(image, camera, panoptic, photo, relative=relative.depth)
+        return DepthMap(
+            depth=depth.depth,
+            valid=depth.valid,
+            metric=depth.metric,
+            source=f"{depth.source}; objects with no floor contact: {relative.source}, scaled to it",
+            unplaced=depth.unplaced,
+        )
+
+
+if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
+    from psdr_room_core.method.capabilities import DepthEstimator, Segmenter
+
+    _LayoutWithEyesSurfaces_is_a_segmentation: type[Segmenter] = LayoutWithEyesSurfaces
+    _LayoutDepthWithEyes_is_a_depth: type[DepthEstimator] = LayoutDepthWithEyes
