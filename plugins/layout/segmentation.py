@@ -53,11 +53,11 @@ class LayoutSegmentation:
         rays = fitted.frame.rays(camera, image.width, image.height)
         rgb8 = image.to_uint8()
         trusted = [d.box for d in detections.items if d.score >= self.settings.discovery.trusted_score]
-        surfaces = SurfaceColours(rgb8, labels, unprompted(labels.shape, trusted))
+        colours = SurfaceColours(rgb8, labels, unprompted(labels.shape, trusted))
         found = discover(
             rgb8,
             rays,
-            surfaces,
+            colours,
             detections.items,
             self.settings.discovery,
             self.settings.proposals,

@@ -387,7 +387,7 @@ class Session:
         known = sorted(s.id for s in panoptic.segments)
         if segment_id not in known:
             raise PsdrRoomError(f"no segment {segment_id}; the segments are {known}")
-        if self._segmentation() not in ("layout", "file"):
+        if self._segmentation() not in ("layout", "layout_eyes", "file"):  # auto's choices after file
             raise PsdrRoomError(
                 f"segmentation={self._segmentation()} ignores a segmentation file beside the photo; "
                 "restart the studio with segmentation=file to use the marks"
