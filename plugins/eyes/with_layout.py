@@ -18,7 +18,7 @@ on the pixels the layout places (room surfaces and the objects it stood on the f
 from __future__ import annotations
 
 import logging
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -33,21 +33,26 @@ from .plugin import EyesSettings
 log = logging.getLogger("psdr_room")
 
 
-class LayoutWithEyesSurfaces:
-    """``segmentation=layout`` whose box also agrees with the eyes network's room surfaces. Set a member's
-    settings on its own node (``segmentation.layout.X``, ``segmentation.eyes.X``)."""
+class _LayoutHelpedByEyes:
+    """What the eyes network needs, for a layout implementation helped by it: its file, and why it cannot run."""
 
-    def __init__(self, layout: LayoutSegmentationSettings | None = None, eyes: EyesSettings | None = None) -> None:
-        self.layout = (
-            LayoutSegmentation(**vars(layout)) if layout else LayoutSegmentation()
-        )  # nested settings kept typed
-        self.eyes = Eyes(**asdict(eyes)) if eyes else Eyes()
+    eyes: Eyes
 
     def external_files(self, photo: Path) -> list[Path]:
         return self.eyes.external_files(photo)
 
     def unavailable(self, photo: Path) -> str | None:
         return self.eyes.unavailable(photo)
+
+
+class LayoutWithEyesSurfaces(_LayoutHelpedByEyes):
+    """``segmentation=layout`` whose box also agrees with the eyes network's room surfaces. Set a member's
+    settings on its own node (``segmentation.layout.X``, ``segmentation.eyes.X``)."""
+
+    def __init__(self, layout: LayoutSegmentationSettings | None = None, eyes: EyesSettings | None = None) -> None:
+        # vars, not asdict: the layout's nested settings stay typed
+        self.layout = LayoutSegmentation(**vars(layout)) if layout else LayoutSegmentation()
+        self.eyes = Eyes(**asdict(eyes)) if eyes else Eyes()
 
     def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic:
         surfaces = self.eyes.room(self.eyes.surfaces(image, self.eyes.outputs(image)))
@@ -59,30 +64,20 @@ class LayoutWithEyesSurfaces:
         return self.layout.segment(image, camera, detections, photo, surfaces=surfaces)
 
 
-class LayoutDepthWithEyes:
+class LayoutDepthWithEyes(_LayoutHelpedByEyes):
     """``depth=layout`` whose objects with no floor contact take the eyes network's depth, scaled to the layout's.
     Set a member's settings on its own node (``depth.layout.X``, ``depth.eyes.X``)."""
 
+    eyes: EyesDepth
+
     def __init__(self, layout: LayoutDepthSettings | None = None, eyes: EyesSettings | None = None) -> None:
-        self.layout = LayoutDepth(**vars(layout)) if layout else LayoutDepth()  # nested settings kept typed
+        self.layout = LayoutDepth(**vars(layout)) if layout else LayoutDepth()
         self.eyes = EyesDepth(**asdict(eyes)) if eyes else EyesDepth()
-
-    def external_files(self, photo: Path) -> list[Path]:
-        return self.eyes.external_files(photo)
-
-    def unavailable(self, photo: Path) -> str | None:
-        return self.eyes.unavailable(photo)
 
     def estimate(self, image: Image, camera: Camera, panoptic: Panoptic, photo: Path) -> DepthMap:
         relative = self.eyes.estimate(image, camera, panoptic, photo)
         depth = self.layout.estimate(image, camera, panoptic, photo, relative=relative.depth)
-        return DepthMap(
-            depth=depth.depth,
-            valid=depth.valid,
-            metric=depth.metric,
-            source=f"{depth.source}; objects with no floor contact: {relative.source}, scaled to it",
-            unplaced=depth.unplaced,
-        )
+        return replace(depth, source=f"{depth.source}; objects with no floor contact: {relative.source}, scaled to it")
 
 
 if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol
