@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from psdr_room_core.method.artifacts import Camera, Detection, Detections, Image
+from psdr_room_core.method.artifacts import Camera, Detection, Detections, Image, Panoptic, Segment
 from psdr_room_core.method.labels import primary_category
 from psdr_room_core.method.surface_colours import SurfaceColours, unprompted
 from psdr_room_plugins.layout import box
@@ -25,6 +25,7 @@ from psdr_room_plugins.layout.discovery import (
     vote_labels,
 )
 from psdr_room_plugins.layout.manhattan import frame_from_vanishing_points
+from psdr_room_plugins.layout.objects import SeenObjects
 from psdr_room_plugins.layout.proposals import clutter_proposals
 from psdr_room_plugins.layout.segmentation import LayoutSegmentation
 from psdr_room_plugins.layout.settings import DiscoveryParams, ProposalParams
@@ -79,6 +80,15 @@ def _standing_box(
     mask = np.zeros(labels.shape, bool)
     mask[top : bottom + 1, left:right] = True
     return mask
+
+
+def _painted(room: dict, *pieces: tuple[np.ndarray, list[float]]) -> tuple[np.ndarray, SurfaceColours]:
+    """The room's photo (uint8) with each (mask, colour) painted in turn, and the colour models of its surfaces."""
+    rgb = room["rgb"].copy()
+    for mask, colour in pieces:
+        rgb[mask] = colour
+    rgb8 = (rgb * 255).astype(np.uint8)
+    return rgb8, SurfaceColours(rgb8, room["labels"], unprompted(room["labels"].shape, []))
 
 
 def _candidate(label: str, box_: tuple, score: float, seen: str = "floor") -> Candidate:
@@ -152,11 +162,8 @@ def test_a_box_round_two_chairs_is_a_group() -> None:
 
 
 def test_weak_prompts_the_room_explains_are_dropped(room: dict) -> None:
-    rgb = room["rgb"].copy()
     cabinet = _standing_box(room, 60, 120, height_m=0.9)
-    rgb[cabinet] = [0.55, 0.25, 0.15]
-    rgb8 = (rgb * 255).astype(np.uint8)
-    surfaces = SurfaceColours(rgb8, room["labels"], unprompted(room["labels"].shape, []))
+    rgb8, surfaces = _painted(room, (cabinet, [0.55, 0.25, 0.15]))
     rows, cols = np.nonzero(cabinet)
     around = (cols.min() - 3.0, rows.min() - 3.0, cols.max() + 4.0, rows.max() + 4.0)
     on_cabinet = Detection("oven", "object", around, 0.2)
@@ -167,11 +174,8 @@ def test_weak_prompts_the_room_explains_are_dropped(room: dict) -> None:
 
 
 def test_nearer_objects_are_painted_over_farther_ones(room: dict) -> None:
-    rgb = room["rgb"].copy()
     far, near = _standing_box(room, 120, 200, 1.0, above_bottom=50), _standing_box(room, 150, 230, 0.7, above_bottom=8)
-    rgb[far], rgb[near] = [0.2, 0.3, 0.7], [0.7, 0.2, 0.2]
-    rgb8 = (rgb * 255).astype(np.uint8)
-    surfaces = SurfaceColours(rgb8, room["labels"], unprompted(room["labels"].shape, []))
+    rgb8, surfaces = _painted(room, (far, [0.2, 0.3, 0.7]), (near, [0.7, 0.2, 0.2]))
 
     def around(mask: np.ndarray, label: str, score: float) -> Detection:
         rows, cols = np.nonzero(mask)
@@ -194,11 +198,8 @@ def test_nearer_objects_are_painted_over_farther_ones(room: dict) -> None:
 # ----------------------------------------------------------------------------------------------- proposals
 def test_what_the_room_cannot_explain_becomes_an_object(room: dict) -> None:
     """No prompt at all: a red cabinet against the plain room is found by its colour alone."""
-    rgb = room["rgb"].copy()
     cabinet = _standing_box(room, 60, 120, height_m=0.9)
-    rgb[cabinet] = [0.55, 0.25, 0.15]
-    rgb8 = (rgb * 255).astype(np.uint8)
-    surfaces = SurfaceColours(rgb8, room["labels"], unprompted(room["labels"].shape, []))
+    rgb8, surfaces = _painted(room, (cabinet, [0.55, 0.25, 0.15]))
     proposals = clutter_proposals(surfaces, np.zeros_like(cabinet), ProposalParams())
     assert len(proposals) == 1 and proposals[0].label == "object"
     assert proposals[0].score < DiscoveryParams().trusted_score  # weak: every check applies
@@ -237,12 +238,9 @@ def test_overlapping_prompts_vote_for_the_label() -> None:
 def test_a_proposal_inside_a_known_object_joins_it(room: dict) -> None:
     """A chair whose cut kept its back but not its seat (lit brighter): the seat, which the room cannot explain,
     is proposed and joined to the chair instead of becoming an object of its own."""
-    rgb = room["rgb"].copy()
     back, seat = _standing_box(room, 60, 120, height_m=0.9), _standing_box(room, 60, 120, height_m=0.45)
     back &= ~seat
-    rgb[back], rgb[seat] = [0.55, 0.1, 0.35], [0.95, 0.7, 0.2]
-    rgb8 = (rgb * 255).astype(np.uint8)
-    surfaces = SurfaceColours(rgb8, room["labels"], unprompted(room["labels"].shape, []))
+    rgb8, surfaces = _painted(room, (back, [0.55, 0.1, 0.35]), (seat, [0.95, 0.7, 0.2]))
     whole = back | seat
     rows, cols = np.nonzero(whole)
     box = (cols.min() - 2.0, rows.min() - 2.0, cols.max() + 3.0, rows.max() + 3.0)
@@ -251,3 +249,72 @@ def test_a_proposal_inside_a_known_object_joins_it(room: dict) -> None:
     selection.consider(clutter_proposals(surfaces, selection.occupied, ProposalParams()))
     assert len(selection.kept) == 1 and "joined to a chair" in selection.dropped
     assert (selection.kept[0].mask & whole).sum() / whole.sum() > 0.9
+
+
+# ----------------------------------------------------------------------------------------------- a network's masks
+def test_what_a_network_sees_in_a_box() -> None:
+    """The one instance filling the box, never pixels taken; nothing where no instance fills it, or too little
+    of the box is left."""
+    ids = np.zeros((100, 100), np.int32)
+    ids[20:60, 10:40] = 1  # a chair
+    ids[20:60, 45:80] = 2  # the chair beside it
+    ids[70:90, 10:90] = 3  # a wall segment is no object
+    panoptic = Panoptic(ids, [Segment(1, "object", "chair"), Segment(2, "object", "chair"), Segment(3, "wall", "wall")])
+    seen = SeenObjects.of(panoptic)
+    assert len(seen.instances) == 2
+    first = (8.0, 18.0, 47.0, 62.0)
+    assert seen.instance(first, 0.5) is seen.instances[0]
+    free = np.zeros(ids.shape, bool)
+    mask = seen.mask(first, free, min_fill=0.08, same_iou=0.5)
+    assert mask is not None and mask.sum() == 40 * 30 and not mask[:, 45:].any()
+    both = (0.0, 0.0, 100.0, 65.0)
+    assert seen.instance(both, 0.5) is None and seen.mask(both, free, 0.08, 0.5) is None  # neither is the one
+    taken = np.zeros(ids.shape, bool)
+    taken[20:60, 10:38] = True  # a nearer object holds most of the first chair
+    assert seen.mask(first, taken, min_fill=0.3, same_iou=0.5) is None
+    assert seen.mask(first, taken, min_fill=0.01, same_iou=0.5).sum() == 40 * 2
+    assert seen.mask((10.0, 70.0, 90.0, 90.0), free, min_fill=0.08, same_iou=0.5) is None  # on the wall: nothing
+
+
+def test_where_grabcut_finds_nothing_the_networks_instance_is_the_mask(room: dict) -> None:
+    """A chair in a row of alike ones: its box's margin holds its own colour, so GrabCut, which takes the margin
+    for background, finds nothing there. Dropped on its own; given a network's instance of it, that is its
+    mask (what ``segmentation=layout_eyes`` gives discovery)."""
+    row = _standing_box(room, 40, 280, height_m=0.9)
+    chair = _standing_box(room, 140, 180, height_m=0.9)
+    rgb8, surfaces = _painted(room, (row, [0.6, 0.15, 0.2]))
+    rows, cols = np.nonzero(chair)
+    prompt = Detection("chair", "object", (cols.min() - 1.0, rows.min() - 1.0, cols.max() + 2.0, rows.max() + 2.0), 0.5)
+    alone = Selection(rgb8, room["rays"], surfaces, DiscoveryParams())
+    alone.consider([prompt])
+    assert alone.kept == [] and "GrabCut found no object" in alone.dropped
+    ids = np.zeros(chair.shape, np.int32)
+    ids[row] = 2
+    ids[chair] = 1  # the network tells this chair from its neighbours
+    panoptic = Panoptic(ids, [Segment(1, "object", "chair"), Segment(2, "object", "chair")])
+    found = discover(rgb8, room["rays"], surfaces, [prompt], DiscoveryParams(), None, seen=SeenObjects.of(panoptic))
+    assert [f.detection.label for f in found] == ["chair"]
+    assert (found[0].mask & chair).sum() / (found[0].mask | chair).sum() > 0.95
+
+
+def test_a_box_the_network_sees_as_one_object_is_no_group(room: dict) -> None:
+    """A sofa-wide "chair" box holding two weaker chair boxes side by side is taken for a box round two chairs;
+    where the network sees one object filling that box, it is one (a chair seen whole, the two boxes its
+    pieces or the chairs behind it)."""
+    chair = _standing_box(room, 100, 220, height_m=0.9)
+    rgb8, surfaces = _painted(room, (chair, [0.2, 0.3, 0.7]))
+    rows, cols = np.nonzero(chair)
+    top, bottom = float(rows.min()), float(rows.max() + 1)
+    whole = Detection("chair", "object", (99.0, top - 1, 221.0, bottom + 1), 0.6)
+    halves = [
+        Detection("chair", "object", (x0, top + 5, x1, bottom), 0.4) for x0, x1 in ((102.0, 158.0), (162.0, 218.0))
+    ]
+    alone = Selection(rgb8, room["rays"], surfaces, DiscoveryParams())
+    alone.consider([whole, *halves])
+    assert "a box round 2 objects" in alone.dropped
+    ids = chair.astype(np.int32)
+    seen = SeenObjects.of(Panoptic(ids, [Segment(1, "object", "chair")]))
+    helped = Selection(rgb8, room["rays"], surfaces, DiscoveryParams(), seen=seen)
+    helped.consider([whole, *halves])
+    assert "a box round 2 objects" not in helped.dropped
+    assert helped.kept[0].detection == whole

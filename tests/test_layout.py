@@ -142,7 +142,7 @@ def test_a_networks_walls_floor_and_ceiling_give_the_room_a_plain_photo_cannot(r
     layout = LayoutSegmentation(n_random=1500)
     alone = _category_iou(layout.segment(plain, camera, Detections(items=[]), PHOTO), labels)
     seen = _category_iou(
-        layout.segment(plain, camera, Detections(items=[]), PHOTO, surfaces=Panoptic(ids, segments)), labels
+        layout.segment(plain, camera, Detections(items=[]), PHOTO, seen=Panoptic(ids, segments)), labels
     )
     assert min(alone.values()) < 0.5, alone
     assert min(seen.values()) > 0.9, seen

@@ -157,6 +157,18 @@ class Eyes:
                 result.append((mask, CATEGORIES[item.category], item.score))
         return result
 
+    def panoptic(self, image: Image) -> Panoptic:
+        """The room's segments (:meth:`room`) and one segment per piece of furniture, labelled with its
+        category."""
+        out = self.outputs(image)
+        surface = self.surfaces(image, out)
+        room = self.room(surface)
+        segments = list(room.segments)
+        for mask, name, _ in self.objects(image, out, surface):
+            segments.append(Segment(len(segments) + 1, _category(name), name))
+            room.ids[mask] = segments[-1].id
+        return Panoptic(ids=room.ids, segments=segments)
+
 
 def _category(name: str) -> str:
     """The room category of an eyes furniture category (ceiling lights and lamps are ``lamp``)."""
@@ -177,14 +189,7 @@ class EyesSegmentation(Eyes):
         return missing(self.path)
 
     def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic:
-        out = self.outputs(image)
-        surface = self.surfaces(image, out)
-        room = self.room(surface)
-        segments = list(room.segments)
-        for mask, name, _ in self.objects(image, out, surface):
-            segments.append(Segment(len(segments) + 1, _category(name), name))
-            room.ids[mask] = segments[-1].id
-        return Panoptic(ids=room.ids, segments=segments)
+        return self.panoptic(image)
 
 
 class EyesDepth(Eyes):

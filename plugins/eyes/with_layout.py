@@ -7,7 +7,9 @@ scales them by it. The eyes network, trained on psdr-room's renders, labels wall
 directly. ``segmentation=layout_eyes`` fits the box to its labels too, as ``depth=layout`` fits the
 segmentation's (``label_weight``: agreement with them, against the lines'); its walls, windows and doors may
 lie on any wall of the box. The objects are layout's own: the detector's prompts cut out by GrabCut, so the
-user's boxes still apply.
+user's boxes still apply. Where one of the network's furniture instances fills a prompt's box (box IoU
+``segmentation.layout.discovery.seen_iou``), it is the one object there: its mask where GrabCut finds nothing
+(rows of alike chairs, whose colours fill the box's margin too), and the box is no box round a group.
 
 ``depth=layout`` stands each object where its mask meets the floor. An object whose contact is hidden (a desk
 behind another, feet below the frame) has none, and is put against the room surface behind it.
@@ -23,6 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from psdr_room_core.method.artifacts import Camera, DepthMap, Detections, Image, Panoptic
+from psdr_room_core.method.objects import OBJECT_CATEGORIES
 
 from ..layout.depth import LayoutDepth
 from ..layout.segmentation import LayoutSegmentation
@@ -31,6 +34,9 @@ from .perception import Eyes, EyesDepth
 from .plugin import EyesSettings
 
 log = logging.getLogger("psdr_room")
+
+ROOM_LABELS = ("wall", "floor", "ceiling", "window", "door")
+"""The network's segments the box is fitted to."""
 
 
 class _LayoutHelpedByEyes:
@@ -55,13 +61,14 @@ class LayoutWithEyesSurfaces(_LayoutHelpedByEyes):
         self.eyes = Eyes(**asdict(eyes)) if eyes else Eyes()
 
     def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic:
-        surfaces = self.eyes.room(self.eyes.surfaces(image, self.eyes.outputs(image)))
+        seen = self.eyes.panoptic(image)
         log.info(
-            "layout_eyes: the box also fits %s's %s",
+            "layout_eyes: the box also fits %s's %s; its %d furniture instance(s) help discovery",
             self.eyes.describe(),
-            ", ".join(sorted({s.category for s in surfaces.segments})) or "no room surfaces",
+            ", ".join(sorted({s.category for s in seen.segments if s.category in ROOM_LABELS})) or "no room surfaces",
+            sum(s.category in OBJECT_CATEGORIES for s in seen.segments),
         )
-        return self.layout.segment(image, camera, detections, photo, surfaces=surfaces)
+        return self.layout.segment(image, camera, detections, photo, seen=seen)
 
 
 class LayoutDepthWithEyes(_LayoutHelpedByEyes):

@@ -3,7 +3,9 @@
 A bare photo's prompts are many and weak: the detector run at a low threshold on the photo and its mirror
 image (an object is found whether or not its COCO class is right; a dresser comes back as "oven" or "tv"),
 and the class-agnostic proposals of :mod:`.proposals` (what the fitted room cannot explain). Each prompt is
-cut out by GrabCut, then judged against the fitted box room (camera heights, floor ``y = -1``):
+cut out by GrabCut (where it finds nothing, as among rows of alike chairs whose colours fill the box's margin
+too, a network's instance filling the box stands in when one is given: :class:`~.objects.SeenObjects`), then
+judged against the fitted box room (camera heights, floor ``y = -1``):
 
 * **where it stands**: the mask's lowest pixels are its floor contact, unless the frame cuts them or they sit
   on a nearer object's mask; a sofa, chair, table, bed, desk, ottoman or refrigerator whose contact is above
@@ -17,7 +19,8 @@ cut out by GrabCut, then judged against the fitted box room (camera heights, flo
   it when their categories say so (``parts``: a sofa's seat detected as a chair, a bed's pillow) or when
   both have the same category (a second box on one object); boxes overlapping more than ``nms_iou`` are one
   object whatever their labels; a class-agnostic proposal inside a known object's box is joined to its mask
-  (a part its own cut missed).
+  (a part its own cut missed); a box holding two or more weaker boxes of its category side by side is a box
+  round a group (:func:`group_size`), unless a network sees one object filling it.
 
 Kept prompts are painted far to near (by floor contact), so nearer objects occlude farther ones. Every
 dropped prompt is logged with its reason.
@@ -35,7 +38,7 @@ from psdr_room_core.method.artifacts import Detection
 from psdr_room_core.method.labels import primary_category
 from psdr_room_core.method.surface_colours import SurfaceColours
 
-from .objects import grabcut_mask
+from .objects import SeenObjects, box_iou, grabcut_mask
 from .proposals import clutter_proposals
 from .settings import DiscoveryParams, GrabCutParams, ProposalParams
 
@@ -138,13 +141,6 @@ def _inside(inner: np.ndarray, outer: np.ndarray) -> float:
     return w * h / max((inner[2] - inner[0]) * (inner[3] - inner[1]), 1e-9)
 
 
-def _iou(a: np.ndarray, b: np.ndarray) -> float:
-    w = max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
-    h = max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
-    union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - w * h
-    return w * h / max(union, 1e-9)
-
-
 def implausible(candidate: Candidate, params: DiscoveryParams) -> str | None:
     """Why a prompt cannot be the object its category says, from where it stands and how tall it is."""
     name = candidate.category
@@ -161,7 +157,7 @@ def implausible(candidate: Candidate, params: DiscoveryParams) -> str | None:
 def part_of(candidate: Candidate, kept: Candidate, params: DiscoveryParams) -> bool:
     """Whether ``candidate`` is the same object as ``kept`` (boxes overlapping more than ``nms_iou``, or a box
     of the same category inside it and on the same floor line) or a part of it (``parts``)."""
-    if _iou(candidate.box, kept.box) > params.nms_iou:
+    if box_iou(candidate.box, kept.box) > params.nms_iou:
         return True
     if _inside(candidate.box, kept.box) < params.part_overlap:
         return False
@@ -201,7 +197,7 @@ def group_size(candidate: Candidate, others: Sequence[Candidate], params: Discov
         and o.category == candidate.category
         and o.detection.score >= params.group_score * candidate.detection.score
         and _inside(o.box, candidate.box) >= params.part_overlap
-        and _iou(o.box, candidate.box) <= params.nms_iou
+        and box_iou(o.box, candidate.box) <= params.nms_iou
     ]
     chosen: list[Candidate] = []
     for o in inside:
@@ -229,7 +225,7 @@ def vote_labels(prompts: Sequence[Detection], iou: float) -> list[Detection]:
     for p, b in zip(prompts, boxes):
         votes: dict[str, float] = {}
         for q, c in zip(prompts, boxes):
-            if q is p or _iou(b, c) > iou:
+            if q is p or box_iou(b, c) > iou:
                 votes[q.label] = votes.get(q.label, 0.0) + q.score
         best = max(votes, key=lambda label: (votes[label], label == p.label))
         voted.append(p if best == p.label else replace(p, label=best))
@@ -246,11 +242,14 @@ class Selection:
         surfaces: SurfaceColours,
         params: DiscoveryParams,
         grabcut: GrabCutParams | None = None,
+        seen: SeenObjects | None = None,
     ) -> None:
         self.rgb8, self.rays, self.surfaces, self.params = rgb8, rays, surfaces, params
         self.grabcut = grabcut or GrabCutParams()
+        self.seen = seen
         self.kept: list[Candidate] = []
         self.dropped: dict[str, list[str]] = {}
+        self.as_seen: list[str] = []
 
     @property
     def occupied(self) -> np.ndarray:
@@ -281,7 +280,7 @@ class Selection:
                 self.drop(f"part of a {whole.detection.label}", probe)
                 continue
             members = group_size(probe, probes, params)
-            if members >= 2:
+            if members >= 2 and (self.seen is None or self.seen.instance(probe.detection.box, params.seen_iou) is None):
                 self.drop(f"a box round {members} objects", probe)
                 continue
             absorbed = [k for k in self.kept if absorbs(probe, k, params)]
@@ -293,7 +292,7 @@ class Selection:
             if len(rest) >= params.max_objects:
                 self.drop("over max_objects", probe)
                 continue
-            mask = grabcut_mask(self.rgb8, tuple(probe.box), self.grabcut, taken=occupied)
+            mask = self.cut(probe, occupied)
             if mask is None:
                 self.drop("GrabCut found no object", probe)
                 continue
@@ -314,6 +313,17 @@ class Selection:
             for part in absorbed:
                 self.drop(f"part of a {probe.detection.label}", part)
             self.kept = [*rest, candidate]
+
+    def cut(self, probe: Candidate, taken: np.ndarray) -> np.ndarray | None:
+        """The prompt's mask: GrabCut's, else the network's instance filling its box
+        (:meth:`~.objects.SeenObjects.mask`), neither taking pixels ``taken`` by kept objects."""
+        box = probe.detection.box
+        mask = grabcut_mask(self.rgb8, box, self.grabcut, taken=taken)
+        if mask is None and self.seen is not None:
+            mask = self.seen.mask(box, taken, self.grabcut.min_fill, self.params.seen_iou)
+            if mask is not None:
+                self.as_seen.append(probe.detection.label)
+        return mask
 
     def join(self, piece: Candidate, whole: Candidate) -> None:
         """Add what GrabCut finds in ``piece``'s box (pixels no other object holds) to ``whole``'s mask: an
@@ -343,6 +353,12 @@ class Selection:
         return found
 
     def log(self) -> None:
+        if self.as_seen:
+            log.info(
+                "discovery: %d prompt(s) GrabCut found nothing in took the network's mask: %s",
+                len(self.as_seen),
+                ", ".join(sorted(set(self.as_seen))),
+            )
         for reason, labels in self.dropped.items():
             log.info("discovery: dropped %d prompt(s) (%s): %s", len(labels), reason, ", ".join(sorted(set(labels))))
 
@@ -355,12 +371,14 @@ def discover(
     params: DiscoveryParams,
     proposals: ProposalParams | None = None,
     grabcut: GrabCutParams | None = None,
+    seen: SeenObjects | None = None,
 ) -> list[Discovered]:
     """The objects among ``prompts`` and then among the class-agnostic proposals round what they leave
     unexplained (:func:`~.proposals.clutter_proposals`, unless ``proposals`` is None), far to near (see the
     module docstring); ``rays`` as :func:`footing`'s, ``surfaces`` the colour models of the fitted room; each
-    prompt's mask cut by GrabCut with ``grabcut`` (its defaults when None)."""
-    selection = Selection(rgb8, rays, surfaces, params, grabcut)
+    prompt's mask cut by GrabCut with ``grabcut`` (its defaults when None), or, where GrabCut finds nothing,
+    the instance a network ``seen`` sees filling its box (which is then no box round a group either)."""
+    selection = Selection(rgb8, rays, surfaces, params, grabcut, seen)
     selection.consider(prompts)
     if proposals is not None:
         selection.consider(clutter_proposals(surfaces, selection.occupied, proposals))

@@ -1,9 +1,15 @@
-"""Object masks from box prompts: GrabCut (Rother et al. 2004, OpenCV) initialised with each box."""
+"""Object masks from box prompts: GrabCut (Rother et al. 2004, OpenCV) initialised with each box, or what a
+network sees in the box where GrabCut finds nothing (:class:`SeenObjects`)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import cv2
 import numpy as np
+
+from psdr_room_core.method.artifacts import Panoptic
+from psdr_room_core.method.objects import OBJECT_CATEGORIES
 
 from .settings import GrabCutParams
 
@@ -44,3 +50,54 @@ def grabcut_mask(
     full = np.zeros((height, width), dtype=bool)
     full[cy0:cy1, cx0:cx1] = np.isin(components, parts)
     return full
+
+
+@dataclass(frozen=True)
+class SeenObjects:
+    """The objects another segmenter (a network) sees in the photo, one mask per instance. Where one fills a
+    prompt's box, it is the one object there: its mask where GrabCut cannot cut one (rows of alike chairs,
+    whose colours fill the box's margin too), and no box round a group."""
+
+    instances: list[np.ndarray]
+    """(H, W) boolean mask of each object instance."""
+
+    @classmethod
+    def of(cls, panoptic: Panoptic) -> SeenObjects:
+        """The object and lamp segments of ``panoptic``."""
+        masks = [panoptic.ids == s.id for s in panoptic.segments if s.category in OBJECT_CATEGORIES]
+        return cls([m for m in masks if m.any()])
+
+    def instance(self, box: tuple[float, float, float, float], same_iou: float) -> np.ndarray | None:
+        """The instance whose box overlaps ``box`` (x0, y0, x1, y1 pixels) most, by box IoU ``same_iou`` or
+        more: the one object the network sees there."""
+        ious = [box_iou(box, _bounds(m)) for m in self.instances]
+        best = int(np.argmax(ious)) if ious else -1
+        return self.instances[best] if best >= 0 and ious[best] >= same_iou else None
+
+    def mask(
+        self, box: tuple[float, float, float, float], taken: np.ndarray, min_fill: float, same_iou: float
+    ) -> np.ndarray | None:
+        """Its :meth:`instance` in ``box``, less the pixels ``taken``; None when there is none or it fills less
+        than ``min_fill`` of the box."""
+        one = self.instance(box, same_iou)
+        if one is None:
+            return None
+        x0, y0, x1, y1 = (int(round(v)) for v in box)
+        mask = np.zeros(one.shape, bool)
+        mask[max(0, y0) : max(0, y1), max(0, x0) : max(0, x1)] = True
+        mask &= one & ~taken
+        return mask if mask.sum() >= min_fill * max(1, (x1 - x0) * (y1 - y0)) else None
+
+
+def box_iou(a: np.ndarray | tuple[float, ...], b: np.ndarray | tuple[float, ...]) -> float:
+    """IoU of two boxes (x0, y0, x1, y1)."""
+    w = max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
+    h = max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
+    union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - w * h
+    return float(w * h / max(union, 1e-9))
+
+
+def _bounds(mask: np.ndarray) -> tuple[float, float, float, float]:
+    """The box (x0, y0, x1, y1) of a non-empty mask."""
+    ys, xs = np.nonzero(mask)
+    return float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1)

@@ -14,6 +14,7 @@ from psdr_room_core.method.surface_colours import SurfaceColours, unprompted
 from . import box
 from .discovery import discover
 from .fit import fit_layout
+from .objects import SeenObjects
 from .settings import LayoutSegmentationSettings
 
 log = logging.getLogger("psdr_room")
@@ -37,11 +38,12 @@ class LayoutSegmentation:
         self.settings = LayoutSegmentationSettings(**settings)
 
     def segment(
-        self, image: Image, camera: Camera, detections: Detections, photo: Path, surfaces: Panoptic | None = None
+        self, image: Image, camera: Camera, detections: Detections, photo: Path, seen: Panoptic | None = None
     ) -> Panoptic:
-        """The panoptic segmentation; ``surfaces``: another segmenter's wall, floor and ceiling labels (a
-        network's) that the box must also agree with (``label_weight``), as ``depth=layout``'s does."""
-        fitted = fit_layout(image, camera, self.settings, detections=detections, panoptic=surfaces)
+        """The panoptic segmentation; ``seen``: another segmenter's (a network's), whose wall, floor and
+        ceiling labels the box must also agree with (``label_weight``), as ``depth=layout``'s does, and whose
+        objects give a prompt its mask where GrabCut finds none (:class:`~.objects.SeenObjects`)."""
+        fitted = fit_layout(image, camera, self.settings, detections=detections, panoptic=seen)
         labels, _ = fitted.trace(camera, image.width, image.height)
         ids = np.zeros(labels.shape, dtype=np.int32)
         segments: list[Segment] = []
@@ -62,6 +64,7 @@ class LayoutSegmentation:
             self.settings.discovery,
             self.settings.proposals,
             self.settings.grabcut,
+            SeenObjects.of(seen) if seen is not None else None,
         )
         for item in found:
             segments.append(

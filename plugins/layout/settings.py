@@ -108,6 +108,10 @@ class DiscoveryParams:
     a box round a group of them: dropped."""
     min_visible: float = setting(0.2, ge=0, le=1)
     """An object showing less than this share of its mask once nearer objects are painted is dropped."""
+    seen_iou: float = setting(0.5, ge=0, le=1)
+    """A network's instance whose box overlaps a prompt's by this IoU or more is the one object there: its mask
+    where GrabCut finds nothing, and the box is no box round a group; only where a network is given
+    (``segmentation=layout_eyes``)."""
     parts: dict[str, list[str]] = setting(
         {
             "sofa": ["chair", "pillow", "ottoman"],

@@ -143,7 +143,8 @@ class SceneView:
 
 def overview(client: viser.ClientHandle, artifacts: dict[str, Any]) -> None:
     """Put ``client``'s view inside the room, above and behind the photo's camera, looking down at the placed objects
-    (at the room's middle when there are none): the camera's frustum and the scene it became, together."""
+    (at the room's middle when there are none), wide enough to hold them all: the camera's frustum and the scene it
+    became, together."""
     room = first_artifact(artifacts, ("room_box_objects", "room_box_fit", "room_box"), RoomBox)
     if room is None:
         return
@@ -157,11 +158,24 @@ def overview(client: viser.ClientHandle, artifacts: dict[str, Any]) -> None:
     turn = rotation_y(room.yaw)  # keep the eye inside the box: its walls would hide the scene from outside
     margin = np.minimum(0.1, 0.5 * np.asarray(room.half_size))
     local = np.clip(turn.T @ (eye - room.center), -(room.half_size - margin), room.half_size - margin)
+    eye = room.center + turn @ local
     with client.atomic():
-        client.camera.position = room.center + turn @ local
+        client.camera.position = eye
         client.camera.look_at = target
         client.camera.up_direction = (0.0, 1.0, 0.0)
-        client.camera.fov = math.radians(75.0)
+        client.camera.fov = math.radians(_framing_fov(eye, target, [v.mean(axis=0) for v in placed]))
+
+
+def _framing_fov(eye: np.ndarray, target: np.ndarray, centres: list[np.ndarray], least: float = 75.0) -> float:
+    """A vertical FoV (degrees) from ``eye`` looking at ``target`` that holds every object centre with 5° to
+    spare: ``least``, widened for objects off to the side, at most 120°."""
+    view = (target - eye) / max(float(np.linalg.norm(target - eye)), 1e-9)
+    widest = 0.0
+    for centre in centres:
+        towards = centre - eye
+        cosine = float(towards @ view) / max(float(np.linalg.norm(towards)), 1e-9)
+        widest = max(widest, math.degrees(math.acos(min(1.0, max(-1.0, cosine)))))
+    return min(120.0, max(least, 2.0 * (widest + 5.0)))
 
 
 def screen_to_photo(
