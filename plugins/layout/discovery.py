@@ -38,7 +38,8 @@ from psdr_room_core.method.artifacts import Detection
 from psdr_room_core.method.labels import primary_category
 from psdr_room_core.method.surface_colours import SurfaceColours
 
-from .objects import SeenObjects, box_iou, grabcut_mask
+from ..detectors.nanodet import box_iou
+from .objects import SeenObjects, grabcut_mask
 from .proposals import clutter_proposals
 from .settings import DiscoveryParams, GrabCutParams, ProposalParams
 
@@ -157,7 +158,7 @@ def implausible(candidate: Candidate, params: DiscoveryParams) -> str | None:
 def part_of(candidate: Candidate, kept: Candidate, params: DiscoveryParams) -> bool:
     """Whether ``candidate`` is the same object as ``kept`` (boxes overlapping more than ``nms_iou``, or a box
     of the same category inside it and on the same floor line) or a part of it (``parts``)."""
-    if box_iou(candidate.box, kept.box) > params.nms_iou:
+    if box_iou(candidate.box, kept.box[None])[0] > params.nms_iou:
         return True
     if _inside(candidate.box, kept.box) < params.part_overlap:
         return False
@@ -197,7 +198,7 @@ def group_size(candidate: Candidate, others: Sequence[Candidate], params: Discov
         and o.category == candidate.category
         and o.detection.score >= params.group_score * candidate.detection.score
         and _inside(o.box, candidate.box) >= params.part_overlap
-        and box_iou(o.box, candidate.box) <= params.nms_iou
+        and box_iou(o.box, candidate.box[None])[0] <= params.nms_iou
     ]
     chosen: list[Candidate] = []
     for o in inside:
@@ -220,12 +221,12 @@ def vote_labels(prompts: Sequence[Detection], iou: float) -> list[Detection]:
     """Each prompt relabelled with the label whose prompts overlapping it (box IoU above ``iou``, itself
     included) score most in sum: the detector's class is a weak prior, and several weak "chair" boxes on an
     object outvote the one "tv" box that happened to score highest."""
-    boxes = [np.asarray(p.box, np.float64) for p in prompts]
+    boxes = np.array([p.box for p in prompts], np.float64).reshape(-1, 4)
     voted = []
     for p, b in zip(prompts, boxes):
         votes: dict[str, float] = {}
-        for q, c in zip(prompts, boxes):
-            if q is p or box_iou(b, c) > iou:
+        for q, overlapping in zip(prompts, box_iou(b, boxes) > iou):
+            if q is p or overlapping:
                 votes[q.label] = votes.get(q.label, 0.0) + q.score
         best = max(votes, key=lambda label: (votes[label], label == p.label))
         voted.append(p if best == p.label else replace(p, label=best))

@@ -11,6 +11,7 @@ import numpy as np
 from psdr_room_core.method.artifacts import Panoptic
 from psdr_room_core.method.objects import OBJECT_CATEGORIES
 
+from ..detectors.nanodet import box_iou
 from .settings import GrabCutParams
 
 
@@ -60,19 +61,28 @@ class SeenObjects:
 
     instances: list[np.ndarray]
     """(H, W) boolean mask of each object instance."""
+    boxes: np.ndarray
+    """(N, 4) each instance's box (x0, y0, x1, y1 pixels)."""
 
     @classmethod
     def of(cls, panoptic: Panoptic) -> SeenObjects:
         """The object and lamp segments of ``panoptic``."""
         masks = [panoptic.ids == s.id for s in panoptic.segments if s.category in OBJECT_CATEGORIES]
-        return cls([m for m in masks if m.any()])
+        instances = [m for m in masks if m.any()]
+        boxes = []
+        for mask in instances:
+            ys, xs = np.nonzero(mask)
+            boxes.append((xs.min(), ys.min(), xs.max() + 1, ys.max() + 1))
+        return cls(instances, np.array(boxes, np.float64).reshape(-1, 4))
 
     def instance(self, box: tuple[float, float, float, float], same_iou: float) -> np.ndarray | None:
         """The instance whose box overlaps ``box`` (x0, y0, x1, y1 pixels) most, by box IoU ``same_iou`` or
         more: the one object the network sees there."""
-        ious = [box_iou(box, _bounds(m)) for m in self.instances]
-        best = int(np.argmax(ious)) if ious else -1
-        return self.instances[best] if best >= 0 and ious[best] >= same_iou else None
+        if not self.instances:
+            return None
+        ious = box_iou(np.asarray(box, np.float64), self.boxes)
+        best = int(np.argmax(ious))
+        return self.instances[best] if ious[best] >= same_iou else None
 
     def mask(
         self, box: tuple[float, float, float, float], taken: np.ndarray, min_fill: float, same_iou: float
@@ -87,17 +97,3 @@ class SeenObjects:
         mask[max(0, y0) : max(0, y1), max(0, x0) : max(0, x1)] = True
         mask &= one & ~taken
         return mask if mask.sum() >= min_fill * max(1, (x1 - x0) * (y1 - y0)) else None
-
-
-def box_iou(a: np.ndarray | tuple[float, ...], b: np.ndarray | tuple[float, ...]) -> float:
-    """IoU of two boxes (x0, y0, x1, y1)."""
-    w = max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
-    h = max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
-    union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - w * h
-    return float(w * h / max(union, 1e-9))
-
-
-def _bounds(mask: np.ndarray) -> tuple[float, float, float, float]:
-    """The box (x0, y0, x1, y1) of a non-empty mask."""
-    ys, xs = np.nonzero(mask)
-    return float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1)
