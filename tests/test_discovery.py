@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from psdr_room_core.method.artifacts import Camera, Detection, Detections, Image, Panoptic, Segment
-from psdr_room_core.method.labels import primary_category
+from psdr_room_core.method.labels import alternates, meaning, primary_category
 from psdr_room_core.method.surface_colours import SurfaceColours, unprompted
 from psdr_room_plugins.layout import box
 from psdr_room_plugins.layout.discovery import (
@@ -274,6 +274,25 @@ def test_what_a_network_sees_in_a_box() -> None:
     assert seen.mask(first, taken, min_fill=0.3, same_iou=0.5) is None
     assert seen.mask(first, taken, min_fill=0.01, same_iou=0.5).sum() == 40 * 2
     assert seen.mask((10.0, 70.0, 90.0, 90.0), free, min_fill=0.08, same_iou=0.5) is None  # on the wall: nothing
+
+
+def test_a_networks_instance_is_a_second_opinion_on_the_label() -> None:
+    """COCO calls desks "bed", so a "bed" label is second-guessed (desk and table are searched too); a network
+    that knows desks and names the instance filling the box a bed confirms it; one that names it anything else
+    changes nothing; a box no one instance fills gets no second opinion."""
+    ids = np.zeros((100, 100), np.int32)
+    ids[30:90, 10:60] = 1
+    ids[30:90, 65:95] = 2
+    panoptic = Panoptic(ids, [Segment(1, "object", "bed"), Segment(2, "object", "cabinet")])
+    seen = SeenObjects.of(panoptic)
+    bed_box, cabinet_box = (8.0, 28.0, 62.0, 92.0), (63.0, 28.0, 96.0, 92.0)
+    assert seen.label(bed_box, 0.5) == "bed" and seen.label(cabinet_box, 0.5) == "cabinet"
+    assert seen.label((0.0, 0.0, 100.0, 100.0), 0.5) is None
+    bed = meaning("bed")
+    assert bed is not None and alternates(bed) == ("desk", "table")
+    assert alternates(bed, seen.label(bed_box, 0.5)) == ()  # confirmed
+    assert alternates(bed, seen.label(cabinet_box, 0.5)) == ("desk", "table")
+    assert alternates(bed, "desk") == ("desk", "table")  # one of its alternates: still weighed by the shape
 
 
 def test_where_grabcut_finds_nothing_the_networks_instance_is_the_mask(room: dict) -> None:

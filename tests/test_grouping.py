@@ -4,15 +4,16 @@ categories in retrieve_objects."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from psdr_room_core.libraries.object_db import CATEGORIES
-from psdr_room_core.method.artifacts import Camera, Panoptic, PointCloud, RoomBox, Segment
+from psdr_room_core.method.artifacts import Camera, Image, Panoptic, PointCloud, RoomBox, Segment
 from psdr_room_core.method.grouping import GroupParams, Part, group_segments
 from psdr_room_core.method.labels import ANY, LABELS, meaning, primary_category
-from psdr_room_core.method.objects import ObjectQuery, pose_matrix, transform
+from psdr_room_core.method.objects import ObjectQuery, object_queries, pose_matrix, transform
 from psdr_room_core.method.silhouette import depth_map
 from psdr_room_core.method.stages.objects import _rank_by_label
 from psdr_room_plugins.detectors.coco import COCO_80
@@ -102,6 +103,18 @@ def test_a_bed_label_never_retrieves_a_desk(retriever: SilhouetteRetrieval) -> N
     assert all(c.category == "bed" for c in labelled)
     detected = _rank_by_label(retriever, query(2, "bed", desk_mask, desk_points, guessed=True), CAMERA, C2W, 5, 0.1)
     assert detected[0].category in ("desk", "table")
+
+
+def test_a_confirmed_label_is_not_second_guessed(retriever: SilhouetteRetrieval) -> None:
+    """A detector's "bed" is searched among its alternates too, unless a second opinion confirmed it (the eyes
+    network naming the same instance a bed, or a person renaming it): then only beds are."""
+    panoptic, cloud, _, _ = _split_scene(retriever)
+    image = Image(np.zeros((CAMERA.height, CAMERA.width, 3), np.float32))
+    queries = object_queries(image, panoptic, cloud, ROOM, min_points=10, min_pixels=10)
+    assert [q.alternates for q in queries] == [meaning("bed").alternates] * 2  # type: ignore[union-attr]
+    panoptic.segments[2] = replace(panoptic.segments[2], second_opinion="bed")
+    queries = object_queries(image, panoptic, cloud, ROOM, min_points=10, min_pixels=10)
+    assert [q.guessed for q in queries] == [True, True] and [q.alternates for q in queries][1] == ()
 
 
 # --------------------------------------------------------------------------------------------- grouping

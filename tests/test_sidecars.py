@@ -327,6 +327,8 @@ def _random_ids(h: int = 30, w: int = 40) -> tuple[np.ndarray, list[Segment]]:
 def test_panoptic_round_trip(tmp_path: Path):
     """A saved Panoptic artifact loads back, and read as <stem>.panoptic.png/.json by segmentation=file."""
     ids, segments = _random_ids()
+    # an automatic object keeps its score, prompt box and second opinion
+    segments[2] = Segment(segments[2].id, "object", "wardrobe", 0.4, (1.0, 2.0, 3.5, 4.0), second_opinion="cabinet")
     Panoptic(ids=ids, segments=segments).save(tmp_path)
     loaded = Panoptic.load(tmp_path)
     np.testing.assert_array_equal(loaded.ids, ids)
@@ -407,6 +409,12 @@ def test_panoptic_errors(tmp_path: Path):
     with pytest.raises(SidecarError) as e:
         read_coco_panoptic(png, js)
     one_line_error(e, js, "category_id 77")
+
+    bad = dict(good, segments_info=[dict(good["segments_info"][0], second_opinion=3)] + good["segments_info"][1:])
+    js.write_text(json.dumps(bad))
+    with pytest.raises(SidecarError) as e:
+        read_coco_panoptic(png, js)
+    one_line_error(e, js, "second_opinion 3", "a label")
 
     with pytest.raises(PsdrRoomError) as e:
         write_coco_panoptic(png, js, ids, segments[1:])

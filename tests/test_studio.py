@@ -243,6 +243,7 @@ def test_boxes_over_a_users_segmentation_change_the_studios_copy(
     assert labels == expected
     sofa = next(s for s in read.segments if s.label == "sofa")
     assert sofa.score is None and sofa.box is not None  # drawn by a person: kept whatever the fit
+    assert next(s for s in read.segments if s.label == "cabinet").second_opinion == "cabinet"  # a person's name
     assert {name: (folder / name).read_bytes() for name in users} == users
     session.reset_segmentation()
     assert not session.segmentation_file.exists() and not (folder / "photo.studio.panoptic.json").exists()

@@ -57,32 +57,46 @@ def grabcut_mask(
 class SeenObjects:
     """The objects another segmenter (a network) sees in the photo, one mask per instance. Where one fills a
     prompt's box, it is the one object there: its mask where GrabCut cannot cut one (rows of alike chairs,
-    whose colours fill the box's margin too), and no box round a group."""
+    whose colours fill the box's margin too), no box round a group, and its label a second opinion on the
+    prompt's (:meth:`label`)."""
 
     instances: list[np.ndarray]
     """(H, W) boolean mask of each object instance."""
     boxes: np.ndarray
     """(N, 4) each instance's box (x0, y0, x1, y1 pixels)."""
+    labels: list[str]
+    """Each instance's label."""
 
     @classmethod
     def of(cls, panoptic: Panoptic) -> SeenObjects:
         """The object and lamp segments of ``panoptic``."""
-        masks = [panoptic.ids == s.id for s in panoptic.segments if s.category in OBJECT_CATEGORIES]
-        instances = [m for m in masks if m.any()]
+        ids = {s.id for s in panoptic.segments if s.category in OBJECT_CATEGORIES}
+        shown = [(panoptic.ids == s.id, s.label) for s in panoptic.segments if s.id in ids]
+        shown = [(mask, label) for mask, label in shown if mask.any()]
         boxes = []
-        for mask in instances:
+        for mask, _ in shown:
             ys, xs = np.nonzero(mask)
             boxes.append((xs.min(), ys.min(), xs.max() + 1, ys.max() + 1))
-        return cls(instances, np.array(boxes, np.float64).reshape(-1, 4))
+        return cls([m for m, _ in shown], np.array(boxes, np.float64).reshape(-1, 4), [label for _, label in shown])
 
-    def instance(self, box: tuple[float, float, float, float], same_iou: float) -> np.ndarray | None:
-        """The instance whose box overlaps ``box`` (x0, y0, x1, y1 pixels) most, by box IoU ``same_iou`` or
-        more: the one object the network sees there."""
+    def _filling(self, box: tuple[float, float, float, float], same_iou: float) -> int | None:
+        """The index of the instance whose box overlaps ``box`` (x0, y0, x1, y1 pixels) most, by box IoU
+        ``same_iou`` or more: the one object the network sees there."""
         if not self.instances:
             return None
         ious = box_iou(np.asarray(box, np.float64), self.boxes)
         best = int(np.argmax(ious))
-        return self.instances[best] if ious[best] >= same_iou else None
+        return best if ious[best] >= same_iou else None
+
+    def instance(self, box: tuple[float, float, float, float], same_iou: float) -> np.ndarray | None:
+        """The mask of the instance filling ``box`` (see :meth:`_filling`), if any."""
+        index = self._filling(box, same_iou)
+        return None if index is None else self.instances[index]
+
+    def label(self, box: tuple[float, float, float, float], same_iou: float) -> str | None:
+        """The label of the instance filling ``box`` (see :meth:`_filling`), if any."""
+        index = self._filling(box, same_iou)
+        return None if index is None else self.labels[index]
 
     def mask(
         self, box: tuple[float, float, float, float], taken: np.ndarray, min_fill: float, same_iou: float

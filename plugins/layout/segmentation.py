@@ -42,7 +42,8 @@ class LayoutSegmentation:
     ) -> Panoptic:
         """The panoptic segmentation; ``seen``: another segmenter's (a network's), whose wall, floor and
         ceiling labels the box must also agree with (``label_weight``), as ``depth=layout``'s does, and whose
-        objects give a prompt its mask where GrabCut finds none (:class:`~.objects.SeenObjects`)."""
+        objects give a prompt its mask where GrabCut finds none and a second opinion on its label
+        (:class:`~.objects.SeenObjects`)."""
         fitted = fit_layout(image, camera, self.settings, detections=detections, panoptic=seen)
         labels, _ = fitted.trace(camera, image.width, image.height)
         ids = np.zeros(labels.shape, dtype=np.int32)
@@ -56,6 +57,7 @@ class LayoutSegmentation:
         rgb8 = image.to_uint8()
         trusted = [d.box for d in detections.items if d.score >= self.settings.discovery.trusted_score]
         colours = SurfaceColours(rgb8, labels, unprompted(labels.shape, trusted))
+        seen_objects = SeenObjects.of(seen) if seen is not None else None
         found = discover(
             rgb8,
             rays,
@@ -64,27 +66,23 @@ class LayoutSegmentation:
             self.settings.discovery,
             self.settings.proposals,
             self.settings.grabcut,
-            SeenObjects.of(seen) if seen is not None else None,
+            seen_objects,
         )
+        same_iou = self.settings.discovery.seen_iou
         for item in found:
-            segments.append(
-                Segment(
-                    len(segments) + 1,
-                    item.detection.category,
-                    item.detection.label,
-                    item.detection.score,
-                    item.detection.box,
-                )
-            )
+            d = item.detection
+            opinion = seen_objects.label(d.box, same_iou) if seen_objects is not None else None
+            segments.append(Segment(len(segments) + 1, d.category, d.label, d.score, d.box, opinion))
             ids[item.mask] = segments[-1].id
         present = set(np.unique(ids).tolist())
         kept = [s for s in segments if s.id in present]
         log.info(
-            "layout: box %s (score %.3f), %d objects from %d prompts",
+            "layout: box %s (score %.3f), %d objects from %d prompts (%d the network also names)",
             np.round(fitted.box, 2).tolist(),
             fitted.score,
             len(found),
             len(detections.items),
+            sum(s.second_opinion is not None for s in kept),
         )
         return Panoptic(ids=ids, segments=kept)
 

@@ -275,8 +275,9 @@ def read_coco_panoptic(png: Path, json_path: Path) -> tuple[np.ndarray, list[Seg
 
     The JSON is a single annotation (``segments_info`` + ``categories``) or a full COCO panoptic file
     (``annotations`` + ``categories``; the annotation whose ``file_name`` matches the PNG is used). A
-    segment's label is its ``label`` field if present, else its category name; the ``score`` and ``prompt_box``
-    :func:`~psdr_room_core.method.artifacts.write_coco_panoptic` writes for an automatic object are read back.
+    segment's label is its ``label`` field if present, else its category name; the ``score``, ``prompt_box`` and
+    ``second_opinion`` :func:`~psdr_room_core.method.artifacts.write_coco_panoptic` writes for an automatic object are read
+    back.
     """
     png, json_path = Path(png), Path(json_path)
     if not json_path.is_file():
@@ -339,6 +340,11 @@ def read_coco_panoptic(png: Path, json_path: Path) -> tuple[np.ndarray, list[Seg
             raise SidecarError(
                 f"{json_path}: segment {sid} has prompt_box {box!r}; give [x0, y0, x1, y1] or leave it out"
             )
+        opinion = info.get("second_opinion")
+        if opinion is not None and not isinstance(opinion, str):
+            raise SidecarError(
+                f"{json_path}: segment {sid} has second_opinion {opinion!r}; give a label (text) or leave it out"
+            )
         segments.append(
             Segment(
                 sid,
@@ -346,6 +352,7 @@ def read_coco_panoptic(png: Path, json_path: Path) -> tuple[np.ndarray, list[Seg
                 label,
                 None if score is None else float(score),
                 None if box is None else box4(box),
+                opinion,
             )
         )
 

@@ -322,6 +322,15 @@ def meaning(label: str, category: str = "object") -> LabelMeaning | None:
     return LabelMeaning(("lamp",)) if category == "lamp" else ANY
 
 
+def alternates(named: LabelMeaning, second_opinion: str | None = None) -> tuple[str, ...]:
+    """What else a guessed segment of label meaning ``named`` may be: its alternates, unless a
+    ``second_opinion`` (a network's, a person's) names one of its own categories: the label is confirmed. A
+    second opinion naming another category adds nothing (the eyes network, which knows desks, is as often
+    wrong about what COCO names as the detector is)."""
+    confirmed = second_opinion is not None and primary_category(second_opinion) in named.categories
+    return () if confirmed else named.alternates
+
+
 def primary_category(label: str, category: str = "object") -> str | None:
     """The label's most likely database category (``object``: unknown), None for a thing not in the database."""
     found = meaning(label, category)

@@ -15,7 +15,7 @@ import numpy as np
 from psdr_room_core.engine.settings import setting
 
 from .artifacts import Camera, Image, Panoptic, PointCloud, RoomBox, rotation_y
-from .labels import meaning
+from .labels import alternates, meaning
 from .silhouette import mask_l1, silhouette
 
 OBJECT_CATEGORIES = ("object", "lamp")
@@ -42,7 +42,8 @@ class ObjectQuery:
     """The segment's prompt box (:attr:`~psdr_room_core.method.artifacts.Segment.box`): a model may cover it outside the
     mask without being wrong."""
     alternates: tuple[str, ...] = ()
-    """What the label may also be (:attr:`~.labels.LabelMeaning.alternates`), for a guessed segment only."""
+    """What else a guessed segment may be (:func:`~.labels.alternates`): searched too, taken only where the shape
+    says so."""
     guessed: bool = False
     """The segment is an automatic guess (it has a score): its label is weak."""
     room: RoomBox | None = None
@@ -79,7 +80,7 @@ def object_queries(
                 square_crop(rgb8, mask),
                 scene,
                 segment.box,
-                named.alternates if guessed else (),
+                alternates(named, segment.second_opinion) if guessed else (),
                 guessed,
                 room,
             )

@@ -291,7 +291,8 @@ class Session:
         )
 
     def relabel_box(self, index: int, label: str) -> None:
-        """Name box ``index``'s object (a database category such as ``sofa`` steers retrieval to it)."""
+        """Name box ``index``'s object (a database category such as ``sofa`` steers retrieval to it; where the
+        segments come from a file, the name is the segment's second opinion too: never second-guessed)."""
         boxes = self.boxes()
         self._check_index(index, boxes)
         if not label.strip():
@@ -305,7 +306,10 @@ class Session:
         named = _objects(panoptic)[index].id
         self._write_segmentation(
             panoptic.ids,
-            [replace(s, label=label.strip()) if s.id == named else s for s in panoptic.segments],
+            [
+                replace(s, label=label.strip(), second_opinion=label.strip()) if s.id == named else s
+                for s in panoptic.segments
+            ],
             self.marks,
         )
 

@@ -146,6 +146,11 @@ class Segment:
     """The box that prompted an automatic object segment (working-image pixels): the object may reach anywhere
     in it (a box-prompted cut leaves out thin legs), so a model covering it where the mask does not is not
     wrong. None: the mask is the whole object."""
+    second_opinion: str | None = None
+    """What a second judge calls an automatic object: the label of a network's instance filling its prompt's box
+    (``segmentation=layout_eyes``), or a person's name for it (the studio). Where it names one of the label's own
+    categories the label is confirmed: its alternates are not searched
+    (:func:`~psdr_room_core.method.labels.alternates`). None: nobody else judged."""
 
     def __post_init__(self) -> None:
         if self.box is not None:
@@ -210,6 +215,7 @@ def write_coco_panoptic(png: Path, json_path: Path, ids: np.ndarray, segments: l
                 "bbox": bbox,
                 **({} if s.score is None else {"score": float(s.score)}),
                 **({} if s.box is None else {"prompt_box": [float(v) for v in s.box]}),
+                **({} if s.second_opinion is None else {"second_opinion": s.second_opinion}),
             }
         )
     write_json(
@@ -268,6 +274,7 @@ class Panoptic:
                     s.get("label") or names[s["category_id"]],
                     None if s.get("score") is None else float(s["score"]),
                     s.get("prompt_box"),
+                    s.get("second_opinion"),
                 )
                 for s in meta["segments_info"]
             ]
