@@ -4,7 +4,9 @@ A label restricts the model search to its own categories: a ``bed`` is searched 
 never a bed's answer. Automatic labels mislead in known ways (the COCO detector has no desk, dresser or
 nightstand: it calls desks "bed" and dressers "oven" or "tv"), so such a label also names **alternates**:
 for a guessed segment they are searched too, and one is taken only where its shape explains the object clearly
-better (``retrieve_objects`` logs the decision either way). A label a person gave is never second-guessed.
+better (``retrieve_objects`` logs the decision either way), unless a second opinion (the eyes network's
+instance in the box) names the label's own category (:func:`alternates`). A label a person gave is never
+second-guessed.
 
 :data:`LABELS` covers every class the bundled detector (COCO's 80), the ADE20K segmenters and the NYU-40 /
 SUN RGB-D annotations can emit, and the common LabelMe names; a free-form label is looked up whole, then by
@@ -325,8 +327,8 @@ def meaning(label: str, category: str = "object") -> LabelMeaning | None:
 def alternates(named: LabelMeaning, second_opinion: str | None = None) -> tuple[str, ...]:
     """What else a guessed segment of label meaning ``named`` may be: its alternates, unless a
     ``second_opinion`` (a network's, a person's) names one of its own categories: the label is confirmed. A
-    second opinion naming another category adds nothing (the eyes network, which knows desks, is as often
-    wrong about what COCO names as the detector is)."""
+    second opinion naming another category adds nothing: searched too, the eyes network's shelf on a chair
+    NanoDet called a dining table won on the shared photos."""
     confirmed = second_opinion is not None and primary_category(second_opinion) in named.categories
     return () if confirmed else named.alternates
 
