@@ -222,6 +222,33 @@ def test_two_objects_passing_through_each_other_are_moved_apart(db: ObjectDataba
     assert settled.placements[0] == bed and 0.1 < np.linalg.norm(np.subtract(moved.position, stand.position)) <= 0.5
 
 
+def test_what_made_room_for_a_dropped_object_goes_back(db: ObjectDatabase) -> None:
+    """A weak desk wedged between a wall and a stronger desk cannot be parted from it and is dropped; the box
+    in front of it had first stepped out of it (that pair passing deeper), and goes back where it was."""
+
+    def cube(segment_id: int, category: str, x: float, z: float, scale: float, explained: float) -> Placement:
+        return Placement(segment_id, category, f"cube_{segment_id}", cube_mesh(), (x, 0.0, z), 0.0, scale,
+                         "floor", None, category, explained)  # fmt: skip
+
+    side = 0.8  # the desks' smallest real size is 0.8 * e^-0.15: shrinking frees at most 5.6 cm
+    weak = cube(1, "desk", -side / 2, 2.0, side, explained=0.3)  # from the left wall ...
+    strong = cube(2, "desk", side / 2 - 0.15, 2.0, side, explained=0.9)  # ... 15 cm into this one, to the right wall
+    box = cube(3, "box", -side / 2, 2.0 - side / 2 - 0.2 + 0.25, 0.4, explained=0.8)  # 25 cm into the weak desk
+    room = RoomBox(
+        camera_to_world=C2W,
+        center=np.array([-0.075, 1.5, 1.0]),
+        half_size=np.array([side - 0.075, 1.5, 3.5]),
+        yaw=0.0,
+    )
+    pixels = {1: 3000, 2: 3000, 3: 1500}
+    settled = settle([weak, strong, box], room, CAMERA, drawn=set(), pixels=pixels, params=PARAMS)
+    assert [p.segment_id for p in settled.placements] == [2, 3]
+    assert settled.dropped[0].startswith("1:desk (cube_1): passes")
+    assert any(c.startswith("3:box (cube_3): moved") for c in settled.changed)
+    assert settled.changed[-1] == "3:box (cube_3): back as it was before it made room for 1:desk (cube_1), dropped"
+    assert settled.placements[1] == box
+
+
 def test_an_object_beyond_the_room_is_brought_in_or_the_room_grows(db: ObjectDatabase) -> None:
     chair = placed(db, "parametric/chair_004", 3, (0.0, 0.0, 4.45))  # its back 10 cm through the far wall
     assert room_excess(chair, ROOM)[2] > 0.05

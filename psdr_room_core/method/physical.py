@@ -21,8 +21,9 @@ keeps its place in the picture, and logged), dropping an object only as the last
    (:func:`~.solids.overlap`), the one whose freeing change keeps its silhouette best (at least ``keep_iou``)
    takes it: a horizontal step (up to ``max_shift``) or shrinking in place within its category's sizes (a big
    table stepping back 10 cm changes the picture less than the chair tucked under it stepping out); else, in
-   the ``final`` settling, the one that explains less is dropped (unless a person drew both). Before it (after ``place_objects``) such a pair
-   is left to the joint fit, which pays for interpenetration;
+   the ``final`` settling, the one that explains less is dropped (unless a person drew both), and what changed
+   to make room for it goes back where that passes through nothing more. Before it (after ``place_objects``)
+   such a pair is left to the joint fit, which pays for interpenetration;
 5. **what the photo shows stays in sight**: an object the others hide (seen from the camera, it shows less than
    ``hidden_share`` of the pixels of its segment it covers alone) contradicts the photo, which shows it there,
    and no gradient of the joint fit reaches a fully hidden object. Where the object in front of it is a blob
@@ -532,6 +533,7 @@ class _Scene:
         return self.first(lambda r: along_ray(p, p.scale * r, self.origin), ok, np.geomspace(1.05, 3.0, 16))
 
     def separate(self, final: bool, rounds: int = 3) -> None:
+        parted: dict[int, list[tuple[Placement, Placement]]] = {}  # id -> (before, after) of those parted from it
         for _ in range(rounds):
             pairs = []
             for p in self.objects.values():
@@ -555,12 +557,28 @@ class _Scene:
                     shift = float(np.linalg.norm(np.subtract(moved.position, before.position)))
                     how = f"moved {shift:.2f} m" if shift > 1e-6 else f"scaled {before.scale:.2f} -> {moved.scale:.2f}"
                     self.put(moved, f"{how} out of {_name(self.objects[other])} (silhouette IoU {iou:.2f} with before)")
+                    parted.setdefault(other, []).append((before, moved))
                 elif final and weaker not in self.drawn:  # two objects a person drew stay: what is left is reported
+                    gone = _name(self.objects[weaker])
                     self.drop(
                         weaker,
                         f"passes {depth:.2f} m through {_name(self.objects[stronger])}, with no "
                         f"free place within {self.params.max_shift:g} m for either",
                     )
+                    self.restore(parted.pop(weaker, []), gone)
+
+    def restore(self, changes: list[tuple[Placement, Placement]], gone: str) -> None:
+        """Undo ``changes`` (before, after) made to part objects from ``gone``, now dropped: each object still
+        as the change left it goes back where that passes no deeper through anything and reaches no farther
+        beyond the room."""
+        for before, after in changes:
+            if self.objects.get(after.segment_id) is not after:
+                continue  # changed again since
+            through = dict(self.collisions(after))
+            if self.reach(before) <= self.reach(after) + 1e-3 and all(
+                depth <= through.get(k, 0.0) + 1e-3 for k, depth in self.collisions(before)
+            ):
+                self.put(before, f"back as it was before it made room for {gone}, dropped")
 
 
 def settle(
