@@ -35,9 +35,6 @@ from .plugin import EyesSettings
 
 log = logging.getLogger("psdr_room")
 
-ROOM_LABELS = ("wall", "floor", "ceiling", "window", "door")
-"""The network's segments the box is fitted to."""
-
 
 class _LayoutHelpedByEyes:
     """What the eyes network needs, for a layout implementation helped by it: its file, and why it cannot run."""
@@ -65,7 +62,8 @@ class LayoutWithEyesSurfaces(_LayoutHelpedByEyes):
         log.info(
             "layout_eyes: the box also fits %s's %s; its %d furniture instance(s) help discovery",
             self.eyes.describe(),
-            ", ".join(sorted({s.category for s in seen.segments if s.category in ROOM_LABELS})) or "no room surfaces",
+            ", ".join(sorted({s.category for s in seen.segments if s.category not in OBJECT_CATEGORIES}))
+            or "no room surfaces",
             sum(s.category in OBJECT_CATEGORIES for s in seen.segments),
         )
         return self.layout.segment(image, camera, detections, photo, seen=seen)

@@ -70,8 +70,7 @@ class SeenObjects:
     @classmethod
     def of(cls, panoptic: Panoptic) -> SeenObjects:
         """The object and lamp segments of ``panoptic``."""
-        ids = {s.id for s in panoptic.segments if s.category in OBJECT_CATEGORIES}
-        shown = [(panoptic.ids == s.id, s.label) for s in panoptic.segments if s.id in ids]
+        shown = [(panoptic.ids == s.id, s.label) for s in panoptic.segments if s.category in OBJECT_CATEGORIES]
         shown = [(mask, label) for mask, label in shown if mask.any()]
         boxes = []
         for mask, _ in shown:
