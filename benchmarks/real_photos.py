@@ -10,9 +10,10 @@ copied alone into a temporary folder and run through the ``psdr-room`` command w
 * reference furniture recall, where the folder has reference 2D boxes (a ``detections.json`` list of
   ``{"bbox": [x0, y0, x1, y1], "class": NAME}``, or an mmdetection3d SUN RGB-D ``*infos.pkl``): the
   references whose class :data:`REFERENCE_CLASSES` maps to database categories (the others are ignored),
-  matched one-to-one (greedy, best IoU first) at box IoU >= 0.5 by an object segment's box (``seg``) and
-  by a fitted object (``obj``: the box of its mesh projected with the fitted camera, its database
-  category among the reference's);
+  matched one-to-one (greedy, best IoU first) at box IoU >= 0.5 by an object segment's box (``seg``), by a
+  placed object before the joint fit (``placed``: ``place_objects``' poses) and by a fitted object (``obj``:
+  the box of its mesh projected with the fitted camera, its database category among the reference's), so
+  that a piece lost between perception and the scene shows in which stage it was lost;
 * what the object stage did with what perception found (:mod:`psdr_room_core.method.physical`'s measures):
   ``lost``: references matched by an object segment but by no fitted object; ``dup``: pairs of fitted objects
   of one category that are one thing twice (sharing half the smaller one's volume, or half their silhouettes);
@@ -64,7 +65,7 @@ import numpy as np
 
 from psdr_room_core.libraries.object_db import ObjectDatabase, builtin_database
 from psdr_room_core.libraries.sidecar_depth import read_depth
-from psdr_room_core.method.artifacts import Camera, DepthMap, Image, Panoptic, Placements, RoomBox
+from psdr_room_core.method.artifacts import Camera, DepthMap, Image, Panoptic, Placement, Placements, RoomBox
 from psdr_room_core.method.guesses import guesses
 from psdr_room_core.method.objects import OBJECT_CATEGORIES
 from psdr_room_core.method.physical import PhysicalParams, hidden_by, interpenetrations, room_excess
@@ -251,6 +252,26 @@ def read_references(file: Path) -> list[tuple[str, np.ndarray]]:
 
 
 # ---------------------------------------------------------------------------------------------- matching
+def seen_objects(
+    placements: Placements, art: Path, db: ObjectDatabase
+) -> tuple[list[np.ndarray], list[tuple[np.ndarray, Placement]], list[str]]:
+    """Each posed object's silhouette box and (silhouette, placement) seen with the run's fitted camera and room
+    (``art``: its artifacts folder), and its database category ("other" for a model the database lacks); objects
+    out of view are left out."""
+    boxes, masks, categories = [], [], []
+    if placements.objects:
+        camera = Camera.load(art / "camera_fit")
+        c2w = np.asarray(RoomBox.load(art / "room_box_fit").camera_to_world)
+        for p in placements.objects:
+            mask = silhouette(camera, c2w, p.world_vertices(), p.mesh.faces)
+            box = mask_box(mask)
+            if box is not None:
+                boxes.append(box)
+                masks.append((mask, p))
+                categories.append(db.record(p.model_id).category if p.model_id in db else "other")
+    return boxes, masks, categories
+
+
 def match(
     references: Sequence[np.ndarray],
     boxes: Sequence[np.ndarray],
@@ -339,17 +360,7 @@ def evaluate(entry: Entry, run_dir: Path, db: ObjectDatabase, seconds: float, sh
             Panoptic.load(grouped),
         )
     )
-    fitted_boxes, fitted_masks, categories = [], [], []
-    if placements.objects:
-        camera = Camera.load(art / "camera_fit")
-        c2w = np.asarray(RoomBox.load(art / "room_box_fit").camera_to_world)
-        for p in placements.objects:
-            mask = silhouette(camera, c2w, p.world_vertices(), p.mesh.faces)
-            box = mask_box(mask)
-            if box is not None:
-                fitted_boxes.append(box)
-                fitted_masks.append((mask, p))
-                categories.append(db.record(p.model_id).category if p.model_id in db else "other")
+    fitted_boxes, fitted_masks, categories = seen_objects(placements, art, db)
     scale = np.array([image.width / entry.size[0], image.height / entry.size[1]] * 2)
     references, ignored = [], []
     if entry.boxes is not None:
@@ -364,9 +375,13 @@ def evaluate(entry: Entry, run_dir: Path, db: ObjectDatabase, seconds: float, sh
         found = match(ref_boxes, fitted_boxes, eligible.reshape(len(references), len(fitted_boxes)))
         by_segment = {r for r, _ in match(ref_boxes, segment_boxes)}
         matched_refs = {r for r, _ in found}
+        placed = Placements.load(art / "placements") if (art / "placements").is_dir() else Placements(objects=[])
+        placed_boxes, _, placed_categories = seen_objects(placed, art, db)
+        allowed = np.array([[c in REFERENCE_CLASSES[n] for c in placed_categories] for n, _ in references], bool)
         row.update(
             references=len(references),
             seg_recall=len(by_segment),
+            place_recall=len(match(ref_boxes, placed_boxes, allowed.reshape(len(references), len(placed_boxes)))),
             obj_recall=len(found),
             lost=sorted(references[r][0] for r in by_segment - matched_refs),
             ignored=sorted(set(ignored)),
@@ -564,7 +579,7 @@ PHYSICAL = (
 
 def format_table(rows: list[dict]) -> str:
     header = (
-        f"{'photo':<24} {'FoV err':>7} {'segs':>4} {'fit':>4} {'seg rec':>7} {'obj rec':>7} "
+        f"{'photo':<24} {'FoV err':>7} {'segs':>4} {'fit':>4} {'seg rec':>7} {'placed':>7} {'obj rec':>7} "
         + " ".join(f"{c:>4}" for c, _ in PHYSICAL)
         + f" {'si-log':>6} {'AbsRel':>6} {'δ1':>5} {'w/f/c':>5} {'RMSE init→fit':>15} {'SSIM init→fit':>13} {'FLIP init→fit':>13} {'s':>5}"
     )
@@ -576,7 +591,8 @@ def format_table(rows: list[dict]) -> str:
         counts = " ".join(f"{_count(r, key) if key in r else '-':>4}" for _, key in PHYSICAL)
         lines.append(
             f"{r['photo']:<24} {_cell(r.get('fov_error'), '+.2f', 7)} {r['segments']:>4} {r['fitted']:>4} "
-            f"{_ratio(r, 'seg_recall'):>7} {_ratio(r, 'obj_recall'):>7} {counts} {_cell(r.get('silog'), '.3f', 6)} "
+            f"{_ratio(r, 'seg_recall'):>7} {_ratio(r, 'place_recall'):>7} {_ratio(r, 'obj_recall'):>7} {counts} "
+            f"{_cell(r.get('silog'), '.3f', 6)} "
             f"{_cell(r.get('absrel'), '.3f', 6)} {_cell(r.get('delta1'), '.2f', 5)} "
             f"{_cell(r.get('room_accuracy'), '.2f', 5)} {rmse:>15} {ssim:>13} {flip:>13} {r['seconds']:5.0f}"
         )
@@ -589,6 +605,7 @@ def format_table(rows: list[dict]) -> str:
         f"{'total (' + str(len(rows)) + ' photos)':<24} {_cell(float(np.median(fov)) if fov else None, '.2f', 7)} "
         f"{sum(r['segments'] for r in rows):>4} {sum(r['fitted'] for r in rows):>4} "
         f"{(str(sum(r['seg_recall'] for r in boxed)) + '/' + str(refs)) if boxed else '-':>7} "
+        f"{(str(sum(r['place_recall'] for r in boxed)) + '/' + str(refs)) if boxed else '-':>7} "
         f"{(str(sum(r['obj_recall'] for r in boxed)) + '/' + str(refs)) if boxed else '-':>7} "
         + " ".join(f"{sum(_count(r, key) for r in rows):>4}" for _, key in PHYSICAL)
         + f" {_cell(_median(rows, 'silog'), '.3f', 6)} {_cell(_median(rows, 'absrel'), '.3f', 6)} "
@@ -646,7 +663,7 @@ def compare_table(before: list[dict], after: list[dict]) -> str:
     """Recall and fit columns of an earlier run (``before``) beside this one's, per photo."""
     old = {r["photo"]: r for r in before}
     header = (
-        f"{'photo':<24} {'segs':>9} {'fit':>9} {'seg rec':>13} {'obj rec':>13} {'lost':>7} {'AbsRel':>13} "
+        f"{'photo':<24} {'segs':>9} {'fit':>9} {'seg rec':>13} {'placed':>13} {'obj rec':>13} {'lost':>7} {'AbsRel':>13} "
         f"{'δ1':>11} {'w/f/c':>11} {'RMSE fit':>13} {'SSIM fit':>13} {'FLIP fit':>13}"
     )
     lines = [header, "-" * len(header)]
@@ -664,7 +681,7 @@ def compare_table(before: list[dict], after: list[dict]) -> str:
         lost = f"{_count(o, 'lost') if o and 'lost' in o else '-'}→{_count(r, 'lost') if 'lost' in r else '-'}"
         lines.append(
             f"{r['photo']:<24} {pair(o, r, 'segments'):>9} {pair(o, r, 'fitted'):>9} "
-            f"{pair(o, r, 'seg_recall'):>13} {pair(o, r, 'obj_recall'):>13} {lost:>7} "
+            f"{pair(o, r, 'seg_recall'):>13} {pair(o, r, 'place_recall'):>13} {pair(o, r, 'obj_recall'):>13} {lost:>7} "
             f"{pair(o, r, 'absrel', '.3f'):>13} {pair(o, r, 'delta1', '.2f'):>11} "
             f"{pair(o, r, 'room_accuracy', '.2f'):>11} {pair(o, r, 'rmse', '.3f'):>13} "
             f"{pair(o, r, 'ssim', '.3f'):>13} {pair(o, r, 'flip', '.3f'):>13}"
@@ -672,7 +689,9 @@ def compare_table(before: list[dict], after: list[dict]) -> str:
 
     def total(rows: list[dict], key: str) -> str:
         boxed = [r for r in rows if "references" in r]
-        return f"{sum(r[key] for r in boxed)}/{sum(r['references'] for r in boxed)}" if boxed else "-"
+        if not boxed or any(key not in r for r in boxed):  # an earlier run without the column
+            return "-"
+        return f"{sum(r[key] for r in boxed)}/{sum(r['references'] for r in boxed)}"
 
     def summary(rows: list[dict], key: str, how: Callable[[list[float]], float], fmt: str) -> str:
         values = [r[key] for r in rows if key in r]
@@ -686,6 +705,7 @@ def compare_table(before: list[dict], after: list[dict]) -> str:
         f"{str(sum(r['segments'] for r in earlier)) + '→' + str(sum(r['segments'] for r in after)):>9} "
         f"{str(sum(r['fitted'] for r in earlier)) + '→' + str(sum(r['fitted'] for r in after)):>9} "
         f"{total(earlier, 'seg_recall') + '→' + total(after, 'seg_recall'):>13} "
+        f"{total(earlier, 'place_recall') + '→' + total(after, 'place_recall'):>13} "
         f"{total(earlier, 'obj_recall') + '→' + total(after, 'obj_recall'):>13} "
         f"{str(sum(_count(r, 'lost') for r in earlier)) + '→' + str(sum(_count(r, 'lost') for r in after)):>7} "
         f"{summary(earlier, 'absrel', np.median, '.3f') + '→' + summary(after, 'absrel', np.median, '.3f'):>13} "
