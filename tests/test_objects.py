@@ -38,7 +38,10 @@ from psdr_room_core.method.objects import (
 )
 from psdr_room_core.method.silhouette import MeshCaster, camera_rays, depth_map, silhouette
 from psdr_room_core.method.stages.objects import (
+    Explained,
+    ObjectTargets,
     PoseModel,
+    explained,
     fit_objects,
     object_targets,
     restore_lost,
@@ -432,6 +435,7 @@ def test_fit_objects_recovers_perturbed_poses(tmp_path: Path) -> None:
         "collision_weight": 2.0,
         "back_weight": 0.05,
         "keep_share": 0.5,
+        "same_box": 0.5,
         "physical": PHYSICAL,
         "learning_rates": {"translation": 0.01, "log_scale": 0.01, "yaw": 1.0},
         "yaw_test": {"at": 0.5, "angles": [180.0, 90.0, -90.0], "min_gain": 0.1},
@@ -554,13 +558,52 @@ def test_an_object_the_fit_pushed_off_its_segment_goes_back_to_its_placed_pose()
     with torch.no_grad():
         for values in model.theta.values():
             values += 0.5
-    assert restore_lost(model, np.array([0.9, 0.8]), np.array([0.09, 0.7]), share=0.5) == [0]
+    no_box = np.full(2, np.nan)
+    placed, fitted = Explained(np.array([0.9, 0.8]), no_box), Explained(np.array([0.09, 0.7]), no_box)
+    assert restore_lost(model, placed, fitted, share=0.5, same_box=0.5) == [0]
     assert model.theta["log_scale"].tolist() == [0.0, 0.5] and model.theta["yaw"].tolist() == [0.0, 0.5]
     assert model.theta["translation"][0].tolist() == [0.0, 0.0, 0.0]
     with torch.no_grad():
         first, second = model.placements_now()
     assert first.position == pytest.approx(start.objects[0].position) and first.scale == pytest.approx(0.9)
     assert second.position != pytest.approx(start.objects[1].position)
+
+
+def test_an_object_the_fit_took_off_its_prompt_box_goes_back_to_its_placed_pose() -> None:
+    """A cut that lost a chair's thin legs is fitted by a smaller chair farther away: its render still explains
+    the cut (no loss of render IoU), but its box, which matched the detector's box reaching the floor when
+    placed, no longer does. It gets its placed pose back; an object whose box never matched its prompt box, and
+    one with no prompt box, keep their fit."""
+    mesh = l_shape()
+    start = Placements(
+        objects=[
+            Placement(i, "chair", "m", mesh, (x, 0.0, 2.0), 0.0, 0.8, "floor")
+            for i, x in ((1, -1.0), (2, 0.0), (3, 1.0))
+        ]
+    )
+    model = PoseModel(start, ROOM, unit=3.0)
+    with torch.no_grad():
+        for values in model.theta.values():
+            values += 0.5
+    placed = Explained(np.array([0.5, 0.5, 0.5]), np.array([0.8, 0.4, np.nan]))
+    fitted = Explained(np.array([0.7, 0.7, 0.7]), np.array([0.4, 0.3, np.nan]))
+    assert restore_lost(model, placed, fitted, share=0.5, same_box=0.5) == [0]
+    assert model.theta["log_scale"].tolist() == [0.0, 0.5, 0.5]
+
+
+def test_what_a_render_explains_of_its_segment_and_prompt_box() -> None:
+    """Render IoU with the segment's mask, and box IoU of the render (pixels over half covered) with the prompt
+    box; NaN without a prompt box or where nothing is rendered."""
+    target = np.zeros((3, 20, 20), np.float32)
+    target[:, 5:10, 5:15] = 1.0  # a cut that stops at the seat
+    boxes = np.array([[5.0, 5.0, 15.0, 15.0], [5.0, 5.0, 15.0, 15.0], [np.nan] * 4])
+    targets = ObjectTargets(masks=target, masked_depth=target, weights=np.ones_like(target), boxes=boxes)
+    rendered = torch.zeros(3, 20, 20)
+    rendered[:, 5:15, 5:15] = 1.0  # the whole chair, down to the floor
+    rendered[1] = 0.0
+    out = explained(rendered, targets)
+    assert out.mask.tolist() == pytest.approx([0.5, 0.0, 0.5])
+    assert out.box[0] == pytest.approx(1.0) and np.isnan(out.box[1]) and np.isnan(out.box[2])
 
 
 @pytest.mark.parametrize(

@@ -393,6 +393,8 @@ class ObjectTargets:
     weights: np.ndarray
     """[P,h,w] how much each pixel counts in the object's terms: 0 on the free pixels of a prompted segment
     (its prompt box outside its mask: the object may reach there or not), 1 elsewhere."""
+    boxes: np.ndarray
+    """[P,4] each segment's prompt box (x0, y0, x1, y1) at render resolution; NaN where it has none."""
 
 
 def object_targets(placements: Placements, panoptic: Panoptic, depth: DepthMap, size: tuple[int, int]) -> ObjectTargets:
@@ -400,7 +402,8 @@ def object_targets(placements: Placements, panoptic: Panoptic, depth: DepthMap, 
         return cv2.resize(x.astype(np.float32), size, interpolation=cv2.INTER_AREA)
 
     boxes = {s.id: s.box for s in panoptic.segments}
-    masks, masked, weights = [], [], []
+    masks, masked, weights, prompts = [], [], [], []
+    to_render = size[0] / panoptic.ids.shape[1]
     for p in placements.objects:
         mask = panoptic.ids == p.segment_id
         valid = mask & depth.valid
@@ -415,11 +418,39 @@ def object_targets(placements: Placements, panoptic: Panoptic, depth: DepthMap, 
             x0, y0, x1, y1 = (max(0, int(round(v))) for v in box)
             free[y0:y1, x0:x1] = True
         weights.append(1.0 - area(free & ~mask))
+        prompts.append(np.full(4, np.nan) if box is None else np.asarray(box, np.float64) * to_render)
     return ObjectTargets(
         masks=np.stack(masks).astype(np.float32),
         masked_depth=np.stack(masked).astype(np.float32),
         weights=np.stack(weights).astype(np.float32),
+        boxes=np.stack(prompts),
     )
+
+
+@dataclass(frozen=True)
+class Explained:
+    """How well each object's render explains its segment."""
+
+    mask: np.ndarray
+    """[P] render IoU with the segment's mask."""
+    box: np.ndarray
+    """[P] IoU of the render's box with the segment's prompt box (the detector's box reaches the thin legs and
+    the floor that a cut mask loses); NaN where the segment has no prompt box or the object is out of view."""
+
+
+def explained(masks: torch.Tensor, targets: ObjectTargets) -> Explained:
+    """:class:`Explained` of rendered ``masks`` [P,h,w] (a pixel over half covered is in a render's box)."""
+    t_masks = torch.from_numpy(targets.masks)
+    ious = (masks * t_masks).sum((1, 2)) / (masks + t_masks - masks * t_masks).sum((1, 2)).clamp_min(1e-6)
+    boxes = np.full(len(masks), np.nan)
+    for i, (mask, prompt) in enumerate(zip(masks.numpy() > 0.5, targets.boxes)):
+        rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+        if len(rows) and not np.isnan(prompt).any():
+            box = np.array([cols[0], rows[0], cols[-1] + 1, rows[-1] + 1], np.float64)
+            lo, hi = np.maximum(box[:2], prompt[:2]), np.minimum(box[2:], prompt[2:])
+            inter = float(np.prod(np.clip(hi - lo, 0, None)))
+            boxes[i] = inter / (np.prod(box[2:] - box[:2]) + np.prod(prompt[2:] - prompt[:2]) - inter)
+    return Explained(mask=ious.numpy(), box=boxes)
 
 
 def gaussian_pyramid_blur(masks: torch.Tensor, sigmas: tuple[float, ...]) -> torch.Tensor:
@@ -606,7 +637,8 @@ def fit_objects(
     its support constraint (:class:`PoseModel`), with the ``renderer`` and the ``optimizer``. The fit runs until the
     yaw test (or a plateau of the loss before it), then, where an object turned or the loss had not flattened, on to
     ``iterations`` (or a plateau); each phase leaves its best iterate. An object the fit left explaining less than
-    ``keep_share`` of what it explained when placed goes back to its placed pose (:func:`restore_lost`). The fitted
+    ``keep_share`` of what it explained when placed, or whose render's box the fit took off its prompt box
+    (``same_box``), goes back to its placed pose (:func:`restore_lost`). The fitted
     scene is then made physically possible (:func:`~psdr_room_core.method.physical.settle`, ``physical``:
     place_objects' settings): real sizes, inside the room (which grows where an object the photo shows cannot be
     brought inside it: the room box after the objects, ``room``), no interpenetration beyond
@@ -616,7 +648,7 @@ def fit_objects(
     ``size_prior`` {``scale_weight``, ``range_weight``}, ``room_weight``, ``collision_weight``, ``back_weight``,
     ``learning_rates`` {translation (room half-size units), log_scale, yaw (degrees)}, ``yaw_test`` {``at``:
     fraction of the iterations after which :func:`try_yaw_turns` runs, ``angles``, ``min_gain``},
-    ``keep_share``, ``convergence`` (:class:`~psdr_room_core.method.convergence.Plateau`), ``physical``.
+    ``keep_share``, ``same_box``, ``convergence`` (:class:`~psdr_room_core.method.convergence.Plateau`), ``physical``.
     """
     if not placements.objects:
         return {
@@ -642,7 +674,7 @@ def fit_objects(
     t_blur = gaussian_pyramid_blur(t_masks, sigmas)
 
     def per_object(iteration: int) -> tuple[torch.Tensor, torch.Tensor, dict[str, float]]:
-        """Eq. 3's term of each object [P], each object's mask IoU [P], and the logged terms."""
+        """Eq. 3's term of each object [P], the rendered masks [P,h,w], and the logged terms."""
         vertices = model.vertices()
         masks, weighted_depth, alpha = renderer.render(vertices, iteration)
         rendered_depth = weighted_depth / alpha.clamp_min(1e-3)
@@ -663,11 +695,11 @@ def fit_objects(
             "mean_iou": ious.mean().item(),
         }
         total = depth_term + settings.blur_weight * blur_term + size_term + room_term + collision_term + back_term
-        return total, ious.detach(), terms
+        return total, masks.detach(), terms
 
     best = BestIterate(model.theta)
     with torch.no_grad():
-        placed_ious = per_object(0)[1].numpy()
+        placed = explained(per_object(0)[1], targets)
 
     def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
         terms, _, logged = per_object(iteration)
@@ -695,23 +727,24 @@ def fit_objects(
         )
         best.restore()
     with torch.no_grad():
-        fitted_ious = per_object(len(history))[1].numpy()
-        restored = restore_lost(model, placed_ious, fitted_ious, settings.keep_share)
-        ious = per_object(len(history))[1].numpy() if restored else fitted_ious
+        fitted = explained(per_object(len(history))[1], targets)
+        restored = restore_lost(model, placed, fitted, settings.keep_share, settings.same_box)
+        ious = explained(per_object(len(history))[1], targets).mask if restored else fitted.mask
         posed = [replace(p, explained=float(iou)) for p, iou in zip(model.placements_now(), ious)]
     kept = []
     for i in restored:
         p = model.placements[i]
         kept.append(
             f"{p.segment_id}:{p.label} ({p.model_id.split('/')[-1]}): the fit left it explaining "
-            f"{fitted_ious[i]:.2f} of its segment ({placed_ious[i]:.2f} placed)"
+            f"{fitted.mask[i]:.2f} of its segment ({placed.mask[i]:.2f} placed), its box {fitted.box[i]:.2f} of its "
+            f"prompt box ({placed.box[i]:.2f} placed)"
         )
         log.info("fit_objects: kept the placed pose of %s", kept[-1])
     settled = _settle(posed, room, cam, panoptic, settings.physical, "fit_objects", final=True)
     through = interpenetrations(settled.placements, settings.physical.penetration)
     history = untimed(history, ctx.timings)
     final = history[best.iteration]
-    fitted = Placements(
+    result = Placements(
         objects=settled.placements,
         extra={
             "interpenetrations": through,
@@ -722,11 +755,11 @@ def fit_objects(
             "settled": settled.changed,
         },
     )
-    record = _objects_log(history, image, camera, room, placements, fitted, panoptic, through)
+    record = _objects_log(history, image, camera, room, placements, result, panoptic, through)
     record.summary.update(
         turned=turned, kept_placed=kept, final=final, best_iteration=best.iteration, dropped=settled.dropped
     )
-    return {"placements": fitted, "log": record, "room": settled.room}
+    return {"placements": result, "log": record, "room": settled.room}
 
 
 def _rotation(yaw: torch.Tensor) -> torch.Tensor:
@@ -747,13 +780,20 @@ def _near(a: Placement, b: Placement, margin: float = 0.25) -> bool:
     return float(np.linalg.norm(ca - cb)) < ra + rb + margin
 
 
-def restore_lost(model: PoseModel, placed: np.ndarray, fitted: np.ndarray, share: float) -> list[int]:
-    """The objects the fit left explaining less than ``share`` of what they explained when placed (``placed``,
-    ``fitted``: each object's render IoU with its segment), put back in their placed pose (their fit parameters
-    zeroed). The joint fit can push an object off its segment (out of a collision with a neighbour the photo
-    shows in front of it, or shrunk by its size prior) where no gradient brings it back: eq. 3 must not lose
-    what the placement found. Returns their indices."""
-    lost = [i for i in range(len(placed)) if fitted[i] < share * placed[i]]
+def restore_lost(model: PoseModel, placed: Explained, fitted: Explained, share: float, same_box: float) -> list[int]:
+    """The objects the fit lost, put back in their placed pose (their fit parameters zeroed): those it left
+    explaining less than ``share`` of what their render explained of their segment when placed, and those whose
+    render's box matched their prompt box (box IoU ``same_box`` or more: the one object there) when placed and
+    no longer does. The joint fit can push an object off its segment (out of a collision with a neighbour the
+    photo shows in front of it, or shrunk by its size prior) where no gradient brings it back, and it fits a
+    cut mask that lost the thin legs or the base of a chair by a smaller chair farther away, whose box no longer
+    reaches the floor where the detector's did: eq. 3 must not lose what the placement found. Returns their
+    indices."""
+    lost = [
+        i
+        for i in range(len(placed.mask))
+        if fitted.mask[i] < share * placed.mask[i] or (placed.box[i] >= same_box and not fitted.box[i] >= same_box)
+    ]
     with torch.no_grad():
         for values in model.theta.values():
             values[lost] = 0.0

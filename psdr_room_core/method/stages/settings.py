@@ -115,6 +115,7 @@ class FitObjects:
     back_weight: float = setting(ge=0)
     yaw_test: YawTest = setting()
     keep_share: float = setting(ge=0, le=1)
+    same_box: float = setting(ge=0, le=1)
     learning_rates: FitObjectsRates = setting()
     physical: PhysicalParams = setting()
 
