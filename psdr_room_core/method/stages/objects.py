@@ -438,10 +438,14 @@ class Explained:
     the floor that a cut mask loses); NaN where the segment has no prompt box or the object is out of view."""
 
 
+def mask_ious(masks: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
+    """[P] soft IoU of each rendered mask [P,h,w] with its target coverage [P,h,w]."""
+    return (masks * targets).sum((1, 2)) / (masks + targets - masks * targets).sum((1, 2)).clamp_min(1e-6)
+
+
 def explained(masks: torch.Tensor, targets: ObjectTargets) -> Explained:
     """:class:`Explained` of rendered ``masks`` [P,h,w] (a pixel over half covered is in a render's box)."""
-    t_masks = torch.from_numpy(targets.masks)
-    ious = (masks * t_masks).sum((1, 2)) / (masks + t_masks - masks * t_masks).sum((1, 2)).clamp_min(1e-6)
+    ious = mask_ious(masks, torch.from_numpy(targets.masks))
     boxes = np.full(len(masks), np.nan)
     for i, (mask, prompt) in enumerate(zip(masks.numpy() > 0.5, targets.boxes)):
         rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
@@ -684,7 +688,7 @@ def fit_objects(
         room_term = settings.room_weight * model.room_penalty(vertices)
         collision_term = settings.collision_weight * model.collision_penalty()
         back_term = settings.back_weight * model.back_penalty()
-        ious = (masks * t_masks).sum((1, 2)) / (masks + t_masks - masks * t_masks).sum((1, 2)).clamp_min(1e-6)
+        ious = mask_ious(masks, t_masks)
         terms = {
             "mask_depth_l1": depth_term.sum().item(),
             "blurred_mask_l1": blur_term.sum().item(),
