@@ -23,6 +23,7 @@ from psdr_room_plugins.layout.discovery import (
     implausible,
     part_of,
     vote_labels,
+    with_legs,
 )
 from psdr_room_plugins.layout.manhattan import frame_from_vanishing_points
 from psdr_room_plugins.layout.objects import SeenObjects
@@ -111,6 +112,42 @@ def test_footing_measures_where_an_object_stands_and_how_tall_it_is(room: dict) 
     high = np.zeros_like(mask)
     high[5:30, 140:170] = True  # above the horizon: on a wall
     assert footing(high, room["rays"], np.zeros_like(mask), 1.5).floating
+
+
+def test_a_cut_that_stops_at_the_seat_gets_the_legs_below_it() -> None:
+    """GrabCut smooths a chair's thin legs away against the floor: the cut stops at the seat while the prompt box
+    reaches the floor. The pixels below the cut, in its columns and inside the box, unlike the floor and joining
+    the cut are its legs; the floor, an unlike patch that joins nothing, what stands beside the cut's columns and
+    what lies below the box are not. A cut reaching its box's bottom is left as it is."""
+    cut = np.zeros((80, 100), bool)
+    cut[20:41, 30:71] = True  # back and seat
+    unlike = cut.copy()
+    unlike[41:60, 31:34] = unlike[41:60, 66:69] = True  # two legs down to the floor
+    unlike[50:53, 48:52] = True  # a stain on the carpet, apart from the chair
+    unlike[41:60, 80:83] = True  # the leg of the chair beside it
+    unlike[60:75, 31:34] = True  # below the box: the next chair's back
+    box = (28.0, 18.0, 72.0, 60.0)
+    mask = with_legs(cut, box, unlike)
+    legs = mask & ~cut
+    assert legs.sum() == 2 * 19 * 3 and legs[41:60, 31:34].all() and legs[41:60, 66:69].all()
+    assert not mask[50:53, 48:52].any() and not mask[:, 80:].any() and not mask[60:].any()
+    assert (with_legs(cut, (28.0, 18.0, 72.0, 41.0), unlike) == cut).all()  # the cut reaches its box's bottom
+
+
+def test_how_common_each_pixels_colour_is_on_its_surface(room: dict) -> None:
+    """A floor with a patterned carpet (a tenth of it a second colour) and a chair's steel leg on it: the
+    carpet's main colour is common, its pattern less so, the leg's colour the rarest of all."""
+    floor = room["labels"] == box.FLOOR
+    rows, cols = np.nonzero(floor)
+    pattern = floor & (np.arange(WIDTH)[None, :] % 10 == 0)
+    leg = np.zeros(floor.shape, bool)
+    leg[rows.max() - 30 : rows.max() - 5, cols.mean().astype(int) : cols.mean().astype(int) + 2] = True
+    rgb8, _ = _painted(room, (pattern, [0.3, 0.1, 0.1]), (leg, [0.8, 0.8, 0.85]))
+    colours = SurfaceColours(rgb8, room["labels"], np.ones(floor.shape, bool))
+    carpet = floor & ~pattern & ~leg
+    assert np.median(colours.commonness[carpet]) > 0.2
+    assert 0.0 < np.median(colours.commonness[pattern & ~leg]) < np.median(colours.commonness[carpet])
+    assert (colours.commonness[leg] < DiscoveryParams().leg_rarity).all()
 
 
 def test_implausible_footings_and_heights() -> None:
@@ -269,6 +306,8 @@ def test_what_a_network_sees_in_a_box() -> None:
     assert mask is not None and mask.sum() == 40 * 30 and not mask[:, 45:].any()
     both = (0.0, 0.0, 100.0, 65.0)
     assert seen.instance(both, 0.5) is None and seen.mask(both, free, 0.08, 0.5) is None  # neither is the one
+    assert seen.apart(first, both, 0.5) and not seen.apart(first, first, 0.5)  # the first chair, apart from both
+    assert not seen.apart(both, first, 0.5)  # no one instance fills the box round both
     taken = np.zeros(ids.shape, bool)
     taken[20:60, 10:38] = True  # a nearer object holds most of the first chair
     assert seen.mask(first, taken, min_fill=0.3, same_iou=0.5) is None
@@ -337,3 +376,36 @@ def test_a_box_the_network_sees_as_one_object_is_no_group(room: dict) -> None:
     helped.consider([whole, *halves])
     assert "a box round 2 objects" not in helped.dropped
     assert helped.kept[0].detection == whole
+
+
+def test_a_chair_the_network_sees_in_front_of_others_is_no_piece_of_a_box_round_them(room: dict) -> None:
+    """A weak "chair" box round a near chair and the two chairs behind it (one box for the three) would absorb
+    the near chair as a piece of it (as a whole chair absorbs its back, boxed apart). Where the network sees the
+    near chair as an instance of its own, standing on the box's floor line, it stays an object; a chair's back
+    the network sees apart is still absorbed, as its bottom ends above the whole's floor line."""
+    near = _standing_box(room, 100, 220, height_m=0.5)
+    behind = [_standing_box(room, x0, x1, height_m=1.1, above_bottom=70) for x0, x1 in ((104, 158), (162, 216))]
+    rgb8, surfaces = _painted(room, (behind[0], [0.7, 0.6, 0.2]), (behind[1], [0.7, 0.6, 0.2]), (near, [0.2, 0.3, 0.7]))
+    rows, cols = np.nonzero(near)
+    near_box = (cols.min() - 1.0, rows.min() - 1.0, cols.max() + 2.0, rows.max() + 2.0)
+    top = float(np.nonzero(behind[0] | behind[1])[0].min())
+    three = Detection("chair", "object", (98.0, top - 1, 222.0, near_box[3] + 1), 0.3)
+    prompts = [Detection("chair", "object", near_box, 0.6), three]
+    alone = Selection(rgb8, room["rays"], surfaces, DiscoveryParams())
+    alone.consider(prompts)
+    assert "part of a chair" in alone.dropped and [k.detection for k in alone.kept] == [three]
+    ids = np.zeros(near.shape, np.int32)
+    ids[behind[0]], ids[behind[1]], ids[near] = 2, 3, 1
+    segments = [Segment(i, "object", "chair") for i in (1, 2, 3)]
+    helped = Selection(rgb8, room["rays"], surfaces, DiscoveryParams(), seen=SeenObjects.of(Panoptic(ids, segments)))
+    helped.consider(prompts)
+    assert "part of a chair" not in helped.dropped and helped.kept[0].detection == prompts[0]
+    back = np.zeros(near.shape, bool)
+    back[rows.min() : rows.min() + 20, 100:220] = True  # the network sees only the near chair's back
+    back_box = (99.0, rows.min() - 1.0, 221.0, rows.min() + 21.0)
+    ids = back.astype(np.int32)
+    seen_back = SeenObjects.of(Panoptic(ids, [Segment(1, "object", "chair")]))
+    whole = Detection("chair", "object", near_box, 0.3)
+    pieces = Selection(rgb8, room["rays"], surfaces, DiscoveryParams(), seen=seen_back)
+    pieces.consider([Detection("chair", "object", back_box, 0.6), whole])
+    assert "part of a chair" in pieces.dropped and [k.detection for k in pieces.kept] == [whole]

@@ -36,6 +36,7 @@ from psdr_room_core.method.objects import (
     transform,
     wall_frame,
 )
+from psdr_room_core.method.physical import Settled
 from psdr_room_core.method.silhouette import MeshCaster, camera_rays, depth_map, silhouette
 from psdr_room_core.method.stages.objects import (
     Explained,
@@ -45,6 +46,7 @@ from psdr_room_core.method.stages.objects import (
     fit_objects,
     object_targets,
     restore_lost,
+    settle_restored,
     try_yaw_turns,
 )
 from psdr_room_core.method.view_search import SearchParams, ViewTarget, fit_view
@@ -589,6 +591,35 @@ def test_an_object_the_fit_took_off_its_prompt_box_goes_back_to_its_placed_pose(
     fitted = Explained(np.array([0.7, 0.7, 0.7]), np.array([0.4, 0.3, np.nan]))
     assert restore_lost(model, placed, fitted, share=0.5, same_box=0.5) == [0]
     assert model.theta["log_scale"].tolist() == [0.0, 0.5, 0.5]
+
+
+def test_a_restore_that_costs_the_settling_an_object_is_undone() -> None:
+    """settle_restored: chair 1 restored to its placed pose passes through table 2, which the fit moved beside it,
+    and the settling drops the table: chair 1 gets its fitted pose back and the scene is settled again. Chair 3,
+    restored far from anything dropped, keeps its placed pose; and where the settling drops nothing, nothing is
+    undone and the scene is settled once."""
+    mesh = l_shape()
+
+    def at(segment: int, x: float) -> Placement:
+        return Placement(segment, "chair", "m", mesh, (x, 0.0, 2.0), 0.0, 1.0, "floor")
+
+    posed = [at(1, 0.0), at(2, 0.3), at(3, 3.0)]
+    fitted = [at(1, -1.5), posed[1], at(3, 3.5)]
+    seen: list[list[float]] = []
+
+    def settle_dropping_2(objects: list[Placement]) -> Settled:
+        seen.append([p.position[0] for p in objects])
+        left = objects if len(seen) > 1 else [p for p in objects if p.segment_id != 2]
+        return Settled(left, ROOM, dropped=["2:chair (m): passes through 1"] * (len(seen) == 1))
+
+    settled, undone = settle_restored(posed, fitted, [0, 2], settle_dropping_2, penetration=0.03)
+    assert undone == [0] and seen == [[0.0, 0.3, 3.0], [-1.5, 0.3, 3.0]]
+    assert [p.segment_id for p in settled.placements] == [1, 2, 3]
+
+    seen.clear()
+    seen.append([])  # a settling that drops nothing
+    settled, undone = settle_restored(posed, fitted, [0, 2], settle_dropping_2, penetration=0.03)
+    assert undone == [] and len(seen) == 2 and settled.placements == posed
 
 
 def test_what_a_render_explains_of_its_segment_and_prompt_box() -> None:

@@ -4,7 +4,8 @@ A bare photo's prompts are many and weak: the detector run at a low threshold on
 image (an object is found whether or not its COCO class is right; a dresser comes back as "oven" or "tv"),
 and the class-agnostic proposals of :mod:`.proposals` (what the fitted room cannot explain). Each prompt is
 cut out by GrabCut (where it finds nothing, as among rows of alike chairs whose colours fill the box's margin
-too, a network's instance filling the box stands in when one is given: :class:`~.objects.SeenObjects`), then
+too, a network's instance filling the box stands in when one is given: :class:`~.objects.SeenObjects`; where
+the cut stops above the box's bottom, the thin legs it smoothed away are added back: :func:`with_legs`), then
 judged against the fitted box room (camera heights, floor ``y = -1``):
 
 * **where it stands**: the mask's lowest pixels are its floor contact, unless the frame cuts them or they sit
@@ -20,7 +21,9 @@ judged against the fitted box room (camera heights, floor ``y = -1``):
   both have the same category (a second box on one object); boxes overlapping more than ``nms_iou`` are one
   object whatever their labels; a class-agnostic proposal inside a known object's box is joined to its mask
   (a part its own cut missed); a box holding two or more weaker boxes of its category side by side is a box
-  round a group (:func:`group_size`), unless a network sees one object filling it.
+  round a group (:func:`group_size`), unless a network sees one object filling it; nor does a weaker box take
+  in a kept object the network sees as one of its own on the box's floor line (a chair in front of those behind
+  it: :meth:`Selection.seen_apart`).
 
 Kept prompts are painted far to near (by floor contact), so nearer objects occlude farther ones. Every
 dropped prompt is logged with its reason.
@@ -32,6 +35,7 @@ import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
+import cv2
 import numpy as np
 
 from psdr_room_core.method.artifacts import Detection
@@ -140,6 +144,24 @@ def _inside(inner: np.ndarray, outer: np.ndarray) -> float:
     w = max(0.0, min(inner[2], outer[2]) - max(inner[0], outer[0]))
     h = max(0.0, min(inner[3], outer[3]) - max(inner[1], outer[1]))
     return w * h / max((inner[2] - inner[0]) * (inner[3] - inner[1]), 1e-9)
+
+
+def with_legs(mask: np.ndarray, box: tuple[float, float, float, float], unlike: np.ndarray) -> np.ndarray:
+    """``mask`` with what stands below it in ``box``: the pixels from its ragged lowest rows down to the box's
+    bottom, in its columns, unlike the room surface they lie on (``unlike``: colours rare on it) that join it:
+    the thin legs GrabCut smooths away against the floor, where the detector's box reaches the floor and the cut
+    does not."""
+    x0, x1 = max(0, int(box[0])), min(mask.shape[1], int(np.ceil(box[2])))
+    y1 = min(mask.shape[0], int(np.ceil(box[3])))
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    bottom = int(rows[-1])
+    if bottom + 1 >= y1:
+        return mask
+    below = np.zeros(mask.shape, bool)
+    below[bottom - 2 : y1, max(x0, int(cols[0])) : min(x1, int(cols[-1]) + 1)] = True
+    _, components = cv2.connectedComponents(((unlike & below) | mask).astype(np.uint8), connectivity=8)
+    joined = np.unique(components[mask])
+    return np.isin(components, joined[joined > 0])
 
 
 def implausible(candidate: Candidate, params: DiscoveryParams) -> str | None:
@@ -284,7 +306,7 @@ class Selection:
             if members >= 2 and (self.seen is None or self.seen.instance(probe.detection.box, params.seen_iou) is None):
                 self.drop(f"a box round {members} objects", probe)
                 continue
-            absorbed = [k for k in self.kept if absorbs(probe, k, params)]
+            absorbed = [k for k in self.kept if absorbs(probe, k, params) and not self.seen_apart(k, probe)]
             rest = [k for k in self.kept if k not in absorbed]
             occupied = np.any([k.mask for k in rest], axis=0) if rest else np.zeros(self.rgb8.shape[:2], bool)
             if covers_kept(probe.box, rest, occupied, params):
@@ -315,11 +337,26 @@ class Selection:
                 self.drop(f"part of a {probe.detection.label}", part)
             self.kept = [*rest, candidate]
 
+    def seen_apart(self, piece: Candidate, whole: Candidate) -> bool:
+        """Whether ``piece`` is an object of its own in front of what else ``whole`` boxes: its bottom is on
+        ``whole``'s floor line (``floor_line``; a chair's back or a table's top, boxed apart, ends above it) and
+        the network sees it apart (:meth:`~.objects.SeenObjects.apart`). Then ``whole`` is a weak box round it
+        and the objects behind it (a chair in front of two more), and may not absorb it."""
+        tall = whole.box[3] - whole.box[1]
+        return (
+            self.seen is not None
+            and abs(piece.box[3] - whole.box[3]) <= self.params.floor_line * tall
+            and self.seen.apart(tuple(piece.box), tuple(whole.box), self.params.seen_iou)
+        )
+
     def cut(self, probe: Candidate, taken: np.ndarray) -> np.ndarray | None:
-        """The prompt's mask: GrabCut's, else the network's instance filling its box
-        (:meth:`~.objects.SeenObjects.mask`), neither taking pixels ``taken`` by kept objects."""
+        """The prompt's mask: GrabCut's (with the legs below it of what stands on the floor: :func:`with_legs`),
+        else the network's instance filling its box (:meth:`~.objects.SeenObjects.mask`), neither taking pixels
+        ``taken`` by kept objects."""
         box = probe.detection.box
         mask = grabcut_mask(self.rgb8, box, self.grabcut, taken=taken)
+        if mask is not None and probe.category in FLOOR_STANDING:
+            mask = with_legs(mask, box, (self.surfaces.commonness < self.params.leg_rarity) & ~taken)
         if mask is None and self.seen is not None:
             mask = self.seen.mask(box, taken, self.grabcut.min_fill, self.params.seen_iou)
             if mask is not None:

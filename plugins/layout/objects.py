@@ -97,6 +97,14 @@ class SeenObjects:
         index = self._filling(box, same_iou)
         return None if index is None else self.labels[index]
 
+    def apart(
+        self, piece: tuple[float, float, float, float], whole: tuple[float, float, float, float], same_iou: float
+    ) -> bool:
+        """Whether an instance fills box ``piece`` (see :meth:`_filling`) that does not also fill box ``whole``:
+        the network sees the piece as an object of its own, not a part of what ``whole`` boxes."""
+        index = self._filling(piece, same_iou)
+        return index is not None and index != self._filling(whole, same_iou)
+
     def mask(
         self, box: tuple[float, float, float, float], taken: np.ndarray, min_fill: float, same_iou: float
     ) -> np.ndarray | None:

@@ -112,6 +112,9 @@ class DiscoveryParams:
     """A network's instance whose box overlaps a prompt's by this IoU or more is the one object there: its mask
     where GrabCut finds nothing, and the box is no box round a group; only where a network is given
     (``segmentation=layout_eyes``)."""
+    leg_rarity: float = setting(0.05, ge=0, le=1)
+    """Below a cut that stops above its box's bottom, pixels whose colour is rarer on their surface than on this
+    share of its own pixels, and that join the cut, are its thin legs (:func:`~.discovery.with_legs`)."""
     parts: dict[str, list[str]] = setting(
         {
             "sofa": ["chair", "pillow", "ottoman"],

@@ -49,6 +49,8 @@ class SurfaceColours:
         self.labels = labels
         self.likelihood = np.zeros(labels.shape, np.float32)
         self.explained = np.zeros(labels.shape, bool)
+        self.commonness = np.zeros(labels.shape, np.float32)
+        """Per pixel, the share of its surface's own pixels whose colour is rarer on it (0: as rare as any)."""
         for surface in np.unique(labels):
             on = labels == surface
             train = on & background
@@ -61,6 +63,8 @@ class SurfaceColours:
             threshold = np.quantile(hist[self.index[train]], 1.0 - coverage)
             self.likelihood[on] = p
             self.explained[on] = p >= threshold
+            ranked = np.sort(hist[self.index[train]])
+            self.commonness[on] = np.searchsorted(ranked, p) / len(ranked)
 
     def share_explained(self, mask: np.ndarray) -> float:
         """Share of ``mask``'s pixels the room explains."""

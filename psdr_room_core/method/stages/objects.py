@@ -50,7 +50,7 @@ from ..objects import (
 from ..physical import PhysicalParams, Settled, interpenetrations, settle, support_top
 from ..silhouette import silhouette
 from ..sizes import SizePrior, scale_range
-from ..solids import field_lookup, solid_of
+from ..solids import field_lookup, overlap, solid_of
 from ..view_search import ViewTarget, fit_view
 from ..visualize import plot_curves, segment_overlay
 from .settings import FitObjects, GroupObjects, PlaceObjects, RetrieveObjects
@@ -642,9 +642,9 @@ def fit_objects(
     yaw test (or a plateau of the loss before it), then, where an object turned or the loss had not flattened, on to
     ``iterations`` (or a plateau); each phase leaves its best iterate. An object the fit left explaining less than
     ``keep_share`` of what it explained when placed, or whose render's box the fit took off its prompt box
-    (``same_box``), goes back to its placed pose (:func:`restore_lost`). The fitted
-    scene is then made physically possible (:func:`~psdr_room_core.method.physical.settle`, ``physical``:
-    place_objects' settings): real sizes, inside the room (which grows where an object the photo shows cannot be
+    (``same_box``), goes back to its placed pose (:func:`restore_lost`), unless that costs the settling an object
+    (:func:`settle_restored`). The fitted scene is then made physically possible
+    (:func:`~psdr_room_core.method.physical.settle`, ``physical``: place_objects' settings): real sizes, inside the room (which grows where an object the photo shows cannot be
     brought inside it: the room box after the objects, ``room``), no interpenetration beyond
     ``physical.penetration``, duplicates dropped; what remains passing through something is reported.
 
@@ -732,19 +732,30 @@ def fit_objects(
         best.restore()
     with torch.no_grad():
         fitted = explained(per_object(len(history))[1], targets)
+        fitted_poses = [replace(p, explained=float(iou)) for p, iou in zip(model.placements_now(), fitted.mask)]
         restored = restore_lost(model, placed, fitted, settings.keep_share, settings.same_box)
         ious = explained(per_object(len(history))[1], targets).mask if restored else fitted.mask
         posed = [replace(p, explained=float(iou)) for p, iou in zip(model.placements_now(), ious)]
+    settled, undone = settle_restored(
+        posed,
+        fitted_poses,
+        restored,
+        lambda objects: _settle(objects, room, cam, panoptic, settings.physical, "fit_objects", final=True),
+        settings.physical.penetration,
+    )
     kept = []
     for i in restored:
         p = model.placements[i]
-        kept.append(
+        why = (
             f"{p.segment_id}:{p.label} ({p.model_id.split('/')[-1]}): the fit left it explaining "
             f"{fitted.mask[i]:.2f} of its segment ({placed.mask[i]:.2f} placed), its box {fitted.box[i]:.2f} of its "
             f"prompt box ({placed.box[i]:.2f} placed)"
         )
-        log.info("fit_objects: kept the placed pose of %s", kept[-1])
-    settled = _settle(posed, room, cam, panoptic, settings.physical, "fit_objects", final=True)
+        if i in undone:
+            log.info("fit_objects: kept the fitted pose of %s, as its placed pose cost the settling an object", why)
+        else:
+            kept.append(why)
+            log.info("fit_objects: kept the placed pose of %s", why)
     through = interpenetrations(settled.placements, settings.physical.penetration)
     history = untimed(history, ctx.timings)
     final = history[best.iteration]
@@ -802,6 +813,33 @@ def restore_lost(model: PoseModel, placed: Explained, fitted: Explained, share: 
         for values in model.theta.values():
             values[lost] = 0.0
     return lost
+
+
+def settle_restored(
+    posed: list[Placement],
+    fitted: list[Placement],
+    restored: list[int],
+    settle_scene: Callable[[list[Placement]], Settled],
+    penetration: float,
+) -> tuple[Settled, list[int]]:
+    """Settle ``posed`` (``settle_scene``), in which the objects ``restored`` (indices) stand in their placed pose;
+    where the settling drops a restored object, or one that passes through a restored object by more than
+    ``penetration`` metres, those restores are undone (their ``fitted`` pose back) and the scene settled again.
+    A placed pose the fit left was collision-free among the placed poses, not among the fitted ones: restoring it
+    beside a neighbour the fit moved must not cost the scene that neighbour or itself. Returns the settled scene
+    and the indices of the restores undone."""
+    settled = settle_scene(posed)
+    left = {p.segment_id for p in settled.placements}
+    gone = [p for p in posed if p.segment_id not in left]
+    undone = [
+        i
+        for i in restored
+        if posed[i].segment_id not in left
+        or any(overlap(posed[i], g).thickness > penetration for g in gone if g.segment_id != posed[i].segment_id)
+    ]
+    if not undone:
+        return settled, []
+    return settle_scene([fitted[i] if i in undone else p for i, p in enumerate(posed)]), undone
 
 
 def try_yaw_turns(
