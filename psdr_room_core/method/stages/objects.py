@@ -644,9 +644,10 @@ def fit_objects(
     ``keep_share`` of what it explained when placed, or whose render's box the fit took off its prompt box
     (``same_box``), goes back to its placed pose (:func:`restore_lost`), unless that costs the settling an object
     (:func:`settle_restored`). The fitted scene is then made physically possible
-    (:func:`~psdr_room_core.method.physical.settle`, ``physical``: place_objects' settings): real sizes, inside the room (which grows where an object the photo shows cannot be
-    brought inside it: the room box after the objects, ``room``), no interpenetration beyond
-    ``physical.penetration``, duplicates dropped; what remains passing through something is reported.
+    (:func:`~psdr_room_core.method.physical.settle`, ``physical``: place_objects' settings): real sizes, inside the
+    room (which grows where an object the photo shows cannot be brought inside it: the room box after the objects,
+    ``room``), no interpenetration beyond ``physical.penetration``, duplicates dropped; what remains passing
+    through something is reported.
 
     Params (:class:`~.settings.FitObjects`): ``iterations``, ``render_width``, ``blur_sigmas``, ``blur_weight``,
     ``size_prior`` {``scale_weight``, ``range_weight``}, ``room_weight``, ``collision_weight``, ``back_weight``,
