@@ -25,8 +25,9 @@ import numpy as np
 
 from psdr_room_core.method.artifacts import Detections, Image
 from psdr_room_core.method.capabilities import Detector
+from psdr_room_core.method.image_boxes import box_iou
 from psdr_room_core.method.photo import read_photo, resize_to_working
-from psdr_room_plugins.detectors.nanodet import NanodetOnnx, box_iou
+from psdr_room_plugins.detectors.nanodet import NanodetOnnx
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_PHOTOS = [REPO_ROOT.parent / f"shared/data/photos/sunrgbd_total3d_0{i}" for i in range(1, 6)]

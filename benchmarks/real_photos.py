@@ -67,13 +67,13 @@ from psdr_room_core.libraries.object_db import ObjectDatabase, builtin_database
 from psdr_room_core.libraries.sidecar_depth import read_depth
 from psdr_room_core.method.artifacts import Camera, DepthMap, Image, Panoptic, Placement, Placements, RoomBox
 from psdr_room_core.method.guesses import guesses
+from psdr_room_core.method.image_boxes import box_iou
 from psdr_room_core.method.objects import OBJECT_CATEGORIES
 from psdr_room_core.method.physical import PhysicalParams, hidden_by, interpenetrations, room_excess
 from psdr_room_core.method.silhouette import depth_map, silhouette
 from psdr_room_core.method.sizes import scale_range
 from psdr_room_core.method.solids import overlap
 from psdr_room_core.method.visualize import segment_overlay
-from psdr_room_plugins.detectors.nanodet import box_iou
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from preprocess import depth_errors  # noqa: E402  (sibling benchmark)

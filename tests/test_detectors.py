@@ -23,11 +23,12 @@ from conftest import REPO, SHARED_DATA
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.registry import Registry
 from psdr_room_core.method.artifacts import Image
+from psdr_room_core.method.image_boxes import box_iou
 from psdr_room_core.method.photo import read_photo, resize_to_working
 from psdr_room_core.method.plugin import register_capabilities
 from psdr_room_plugins.detectors import BoxesFile, NanodetOnnx, NoDetector, register_implementations
 from psdr_room_plugins.detectors.coco import COCO_80, INDOOR
-from psdr_room_plugins.detectors.nanodet import BUNDLED, box_iou, to_input
+from psdr_room_plugins.detectors.nanodet import BUNDLED, to_input
 
 PHOTO = Path("photo.jpg")
 SIZE = 416

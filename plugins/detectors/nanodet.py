@@ -35,6 +35,7 @@ import numpy as np
 
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.method.artifacts import Detection, Detections, Image, box4
+from psdr_room_core.method.image_boxes import box_iou
 
 from ..onnx_models.network import ModelFile, OnnxNetwork
 from .coco import COCO_80, INDOOR
@@ -66,16 +67,6 @@ def to_input(rgb: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     )
     bgr = np.clip(resized, 0.0, 1.0)[..., ::-1] * 255.0
     return np.ascontiguousarray(((bgr - MEAN_BGR) / STD_BGR).transpose(2, 0, 1)[None], dtype=np.float32)
-
-
-def box_iou(box: np.ndarray, boxes: np.ndarray) -> np.ndarray:
-    """IoU of one ``(x0, y0, x1, y1)`` box with each row of ``boxes``."""
-    w = np.clip(np.minimum(box[2], boxes[:, 2]) - np.maximum(box[0], boxes[:, 0]), 0.0, None)
-    h = np.clip(np.minimum(box[3], boxes[:, 3]) - np.maximum(box[1], boxes[:, 1]), 0.0, None)
-    inter = w * h
-    area = (box[2] - box[0]) * (box[3] - box[1])
-    areas = (boxes[:, 2] - boxes[:, 0]) * (boxes[:, 3] - boxes[:, 1])
-    return inter / np.maximum(area + areas - inter, 1e-12)
 
 
 def nms(boxes: np.ndarray, scores: np.ndarray, iou_threshold: float) -> np.ndarray:

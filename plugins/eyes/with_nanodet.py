@@ -24,11 +24,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from psdr_room_core.method.artifacts import Detection, Detections, Image
+from psdr_room_core.method.image_boxes import box_iou
 from psdr_room_core.method.labels import primary_category
 
 from ..detectors import NanodetSettings
 from ..detectors.coco import COCO_80
-from ..detectors.nanodet import NanodetOnnx, box_iou
+from ..detectors.nanodet import NanodetOnnx
 from .perception import EyesDetector
 from .plugin import EyesSettings
 

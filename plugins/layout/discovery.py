@@ -39,10 +39,10 @@ import cv2
 import numpy as np
 
 from psdr_room_core.method.artifacts import Detection
+from psdr_room_core.method.image_boxes import box_iou
 from psdr_room_core.method.labels import primary_category
 from psdr_room_core.method.surface_colours import SurfaceColours
 
-from ..detectors.nanodet import box_iou
 from .objects import SeenObjects, grabcut_mask
 from .proposals import clutter_proposals
 from .settings import DiscoveryParams, GrabCutParams, ProposalParams

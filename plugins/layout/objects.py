@@ -9,9 +9,9 @@ import cv2
 import numpy as np
 
 from psdr_room_core.method.artifacts import Panoptic
+from psdr_room_core.method.image_boxes import box_iou
 from psdr_room_core.method.objects import OBJECT_CATEGORIES
 
-from ..detectors.nanodet import box_iou
 from .settings import GrabCutParams
 
 

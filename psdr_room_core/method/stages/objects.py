@@ -36,6 +36,7 @@ from ..capabilities import ObjectRetriever, Optimizer, Renderer
 from ..convergence import BestIterate, untimed
 from ..geometry import TriangleMesh, weld
 from ..grouping import Part, group_segments
+from ..image_boxes import box_iou
 from ..labels import meaning
 from ..objects import (
     OBJECT_CATEGORIES,
@@ -450,10 +451,8 @@ def explained(masks: torch.Tensor, targets: ObjectTargets) -> Explained:
     for i, (mask, prompt) in enumerate(zip(masks.numpy() > 0.5, targets.boxes)):
         rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
         if len(rows) and not np.isnan(prompt).any():
-            box = np.array([cols[0], rows[0], cols[-1] + 1, rows[-1] + 1], np.float64)
-            lo, hi = np.maximum(box[:2], prompt[:2]), np.minimum(box[2:], prompt[2:])
-            inter = float(np.prod(np.clip(hi - lo, 0, None)))
-            boxes[i] = inter / (np.prod(box[2:] - box[:2]) + np.prod(prompt[2:] - prompt[:2]) - inter)
+            box = np.array([[cols[0], rows[0], cols[-1] + 1, rows[-1] + 1]], np.float64)
+            boxes[i] = box_iou(prompt, box)[0]
     return Explained(mask=ious.numpy(), box=boxes)
 
 
