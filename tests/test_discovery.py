@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -376,6 +377,42 @@ def test_a_box_the_network_sees_as_one_object_is_no_group(room: dict) -> None:
     helped.consider([whole, *halves])
     assert "a box round 2 objects" not in helped.dropped
     assert helped.kept[0].detection == whole
+
+
+def test_a_weak_box_the_network_sees_as_floor_is_no_object(room: dict) -> None:
+    """A sunlit patch of carpet under a weak "bed" box, where a trusted box kept the floor's colour model from
+    learning it: the room's colours do not explain it, so on its own it becomes a bed. Where the network sees
+    floor there, it is dropped; a trusted box, or a network seeing an object there, keeps it."""
+    patch = np.zeros((HEIGHT, WIDTH), bool)
+    patch[190:, 200:300] = True
+    patch &= room["labels"] == box.FLOOR
+    assert patch.sum() > 0.9 * 50 * 100
+    rgb = room["rgb"].copy()
+    rgb[patch] = [0.97, 0.95, 0.9]
+    rgb8 = (rgb * 255).astype(np.uint8)
+    surfaces = SurfaceColours(rgb8, room["labels"], unprompted(room["labels"].shape, [(150.0, 150.0, 320.0, 240.0)]))
+    prompt = Detection("bed", "object", (198.0, 188.0, 302.0, 240.0), 0.2)
+    alone = Selection(rgb8, room["rays"], surfaces, DiscoveryParams())
+    alone.consider([prompt])
+    assert [k.detection for k in alone.kept] == [prompt]
+    floor = Panoptic(
+        np.where(room["labels"] == box.FLOOR, 1, 2).astype(np.int32),
+        [Segment(1, "floor", "floor"), Segment(2, "wall", "wall")],
+    )
+    assert SeenObjects.of(floor).surface_share(patch) == 1.0
+    seeing_floor = Selection(rgb8, room["rays"], surfaces, DiscoveryParams(), seen=SeenObjects.of(floor))
+    seeing_floor.consider([prompt])
+    assert seeing_floor.kept == [] and "weak, and the network sees a room surface there" in seeing_floor.dropped
+    trusted = replace(prompt, score=0.5)
+    seeing_floor.consider([trusted])
+    assert [k.detection for k in seeing_floor.kept] == [trusted]
+    ids = floor.ids.copy()
+    ids[patch] = 3
+    seeing_bed = Panoptic(ids, [*floor.segments, Segment(3, "object", "bed")])
+    assert SeenObjects.of(seeing_bed).surface_share(patch) == 0.0
+    helped = Selection(rgb8, room["rays"], surfaces, DiscoveryParams(), seen=SeenObjects.of(seeing_bed))
+    helped.consider([prompt])
+    assert [k.detection for k in helped.kept] == [prompt]
 
 
 def test_a_chair_the_network_sees_in_front_of_others_is_no_piece_of_a_box_round_them(room: dict) -> None:

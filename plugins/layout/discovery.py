@@ -14,6 +14,8 @@ judged against the fitted box room (camera heights, floor ``y = -1``):
 * **how tall it is**: the top of the mask on the vertical plane through the contact, in metres for a camera
   ``camera_height_m`` above the floor, against its category's height range (``heights``, widened by
   ``size_slack`` both ways);
+* **whether it is the room**: a weak prompt whose mask the room's colours explain (``max_explained``), or the
+  network sees as wall, floor or ceiling (``max_seen_surface``: a sunlit patch of carpet), is dropped;
 * **what it is**: each prompt takes the label that the prompts overlapping it score most in sum (the class
   is a weak prior: several weak "chair" boxes outvote one "tv");
 * **whose part it is**: a prompt lying inside a better one's box (``part_overlap`` of its area) is a part of
@@ -322,6 +324,9 @@ class Selection:
             weak = probe.detection.score < params.trusted_score
             if weak and self.surfaces.share_explained(mask) > params.max_explained:
                 self.drop("weak, and the room's colours explain it", probe)
+                continue
+            if weak and self.seen is not None and self.seen.surface_share(mask) > params.max_seen_surface:
+                self.drop("weak, and the network sees a room surface there", probe)
                 continue
             candidate = Candidate(
                 probe.detection,

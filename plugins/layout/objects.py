@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from psdr_room_core.method.artifacts import Panoptic
+from psdr_room_core.method.artifacts import ROOM_CATEGORIES, Panoptic
 from psdr_room_core.method.image_boxes import box_iou
 from psdr_room_core.method.objects import OBJECT_CATEGORIES
 
@@ -66,17 +66,25 @@ class SeenObjects:
     """(N, 4) each instance's box (x0, y0, x1, y1 pixels)."""
     labels: list[str]
     """Each instance's label."""
+    surfaces: np.ndarray | None = None
+    """(H, W) boolean: the pixels the network sees as a room surface (wall, floor or ceiling)."""
 
     @classmethod
     def of(cls, panoptic: Panoptic) -> SeenObjects:
-        """The object and lamp segments of ``panoptic``."""
+        """The object and lamp segments of ``panoptic``, and its room surfaces."""
         shown = [(panoptic.ids == s.id, s.label) for s in panoptic.segments if s.category in OBJECT_CATEGORIES]
         shown = [(mask, label) for mask, label in shown if mask.any()]
         boxes = []
         for mask, _ in shown:
             ys, xs = np.nonzero(mask)
             boxes.append((xs.min(), ys.min(), xs.max() + 1, ys.max() + 1))
-        return cls([m for m, _ in shown], np.array(boxes, np.float64).reshape(-1, 4), [label for _, label in shown])
+        surfaces = np.isin(panoptic.ids, [s.id for s in panoptic.segments if s.category in ROOM_CATEGORIES])
+        return cls(
+            [m for m, _ in shown],
+            np.array(boxes, np.float64).reshape(-1, 4),
+            [label for _, label in shown],
+            surfaces,
+        )
 
     def _filling(self, box: tuple[float, float, float, float], same_iou: float) -> int | None:
         """The index of the instance whose box overlaps ``box`` (x0, y0, x1, y1 pixels) most, by box IoU
@@ -104,6 +112,12 @@ class SeenObjects:
         the network sees the piece as an object of its own, not a part of what ``whole`` boxes."""
         index = self._filling(piece, same_iou)
         return index is not None and index != self._filling(whole, same_iou)
+
+    def surface_share(self, mask: np.ndarray) -> float:
+        """Share of ``mask``'s pixels the network sees as a room surface (0 when it labels none)."""
+        if self.surfaces is None or not mask.any():
+            return 0.0
+        return float(self.surfaces[mask].mean())
 
     def mask(
         self, box: tuple[float, float, float, float], taken: np.ndarray, min_fill: float, same_iou: float

@@ -91,6 +91,9 @@ class DiscoveryParams:
     """Prompts scoring less are weak: the room must not explain their mask ..."""
     max_explained: float = setting(0.6, ge=0, le=1)
     """... more than this share of it (:mod:`psdr_room_core.method.surface_colours`): a weak prompt on what looks like the floor is floor."""
+    max_seen_surface: float = setting(0.75, ge=0, le=1)
+    """Nor may the network (``segmentation=layout_eyes``) see more than this share of a weak prompt's mask as
+    wall, floor or ceiling: a weak box on a sunlit patch of carpet whose colours the room does not explain."""
     nms_iou: float = setting(0.6, ge=0, le=1)
     """Boxes overlapping more than this are one object (the better prompt is kept), whatever their labels."""
     part_overlap: float = setting(0.85, ge=0, le=1)
