@@ -31,7 +31,6 @@ from real_photos import (  # noqa: E402
     REFERENCE_CLASSES,
     Entry,
     depth_scores,
-    mask_box,
     match,
     read_index,
     read_references,
@@ -39,6 +38,7 @@ from real_photos import (  # noqa: E402
 )
 
 from psdr_room_core.method.artifacts import Camera, Detections, Image  # noqa: E402
+from psdr_room_core.method.image_boxes import mask_box  # noqa: E402
 from psdr_room_plugins.eyes.perception import SHIPPED, EyesDepth, EyesSegmentation  # noqa: E402
 
 MAX_SIDE = 800

@@ -67,7 +67,7 @@ from psdr_room_core.libraries.object_db import ObjectDatabase, builtin_database
 from psdr_room_core.libraries.sidecar_depth import read_depth
 from psdr_room_core.method.artifacts import Camera, DepthMap, Image, Panoptic, Placement, Placements, RoomBox
 from psdr_room_core.method.guesses import guesses
-from psdr_room_core.method.image_boxes import box_iou
+from psdr_room_core.method.image_boxes import box_iou, mask_box
 from psdr_room_core.method.objects import OBJECT_CATEGORIES
 from psdr_room_core.method.physical import PhysicalParams, hidden_by, interpenetrations, room_excess
 from psdr_room_core.method.silhouette import depth_map, silhouette
@@ -290,11 +290,6 @@ def match(
         pairs.append((int(r), int(b)))
         ious[r, :], ious[:, b] = -1.0, -1.0
     return pairs
-
-
-def mask_box(mask: np.ndarray) -> np.ndarray | None:
-    ys, xs = np.nonzero(mask)
-    return None if not len(xs) else np.array([xs.min(), ys.min(), xs.max() + 1, ys.max() + 1], np.float64)
 
 
 # ---------------------------------------------------------------------------------------------- one photo

@@ -21,6 +21,7 @@ import numpy as np
 from psdr_room_core.engine import threads as run_threads
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.method.artifacts import Camera, DepthMap, Detection, Detections, Image, Panoptic, Segment
+from psdr_room_core.method.image_boxes import mask_box
 
 from .decode import instances
 from .labels import CATEGORIES, SURFACES
@@ -210,9 +211,10 @@ class EyesDetector(Eyes):
         out = self.outputs(image)
         items = []
         for mask, name, score in self.objects(image, out, self.surfaces(image, out)):
-            ys, xs = np.nonzero(mask)
-            box = (float(xs.min()), float(ys.min()), float(xs.max() + 1), float(ys.max() + 1))
-            items.append(Detection(name, _category(name), box, min(max(score, 0.0), 1.0)))
+            box = mask_box(mask)
+            assert box is not None  # an instance has pixels
+            x0, y0, x1, y1 = (float(v) for v in box)
+            items.append(Detection(name, _category(name), (x0, y0, x1, y1), min(max(score, 0.0), 1.0)))
         return Detections(sorted(items, key=lambda d: -d.score), source=self.describe())
 
 

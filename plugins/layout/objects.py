@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 
 from psdr_room_core.method.artifacts import ROOM_CATEGORIES, Panoptic
-from psdr_room_core.method.image_boxes import box_iou
+from psdr_room_core.method.image_boxes import box_iou, mask_box
 from psdr_room_core.method.objects import OBJECT_CATEGORIES
 
 from .settings import GrabCutParams
@@ -74,10 +74,7 @@ class SeenObjects:
         """The object and lamp segments of ``panoptic``, and its room surfaces."""
         shown = [(panoptic.ids == s.id, s.label) for s in panoptic.segments if s.category in OBJECT_CATEGORIES]
         shown = [(mask, label) for mask, label in shown if mask.any()]
-        boxes = []
-        for mask, _ in shown:
-            ys, xs = np.nonzero(mask)
-            boxes.append((xs.min(), ys.min(), xs.max() + 1, ys.max() + 1))
+        boxes = [mask_box(mask) for mask, _ in shown]
         surfaces = np.isin(panoptic.ids, [s.id for s in panoptic.segments if s.category in ROOM_CATEGORIES])
         return cls(
             [m for m, _ in shown],

@@ -5,6 +5,12 @@ from __future__ import annotations
 import numpy as np
 
 
+def mask_box(mask: np.ndarray) -> np.ndarray | None:
+    """The ``(x0, y0, x1, y1)`` box round a boolean mask's pixels; None when it has none."""
+    ys, xs = np.nonzero(mask)
+    return None if not len(xs) else np.array([xs.min(), ys.min(), xs.max() + 1, ys.max() + 1], np.float64)
+
+
 def box_iou(box: np.ndarray, boxes: np.ndarray) -> np.ndarray:
     """IoU of one ``(x0, y0, x1, y1)`` box with each row of ``boxes``."""
     w = np.clip(np.minimum(box[2], boxes[:, 2]) - np.maximum(box[0], boxes[:, 0]), 0.0, None)

@@ -27,6 +27,7 @@ from psdr_room_core.engine.settings import setting
 
 from .artifacts import Camera, RoomBox
 from .backs import back_shown
+from .image_boxes import box_iou, mask_box
 from .objects import pose_matrix
 from .silhouette import MeshCaster, Window, world_to_camera
 from .sizes import SizePrior
@@ -331,15 +332,12 @@ class _Scorer:
 
     def box_iou(self, window: Window, visible: np.ndarray) -> float:
         """IoU of the visible model's bounding box with the target's prompt box."""
-        rows, cols = np.flatnonzero(visible.any(axis=1)), np.flatnonzero(visible.any(axis=0))
-        if not rows.size:
+        box = mask_box(visible)
+        if box is None:
             return 0.0
-        x0, y0 = window[0] + cols[0], window[1] + rows[0]
-        x1, y1 = window[0] + cols[-1] + 1, window[1] + rows[-1] + 1
         assert self.target.box is not None  # only targets with a prompt box are scored by it
-        bx0, by0, bx1, by1 = self.target.box
-        inter = max(0, min(x1, bx1) - max(x0, bx0)) * max(0, min(y1, by1) - max(y0, by0))
-        return inter / max((x1 - x0) * (y1 - y0) + (bx1 - bx0) * (by1 - by0) - inter, 1)
+        box += (window[0], window[1], window[0], window[1])
+        return float(box_iou(np.asarray(self.target.box, np.float64), box[None])[0])
 
 
 Hypothesis = tuple[float, float, np.ndarray, float]

@@ -36,7 +36,7 @@ from ..capabilities import ObjectRetriever, Optimizer, Renderer
 from ..convergence import BestIterate, untimed
 from ..geometry import TriangleMesh, weld
 from ..grouping import Part, group_segments
-from ..image_boxes import box_iou
+from ..image_boxes import box_iou, mask_box
 from ..labels import meaning
 from ..objects import (
     OBJECT_CATEGORIES,
@@ -449,10 +449,9 @@ def explained(masks: torch.Tensor, targets: ObjectTargets) -> Explained:
     ious = mask_ious(masks, torch.from_numpy(targets.masks))
     boxes = np.full(len(masks), np.nan)
     for i, (mask, prompt) in enumerate(zip(masks.numpy() > 0.5, targets.boxes)):
-        rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-        if len(rows) and not np.isnan(prompt).any():
-            box = np.array([[cols[0], rows[0], cols[-1] + 1, rows[-1] + 1]], np.float64)
-            boxes[i] = box_iou(prompt, box)[0]
+        box = mask_box(mask)
+        if box is not None and not np.isnan(prompt).any():
+            boxes[i] = box_iou(prompt, box[None])[0]
     return Explained(mask=ious.numpy(), box=boxes)
 
 
