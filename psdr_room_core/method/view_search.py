@@ -309,7 +309,7 @@ class _Scorer:
         depth_error = np.where(count > 0, depth_sum / np.maximum(count, 1) / self.median_depth, 1.0)
         terms = {"silhouette": wrong / self.mask_area, "depth": self.params.depth_weight * depth_error}
         if self.target.box is not None:
-            terms["box"] = self.params.box_weight * (1.0 - np.array([self.box_iou(window, v) for v in visible]))
+            terms["box"] = self.params.box_weight * (1.0 - np.array([self.prompt_iou(window, v) for v in visible]))
         if self.prior is not None:
             terms["size"] = np.array([self.prior.penalty(float(np.linalg.norm(pose[:3, 0]))) for pose in poses])
         if self.target.room is not None and self.params.room_weight > 0:
@@ -330,7 +330,7 @@ class _Scorer:
         local = room.local(corners)
         return np.max(np.maximum(np.abs(local) - np.asarray(room.half_size), 0.0), axis=(1, 2))
 
-    def box_iou(self, window: Window, visible: np.ndarray) -> float:
+    def prompt_iou(self, window: Window, visible: np.ndarray) -> float:
         """IoU of the visible model's bounding box with the target's prompt box."""
         box = mask_box(visible)
         if box is None:
