@@ -272,6 +272,8 @@ class Selection:
         self.rgb8, self.rays, self.surfaces, self.params = rgb8, rays, surfaces, params
         self.grabcut = grabcut or GrabCutParams()
         self.seen = seen
+        self.rare = surfaces.commonness < params.leg_rarity
+        """(H, W) pixels whose colour is rare on the room surface they lie on: what legs below a cut may be."""
         self.kept: list[Candidate] = []
         self.dropped: dict[str, list[str]] = {}
         self.as_seen: list[str] = []
@@ -361,7 +363,7 @@ class Selection:
         box = probe.detection.box
         mask = grabcut_mask(self.rgb8, box, self.grabcut, taken=taken)
         if mask is not None and probe.category in FLOOR_STANDING:
-            mask = with_legs(mask, box, (self.surfaces.commonness < self.params.leg_rarity) & ~taken)
+            mask = with_legs(mask, box, self.rare & ~taken)
         if mask is None and self.seen is not None:
             mask = self.seen.mask(box, taken, self.grabcut.min_fill, self.params.seen_iou)
             if mask is not None:
