@@ -224,7 +224,8 @@ def test_two_objects_passing_through_each_other_are_moved_apart(db: ObjectDataba
 
 def test_what_made_room_for_a_dropped_object_goes_back(db: ObjectDatabase) -> None:
     """A weak desk wedged between a wall and a stronger desk cannot be parted from it and is dropped; the box
-    in front of it had first stepped out of it (that pair passing deeper), and goes back where it was."""
+    in front of it, a weak guess, had first stepped out of it (that pair passing deeper), and goes back where it
+    was."""
 
     def cube(segment_id: int, category: str, x: float, z: float, scale: float, explained: float) -> Placement:
         return Placement(segment_id, category, f"cube_{segment_id}", cube_mesh(), (x, 0.0, z), 0.0, scale,
@@ -241,12 +242,81 @@ def test_what_made_room_for_a_dropped_object_goes_back(db: ObjectDatabase) -> No
         yaw=0.0,
     )
     pixels = {1: 3000, 2: 3000, 3: 1500}
-    settled = settle([weak, strong, box], room, CAMERA, drawn=set(), pixels=pixels, params=PARAMS)
+    settled = settle([weak, strong, box], room, CAMERA, drawn=set(), pixels=pixels, params=PARAMS, weak={3})
     assert [p.segment_id for p in settled.placements] == [2, 3]
     assert settled.dropped[0].startswith("1:desk (cube_1): passes")
     assert any(c.startswith("3:box (cube_3): moved") for c in settled.changed)
     assert settled.changed[-1] == "3:box (cube_3): back as it was before it made room for 1:desk (cube_1), dropped"
     assert settled.placements[1] == box
+
+
+def test_a_weak_guess_never_makes_a_surer_object_change() -> None:
+    """A sure dresser and a weak guess against the wall beside it, 21 cm into it: the guess can neither step out
+    nor shrink and keep its silhouette, while the dresser could step aside, but a guess does not reshape what the
+    segmentation was sure of. Before the final settling the pair is left to the joint fit; in it, the guess is
+    dropped. Were the guess as sure as the dresser, the dresser would step aside."""
+
+    def cube(segment_id: int, x: float, scale: float, explained: float) -> Placement:
+        return Placement(segment_id, "cabinet", f"cube_{segment_id}", cube_mesh(), (x, 0.0, 3.0), 0.0, scale,
+                         "floor", None, "cabinet", explained)  # fmt: skip
+
+    room = RoomBox(camera_to_world=C2W, center=np.array([0.0, 1.5, 3.0]), half_size=np.array([1.2, 1.5, 0.6]), yaw=0.0)
+    dresser = cube(1, -0.05, 0.9, explained=0.6)  # x from -0.5 to 0.4
+    guess = cube(2, 0.69, 1.0, explained=0.9)  # x from 0.19 to the wall
+    assert interpenetrations([dresser, guess], 0.15)
+    pixels = {1: 3000, 2: 3000}  # the guess explains more pixels: by that alone it is the stronger
+    placed_only = settle([dresser, guess], room, CAMERA, set(), pixels, PARAMS, final=False, weak={2})
+    assert placed_only.placements == [dresser, guess] and not placed_only.changed
+    final = settle([dresser, guess], room, CAMERA, set(), pixels, PARAMS, weak={2})
+    assert final.placements == [dresser] and final.dropped[0].startswith("2:cabinet (cube_2): passes")
+    as_sure = settle([dresser, guess], room, CAMERA, set(), pixels, PARAMS)
+    assert as_sure.placements[0].position[0] < dresser.position[0] - 0.2 and as_sure.placements[1] == guess
+
+
+def test_an_object_does_not_step_out_in_front_of_another() -> None:
+    """A tall box standing in a bed's foot, its lower part hidden behind the foot: stepping 41 cm towards the
+    camera would free it and keep most of its own silhouette, but it would then stand in front of the bed, and
+    what the picture shows of it would change (its seen silhouette keeps under half). The bed, between the walls,
+    cannot move: the pair is left to the joint fit, and in the final settling the box is dropped."""
+
+    def block(segment_id: int, category: str, size: tuple[float, float, float], z: float, x: float) -> Placement:
+        cube = cube_mesh()
+        mesh = replace(cube, vertices=cube.vertices * np.array(size))
+        return Placement(segment_id, category, f"block_{segment_id}", mesh, (x, 0.0, z), 0.0, 1.0, "floor", None,
+                         category, 0.8)  # fmt: skip
+
+    room = RoomBox(
+        camera_to_world=C2W, center=np.array([0.0, 1.5, 0.7]), half_size=np.array([0.81, 1.5, 3.31]), yaw=0.0
+    )
+    bed = block(1, "bed", (1.6, 0.8, 2.0), 3.0, 0.0)  # wall to wall, against the back wall
+    box = block(2, "cabinet", (0.4, 1.2, 0.4), 2.22, 0.5)  # its front 2 cm behind the bed's foot
+    pixels = {1: 8000, 2: 3000}
+    placed_only = settle([bed, box], room, CAMERA, set(), pixels, PARAMS, final=False)
+    assert placed_only.placements == [bed, box] and not placed_only.changed
+    final = settle([bed, box], room, CAMERA, set(), pixels, PARAMS)
+    assert final.placements == [bed] and final.dropped[0].startswith("2:cabinet (block_2): passes")
+
+
+def test_a_chair_in_a_crowded_row_steps_out_of_its_desk() -> None:
+    """A chair 12 cm into the desk against the wall behind it, and 5 cm into each chair beside it: no step frees
+    it of all three, but one frees it of the desk, passing no deeper through its neighbours, who then step aside.
+    Nothing is dropped, nothing passes through anything."""
+
+    def cube(segment_id: int, category: str, x: float, z: float, scale: float, explained: float) -> Placement:
+        return Placement(segment_id, category, f"cube_{segment_id}", cube_mesh(), (x, 0.0, z), 0.0, scale,
+                         "floor", None, category, explained)  # fmt: skip
+
+    room = RoomBox(camera_to_world=C2W, center=np.array([0.0, 1.5, 1.0]), half_size=np.array([3.0, 1.5, 2.01]), yaw=0.0)
+    desk = cube(1, "desk", 0.0, 2.6, 0.8, explained=0.9)  # z from 2.2 to the wall
+    chair = cube(2, "chair", 0.0, 2.2 - 0.225 + 0.12, 0.45, explained=0.6)
+    beside = [cube(k, "chair", x, 2.2 - 0.235, 0.45, explained=0.6) for k, x in ((3, 0.4), (4, -0.4))]
+    objects = [desk, chair, *beside]
+    assert {(a, b) for a, b, _ in interpenetrations(objects, PARAMS.penetration)} == {(1, 2), (2, 3), (2, 4)}
+    pixels = {1: 6000, 2: 1500, 3: 1500, 4: 1500}
+    settled = settle(objects, room, CAMERA, drawn=set(), pixels=pixels, params=PARAMS)
+    assert not settled.dropped and settled.placements[0] == desk
+    assert interpenetrations(settled.placements, PARAMS.penetration) == []
+    assert settled.changed[0].startswith("2:chair (cube_2): moved ")
 
 
 def test_an_object_beyond_the_room_is_brought_in_or_the_room_grows(db: ObjectDatabase) -> None:

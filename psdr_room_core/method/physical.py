@@ -18,12 +18,17 @@ keeps its place in the picture, and logged), dropping an object only as the last
    ``max_growth``: a guessed object farther out stands where no room is, its depth is implausible, and it is
    dropped;
 4. **no interpenetration**: of two objects passing through each other by more than ``penetration`` metres
-   (:func:`~.solids.overlap`), the one whose freeing change keeps its silhouette best (at least ``keep_iou``)
-   takes it: a horizontal step (up to ``max_shift``) or shrinking in place within its category's sizes (a big
-   table stepping back 10 cm changes the picture less than the chair tucked under it stepping out); else, in
-   the ``final`` settling, the one that explains less is dropped (unless a person drew both), and what changed
-   to make room for it goes back where that passes through nothing more. Before it (after ``place_objects``)
-   such a pair is left to the joint fit, which pays for interpenetration;
+   (:func:`~.solids.overlap`), the one whose freeing change keeps what the picture shows of it best (the IoU of
+   its seen silhouette, in front of the others, with before: at least ``keep_iou``) takes it: a horizontal
+   step (up to ``max_shift``) or shrinking in place within its category's sizes (a big table stepping back
+   10 cm changes the picture less than the chair tucked under it stepping out), freeing it of the other and
+   passing no deeper through anything else (a chair in a crowded row steps out of its desk while still
+   brushing its neighbours, who then step aside in their turn). Only the weaker may change where the other is
+   more surely there (a person drew it, or its prompt was no weak guess: a detector's sure dresser does not
+   shrink out of a guess at the wall beside it). Where no allowed change frees them, in the ``final`` settling
+   the weaker is dropped (unless a person drew both), and what changed to make room for it goes back where
+   that passes through nothing more. Before it (after ``place_objects``) such a pair is left to the joint fit,
+   which pays for interpenetration;
 5. **what the photo shows stays in sight**: an object the others hide (seen from the camera, it shows less than
    ``hidden_share`` of the pixels of its segment it covers alone) contradicts the photo, which shows it there,
    and no gradient of the joint fit reaches a fully hidden object. Where the object in front of it is a blob
@@ -35,8 +40,10 @@ keeps its place in the picture, and logged), dropping an object only as the last
    Between two named objects nothing changes: which one's depth is wrong the photo does not say, and what
    stays hidden is reported (``benchmarks/real_photos.py``, column ``hid``).
 
-How much an object explains is the share of its segment its posed model covers (IoU) times the segment's
-pixels: a bed that explains most of a large segment outweighs a picture that explains all of a small one.
+Which of two objects is the stronger (:func:`evidence`): one a person drew, then one the segmentation was sure
+of (no weak guess: its prompt scored at least ``weak_score``), then the one that explains more: the share of its
+segment its posed model covers (IoU) times the segment's pixels, so that a bed that explains most of a large
+segment outweighs a picture that explains all of a small one.
 An object's children (objects standing on it) move and are dropped with it.
 """
 
@@ -75,11 +82,13 @@ class PhysicalParams:
     directions: int = setting(16, ge=1)
     """Horizontal directions tried for a move."""
     keep_iou: float = setting(0.5, ge=0, le=1)
-    """A change must keep this IoU of the object's silhouette with its silhouette before."""
+    """A change must keep this IoU of the object's silhouette (seen silhouette, rule 4) with before."""
     max_growth: float = setting(1.0, ge=0)
     """The room box grows by at most this beyond each side to hold an object."""
     hidden_share: float = setting(0.5, ge=0, le=1)
     """An object showing less than this share of the pixels of its segment it covers alone is hidden."""
+    weak_score: float = setting(0.3, ge=0, le=1)
+    """A guessed object whose prompt scored below this is a weak guess: it yields to any surer object."""
 
 
 @dataclass
@@ -101,11 +110,18 @@ MIN_SEEN = 10
 """Fewest pixels of its segment an object must cover (in the settling's picture) to count as hidden or not."""
 
 
-def evidence(placement: Placement, drawn: set[int], pixels: Mapping[int, int]) -> tuple[bool, float, int]:
-    """How strongly an object is attested (higher: kept): a person drew it, then the pixels of its segment the
-    posed model explains (IoU × segment pixels), then its segment id (older first)."""
+def evidence(
+    placement: Placement, drawn: set[int], weak: set[int], pixels: Mapping[int, int]
+) -> tuple[int, float, int]:
+    """How strongly an object is attested (higher: kept): its :func:`_sureness`, then the pixels of its segment
+    the posed model explains (IoU × segment pixels), then its segment id (older first)."""
     explained = (placement.explained or 0.0) * pixels.get(placement.segment_id, 1)
-    return placement.segment_id in drawn, explained, -placement.segment_id
+    return _sureness(placement.segment_id, drawn, weak), explained, -placement.segment_id
+
+
+def _sureness(segment_id: int, drawn: set[int], weak: set[int]) -> int:
+    """2: a person drew the object; 1: the segmentation was sure of it; 0: it is a weak guess."""
+    return 2 if segment_id in drawn else 0 if segment_id in weak else 1
 
 
 def _name(p: Placement) -> str:
@@ -209,21 +225,24 @@ class _Scene:
         room: RoomBox,
         camera: Camera,
         drawn: set[int],
+        weak: set[int],
         pixels: Mapping[int, int],
         params: PhysicalParams,
         ids: np.ndarray | None,
     ) -> None:
         self.objects = {p.segment_id: p for p in placements}
-        self.room, self.camera, self.drawn, self.pixels, self.params = room, camera, drawn, pixels, params
+        self.room, self.camera, self.drawn, self.weak = room, camera, drawn, weak
+        self.pixels, self.params = pixels, params
         self.ids = ids
         self.c2w = np.asarray(room.camera_to_world)
         self.origin = self.c2w[:3, 3]
         self.dropped: list[str] = []
         self.changed: list[str] = []
+        self.depths: dict[int, tuple[Placement, np.ndarray]] = {}
 
     # -- bookkeeping
-    def strength(self, segment_id: int) -> tuple[bool, float, int]:
-        return evidence(self.objects[segment_id], self.drawn, self.pixels)
+    def strength(self, segment_id: int) -> tuple[int, float, int]:
+        return evidence(self.objects[segment_id], self.drawn, self.weak, self.pixels)
 
     def drop(self, segment_id: int, why: str) -> None:
         if segment_id not in self.objects:
@@ -272,6 +291,31 @@ class _Scene:
             return float((now & reference).sum()) / union if union else 0.0
 
         return iou
+
+    def kept_sight(self, before: Placement) -> Callable[[Placement], float]:
+        """IoU of what the picture shows of a changed object (where it is in front of every other object but its
+        children) with what it showed of ``before``: stepping out in front of another object changes the picture
+        even where its own silhouette barely moves."""
+        behind = {before.segment_id} | {c.segment_id for c in self.objects.values() if _stands_on(c, before)}
+        front = np.full((self.camera.height, self.camera.width), np.inf)
+        for k, other in self.objects.items():
+            if k not in behind:
+                front = np.minimum(front, self.cached_depth(other))
+        reference = self.cached_depth(before) < front
+
+        def iou(after: Placement) -> float:
+            now = self.depth(after) < front
+            union = int((now | reference).sum())
+            return float((now & reference).sum()) / union if union else 0.0
+
+        return iou
+
+    def cached_depth(self, p: Placement) -> np.ndarray:
+        """:meth:`depth` of one of the objects as it stands (computed once per pose)."""
+        kept = self.depths.get(p.segment_id)
+        if kept is None or kept[0] is not p:
+            kept = self.depths[p.segment_id] = (p, self.depth(p))
+        return kept[1]
 
     def collisions(self, p: Placement) -> list[tuple[int, float]]:
         """(other id, interpenetration) of every object ``p`` passes through by more than allowed."""
@@ -428,15 +472,19 @@ class _Scene:
                     f"to hold {_name(p)} (no change kept its silhouette)"
                 )
 
-    def free_place(self, p: Placement) -> tuple[Placement, float] | None:
-        """(``p`` freed (through nothing, reaching no farther beyond the room) by the change that keeps its
-        silhouette best, that silhouette's IoU with before), of: about the shortest horizontal step per direction,
-        and the least shrinking in place (down to its category's smallest size); None where no change keeps
-        ``keep_iou`` of the silhouette."""
+    def free_place(self, p: Placement, other: int) -> tuple[Placement, float] | None:
+        """(``p`` freed from ``other`` (passing through nothing else deeper than before, reaching no farther beyond
+        the room) by the change that keeps what the picture shows of it best, its :meth:`kept_sight`), of: about
+        the shortest horizontal step per direction, and the least shrinking in place (down to its category's
+        smallest size); None where no change keeps ``keep_iou`` of it."""
         reach = self.reach(p)
+        through = dict(self.collisions(p))
 
         def free(c: Placement) -> bool:
-            return self.reach(c) <= reach + 1e-3 and not self.collisions(c)
+            if self.reach(c) > reach + 1e-3:
+                return False
+            now = dict(self.collisions(c))
+            return other not in now and all(depth <= through.get(k, 0.0) + 1e-3 for k, depth in now.items())
 
         options = [
             self.shortest(lambda d: self.shifted(p, d * direction), free, self.params.max_shift)
@@ -450,7 +498,7 @@ class _Scene:
                 np.linspace(0.97, 0.6, 13)[np.linspace(0.97, 0.6, 13) >= smallest],
             )
         )
-        kept = self.kept_look(p)
+        kept = self.kept_sight(p)
         scored = [(c, kept(c)) for c in options if c is not None]
         best = max(scored, key=lambda t: t[1], default=None)
         return best if best is not None and best[1] >= self.params.keep_iou else None
@@ -546,17 +594,22 @@ class _Scene:
                 if not any(o == b for o, _ in self.collisions(self.objects[a])):
                     continue
                 weaker, stronger = sorted((a, b), key=self.strength)
+                movers = [(weaker, stronger)]
+                if self.strength(stronger)[0] == self.strength(weaker)[0]:  # as sure as each other: either moves
+                    movers.append((stronger, weaker))
                 moves = [
                     (found, mover, other)
-                    for mover, other in ((weaker, stronger), (stronger, weaker))
-                    if (found := self.free_place(self.objects[mover])) is not None
+                    for mover, other in movers
+                    if (found := self.free_place(self.objects[mover], other)) is not None
                 ]
                 if moves:  # the change that alters the picture least (the weaker's on a tie)
                     (moved, iou), mover, other = max(moves, key=lambda m: m[0][1])
                     before = self.objects[mover]
                     shift = float(np.linalg.norm(np.subtract(moved.position, before.position)))
                     how = f"moved {shift:.2f} m" if shift > 1e-6 else f"scaled {before.scale:.2f} -> {moved.scale:.2f}"
-                    self.put(moved, f"{how} out of {_name(self.objects[other])} (silhouette IoU {iou:.2f} with before)")
+                    self.put(
+                        moved, f"{how} out of {_name(self.objects[other])} (seen silhouette IoU {iou:.2f} with before)"
+                    )
                     parted.setdefault(other, []).append((before, moved))
                 elif final and weaker not in self.drawn:  # two objects a person drew stay: what is left is reported
                     gone = _name(self.objects[weaker])
@@ -590,12 +643,14 @@ def settle(
     params: PhysicalParams,
     final: bool = True,
     ids: np.ndarray | None = None,
+    weak: set[int] | None = None,
 ) -> Settled:
     """The objects made physically possible (module docstring), judged in ``camera``'s picture (a small one
     will do); ``drawn``: segment ids a person drew; ``pixels``: each segment's pixel count; ``final``: the last
     settling, which may grow the room box and drop what it cannot part; ``ids``: the segmentation's id map at
-    ``camera``'s size, what each pixel shows (rule 5; None: not checked)."""
-    scene = _Scene(placements, room, camera, drawn, pixels, params, ids)
+    ``camera``'s size, what each pixel shows (rule 5; None: not checked); ``weak``: segment ids of weak guesses
+    (prompts that scored below ``weak_score``; None: none)."""
+    scene = _Scene(placements, room, camera, drawn, weak or set(), pixels, params, ids)
     scene.keep_sizes()
     scene.remove_duplicates()
     scene.keep_inside(final)
