@@ -124,6 +124,11 @@ def _sureness(segment_id: int, drawn: set[int], weak: set[int]) -> int:
     return 2 if segment_id in drawn else 0 if segment_id in weak else 1
 
 
+def _mask_iou(a: np.ndarray, b: np.ndarray) -> float:
+    union = int((a | b).sum())
+    return float((a & b).sum()) / union if union else 0.0
+
+
 def _name(p: Placement) -> str:
     return f"{p.segment_id}:{p.label} ({p.model_id.split('/')[-1]})"
 
@@ -284,13 +289,7 @@ class _Scene:
     def kept_look(self, before: Placement) -> Callable[[Placement], float]:
         """IoU of a changed object's silhouette with ``before``'s."""
         reference = self.looks(before)
-
-        def iou(after: Placement) -> float:
-            now = self.looks(after)
-            union = int((now | reference).sum())
-            return float((now & reference).sum()) / union if union else 0.0
-
-        return iou
+        return lambda after: _mask_iou(self.looks(after), reference)
 
     def kept_sight(self, before: Placement) -> Callable[[Placement], float]:
         """IoU of what the picture shows of a changed object (where it is in front of every other object but its
@@ -302,13 +301,7 @@ class _Scene:
             if k not in behind:
                 front = np.minimum(front, self.cached_depth(other))
         reference = self.cached_depth(before) < front
-
-        def iou(after: Placement) -> float:
-            now = self.depth(after) < front
-            union = int((now | reference).sum())
-            return float((now & reference).sum()) / union if union else 0.0
-
-        return iou
+        return lambda after: _mask_iou(self.depth(after) < front, reference)
 
     def cached_depth(self, p: Placement) -> np.ndarray:
         """:meth:`depth` of one of the objects as it stands (computed once per pose)."""
