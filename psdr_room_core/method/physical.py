@@ -501,7 +501,7 @@ class _Scene:
         if self.ids is None:
             return
         for _ in range(rounds):
-            depths = {k: self.depth(p) for k, p in self.objects.items()}
+            depths = {k: self.cached_depth(p) for k, p in self.objects.items()}
             pairs, changed = [], False
             for k in sorted(self.objects, key=self.strength, reverse=True):
                 front = self.hider(k, depths)
