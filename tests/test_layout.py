@@ -188,10 +188,37 @@ def test_a_networks_relative_depth_gives_an_object_with_no_floor_contact_its_own
     alone = layout.estimate(image, camera, Panoptic(ids, segments), PHOTO)
     depth = layout.estimate(image, camera, Panoptic(ids, segments), PHOTO, relative=relative)
     assert depth.unplaced == ()
-    lamp, rest = ids == 21, ids != 21
+    lamp, room_pixels = ids == 21, ids < 20
     assert np.median(depth.depth[lamp] / (1.5 * 0.5 * t[lamp])) == pytest.approx(1.0, abs=0.03)
-    assert np.array_equal(depth.depth[rest], alone.depth[rest])
+    assert np.array_equal(depth.depth[room_pixels], alone.depth[room_pixels])
     assert np.median(alone.depth[lamp] / (1.5 * t[lamp])) == pytest.approx(0.98, abs=0.03)  # against the wall
+
+
+def test_a_networks_relative_depth_lays_an_object_back_from_where_it_meets_the_floor(room: tuple) -> None:
+    """An object seen from above (a bed's top, receding as the floor under it does) is stood up as a slab on
+    its contact plane by the layout alone; a network's relative depth, scaled to that plane where the object
+    meets the floor, lays it back: no nearer than the plane, nor farther behind it than ``relative_extent``
+    times its width."""
+    camera, image, labels, t = room
+    ids = labels.astype(np.int32) + 1
+    segments = [Segment(int(s) + 1, CATEGORY.get(int(s), "wall"), box.SURFACES[int(s)]) for s in np.unique(labels)]
+    ids[200:236, 60:200] = 20  # lying on the floor: its depth recedes up the photo
+    assert np.all(labels[200:236, 60:200] == box.FLOOR)
+    segments.append(Segment(20, "object", "bed", 0.5))
+    panoptic, bed = Panoptic(ids, segments), ids == 20
+    relative = 7.0 * t  # the network's own units
+    alone = LayoutDepth(camera_height_m=1.5, n_random=1500).estimate(image, camera, panoptic, PHOTO)
+    deep = LayoutDepth(camera_height_m=1.5, n_random=1500, relative_extent=2.0)  # a bed is deeper than wide
+    shaped = deep.estimate(image, camera, panoptic, PHOTO, relative)
+    assert np.median(alone.depth[200:204, 130] / (1.5 * t[200:204, 130])) < 0.85  # a slab, up to the top row
+    assert np.median(np.abs(shaped.depth[bed] / (1.5 * t[bed]) - 1.0)) < 0.03  # lying on the floor
+    assert np.all(shaped.depth[bed] >= alone.depth[bed] - 1e-5)
+    assert np.array_equal(shaped.depth[~bed], alone.depth[~bed])
+    flat = LayoutDepth(camera_height_m=1.5, n_random=1500, relative_extent=0.0)
+    assert np.array_equal(flat.estimate(image, camera, panoptic, PHOTO, relative).depth, alone.depth)
+    capped = LayoutDepth(camera_height_m=1.5, n_random=1500, relative_extent=0.02)
+    behind = capped.estimate(image, camera, panoptic, PHOTO, relative).depth[bed] - alone.depth[bed]
+    assert 0 < behind.max() <= 1.5 * 0.02 * 2.5  # the bed is under 2.5 camera heights wide
 
 
 def test_object_stands_on_the_floor(room: tuple) -> None:

@@ -70,7 +70,8 @@ class LayoutWithEyesSurfaces(_LayoutHelpedByEyes):
 
 
 class LayoutDepthWithEyes(_LayoutHelpedByEyes):
-    """``depth=layout`` whose objects with no floor contact take the eyes network's depth, scaled to the layout's.
+    """``depth=layout`` whose objects with no floor contact take the eyes network's depth, scaled to the layout's,
+    and whose objects on the floor take its shape behind their contact plane (:func:`~..layout.depth.shaped_by`).
     Set a member's settings on its own node (``depth.layout.X``, ``depth.eyes.X``)."""
 
     eyes: EyesDepth

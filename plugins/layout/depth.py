@@ -46,6 +46,27 @@ def object_depth(
     return depth, True
 
 
+def shaped_by(
+    relative: np.ndarray, plane: np.ndarray, mask: np.ndarray, rays: np.ndarray, room: np.ndarray, extent: float
+) -> np.ndarray:
+    """An object's depth (H, W; 0 off its mask) from its contact ``plane`` (:func:`object_depth`) shaped by a
+    network's ``relative`` depth: that depth scaled to the plane's on the mask's lowest rows (where it meets
+    the floor), each pixel no nearer than the plane, no farther behind it than ``extent`` times the object's
+    width on it, and never beyond the ``room``. So a bed seen from its foot recedes to its headboard, where the
+    plane alone stands it up as a slab."""
+    rows = np.flatnonzero(mask.any(axis=1))
+    lowest = mask & (np.arange(mask.shape[0])[:, None] >= rows[-1] - max(2, (rows[-1] - rows[0]) // 10))
+    scaled = scaled_to(relative, plane, lowest)
+    on_plane = rays[mask][:, [0, 2]] * plane[mask][:, None]  # (N, 2) x, z of the pixels on the plane
+    spread = on_plane - on_plane.mean(axis=0)
+    along = np.linalg.eigh(spread.T @ spread)[1][:, -1]  # the plane's horizontal direction
+    width = float(np.ptp(spread @ along))
+    near = plane[mask]
+    depth = np.zeros_like(plane)
+    depth[mask] = np.clip(scaled[mask], near, np.maximum(near, np.minimum(room[mask], near + extent * width)))
+    return depth
+
+
 def scaled_to(relative: np.ndarray, depth: np.ndarray, where: np.ndarray) -> np.ndarray:
     """``relative`` (a depth up to scale) times the scale that matches it to ``depth`` on the pixels ``where``
     both are positive: the median of their log ratios there (1 when there are none)."""
@@ -71,7 +92,9 @@ class LayoutDepth:
         self, image: Image, camera: Camera, panoptic: Panoptic, photo: Path, relative: np.ndarray | None = None
     ) -> DepthMap:
         """The depth map; ``relative``: a network's depth of the photo (H, W) up to scale, which gives the objects
-        with no floor contact theirs (:func:`scaled_to`) instead of the room surface's behind them."""
+        with no floor contact theirs (:func:`scaled_to`) instead of the room surface's behind them, and those
+        with one their shape behind their contact plane (:func:`shaped_by`, ``relative_extent``; those at least
+        ``relative_min_width`` of the photo wide)."""
         fitted = self.fit(image, camera, panoptic)
         _, room = fitted.trace(camera, image.width, image.height)
         depth = room.copy()
@@ -83,6 +106,10 @@ class LayoutDepth:
             mask = panoptic.ids == segment.id
             if mask.any():
                 placed, on_floor = object_depth(mask, rays, room, segment.box)
+                columns = np.flatnonzero(mask.any(axis=0))
+                wide = columns[-1] - columns[0] + 1 >= self.settings.relative_min_width * image.width
+                if on_floor and relative is not None and wide and self.settings.relative_extent > 0:
+                    placed = shaped_by(relative, placed, mask, rays, room, self.settings.relative_extent)
                 depth = np.where(mask, placed, depth)
                 if not on_floor:
                     unplaced.append(segment.id)

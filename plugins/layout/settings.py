@@ -178,6 +178,12 @@ class LayoutDepthSettings(LayoutParams):
     """``depth=layout``: the fit, and the camera height that turns its camera-height units into metres."""
 
     camera_height_m: float = setting(1.5, gt=0)
+    relative_extent: float = setting(0.5, ge=0)
+    """Where a network's relative depth is given (``depth=layout_eyes``): how far behind its contact plane
+    (times its width there) an object standing on the floor may reach as that depth shapes it; 0: the plane."""
+    relative_min_width: float = setting(0.1, ge=0, le=1)
+    """The narrowest object (share of the photo's width) that depth shapes: of a narrower one, the network (80
+    cells across) sees mostly the blur of its edges."""
 
 
 @dataclass
