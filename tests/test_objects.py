@@ -562,7 +562,7 @@ def test_an_object_the_fit_pushed_off_its_segment_goes_back_to_its_placed_pose()
             values += 0.5
     no_box = np.full(2, np.nan)
     placed, fitted = Explained(np.array([0.9, 0.8]), no_box), Explained(np.array([0.09, 0.7]), no_box)
-    assert restore_lost(model, placed, fitted, share=0.5, same_box=0.5) == [0]
+    assert restore_lost(model, placed, fitted, share=0.5, same_box=0.5, size_tolerance=0.15) == [0]
     assert model.theta["log_scale"].tolist() == [0.0, 0.5] and model.theta["yaw"].tolist() == [0.0, 0.5]
     assert model.theta["translation"][0].tolist() == [0.0, 0.0, 0.0]
     with torch.no_grad():
@@ -589,8 +589,29 @@ def test_an_object_the_fit_took_off_its_prompt_box_goes_back_to_its_placed_pose(
             values += 0.5
     placed = Explained(np.array([0.5, 0.5, 0.5]), np.array([0.8, 0.4, np.nan]))
     fitted = Explained(np.array([0.7, 0.7, 0.7]), np.array([0.4, 0.3, np.nan]))
-    assert restore_lost(model, placed, fitted, share=0.5, same_box=0.5) == [0]
+    assert restore_lost(model, placed, fitted, share=0.5, same_box=0.5, size_tolerance=0.15) == [0]
     assert model.theta["log_scale"].tolist() == [0.0, 0.5, 0.5]
+
+
+def test_an_object_the_fit_took_outside_its_real_sizes_goes_back_to_its_placed_pose() -> None:
+    """A chair the frame cuts, halved by the fit to match a depth that may be off, would be dropped by the
+    settling as no chair's size: it gets its placed pose back. One placed outside its sizes already, and one the
+    fit shrank within them, keep their fit."""
+    block = box_mesh(np.array([0.0, 0.45, 0.0]), np.array([0.25, 0.45, 0.25]))  # a real chair's size at scale 1
+    chair = ObjectMesh(block.vertices, block.faces, np.zeros(12, int), ("frame",), np.array([[0.5, 0.5, 0.5]]))
+    start = Placements(
+        objects=[
+            Placement(i, "chair", "m", chair, (x, 0.0, 2.5), 0.0, scale, "floor", category="chair")
+            for i, x, scale in ((1, -1.0, 1.0), (2, 0.0, 0.4), (3, 1.0, 1.0))
+        ]
+    )
+    model = PoseModel(start, ROOM, unit=3.0)
+    with torch.no_grad():
+        model.theta["log_scale"][:] = torch.tensor([math.log(0.3), math.log(0.9), math.log(0.9)])
+    same = Explained(np.full(3, 0.6), np.full(3, np.nan))
+    assert restore_lost(model, same, same, share=0.5, same_box=0.5, size_tolerance=0.15) == [0]
+    assert model.placements_now()[0].scale == pytest.approx(1.0)
+    assert [p.scale for p in model.placements_now()[1:]] == pytest.approx([0.36, 0.9])
 
 
 def test_a_restore_that_costs_the_settling_an_object_is_undone() -> None:

@@ -61,7 +61,7 @@ from psdr_room_core.engine.settings import setting
 from .artifacts import Camera, Placement, RoomBox, rotation_y, vec3
 from .labels import ANY, meaning
 from .silhouette import depth_map, silhouette
-from .sizes import scale_range
+from .sizes import scale_range, size_excess
 from .solids import overlap, solid_of, to_model
 
 log = logging.getLogger("psdr_room")
@@ -391,14 +391,14 @@ class _Scene:
     # -- the rules
     def keep_sizes(self) -> None:
         for p in list(self.objects.values()):
-            low, high = scale_range(p.category, np.ptp(p.mesh.vertices, axis=0))
-            outside = max(0.0, math.log(low / p.scale) if low > 0 else 0.0, math.log(p.scale / high))
+            outside = size_excess(p.category, np.ptp(p.mesh.vertices, axis=0), p.scale)
             if outside == 0.0:
                 continue
             if outside > self.params.size_tolerance and p.segment_id not in self.drawn:
                 size = np.round(np.ptp(p.mesh.vertices, axis=0) * p.scale, 2).tolist()
                 self.drop(p.segment_id, f"needs {p.scale:.2f}x its size ({size} m), outside a {p.category}'s")
                 continue
+            low, high = scale_range(p.category, np.ptp(p.mesh.vertices, axis=0))
             scaled = along_ray(p, min(max(p.scale, low), high), self.origin)
             self.put(scaled, f"scaled {p.scale:.2f} -> {scaled.scale:.2f} (a {p.category}'s real size)")
 

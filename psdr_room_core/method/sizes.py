@@ -99,6 +99,12 @@ def scale_range(category: str, extent: Sequence[float]) -> Interval:
     return middle, middle
 
 
+def size_excess(category: str, extent: Sequence[float], scale: float) -> float:
+    """How far (log scale) a model of ``extent`` at ``scale`` lies outside its category's real sizes; 0 inside."""
+    low, high = scale_range(category, extent)
+    return max(0.0, math.log(low / scale) if low > 0 else 0.0, math.log(scale / high))
+
+
 @dataclass(frozen=True)
 class SizePrior:
     """The size prior on a posed model's scale: ``scale_weight·|ln s| + range_weight·outside(s)`` with

@@ -50,7 +50,7 @@ from ..objects import (
 )
 from ..physical import PhysicalParams, Settled, interpenetrations, settle, support_top
 from ..silhouette import silhouette
-from ..sizes import SizePrior, scale_range
+from ..sizes import SizePrior, scale_range, size_excess
 from ..solids import field_lookup, overlap, solid_of
 from ..view_search import ViewTarget, fit_view
 from ..visualize import plot_curves, segment_overlay
@@ -641,9 +641,9 @@ def fit_objects(
     its support constraint (:class:`PoseModel`), with the ``renderer`` and the ``optimizer``. The fit runs until the
     yaw test (or a plateau of the loss before it), then, where an object turned or the loss had not flattened, on to
     ``iterations`` (or a plateau); each phase leaves its best iterate. An object the fit left explaining less than
-    ``keep_share`` of what it explained when placed, or whose render's box the fit took off its prompt box
-    (``same_box``), goes back to its placed pose (:func:`restore_lost`), unless that costs the settling an object
-    (:func:`settle_restored`). The fitted scene is then made physically possible
+    ``keep_share`` of what it explained when placed, whose render's box the fit took off its prompt box
+    (``same_box``), or whose size it took outside its category's (``physical.size_tolerance``), goes back to its
+    placed pose (:func:`restore_lost`), unless that costs the settling an object (:func:`settle_restored`). The fitted scene is then made physically possible
     (:func:`~psdr_room_core.method.physical.settle`, ``physical``: place_objects' settings): real sizes, inside the
     room (which grows where an object the photo shows cannot be brought inside it: the room box after the objects,
     ``room``), no interpenetration beyond ``physical.penetration``, duplicates dropped; what remains passing
@@ -734,7 +734,9 @@ def fit_objects(
     with torch.no_grad():
         fitted = explained(per_object(len(history))[1], targets)
         fitted_poses = [replace(p, explained=float(iou)) for p, iou in zip(model.placements_now(), fitted.mask)]
-        restored = restore_lost(model, placed, fitted, settings.keep_share, settings.same_box)
+        restored = restore_lost(
+            model, placed, fitted, settings.keep_share, settings.same_box, settings.physical.size_tolerance
+        )
         ious = explained(per_object(len(history))[1], targets).mask if restored else fitted.mask
         posed = [replace(p, explained=float(iou)) for p, iou in zip(model.placements_now(), ious)]
     settled, undone = settle_restored(
@@ -750,7 +752,7 @@ def fit_objects(
         why = (
             f"{p.segment_id}:{p.label} ({p.model_id.split('/')[-1]}): the fit left it explaining "
             f"{fitted.mask[i]:.2f} of its segment ({placed.mask[i]:.2f} placed), its box {fitted.box[i]:.2f} of its "
-            f"prompt box ({placed.box[i]:.2f} placed)"
+            f"prompt box ({placed.box[i]:.2f} placed), at scale {fitted_poses[i].scale:.2f} ({p.scale:.2f} placed)"
         )
         if i in undone:
             log.info("fit_objects: kept the fitted pose of %s, as its placed pose cost the settling an object", why)
@@ -796,19 +798,30 @@ def _near(a: Placement, b: Placement, margin: float = 0.25) -> bool:
     return float(np.linalg.norm(ca - cb)) < ra + rb + margin
 
 
-def restore_lost(model: PoseModel, placed: Explained, fitted: Explained, share: float, same_box: float) -> list[int]:
+def restore_lost(
+    model: PoseModel, placed: Explained, fitted: Explained, share: float, same_box: float, size_tolerance: float
+) -> list[int]:
     """The objects the fit lost, put back in their placed pose (their fit parameters zeroed): those it left
-    explaining less than ``share`` of what their render explained of their segment when placed, and those whose
+    explaining less than ``share`` of what their render explained of their segment when placed, those whose
     render's box matched their prompt box (box IoU ``same_box`` or more: the one object there) when placed and
-    no longer does. The joint fit can push an object off its segment (out of a collision with a neighbour the
-    photo shows in front of it, or shrunk by its size prior) where no gradient brings it back, and it fits a
-    cut mask that lost the thin legs or the base of a chair by a smaller chair farther away, whose box no longer
-    reaches the floor where the detector's did: eq. 3 must not lose what the placement found. Returns their
-    indices."""
+    no longer does, and those it took outside their category's real sizes (by more than ``size_tolerance``, log
+    scale, which the settling drops) from a size inside them. The joint fit can push an object off its segment
+    (out of a collision with a neighbour the photo shows in front of it, or shrunk by its size prior) where no
+    gradient brings it back, it fits a cut mask that lost the thin legs or the base of a chair by a smaller
+    chair farther away, whose box no longer reaches the floor where the detector's did, and it halves a chair
+    the frame cuts to match a depth that may be off: eq. 3 must not lose what the placement found. Returns
+    their indices."""
+
+    def excess(p: Placement) -> float:
+        return size_excess(p.category, np.ptp(p.mesh.vertices, axis=0), p.scale)
+
+    now = model.placements_now()
     lost = [
         i
         for i in range(len(placed.mask))
-        if fitted.mask[i] < share * placed.mask[i] or (placed.box[i] >= same_box and not fitted.box[i] >= same_box)
+        if fitted.mask[i] < share * placed.mask[i]
+        or (placed.box[i] >= same_box and not fitted.box[i] >= same_box)
+        or excess(now[i]) > size_tolerance >= excess(model.placements[i])
     ]
     with torch.no_grad():
         for values in model.theta.values():
