@@ -643,7 +643,8 @@ def fit_objects(
     ``iterations`` (or a plateau); each phase leaves its best iterate. An object the fit left explaining less than
     ``keep_share`` of what it explained when placed, whose render's box the fit took off its prompt box
     (``same_box``), or whose size it took outside its category's (``physical.size_tolerance``), goes back to its
-    placed pose (:func:`restore_lost`), unless that costs the settling an object (:func:`settle_restored`). The fitted scene is then made physically possible
+    placed pose (:func:`restore_lost`), unless that costs the settling an object (:func:`settle_restored`). The
+    fitted scene is then made physically possible
     (:func:`~psdr_room_core.method.physical.settle`, ``physical``: place_objects' settings): real sizes, inside the
     room (which grows where an object the photo shows cannot be brought inside it: the room box after the objects,
     ``room``), no interpenetration beyond ``physical.penetration``, duplicates dropped; what remains passing
