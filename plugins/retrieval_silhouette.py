@@ -35,7 +35,8 @@ class SilhouetteRetrieval:
     size prior (:class:`~psdr_room_core.method.sizes.SizePrior`: ``size_weight · |ln scale|``, database models are
     in metres, plus ``range_weight`` × how far the posed model is outside its category's real sizes) and what the
     pose reaching beyond the query's room box costs (``room_weight`` per metre), and ``back_weight`` for a model
-    that stands with its back to a wall posed with its back to the camera (:mod:`~psdr_room_core.method.backs`).
+    that stands with its back to a wall posed with its back to the camera, ``wall_weight`` per metre the wall behind it
+    is farther than the nearest (:mod:`~psdr_room_core.method.backs`).
     Every model is scored so at its best moment-matched start; the ``shortlist`` best, or the best
     ``shortlist_share`` of them where that is more (at least ``k``; ``shortlist`` 0: all), are refined and ranked
     by their refined score."""
@@ -58,6 +59,7 @@ class SilhouetteRetrieval:
         box_weight: float = 0.5,
         room_weight: float = 2.0,
         back_weight: float = 0.5,
+        wall_weight: float = 0.1,
         shortlist: int = 12,
         shortlist_share: float = 0.2,
     ) -> None:
@@ -73,6 +75,7 @@ class SilhouetteRetrieval:
             box_weight=float(box_weight),
             room_weight=float(room_weight),
             back_weight=float(back_weight),
+            wall_weight=float(wall_weight),
         )
         self.render_width = int(render_width)
         self.max_pixels = int(max_pixels)
@@ -174,6 +177,7 @@ class SilhouetteSettings:
     box_weight: float = setting(ge=0)
     room_weight: float = setting(ge=0)
     back_weight: float = setting(ge=0)
+    wall_weight: float = setting(ge=0)
     shortlist: int = setting(ge=0)
     shortlist_share: float = setting(ge=0, le=1)
 

@@ -23,7 +23,7 @@ from psdr_room_core.method.artifacts import (
     RoomBox,
     Segment,
 )
-from psdr_room_core.method.backs import back_shown
+from psdr_room_core.method.backs import back_shown, wall_gap
 from psdr_room_core.method.geometry import TriangleMesh, box_mesh, weld
 from psdr_room_core.method.objects import (
     ObjectQuery,
@@ -436,6 +436,7 @@ def test_fit_objects_recovers_perturbed_poses(tmp_path: Path) -> None:
         "room_weight": 0.2,
         "collision_weight": 2.0,
         "back_weight": 0.05,
+        "wall_weight": 0.01,
         "keep_share": 0.5,
         "same_box": 0.5,
         "physical": PHYSICAL,
@@ -502,6 +503,69 @@ def test_back_shown_is_how_square_on_a_pose_turns_its_back_to_the_camera() -> No
     assert back_shown(math.sin(math.pi), math.cos(math.pi), *towards) == 0.0  # front to the camera
     assert back_shown(math.sin(math.pi / 2), math.cos(math.pi / 2), *towards) == pytest.approx(0.0, abs=1e-9)  # side
     assert back_shown(math.sin(math.pi / 4), math.cos(math.pi / 4), *towards) == pytest.approx(math.sqrt(0.5))
+
+
+def test_the_wall_a_model_backs_onto_is_the_nearest() -> None:
+    """wall_gap: in a 6 m room, an object 1 m from the +Z wall backing onto it pays nothing, backing onto a side
+    wall 3 m away 2 m, onto the far wall 5 m away 4 m; on floats, arrays and tensors, with a gradient that turns
+    it towards the near wall."""
+    gaps = [wall_gap(math.sin(math.radians(d)), math.cos(math.radians(d)), 0.0, 2.0, 3.0, 3.0) for d in (180, 90, 0)]
+    assert gaps == pytest.approx([0.0, 2.0, 4.0])
+    yaws = np.radians([180.0, 270.0])
+    assert wall_gap(np.sin(yaws), np.cos(yaws), np.zeros(2), np.full(2, 2.0), 3.0, 3.0) == pytest.approx([0.0, 2.0])
+    assert wall_gap(0.0, -1.0, 5.0, 2.0, 3.0, 3.0) == pytest.approx(1.0)  # outside: taken at the side wall
+    yaw = torch.tensor(math.radians(150.0), requires_grad=True)
+    gap = wall_gap(torch.sin(yaw), torch.cos(yaw), torch.tensor(0.0), torch.tensor(2.0), 3.0, 3.0)
+    gap.backward()
+    assert gap.item() > 0.0 and yaw.grad is not None and yaw.grad.item() < 0.0  # descent turns it to 180°
+
+
+def test_a_box_the_mask_cannot_orient_is_posed_with_its_back_to_the_nearest_wall() -> None:
+    """A cabinet with a square footprint looks the same turned a quarter turn, and shows the camera its side or
+    its front at two of those turns alike, so neither its mask nor ``back_weight`` can say which wall it stands
+    against. It stands 0.5 m from the room's far wall and 2 m from its side wall: the search poses it backing onto
+    the far wall (without the wall term it takes the first of the turns that tie), and lists what the wall cost;
+    with no room box there is no wall term."""
+    cabinet = box_mesh(np.array([0.0, 0.4, 0.0]), np.array([0.4, 0.4, 0.4]))  # canonical: bottom at 0
+    truth = pose_matrix(np.array([-1.0, 0.0, 2.5]), math.radians(180), 1.0)  # front to the camera, back to +Z
+    nearest, points = _seen([(cabinet, truth)])
+    mask, seen = nearest == 0, points[nearest == 0]
+    params = SearchParams(back_weight=0.5, wall_weight=0.1)
+    target = ViewTarget.build(CAMERA, C2W, mask, seen, seen, 160, room=ROOM)
+    view = fit_view(target, cabinet.vertices, cabinet.faces, params, support_height=0.0, backed=True)
+    turn = (math.degrees(view.yaw) - 180.0 + 180.0) % 360.0 - 180.0
+    assert abs(turn) < 3.0 and view.iou > 0.95, (math.degrees(view.yaw), view.iou)
+    assert view.terms["wall"] < 0.01 and np.linalg.norm(view.position - truth[:3, 3]) < 0.05
+    plain = fit_view(target, cabinet.vertices, cabinet.faces, replace(params, wall_weight=0.0), 0.0, backed=True)
+    assert "wall" not in plain.terms and abs(plain.error - view.error) < 0.01  # the wall decides, nothing else
+    no_room = ViewTarget.build(CAMERA, C2W, mask, seen, seen, 160)
+    assert "wall" not in fit_view(no_room, cabinet.vertices, cabinet.faces, params, support_height=0.0).terms
+
+
+def test_eq3_pays_for_a_backed_object_backing_onto_a_far_wall() -> None:
+    """PoseModel.wall_penalty: a cabinet 0.5 m from the -X wall backing onto it pays nothing, turned to back
+    onto the far +Z wall the difference of the two distances; a sofa nothing; the yaw gets the gradient."""
+    shape = box_mesh(np.array([0.0, 0.3, 0.0]), np.array([0.4, 0.3, 0.4]))
+    box = ObjectMesh(
+        vertices=shape.vertices,
+        faces=shape.faces,
+        face_group=np.zeros(12, int),
+        groups=("frame",),
+        colors=np.array([[0.5, 0.5, 0.5]]),
+    )
+    placements = Placements(
+        objects=[
+            Placement(1, "cabinet", "m", box, (-2.5, 0.0, 1.0), math.radians(90), 1.0, "floor", category="cabinet"),
+            Placement(2, "cabinet", "m", box, (-2.5, 0.0, 1.0), math.radians(170), 1.0, "floor", category="cabinet"),
+            Placement(3, "sofa", "m", box, (-2.5, 0.0, 1.0), math.radians(170), 1.0, "floor", category="sofa"),
+        ]
+    )
+    model = PoseModel(placements, ROOM, unit=3.0)
+    penalty = model.wall_penalty()
+    assert penalty[0].item() == pytest.approx(0.0, abs=1e-6) and penalty[2].item() == 0.0
+    assert penalty[1].item() == pytest.approx(2.0 / math.cos(math.radians(10.0)) - 0.5, abs=1e-4)
+    penalty.sum().backward()
+    assert model.theta["yaw"].grad[1].item() != 0.0
 
 
 def test_a_bed_the_mask_cannot_orient_is_posed_with_its_back_away_from_the_camera() -> None:

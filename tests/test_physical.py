@@ -365,3 +365,28 @@ def test_eq3_pays_for_interpenetration_and_its_gradient_parts_the_objects() -> N
     assert grad is not None and grad[0, 0] > 0 > grad[1, 0]  # descent moves a to -x, b to +x
     apart = PoseModel(Placements(objects=[a, replace(b, position=(1.2, 0.0, 1.0))]), ROOM, unit=1.0)
     assert torch.all(apart.collision_penalty() == 0)
+
+
+def test_in_eq3_a_weak_guess_through_a_surer_object_alone_moves_out() -> None:
+    """PoseModel.collision_penalty with ``weak``: where a weak guess passes through a surer object, the penalty is
+    the same but only the guess gets its gradient (a guess never pushes what the photo is surer of); two guesses,
+    or two sure objects, both move apart as before."""
+    import torch
+
+    from psdr_room_core.method.artifacts import Placements
+    from psdr_room_core.method.stages.objects import PoseModel
+
+    a = Placement(1, "bed", "test/cube", cube_mesh(), (0.0, 0.0, 1.0), 0.0, 1.0, "floor")
+    b = replace(a, segment_id=2, label="oven", position=(0.7, 0.0, 1.0))
+    sure = PoseModel(Placements(objects=[a, b]), ROOM, unit=1.0)
+    guess = PoseModel(Placements(objects=[a, b]), ROOM, unit=1.0, weak={2})
+    assert torch.allclose(guess.collision_penalty(), sure.collision_penalty())
+    guess.collision_penalty().sum().backward()
+    for name, values in guess.theta.items():
+        assert values.grad is not None and torch.all(values.grad[0] == 0), name  # the bed holds
+    grad = guess.theta["translation"].grad
+    assert grad is not None and grad[1, 0] < 0  # descent moves the guess to +x, out of the bed
+    both = PoseModel(Placements(objects=[a, b]), ROOM, unit=1.0, weak={1, 2})
+    both.collision_penalty().sum().backward()
+    grad = both.theta["translation"].grad
+    assert grad is not None and grad[0, 0] > 0 > grad[1, 0]

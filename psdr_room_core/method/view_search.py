@@ -26,7 +26,7 @@ import numpy as np
 from psdr_room_core.engine.settings import setting
 
 from .artifacts import Camera, RoomBox
-from .backs import back_shown
+from .backs import back_shown, wall_gap
 from .image_boxes import box_iou, mask_box
 from .objects import pose_matrix
 from .silhouette import MeshCaster, Window, world_to_camera
@@ -159,7 +159,9 @@ class ViewFit:
     visible model's box with the prompt box), for a prompted segment) + the size prior's penalty on the scale
     (:class:`~psdr_room_core.method.sizes.SizePrior`, where one is given) + ``room_weight`` × how far (metres)
     its bounding box reaches beyond the target's room box (+ ``back_weight`` × how far it shows the camera its
-    back, :func:`~psdr_room_core.method.backs.back_shown`, for a model that stands with its back to a wall)."""
+    back, :func:`~psdr_room_core.method.backs.back_shown`, + ``wall_weight`` × how much farther than the nearest
+    wall the wall behind it is, :func:`~psdr_room_core.method.backs.wall_gap`, for a model that stands with its
+    back to a wall)."""
     terms: dict[str, float] = field(default_factory=dict)
     """:attr:`error` term by term (:data:`ERROR_TERMS` that apply; they sum to it)."""
 
@@ -171,6 +173,7 @@ ERROR_TERMS = {
     "size": "the size prior's penalty on the scale",
     "room": "room_weight × metres the model reaches beyond the room box",
     "back": "back_weight × how far a model that stands with its back to a wall shows the camera its back",
+    "wall": "wall_weight × metres farther than the nearest wall the wall behind a model that stands with its back to one is",
 }
 """The terms of :attr:`ViewFit.error`, by name: what a user reads to see why a model was ranked where it was."""
 
@@ -207,6 +210,9 @@ class SearchParams:
     back_weight: float = setting(0.0, ge=0)
     """Error of a model that stands with its back to a wall (``backed``) posed with its back square on to the
     camera (:func:`~psdr_room_core.method.backs.back_shown` scales it)."""
+    wall_weight: float = setting(0.0, ge=0)
+    """Error per metre the wall behind a model that stands with its back to a wall (``backed``) is farther than
+    the wall nearest it (:func:`~psdr_room_core.method.backs.wall_gap`; with the target's room box)."""
 
 
 class _Scorer:
@@ -224,6 +230,7 @@ class _Scorer:
     ) -> None:
         self.target, self.params, self.prior = target, params, prior
         self.backed = backed and params.back_weight > 0
+        self.walled = backed and params.wall_weight > 0 and target.room is not None
         self.caster = caster or MeshCaster(vertices, faces)
         lo, hi = vertices.min(axis=0), vertices.max(axis=0)
         self.corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
@@ -319,6 +326,8 @@ class _Scorer:
             front /= np.linalg.norm(front, axis=1, keepdims=True)
             towards = np.array([pose[:3, 3] for pose in poses]) - self.target.camera_to_world[:3, 3]
             terms["back"] = self.params.back_weight * back_shown(front[:, 0], front[:, 2], towards[:, 0], towards[:, 2])
+        if self.walled:
+            terms["wall"] = self.params.wall_weight * self.wall_gaps(poses)
         iou = overlap / np.maximum(self.mask_area + visible_area - overlap, 1)
         return terms, iou
 
@@ -329,6 +338,17 @@ class _Scorer:
         corners = np.stack([self.corners @ pose[:3, :3].T + pose[:3, 3] for pose in poses])  # (K, 8, 3)
         local = room.local(corners)
         return np.max(np.maximum(np.abs(local) - np.asarray(room.half_size), 0.0), axis=(1, 2))
+
+    def wall_gaps(self, poses: list[np.ndarray]) -> np.ndarray:
+        """(K,) how much farther (metres) than the nearest wall of the target's room box the wall behind each pose
+        is (:func:`~psdr_room_core.method.backs.wall_gap`)."""
+        room = self.target.room
+        assert room is not None
+        local = room.local(np.array([pose[:3, 3] for pose in poses]))
+        front = room.local(np.array([pose[:3, 2] for pose in poses]) + np.asarray(room.center))  # directions
+        front /= np.linalg.norm(front[:, [0, 2]], axis=1, keepdims=True)
+        half = np.asarray(room.half_size)
+        return wall_gap(front[:, 0], front[:, 2], local[:, 0], local[:, 2], float(half[0]), float(half[2]))
 
     def prompt_iou(self, window: Window, visible: np.ndarray) -> float:
         """IoU of the visible model's bounding box with the target's prompt box."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import asdict, dataclass, replace
 from typing import Any
 
@@ -31,7 +31,7 @@ from ..artifacts import (
     rotation_y,
     vec3,
 )
-from ..backs import BACKED, back_shown
+from ..backs import BACKED, back_shown, wall_gap
 from ..capabilities import ObjectRetriever, Optimizer, Renderer
 from ..convergence import BestIterate, untimed
 from ..geometry import TriangleMesh, weld
@@ -233,8 +233,9 @@ def place_objects(
     size, so the search's error holds the size prior of the model's category
     (:class:`~psdr_room_core.method.sizes.SizePrior`, ``size_prior`` weights): a bed is not posed at twice its
     size to match a depth that may be off. Beds, cabinets, shelves and refrigerators stand with their backs to a
-    wall, so a pose showing the camera their back costs ``search.back_weight`` (:mod:`~psdr_room_core.method.backs`):
-    a bed is not posed with its headboard towards the camera.
+    wall, so a pose showing the camera their back costs ``search.back_weight``, and one backing onto a wall farther
+    than the nearest ``search.wall_weight`` per metre (:mod:`~psdr_room_core.method.backs`): a bed is not posed with
+    its headboard towards the camera, nor turned a quarter turn to show its side.
 
     Objects the segmentation guessed (segments with a ``score``: ``segmentation=layout``'s discoveries) are
     dropped, and logged, when the posed model's visible silhouette overlaps the mask by less than
@@ -359,7 +360,7 @@ def _settle(
     """:func:`~psdr_room_core.method.physical.settle` with its changes logged (segments with no score were drawn,
     those scored below ``physical.weak_score`` are weak guesses)."""
     drawn = {s.id for s in panoptic.segments if s.score is None}
-    weak = {s.id for s in panoptic.segments if s.score is not None and s.score < physical.weak_score}
+    weak = weak_guesses(panoptic, physical.weak_score)
     counts = np.bincount(panoptic.ids.ravel())
     pixels = {s.id: int(counts[s.id]) for s in panoptic.segments if s.id < len(counts)}
     settled = settle(
@@ -370,6 +371,11 @@ def _settle(
     if settled.dropped:
         log.info("%s: dropped %d object(s): %s", stage, len(settled.dropped), "; ".join(settled.dropped))
     return settled
+
+
+def weak_guesses(panoptic: Panoptic, weak_score: float) -> set[int]:
+    """The ids of the segments that are weak guesses: prompts scored below ``weak_score``."""
+    return {s.id for s in panoptic.segments if s.score is not None and s.score < weak_score}
 
 
 def _support_height(
@@ -481,9 +487,10 @@ class PoseModel:
     yaw per object; floor objects keep their bottom on the floor, children on the spot of their parent's
     surface they were placed on (its height scales with the parent), wall objects slide and scale along their
     wall facing into the room. :meth:`size_penalty` is the size prior of each object's category, :meth:`back_penalty`
-    what showing the camera its back costs a piece that stands with its back to a wall."""
+    and :meth:`wall_penalty` what showing the camera its back and backing onto a far wall cost a piece that stands
+    with its back to a wall; ``weak``: the segment ids of weak guesses, which yield in :meth:`collision_penalty`."""
 
-    def __init__(self, placements: Placements, room: RoomBox, unit: float) -> None:
+    def __init__(self, placements: Placements, room: RoomBox, unit: float, weak: Collection[int] = ()) -> None:
         self.placements = placements.objects
         self.room = room
         self.unit = unit
@@ -502,6 +509,8 @@ class PoseModel:
             if i < j and a.anchor != b.segment_id and b.anchor != a.segment_id and _near(a, b)
         ]
         """Pairs of objects that may touch (neither stands on the other): their interpenetration is paid for."""
+        self.weak = {i for i, p in enumerate(self.placements) if p.segment_id in weak}
+        """The objects of weak guesses (``weak``: their segment ids): they yield to surer ones."""
         self.solids = {i: solid_of(self.placements[i]) for pair in self.pairs for i in pair}
         self.fields = {i: torch.from_numpy(solid.depth)[None, None] for i, solid in self.solids.items()}
         self.samples = {
@@ -579,23 +588,49 @@ class PoseModel:
         ]
         return torch.stack(shown)
 
+    def wall_penalty(self) -> torch.Tensor:
+        """[P] how much farther (metres) than the nearest wall the wall behind each object that stands with its back
+        to one is (:func:`~psdr_room_core.method.backs.wall_gap`; 0 for the others)."""
+        centre, half = np.asarray(self.room.center), np.asarray(self.room.half_size)
+        turn, sine, cosine = float(self.room.yaw), math.sin(self.room.yaw), math.cos(self.room.yaw)
+        gaps = []
+        for (position, yaw, _), backed in zip(self.poses(), self.backed):
+            if not backed:
+                gaps.append(torch.zeros(()))
+                continue
+            x, z = position[0] - float(centre[0]), position[2] - float(centre[2])  # into the room's frame: R_y(-yaw)
+            local_x, local_z = cosine * x - sine * z, sine * x + cosine * z
+            gaps.append(
+                wall_gap(torch.sin(yaw - turn), torch.cos(yaw - turn), local_x, local_z, float(half[0]), float(half[2]))
+            )
+        return torch.stack(gaps)
+
     def collision_penalty(self) -> torch.Tensor:
         """[P] how deep each object passes through the others: for each pair, the mean depth (metres) of each
-        one's sampled volume inside the other, both ways, half to each."""
+        one's sampled volume inside the other, both ways, half to each. Between a weak guess and a surer object
+        (:attr:`weak`) the surer one's pose is held (no gradient): a guess never pushes what the photo is surer
+        of, as in the settling (:func:`~psdr_room_core.method.physical.settle`)."""
         if not self.pairs:
             return torch.zeros(len(self.placements))
-        poses = self.poses()
-        rotations = {i: _rotation(poses[i][1]) for i in self.solids}
-        world = {i: poses[i][2] * self.samples[i] @ rotations[i].T + poses[i][0] for i in self.solids}
-        partners: dict[int, list[int]] = {i: [] for i in self.solids}
+        moving = self.poses()
+        held = [(position.detach(), yaw.detach(), scale.detach()) for position, yaw, scale in moving]
+        rotations = {(i, h): _rotation((held if h else moving)[i][1]) for i in self.solids for h in (False, True)}
+        world = {
+            (i, h): pose[2] * self.samples[i] @ rotations[(i, h)].T + pose[0]
+            for i in self.solids
+            for h, pose in ((False, moving[i]), (True, held[i]))
+        }
+        partners: dict[tuple[int, bool], list[int]] = {}  # (a, a's pose held) → the others
         for i, j in self.pairs:
-            partners[i].append(j)
-            partners[j].append(i)
+            for a, b in ((i, j), (j, i)):
+                partners.setdefault((a, self.holds(a, b)), []).append(b)
         depth: dict[tuple[int, int], torch.Tensor] = {}  # (a, b): b's samples' mean depth inside a, metres
-        for a, others in partners.items():
-            position, _, scale = poses[a]
-            local = (torch.cat([world[b] for b in others]) - position) @ rotations[a] / scale
-            inside = scale * field_lookup(self.solids[a], self.fields[a], local)
+        for (a, a_held), others in partners.items():
+            position, _, scale = (held if a_held else moving)[a]
+            samples = torch.cat([world[(b, self.holds(b, a))] for b in others])
+            inside = scale * field_lookup(
+                self.solids[a], self.fields[a], (samples - position) @ rotations[(a, a_held)] / scale
+            )
             for b, part in zip(others, torch.split(inside, [len(self.samples[b]) for b in others])):
                 depth[(a, b)] = part.mean()
         shares: list[list[torch.Tensor]] = [[] for _ in self.placements]
@@ -604,6 +639,10 @@ class PoseModel:
             shares[i].append(half)
             shares[j].append(half)
         return torch.stack([torch.stack(s).sum() if s else torch.zeros(()) for s in shares])
+
+    def holds(self, a: int, b: int) -> bool:
+        """Whether object ``a`` holds its pose against ``b``: ``b`` is a weak guess and ``a`` is not."""
+        return a not in self.weak and b in self.weak
 
     def room_penalty(self, vertices: dict[str, torch.Tensor]) -> torch.Tensor:
         """[P] how far (metres) each object's mesh reaches beyond the room box, at its farthest vertex."""
@@ -631,13 +670,15 @@ def fit_objects(
     """Refine all object poses jointly (§4.3, eq. 3) by differentiable rendering of their masks and depth.
 
     Minimises ``Σ_i L1(M_i^r · D^r, M_i^t · D_i) / d + w_blur · Σ_i L1(G(M_i^r), G(M_i^t)) + Σ_i P_i(s_i) +
-    w_room · Σ_i R_i + w_collision · Σ_i C_i + w_back · Σ_i B_i`` with ``d`` the targets' 98th-percentile depth,
-    ``G`` Gaussian blurs of ``blur_sigmas`` pixels (a prompted segment's free pixels, its prompt box outside its
-    mask, left out: :class:`ObjectTargets`), ``P_i`` the size prior of object i's category on its scale
-    (``size_prior`` weights: :meth:`PoseModel.size_penalty`), ``R_i`` how far it reaches beyond the room box
+    w_room · Σ_i R_i + w_collision · Σ_i C_i + w_back · Σ_i B_i + w_wall · Σ_i W_i`` with ``d`` the targets'
+    98th-percentile depth, ``G`` Gaussian blurs of ``blur_sigmas`` pixels (a prompted segment's free pixels, its
+    prompt box outside its mask, left out: :class:`ObjectTargets`), ``P_i`` the size prior of object i's category on
+    its scale (``size_prior`` weights: :meth:`PoseModel.size_penalty`), ``R_i`` how far it reaches beyond the room box
     (:meth:`PoseModel.room_penalty`), ``C_i`` how deep it passes through the others
-    (:meth:`PoseModel.collision_penalty`) and ``B_i`` how far it shows the camera its back where it stands with its
-    back to a wall (:meth:`PoseModel.back_penalty`), over each object's scale, horizontal translation and yaw under
+    (:meth:`PoseModel.collision_penalty`; a weak guess, a prompt scored below ``physical.weak_score``, never pushes a
+    surer object), ``B_i`` how far it shows the camera its back where it stands with its back to a wall
+    (:meth:`PoseModel.back_penalty`) and ``W_i`` how much farther than the nearest wall the wall behind it is
+    (:meth:`PoseModel.wall_penalty`), over each object's scale, horizontal translation and yaw under
     its support constraint (:class:`PoseModel`), with the ``renderer`` and the ``optimizer``. The fit runs until the
     yaw test (or a plateau of the loss before it), then, where an object turned or the loss had not flattened, on to
     ``iterations`` (or a plateau); each phase leaves its best iterate. An object the fit left explaining less than
@@ -652,8 +693,8 @@ def fit_objects(
 
     Params (:class:`~.settings.FitObjects`): ``iterations``, ``render_width``, ``blur_sigmas``, ``blur_weight``,
     ``size_prior`` {``scale_weight``, ``range_weight``}, ``room_weight``, ``collision_weight``, ``back_weight``,
-    ``learning_rates`` {translation (room half-size units), log_scale, yaw (degrees)}, ``yaw_test`` {``at``:
-    fraction of the iterations after which :func:`try_yaw_turns` runs, ``angles``, ``min_gain``},
+    ``wall_weight``, ``learning_rates`` {translation (room half-size units), log_scale, yaw (degrees)}, ``yaw_test``
+    {``at``: fraction of the iterations after which :func:`try_yaw_turns` runs, ``angles``, ``min_gain``},
     ``keep_share``, ``same_box``, ``convergence`` (:class:`~psdr_room_core.method.convergence.Plateau`), ``physical``.
     """
     if not placements.objects:
@@ -665,7 +706,8 @@ def fit_objects(
     settings = ctx.settings(FitObjects)
     cam = camera.resized(min(settings.render_width, camera.width))
     targets = object_targets(placements, panoptic, depth, (cam.width, cam.height))
-    model = PoseModel(placements, room, unit=float(np.mean(room.half_size)))
+    weak = weak_guesses(panoptic, settings.physical.weak_score)
+    model = PoseModel(placements, room, unit=float(np.mean(room.half_size)), weak=weak)
     initial_vertices = {k: v.detach().numpy() for k, v in model.vertices().items()}
     meshes = {
         name: TriangleMesh(initial_vertices[name], model.welded[i].faces) for i, name in enumerate(initial_vertices)
@@ -690,6 +732,7 @@ def fit_objects(
         room_term = settings.room_weight * model.room_penalty(vertices)
         collision_term = settings.collision_weight * model.collision_penalty()
         back_term = settings.back_weight * model.back_penalty()
+        wall_term = settings.wall_weight * model.wall_penalty()
         ious = mask_ious(masks, t_masks)
         terms = {
             "mask_depth_l1": depth_term.sum().item(),
@@ -698,9 +741,18 @@ def fit_objects(
             "beyond_room": room_term.sum().item(),
             "interpenetration": collision_term.sum().item(),
             "back_shown": back_term.sum().item(),
+            "wall_gap": wall_term.sum().item(),
             "mean_iou": ious.mean().item(),
         }
-        total = depth_term + settings.blur_weight * blur_term + size_term + room_term + collision_term + back_term
+        total = (
+            depth_term
+            + settings.blur_weight * blur_term
+            + size_term
+            + room_term
+            + collision_term
+            + back_term
+            + wall_term
+        )
         return total, masks.detach(), terms
 
     best = BestIterate(model.theta)

@@ -113,6 +113,7 @@ class FitObjects:
     room_weight: float = setting(ge=0)
     collision_weight: float = setting(ge=0)
     back_weight: float = setting(ge=0)
+    wall_weight: float = setting(ge=0)
     yaw_test: YawTest = setting()
     keep_share: float = setting(ge=0, le=1)
     same_box: float = setting(ge=0, le=1)
