@@ -8,7 +8,7 @@ backs to a wall, so a photo shows them from the front or the side, never from be
 search (:class:`~psdr_room_core.method.view_search.ViewFit`) and in eq. 3. Seen from its foot, a bed turned a
 quarter turn shows its side, not its back, and a mask and a shallow depth may fit it as well
 (sunrgbd_000017_mmdet3d): the wall a model backs onto is the one nearest it, so a pose whose back points at a
-farther wall costs ``wall_weight`` × :func:`wall_gap` in the view search.
+farther wall costs ``wall_weight`` × :func:`wall_gap` in the view search and in eq. 3.
 
 Sofas, desks, chairs and tables are left out: a sofa facing a television from the middle of a room and rows
 of classroom desks are photographed from behind.
