@@ -69,6 +69,18 @@ PHYSICAL = {
 }
 
 
+def plain_box(half_x: float, half_y: float, half_z: float) -> ObjectMesh:
+    """A box of these half sizes standing on y = 0, centred on the vertical axis, one group."""
+    shape = box_mesh(np.array([0.0, half_y, 0.0]), np.array([half_x, half_y, half_z]))
+    return ObjectMesh(
+        vertices=shape.vertices,
+        faces=shape.faces,
+        face_group=np.zeros(12, int),
+        groups=("frame",),
+        colors=np.array([[0.5, 0.5, 0.5]]),
+    )
+
+
 def l_shape() -> ObjectMesh:
     """An L-shaped sofa-like mesh (canonical frame: bottom at 0, centred, front +Z), two groups."""
     seat = box_mesh(np.array([0.0, 0.2, 0.0]), np.array([1.0, 0.2, 0.4]))
@@ -545,14 +557,7 @@ def test_a_box_the_mask_cannot_orient_is_posed_with_its_back_to_the_nearest_wall
 def test_eq3_pays_for_a_backed_object_backing_onto_a_far_wall() -> None:
     """PoseModel.wall_penalty: a cabinet 0.5 m from the -X wall backing onto it pays nothing, turned to back
     onto the far +Z wall the difference of the two distances; a sofa nothing; the yaw gets the gradient."""
-    shape = box_mesh(np.array([0.0, 0.3, 0.0]), np.array([0.4, 0.3, 0.4]))
-    box = ObjectMesh(
-        vertices=shape.vertices,
-        faces=shape.faces,
-        face_group=np.zeros(12, int),
-        groups=("frame",),
-        colors=np.array([[0.5, 0.5, 0.5]]),
-    )
+    box = plain_box(0.4, 0.3, 0.4)
     placements = Placements(
         objects=[
             Placement(1, "cabinet", "m", box, (-2.5, 0.0, 1.0), math.radians(90), 1.0, "floor", category="cabinet"),
@@ -587,14 +592,7 @@ def test_a_bed_the_mask_cannot_orient_is_posed_with_its_back_away_from_the_camer
 def test_eq3_pays_for_a_backed_object_showing_its_back() -> None:
     """PoseModel.back_penalty: a bed facing away from the camera pays about 1, turned round 0; a sofa and a wall
     cabinet (which faces into the room whatever) nothing; and the yaw gets the gradient that turns the bed."""
-    shape = box_mesh(np.array([0.0, 0.3, 0.0]), np.array([0.8, 0.3, 1.0]))
-    box = ObjectMesh(
-        vertices=shape.vertices,
-        faces=shape.faces,
-        face_group=np.zeros(12, int),
-        groups=("frame",),
-        colors=np.array([[0.5, 0.5, 0.5]]),
-    )
+    box = plain_box(0.8, 0.3, 1.0)
     placements = Placements(
         objects=[
             Placement(1, "bed", "m", box, (0.0, 0.0, 2.0), math.radians(10), 1.0, "floor", category="bed"),
