@@ -613,20 +613,18 @@ class PoseModel:
         if not self.pairs:
             return torch.zeros(len(self.placements))
         moving = self.poses()
-        held = [(position.detach(), yaw.detach(), scale.detach()) for position, yaw, scale in moving]
-        rotations = {(i, h): _rotation((held if h else moving)[i][1]) for i in self.solids for h in (False, True)}
-        world = {
-            (i, h): pose[2] * self.samples[i] @ rotations[(i, h)].T + pose[0]
-            for i in self.solids
-            for h, pose in ((False, moving[i]), (True, held[i]))
-        }
         partners: dict[tuple[int, bool], list[int]] = {}  # (a, a's pose held) → the others
         for i, j in self.pairs:
             for a, b in ((i, j), (j, i)):
                 partners.setdefault((a, self.holds(a, b)), []).append(b)
+        poses = {  # each solid's pose, and its held copy where a weak guess meets it
+            (i, h): tuple(v.detach() for v in moving[i]) if h else moving[i] for i, h in partners
+        }
+        rotations = {key: _rotation(pose[1]) for key, pose in poses.items()}
+        world = {key: pose[2] * self.samples[key[0]] @ rotations[key].T + pose[0] for key, pose in poses.items()}
         depth: dict[tuple[int, int], torch.Tensor] = {}  # (a, b): b's samples' mean depth inside a, metres
         for (a, a_held), others in partners.items():
-            position, _, scale = (held if a_held else moving)[a]
+            position, _, scale = poses[(a, a_held)]
             samples = torch.cat([world[(b, self.holds(b, a))] for b in others])
             inside = scale * field_lookup(
                 self.solids[a], self.fields[a], (samples - position) @ rotations[(a, a_held)] / scale
