@@ -242,7 +242,7 @@ def test_what_made_room_for_a_dropped_object_goes_back(db: ObjectDatabase) -> No
         yaw=0.0,
     )
     pixels = {1: 3000, 2: 3000, 3: 1500}
-    settled = settle([weak, strong, box], room, CAMERA, drawn=set(), pixels=pixels, params=PARAMS, weak={3})
+    settled = settle([weak, strong, box], room, CAMERA, drawn=set(), pixels=pixels, params=PARAMS, scores={3: 0.2})
     assert [p.segment_id for p in settled.placements] == [2, 3]
     assert settled.dropped[0].startswith("1:desk (cube_1): passes")
     assert any(c.startswith("3:box (cube_3): moved") for c in settled.changed)
@@ -265,12 +265,32 @@ def test_a_weak_guess_never_makes_a_surer_object_change() -> None:
     guess = cube(2, 0.69, 1.0, explained=0.9)  # x from 0.19 to the wall
     assert interpenetrations([dresser, guess], 0.15)
     pixels = {1: 3000, 2: 3000}  # the guess explains more pixels: by that alone it is the stronger
-    placed_only = settle([dresser, guess], room, CAMERA, set(), pixels, PARAMS, final=False, weak={2})
+    placed_only = settle([dresser, guess], room, CAMERA, set(), pixels, PARAMS, final=False, scores={2: 0.2})
     assert placed_only.placements == [dresser, guess] and not placed_only.changed
-    final = settle([dresser, guess], room, CAMERA, set(), pixels, PARAMS, weak={2})
+    final = settle([dresser, guess], room, CAMERA, set(), pixels, PARAMS, scores={2: 0.2})
     assert final.placements == [dresser] and final.dropped[0].startswith("2:cabinet (cube_2): passes")
     as_sure = settle([dresser, guess], room, CAMERA, set(), pixels, PARAMS)
     assert as_sure.placements[0].position[0] < dresser.position[0] - 0.2 and as_sure.placements[1] == guess
+
+
+def test_of_two_sure_objects_that_cannot_part_the_one_the_detector_is_surer_of_stays() -> None:
+    """Two desks wedged wall to wall, 15 cm into each other, neither able to step or shrink out: the final
+    settling drops the one with the weaker evidence, the pixels it is expected to explain (IoU x pixels x prompt
+    score). The first explains a little more of its segment, but the detector was much less sure of it."""
+
+    def desk(segment_id: int, x: float, explained: float) -> Placement:
+        return Placement(segment_id, "desk", f"cube_{segment_id}", cube_mesh(), (x, 0.0, 2.0), 0.0, 0.8,
+                         "floor", None, "desk", explained)  # fmt: skip
+
+    room = RoomBox(
+        camera_to_world=C2W, center=np.array([-0.075, 1.5, 1.0]), half_size=np.array([0.725, 1.5, 3.5]), yaw=0.0
+    )
+    first, second = desk(1, -0.4, explained=0.9), desk(2, 0.25, explained=0.8)
+    pixels = {1: 3000, 2: 3000}
+    unscored = settle([first, second], room, CAMERA, set(), pixels, PARAMS)
+    assert unscored.placements == [first] and unscored.dropped[0].startswith("2:desk (cube_2): passes")
+    scored = settle([first, second], room, CAMERA, set(), pixels, PARAMS, scores={1: 0.55, 2: 0.8})
+    assert scored.placements == [second] and scored.dropped[0].startswith("1:desk (cube_1): passes")
 
 
 def test_an_object_does_not_step_out_in_front_of_another() -> None:

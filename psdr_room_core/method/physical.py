@@ -41,9 +41,10 @@ keeps its place in the picture, and logged), dropping an object only as the last
    stays hidden is reported (``benchmarks/real_photos.py``, column ``hid``).
 
 Which of two objects is the stronger (:func:`evidence`): one a person drew, then one the segmentation was sure
-of (no weak guess: its prompt scored at least ``weak_score``), then the one that explains more: the share of its
-segment its posed model covers (IoU) times the segment's pixels, so that a bed that explains most of a large
-segment outweighs a picture that explains all of a small one.
+of (no weak guess: its prompt scored at least ``weak_score``), then the one that explains more of the photo, in
+expectation: the share of its segment its posed model covers (IoU) times the segment's pixels, times how sure its
+prompt is that it is there (its score), so that a bed that explains most of a large segment outweighs a picture
+that explains all of a small one, and of two desks explaining alike the one the detector is surer of stays.
 An object's children (objects standing on it) move and are dropped with it.
 """
 
@@ -111,12 +112,14 @@ MIN_SEEN = 10
 
 
 def evidence(
-    placement: Placement, drawn: set[int], weak: set[int], pixels: Mapping[int, int]
+    placement: Placement, drawn: set[int], weak: set[int], pixels: Mapping[int, int], scores: Mapping[int, float]
 ) -> tuple[int, float, int]:
     """How strongly an object is attested (higher: kept): its :func:`_sureness`, then the pixels of its segment
-    the posed model explains (IoU × segment pixels), then its segment id (older first)."""
-    explained = (placement.explained or 0.0) * pixels.get(placement.segment_id, 1)
-    return _sureness(placement.segment_id, drawn, weak), explained, -placement.segment_id
+    the posed model is expected to explain (IoU × segment pixels × prompt score; 1 where there is no score), then
+    its segment id (older first)."""
+    k = placement.segment_id
+    explained = (placement.explained or 0.0) * pixels.get(k, 1) * scores.get(k, 1.0)
+    return _sureness(k, drawn, weak), explained, -k
 
 
 def _sureness(segment_id: int, drawn: set[int], weak: set[int]) -> int:
@@ -230,13 +233,14 @@ class _Scene:
         room: RoomBox,
         camera: Camera,
         drawn: set[int],
-        weak: set[int],
+        scores: Mapping[int, float],
         pixels: Mapping[int, int],
         params: PhysicalParams,
         ids: np.ndarray | None,
     ) -> None:
         self.objects = {p.segment_id: p for p in placements}
-        self.room, self.camera, self.drawn, self.weak = room, camera, drawn, weak
+        self.room, self.camera, self.drawn, self.scores = room, camera, drawn, scores
+        self.weak = {k for k, score in scores.items() if score < params.weak_score}
         self.pixels, self.params = pixels, params
         self.ids = ids
         self.c2w = np.asarray(room.camera_to_world)
@@ -247,7 +251,7 @@ class _Scene:
 
     # -- bookkeeping
     def strength(self, segment_id: int) -> tuple[int, float, int]:
-        return evidence(self.objects[segment_id], self.drawn, self.weak, self.pixels)
+        return evidence(self.objects[segment_id], self.drawn, self.weak, self.pixels, self.scores)
 
     def drop(self, segment_id: int, why: str) -> None:
         if segment_id not in self.objects:
@@ -636,14 +640,15 @@ def settle(
     params: PhysicalParams,
     final: bool = True,
     ids: np.ndarray | None = None,
-    weak: set[int] | None = None,
+    scores: Mapping[int, float] | None = None,
 ) -> Settled:
     """The objects made physically possible (module docstring), judged in ``camera``'s picture (a small one
     will do); ``drawn``: segment ids a person drew; ``pixels``: each segment's pixel count; ``final``: the last
     settling, which may grow the room box and drop what it cannot part; ``ids``: the segmentation's id map at
-    ``camera``'s size, what each pixel shows (rule 5; None: not checked); ``weak``: segment ids of weak guesses
-    (prompts that scored below ``weak_score``; None: none)."""
-    scene = _Scene(placements, room, camera, drawn, weak or set(), pixels, params, ids)
+    ``camera``'s size, what each pixel shows (rule 5; None: not checked); ``scores``: the prompt scores of the
+    segments guessed automatically (those under ``weak_score`` are weak guesses; None, or a segment missing:
+    sure, score 1)."""
+    scene = _Scene(placements, room, camera, drawn, scores or {}, pixels, params, ids)
     scene.keep_sizes()
     scene.remove_duplicates()
     scene.keep_inside(final)

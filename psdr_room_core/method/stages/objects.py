@@ -357,14 +357,14 @@ def _settle(
     stage: str,
     final: bool,
 ) -> Settled:
-    """:func:`~psdr_room_core.method.physical.settle` with its changes logged (segments with no score were drawn,
-    those scored below ``physical.weak_score`` are weak guesses)."""
+    """:func:`~psdr_room_core.method.physical.settle` with its changes logged (segments with no score were drawn;
+    the others' prompt scores weigh their evidence)."""
     drawn = {s.id for s in panoptic.segments if s.score is None}
-    weak = weak_guesses(panoptic, physical.weak_score)
+    scores = {s.id: s.score for s in panoptic.segments if s.score is not None}
     counts = np.bincount(panoptic.ids.ravel())
     pixels = {s.id: int(counts[s.id]) for s in panoptic.segments if s.id < len(counts)}
     settled = settle(
-        objects, room, camera, drawn, pixels, physical, final, panoptic.ids_at(camera.width, camera.height), weak
+        objects, room, camera, drawn, pixels, physical, final, panoptic.ids_at(camera.width, camera.height), scores
     )
     for note in settled.changed:
         log.info("%s: %s", stage, note)
