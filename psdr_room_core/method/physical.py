@@ -122,6 +122,11 @@ def evidence(
     return _sureness(k, drawn, weak), explained, -k
 
 
+def weak_guesses(scores: Mapping[int, float], weak_score: float) -> set[int]:
+    """The segment ids whose prompts (``scores``: segment id → prompt score) scored below ``weak_score``."""
+    return {k for k, score in scores.items() if score < weak_score}
+
+
 def _sureness(segment_id: int, drawn: set[int], weak: set[int]) -> int:
     """2: a person drew the object; 1: the segmentation was sure of it; 0: it is a weak guess."""
     return 2 if segment_id in drawn else 0 if segment_id in weak else 1
@@ -240,7 +245,7 @@ class _Scene:
     ) -> None:
         self.objects = {p.segment_id: p for p in placements}
         self.room, self.camera, self.drawn, self.scores = room, camera, drawn, scores
-        self.weak = {k for k, score in scores.items() if score < params.weak_score}
+        self.weak = weak_guesses(scores, params.weak_score)
         self.pixels, self.params = pixels, params
         self.ids = ids
         self.c2w = np.asarray(room.camera_to_world)

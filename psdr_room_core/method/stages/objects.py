@@ -48,7 +48,7 @@ from ..objects import (
     support_relations,
     wall_frame,
 )
-from ..physical import PhysicalParams, Settled, interpenetrations, settle, support_top
+from ..physical import PhysicalParams, Settled, interpenetrations, settle, support_top, weak_guesses
 from ..silhouette import silhouette
 from ..sizes import SizePrior, scale_range, size_excess
 from ..solids import field_lookup, overlap, solid_of
@@ -360,7 +360,7 @@ def _settle(
     """:func:`~psdr_room_core.method.physical.settle` with its changes logged (segments with no score were drawn;
     the others' prompt scores weigh their evidence)."""
     drawn = {s.id for s in panoptic.segments if s.score is None}
-    scores = {s.id: s.score for s in panoptic.segments if s.score is not None}
+    scores = prompt_scores(panoptic)
     counts = np.bincount(panoptic.ids.ravel())
     pixels = {s.id: int(counts[s.id]) for s in panoptic.segments if s.id < len(counts)}
     settled = settle(
@@ -373,9 +373,9 @@ def _settle(
     return settled
 
 
-def weak_guesses(panoptic: Panoptic, weak_score: float) -> set[int]:
-    """The ids of the segments that are weak guesses: prompts scored below ``weak_score``."""
-    return {s.id for s in panoptic.segments if s.score is not None and s.score < weak_score}
+def prompt_scores(panoptic: Panoptic) -> dict[int, float]:
+    """Segment id → its prompt's score, for the segments guessed automatically (a drawn segment has none)."""
+    return {s.id: s.score for s in panoptic.segments if s.score is not None}
 
 
 def _support_height(
@@ -704,7 +704,7 @@ def fit_objects(
     settings = ctx.settings(FitObjects)
     cam = camera.resized(min(settings.render_width, camera.width))
     targets = object_targets(placements, panoptic, depth, (cam.width, cam.height))
-    weak = weak_guesses(panoptic, settings.physical.weak_score)
+    weak = weak_guesses(prompt_scores(panoptic), settings.physical.weak_score)
     model = PoseModel(placements, room, unit=float(np.mean(room.half_size)), weak=weak)
     initial_vertices = {k: v.detach().numpy() for k, v in model.vertices().items()}
     meshes = {
