@@ -216,6 +216,7 @@ def test_two_training_steps_lower_the_loss(pack) -> None:
 
 def test_psdr_room_train_resumes_and_exports_a_network_onnxruntime_runs(pack, tmp_path: Path) -> None:
     import onnxruntime as ort
+    import torch
 
     from psdr_room_core.applications.train import main as train
     from psdr_room_plugins.eyes.network import OUTPUTS
@@ -224,9 +225,12 @@ def test_psdr_room_train_resumes_and_exports_a_network_onnxruntime_runs(pack, tm
     pack.save(pack_file)
     run = ["--pack", str(pack_file), "--out", str(tmp_path / "run"), "--batch", "2", "--validation", "0.25"]
     train([*run, "--steps", "1"])
-    train([*run, "--steps", "2"])
+    train([*run, "--steps", "2"])  # --steps lengthens a run
+    train([*run, "--epochs", "50"])  # a resumed run keeps its schedule: nothing more to do
     note = json.loads((tmp_path / "run" / "eyes.json").read_text())
     assert note["steps"] == 2 and note["samples"] == 4 and note["held_out"] == 1
+    first = torch.load(tmp_path / "run" / "checkpoint.pt", weights_only=False)["history"][0]
+    assert note["validation"]["seconds"] > first["seconds"] > 0  # the seconds of every call add up
     assert note["sha256"] == hashlib.sha256((tmp_path / "run" / "eyes.onnx").read_bytes()).hexdigest()
     assert (tmp_path / "run" / "curves.png").is_file()
     session = ort.InferenceSession(str(tmp_path / "run" / "eyes.onnx"))

@@ -1,7 +1,8 @@
 """``psdr-room-train``: train the eyes network on a ``psdr-room-synth-data`` data set and export its ONNX.
 
-Seeded and resumable: the run folder keeps ``checkpoint.pt`` (weights, optimiser, epoch, history) after every
-``--validate-every`` epochs, and a second call with the same folder goes on from it; then the held-out synthetic
+Seeded and resumable: the run folder keeps ``checkpoint.pt`` (weights, optimiser, epoch, history, the schedule's
+length and the seconds spent) after every ``--validate-every`` epochs, and a second call with the same folder goes
+on from it, on the same learning-rate schedule and within what is left of ``--minutes``; then the held-out synthetic
 samples (the highest seeds) are scored and ``curves.png`` is redrawn. At the end ``eyes.onnx`` (float16 weights) and
 ``eyes.json`` (its sha256, the data seeds, the command, the commit and the validation scores) are written.
 Uses CUDA when there is a GPU (``--device auto``), else the CPU (``OMP_WAIT_POLICY=PASSIVE`` and one thread
@@ -212,17 +213,23 @@ def train(args: argparse.Namespace) -> dict:
     ]
     optimiser = torch.optim.AdamW([g for g in groups if g["params"]], weight_decay=1e-4)
     steps_per_epoch = max(1, len(training) // args.batch)
-    total = args.epochs * steps_per_epoch if not args.steps else args.steps
+    total = args.steps or args.epochs * steps_per_epoch
     base = [g["lr"] for g in optimiser.param_groups]
     checkpoint = args.out / "checkpoint.pt"
     history: list[dict] = []
     epoch = step = 0
+    spent = 0.0  # seconds of training before this call: the --minutes budget is the whole run's
     if checkpoint.is_file():
         state = torch.load(checkpoint, map_location=device, weights_only=False)
         net.load_state_dict(state["net"])
         optimiser.load_state_dict(state["optimiser"])
-        epoch, step, history = state["epoch"], state["step"], state["history"]
-        print(f"psdr-room-train: resuming {checkpoint} at epoch {epoch}, step {step}", flush=True)
+        epoch, step, history, spent = state["epoch"], state["step"], state["history"], state["seconds"]
+        total = args.steps or state["total"]  # the schedule set by the first call, unless --steps says otherwise
+        print(
+            f"psdr-room-train: resuming {checkpoint} at epoch {epoch}, step {step} of {total}, "
+            f"after {spent / 60:.1f} min",
+            flush=True,
+        )
     print(
         f"psdr-room-train: {len(training)} training and {len(held)} held-out samples, batch {args.batch}, "
         f"{total} steps on {device}, encoder frozen: {args.freeze}",
@@ -254,7 +261,7 @@ def train(args: argparse.Namespace) -> dict:
                 timed = time.monotonic()
             if args.minutes and step == first + 2 * TIMING_STEPS:  # fit the schedule into the time given
                 per_step = (time.monotonic() - timed) / TIMING_STEPS
-                left = args.minutes * 60 * 0.9 - (time.monotonic() - began)
+                left = args.minutes * 60 * 0.9 - spent - (time.monotonic() - began)
                 total = min(total, step + max(0, int(left / per_step)))
                 print(f"psdr-room-train: {per_step:.3f} s per step: {total} steps in {args.minutes} min", flush=True)
             for k, v in {"loss": loss, **terms}.items():
@@ -267,7 +274,7 @@ def train(args: argparse.Namespace) -> dict:
             {
                 "epoch": epoch,
                 "step": step,
-                "seconds": time.monotonic() - began,
+                "seconds": spent + time.monotonic() - began,
                 **{k: v / max(count, 1) for k, v in sums.items()},
                 **scores,
             }
@@ -285,6 +292,8 @@ def train(args: argparse.Namespace) -> dict:
                 "epoch": epoch,
                 "step": step,
                 "history": history,
+                "total": total,
+                "seconds": spent + time.monotonic() - began,
             },
             partial,
         )
@@ -318,13 +327,14 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--data", type=Path, help="data set folder (packed into OUT/pack.npz on first use)")
     parser.add_argument("--pack", type=Path, help="a pack made before (instead of --data)")
     parser.add_argument("--out", type=Path, required=True, help="run folder: checkpoint, curves, eyes.onnx")
-    parser.add_argument("--epochs", type=int, default=12)
+    parser.add_argument("--epochs", type=int, default=12, help="the schedule's length (a resumed run keeps its own)")
     parser.add_argument("--steps", type=int, default=0, help="stop after this many steps (0: the epochs')")
     parser.add_argument(
         "--minutes",
         type=float,
         default=0.0,
-        help="fewer steps when the epochs' would take longer than this (timed after the warm-up)",
+        help="fewer steps when the epochs' would take longer than this, resumed calls included (timed after the "
+        "warm-up)",
     )
     parser.add_argument("--batch", type=int, default=8)
     parser.add_argument("--lr-head", type=float, default=1e-3)
