@@ -1,7 +1,7 @@
 """``psdr-room-train``: train the eyes network on a ``psdr-room-synth-data`` data set and export its ONNX.
 
-Seeded and resumable: the run folder keeps ``checkpoint.pt`` (weights, optimiser, epoch, history, the schedule's
-length and the seconds spent) after every ``--validate-every`` epochs, and a second call with the same folder goes
+Seeded and resumable: the run folder keeps ``checkpoint.pt`` (weights, optimiser, epoch, history with the seconds
+spent, the schedule's length) after every ``--validate-every`` epochs, and a second call with the same folder goes
 on from it, on the same learning-rate schedule and within what is left of ``--minutes``; then the held-out synthetic
 samples (the highest seeds) are scored and ``curves.png`` is redrawn. At the end ``eyes.onnx`` (float16 weights) and
 ``eyes.json`` (its sha256, the data seeds, the command, the commit and the validation scores) are written.
@@ -223,7 +223,8 @@ def train(args: argparse.Namespace) -> dict:
         state = torch.load(checkpoint, map_location=device, weights_only=False)
         net.load_state_dict(state["net"])
         optimiser.load_state_dict(state["optimiser"])
-        epoch, step, history, spent = state["epoch"], state["step"], state["history"], state["seconds"]
+        epoch, step, history = state["epoch"], state["step"], state["history"]
+        spent = history[-1]["seconds"]  # a checkpoint is saved after its history's entry
         total = args.steps or state["total"]  # the schedule set by the first call, unless --steps says otherwise
         print(
             f"psdr-room-train: resuming {checkpoint} at epoch {epoch}, step {step} of {total}, "
@@ -293,7 +294,6 @@ def train(args: argparse.Namespace) -> dict:
                 "step": step,
                 "history": history,
                 "total": total,
-                "seconds": history[-1]["seconds"],
             },
             partial,
         )

@@ -271,7 +271,7 @@ def place_objects(
     }
     categories = {sid: retriever.category(model_id) for sid, model_id in chosen.items()}
     relations = support_relations(queries, panoptic.mask("floor"), room, settings.support, categories)
-    guessed = {s.id for s in panoptic.segments if s.score is not None}
+    guessed = set(prompt_scores(panoptic))
     placed: dict[int, Placement] = {}
     pruned: list[str] = []
     order = sorted(queries, key=lambda q: relations[q.segment_id][0][0] == "parent")  # parents before children
