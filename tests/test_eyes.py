@@ -186,10 +186,11 @@ def test_a_pack_keeps_each_samples_depth_to_the_centimetre(pack, eyes_data: Path
         assert np.array_equal(depth > 0, truth >= 0.005)
 
 
-def test_two_training_steps_lower_the_loss(pack) -> None:
+@pytest.mark.parametrize("precision", ["fp32", "bf16"])
+def test_two_training_steps_lower_the_loss(pack, precision: str) -> None:
     import torch
 
-    from psdr_room_core.applications.train import LOSS_WEIGHTS, losses
+    from psdr_room_core.applications.train import LOSS_WEIGHTS, losses, predict
     from psdr_room_plugins.eyes.data import example
     from psdr_room_plugins.eyes.network import EyesNet
 
@@ -203,7 +204,7 @@ def test_two_training_steps_lower_the_loss(pack) -> None:
     )
 
     def total() -> torch.Tensor:
-        return sum(LOSS_WEIGHTS[k] * v for k, v in losses(net(batch["image"]), batch).items())
+        return sum(LOSS_WEIGHTS[k] * v for k, v in losses(predict(net, batch["image"], precision), batch).items())
 
     first = total()
     for _ in range(2):
@@ -224,11 +225,12 @@ def test_psdr_room_train_resumes_and_exports_a_network_onnxruntime_runs(pack, tm
     pack_file = tmp_path / "pack.npz"
     pack.save(pack_file)
     run = ["--pack", str(pack_file), "--out", str(tmp_path / "run"), "--batch", "2", "--validation", "0.25"]
+    run += ["--precision", "bf16"]
     train([*run, "--steps", "1"])
     train([*run, "--steps", "2"])  # --steps lengthens a run
     train([*run, "--epochs", "50"])  # a resumed run keeps its schedule: nothing more to do
     note = json.loads((tmp_path / "run" / "eyes.json").read_text())
-    assert note["steps"] == 2 and note["samples"] == 4 and note["held_out"] == 1
+    assert note["steps"] == 2 and note["samples"] == 4 and note["held_out"] == 1 and note["precision"] == "bf16"
     first = torch.load(tmp_path / "run" / "checkpoint.pt", weights_only=False)["history"][0]
     assert note["validation"]["seconds"] > first["seconds"] > 0  # the seconds of every call add up
     assert note["sha256"] == hashlib.sha256((tmp_path / "run" / "eyes.onnx").read_bytes()).hexdigest()

