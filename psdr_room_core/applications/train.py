@@ -30,6 +30,8 @@ import numpy as np
 from psdr_room_core.engine.errors import PsdrRoomError
 
 if TYPE_CHECKING:
+    import torch
+
     from psdr_room_plugins.eyes.data import Pack
 
 LOSS_WEIGHTS = {"surface": 1.0, "category": 1.0, "center": 1.0, "offset": 0.1, "depth": 1.0}
@@ -69,7 +71,7 @@ def losses(out: dict, batch: dict) -> dict:
     return terms
 
 
-def predict(net, images, precision: str = "fp32") -> dict:
+def predict(net: torch.nn.Module, images: torch.Tensor, precision: str = "fp32") -> dict[str, torch.Tensor]:
     """The network's float32 outputs on ``images`` [B, 3, H, W] in [0, 1], its forward pass run in
     ``precision`` (:data:`PRECISION`) on the images' device."""
     import torch
