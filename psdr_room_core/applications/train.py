@@ -97,7 +97,7 @@ def validate(net, pack, indices: Sequence[int] | np.ndarray, device: str, batch_
         for start in range(0, len(indices), batch_size):
             items = [example(pack, int(i), None) for i in indices[start : start + batch_size]]
             images = torch.from_numpy(np.stack([it["image"] for it in items])).to(device).float() / 255.0
-            out = {k: v.float().cpu().numpy() for k, v in net(images).items()}
+            out = {k: v.cpu().numpy() for k, v in predict(net, images).items()}
             for b, item in enumerate(items):
                 surface = out["surface"][b].argmax(0)
                 counts["surface"][0] += int((surface == item["surface"]).sum())
