@@ -1,189 +1,36 @@
 """The bad-input corpus: photos, sidecars of every kind, overrides, run and cache paths, scene folders for
-``psdr-room-edit``. Each case must end with a non-zero exit and exactly one error line on stderr that names
-the file or key, no traceback, no published output, no damaged or half-written cache entry, and every file
-outside the run directory and the cache exactly as it was (the case's own files and a sentinel folder are
-hashed before and after)."""
+``psdr-room-edit`` and ``psdr-room-blender``; each case is checked by :func:`bad_input.run_case`."""
 
 from __future__ import annotations
 
-import hashlib
-import json
-import shutil
-import subprocess
-from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 
-import cv2
 import numpy as np
 import pytest
 
+from bad_input import (
+    RNG_PHOTO,
+    Case,
+    cache_dir_is_a_file,
+    edit,
+    edit_into_users_folder,
+    encoded,
+    example,
+    gif,
+    labelme,
+    npy,
+    overrides,
+    part,
+    png,
+    run_case,
+    run_dir_is_a_file,
+    run_dir_of_another_app,
+    run_dir_with_notes,
+    scene_folder,
+    users_files_in_run_dir,
+    with_sidecar,
+)
 from conftest import EXAMPLE
-from psdr_room_core.engine.cache import Store, damage
-from psdr_room_core.engine.ownership import claim
-
-RNG_PHOTO = np.random.default_rng(0).integers(0, 255, (120, 160, 3), np.uint8)
-
-
-@dataclass(frozen=True)
-class Case:
-    setup: Callable[[Path], list[str]]
-    """Writes the case's files under the given folder; returns the command line after the program."""
-    expected: str
-    """Part of the one error line: the file or key it names and what is wrong."""
-    program: str = "psdr-room"
-
-
-# ------------------------------------------------------------------------------------------ helpers
-def png(folder: Path, rgb: np.ndarray, name: str = "photo.png") -> Path:
-    path = folder / name
-    cv2.imwrite(str(path), rgb[..., ::-1])
-    return path
-
-
-def example(folder: Path, sidecars: dict[str, bytes | str] | None = None, photo: bytes | None = None) -> Path:
-    """The bundled example photo, alone in ``folder/photo`` (with ``sidecars``: suffix → content)."""
-    (folder / "photo").mkdir()
-    target = folder / "photo" / EXAMPLE.name
-    target.write_bytes(EXAMPLE.read_bytes() if photo is None else photo)
-    for suffix, content in (sidecars or {}).items():
-        path = target.with_name(target.stem + suffix)
-        path.write_bytes(content if isinstance(content, bytes) else content.encode())
-    return target
-
-
-def with_sidecar(
-    suffix: str, content: bytes | str | Callable[[], bytes], beside: tuple[str, ...] = ()
-) -> Callable[[Path], list[str]]:
-    """The example with one broken sidecar (and the example's own sidecars with the suffixes ``beside``);
-    its LabelMe file (unless that is the broken one) and no detector unless boxes are tested keep the
-    stages before the failing one quick; ``run.until`` stops a run that missed the fault."""
-
-    def setup(folder: Path) -> list[str]:
-        data = content() if callable(content) else content
-        sidecars = {s: EXAMPLE.with_name(EXAMPLE.stem + s).read_bytes() for s in beside}
-        if suffix.startswith(".depth"):
-            sidecars[".labelme.json"] = LABELME_TEXT
-        photo = example(folder, {**sidecars, suffix: data})
-        return [
-            f"image={photo}",
-            "fov=fixed",
-            "run.until=estimate_depth",
-            *([] if suffix == ".boxes.yaml" else ["detector=none"]),
-        ]
-
-    return setup
-
-
-def overrides(*args: str) -> Callable[[Path], list[str]]:
-    return lambda folder: [f"image={example(folder)}", *args]
-
-
-def encoded(array: np.ndarray, ext: str = ".png") -> bytes:
-    return cv2.imencode(ext, array)[1].tobytes()
-
-
-def npy(array: np.ndarray) -> bytes:
-    import io
-
-    buffer = io.BytesIO()
-    np.save(buffer, array)
-    return buffer.getvalue()
-
-
-LABELME_TEXT = EXAMPLE.with_name(EXAMPLE.stem + ".labelme.json").read_text()
-LABELME = json.loads(LABELME_TEXT)
-
-
-def labelme(**changes: object) -> str:
-    return json.dumps({**LABELME, **changes})
-
-
-def scene_folder(folder: Path, appearance: dict | str | None = None) -> Path:
-    """A scene folder as psdr-room-edit reads it: ``appearance.json`` (edits are refused before meshes are read)."""
-    scene = folder / "scene"
-    scene.mkdir()
-    state = {
-        "camera": {"width": 160, "height": 120, "fx": 150.0, "fy": 150.0, "cx": 79.5, "cy": 59.5},
-        "camera_to_world": np.eye(4).tolist(),
-        "parts": [
-            {
-                "part": "floor",
-                "kind": "homogeneous",
-                "base_color": [0.5, 0.4, 0.3],
-                "roughness": 0.5,
-                "specular": 0.5,
-                "material": None,
-                "scale": 1.0,
-                "rotation": 0.0,
-                "params": {},
-            }
-        ],
-        "lights": [{"name": "light_ceiling_1", "kind": "ceiling", "part": None, "radiance": [5.0, 5.0, 5.0]}],
-        "fixtures": [],
-        "texture_size": 64,
-    }
-    if isinstance(appearance, dict):
-        state.update(appearance)
-    text = appearance if isinstance(appearance, str) else json.dumps(state)
-    (scene / "appearance.json").write_text(text)
-    claim(scene)
-    return scene
-
-
-def edit(*args: str, appearance: dict | str | None = None) -> Callable[[Path], list[str]]:
-    return lambda folder: [str(scene_folder(folder, appearance)), *args, "--out", str(folder / "edited")]
-
-
-def edit_into_users_folder(folder: Path) -> list[str]:
-    (folder / "mine").mkdir()
-    (folder / "mine" / "notes.txt").write_text("the user's")
-    return [str(scene_folder(folder)), "light.scale=2", "--out", str(folder / "mine")]
-
-
-def users_files_in_run_dir(folder: Path) -> list[str]:
-    (folder / "run" / "scene").mkdir(parents=True)
-    (folder / "run" / "scene" / "mine.blend").write_text("the user's")
-    return [f"image={example(folder)}"]
-
-
-def run_dir_of_another_app(folder: Path) -> list[str]:
-    (folder / "run" / ".hydra").mkdir(parents=True)
-    (folder / "run" / ".hydra" / "config.yaml").write_text("their_app: 1\n")
-    (folder / "run" / "their_results.csv").write_text("a,b\n")
-    return [f"image={example(folder)}"]
-
-
-def run_dir_with_notes(folder: Path) -> list[str]:
-    (folder / "run").mkdir()
-    (folder / "run" / "notes.txt").write_text("the user's")
-    return [f"image={example(folder)}"]
-
-
-def run_dir_is_a_file(folder: Path) -> list[str]:
-    (folder / "run").write_text("the user's")
-    return [f"image={example(folder)}"]
-
-
-def part(**changes: object) -> dict:
-    """The floor part of :func:`scene_folder`'s scene with ``changes``."""
-    return {
-        "part": "floor",
-        "kind": "homogeneous",
-        "base_color": [0.5, 0.4, 0.3],
-        "roughness": 0.5,
-        "specular": 0.5,
-        "material": None,
-        "scale": 1.0,
-        "rotation": 0.0,
-        "params": {},
-        **changes,
-    }
-
-
-def cache_dir_is_a_file(folder: Path) -> list[str]:
-    (folder / "not_a_dir").write_text("the user's")
-    return [f"image={example(folder)}", f"cache_dir={folder / 'not_a_dir'}"]
 
 
 # ------------------------------------------------------------------------------------------ the corpus
@@ -206,7 +53,7 @@ CASES: dict[str, Case] = {
         lambda f: [f"image={example(f, photo=EXAMPLE.read_bytes()[:20000])}"], "photo.jpg: damaged or truncated"
     ),
     "photo_directory": Case(lambda f: [f"image={f}"], "is a directory"),
-    "photo_gif": Case(lambda f: [f"image={_gif(f)}"], "photo.gif: GIF images are not supported"),
+    "photo_gif": Case(lambda f: [f"image={gif(f)}"], "photo.gif: GIF images are not supported"),
     "photo_too_small": Case(lambda f: [f"image={png(f, RNG_PHOTO[:40])}"], "photo.png: 160x40 is too small"),
     "photo_one_pixel": Case(lambda f: [f"image={png(f, RNG_PHOTO[:1, :1])}"], "photo.png: 1x1 is too small"),
     "photo_one_colour": Case(lambda f: [f"image={png(f, np.full((120, 160, 3), 90, np.uint8))}"], "same colour"),
@@ -402,55 +249,10 @@ CASES: dict[str, Case] = {
 }
 
 
-def _gif(folder: Path) -> Path:
-    import PIL.Image
-
-    path = folder / "photo.gif"
-    PIL.Image.fromarray(RNG_PHOTO).save(path)
-    return path
-
-
-def snapshot(folder: Path, skip: tuple[Path, ...]) -> dict[str, str]:
-    """Content digest of every file under ``folder`` outside ``skip``."""
-    return {
-        str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
-        for p in sorted(folder.rglob("*"))
-        if p.is_file() and not any(p.is_relative_to(s) for s in skip)
-    }
-
-
 def test_corpus_is_large() -> None:
     assert len(CASES) >= 70
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_bad_input_gets_one_line(name: str, tmp_path: Path, cli_env: dict[str, str], cache_dir: Path) -> None:
-    case = CASES[name]
-    files = tmp_path / "user"
-    files.mkdir()
-    (files / "sentinel").mkdir()
-    (files / "sentinel" / "keep.txt").write_text("must not change")
-    run_dir = files / "run"
-    args = case.setup(files)
-    if case.program == "psdr-room":
-        args.append(f"hydra.run.dir={run_dir}")
-    # Hydra's files in a run folder it made (a case that fails once stages run); a folder that was there stays as it was
-    hydra_own = () if run_dir.exists() else (run_dir / ".hydra", run_dir / "psdr-room.log", run_dir / ".psdr-room")
-    before = snapshot(files, hydra_own)
-    result = subprocess.run(
-        [shutil.which(case.program) or case.program, *args], env=cli_env, capture_output=True, text=True, timeout=300
-    )
-    assert result.returncode != 0, result.stdout + result.stderr
-    lines = [
-        line for line in result.stderr.splitlines() if any(w in line.lower() for w in ("error", "warn", "traceback"))
-    ]
-    assert len(lines) == 1, result.stderr  # besides the progress lines (▶ ✓ ✗) and the log's choices
-    assert lines[0].startswith(f"{case.program}: error: ") and case.expected in lines[0], lines[0]
-    assert "Traceback" not in result.stderr + result.stdout and "To append to your config" not in result.stderr
-    assert snapshot(files, hydra_own) == before  # nothing of the user's changed (run_dir_not_ours: run/scene/)
-    assert not (run_dir / "metrics.json").exists() and not (files / "edited").exists()
-    if run_dir.is_dir() and not hydra_own:
-        assert not [p for p in run_dir.iterdir() if p.name.startswith(".publishing-")]
-    if cache_dir.is_dir():
-        assert not [e for e in Store(cache_dir).entries() if damage(e)]
-        assert not list((cache_dir / "tmp").glob("*"))
+    run_case(CASES[name], tmp_path, cli_env, cache_dir)
