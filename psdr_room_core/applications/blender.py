@@ -8,12 +8,15 @@ the scene with :mod:`.blender_scene`: the photo's camera active at the photo's r
 fitted radiance, Principled BSDFs with the fitted colour, roughness, specular and maps, ``Standard`` colour
 management; Cycles and EEVEE both render it lit. ``--render`` also renders the camera's view to a PNG; a
 Cycles render is cleaned by psdr-room's ``--denoiser`` (default ``oidn``, as psdr-room's own renders are:
-Debian's Blender is built without a denoiser of its own).
+Debian's Blender is built without a denoiser of its own). The .blend and the render are written in a scratch
+folder of kind ``blender`` beside each and renamed into place when complete; what a killed run left there is
+removed first.
 """
 
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import shutil
 import subprocess
@@ -24,7 +27,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.debris import scratch_dir, sweep
+from psdr_room_core.engine.errors import PsdrRoomError, disk_full
+from psdr_room_core.engine.files import check_creatable, move_into_place
+from psdr_room_core.engine.interrupts import sigterm_interrupts, was_interrupted
 from psdr_room_core.engine.plugins import plugin_system
 from psdr_room_core.method.artifacts import write_png
 from psdr_room_core.method.capabilities import Denoiser
@@ -33,6 +39,8 @@ from psdr_room_core.method.shading import srgb_to_linear
 
 SCRIPT = Path(__file__).with_name("blender_scene.py")
 """The script Blender runs (its own Python: nothing of psdr-room is imported there)."""
+BLENDER = "blender"
+"""The scratch kind of the files psdr-room-blender writes."""
 INSTALL = "install Blender 3.4 or newer (Debian: sudo apt-get install blender python3-numpy) or pass --blender PATH"
 
 
@@ -52,6 +60,13 @@ def check_scene(scene: Path) -> None:
             raise PsdrRoomError(
                 f"{scene}: no {name}; pass the scene/ folder of a psdr-room run (export_scene.glb=true)"
             )
+
+
+def check_output(path: Path, flag: str) -> None:
+    """Refuse, before Blender starts, an output ``path`` (given by ``flag``) that is a folder or lies under a file."""
+    if path.is_dir():
+        raise PsdrRoomError(f"{flag} {path}: is a folder; give the path of the file to write")
+    check_creatable(path, flag)
 
 
 def build_blend(
@@ -109,6 +124,35 @@ def denoise_png(png: Path, denoiser: Denoiser) -> None:
     os.replace(staging.name, png)
 
 
+def write_outputs(
+    scene: Path,
+    blend: Path,
+    blender: str,
+    render: Path | None,
+    engine: str,
+    spp: int,
+    width: int | None,
+    denoiser: Denoiser,
+) -> None:
+    """:func:`build_blend` into scratch folders of kind :data:`BLENDER` beside ``blend`` and ``render`` (after
+    removing what a killed run left there), a Cycles render cleaned by ``denoiser``, then both renamed into place."""
+    targets = [path.absolute() for path in (blend, *([render] if render else []))]
+    folders = list(dict.fromkeys(target.parent for target in targets))
+    for folder in folders:
+        sweep(folder, BLENDER)
+    scratch = {folder: scratch_dir(folder, BLENDER) for folder in folders}
+    try:
+        staged = [scratch[target.parent] / name for name, target in zip(("scene.blend", "render.png"), targets)]
+        build_blend(scene, staged[0], blender, staged[1] if render else None, engine, spp, width)
+        if render and engine == "cycles":
+            denoise_png(staged[1], denoiser)
+        for new, target in zip(staged, targets):
+            move_into_place(new, target, BLENDER)
+    finally:
+        for folder in scratch.values():
+            shutil.rmtree(folder, ignore_errors=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``psdr-room-blender``."""
     parser = argparse.ArgumentParser(
@@ -133,17 +177,32 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--blender", help="the Blender executable (default: $PSDR_ROOM_BLENDER or blender)")
     args = parser.parse_args(argv)
     blend = args.out or args.scene / "scene.blend"
+    logging.basicConfig(level=logging.WARNING, format="%(message)s")  # warnings (a swept scratch folder) on stderr
     try:
         if args.spp < 1 or (args.width is not None and args.width < 8):
             raise PsdrRoomError("--spp must be at least 1 and --width at least 8")
         check_scene(args.scene)
+        check_output(blend, "--out")
+        if args.render:
+            check_output(args.render, "--render")
         denoiser = plugin_system().registry.implementation("denoiser", args.denoiser).factory()
-        build_blend(args.scene, blend, find_blender(args.blender), args.render, args.engine, args.spp, args.width)
-        if args.render and args.engine == "cycles":
-            denoise_png(args.render, denoiser)
+        blender = find_blender(args.blender)
+        with sigterm_interrupts():
+            write_outputs(args.scene, blend, blender, args.render, args.engine, args.spp, args.width, denoiser)
     except PsdrRoomError as exc:
         print(f"psdr-room-blender: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:
+        full = disk_full(exc, blend.parent)
+        if full is None:
+            raise
+        print(f"psdr-room-blender: error: {full}", file=sys.stderr)
+        return 2
+    except (KeyboardInterrupt, ImportError) as exc:
+        if not was_interrupted(exc):
+            raise
+        print("psdr-room-blender: error: interrupted; rerun the same command", file=sys.stderr)
+        return 130
     print(f"Blender scene → {blend}" + (f" (render: {args.render})" if args.render else ""))
     return 0
 

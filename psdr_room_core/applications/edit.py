@@ -26,11 +26,10 @@ meshes, maps, ``scene.glb``, ``appearance.json``), and rendered to ``render.png`
 from __future__ import annotations
 
 import argparse
+import logging
 import math
-import os
 import shutil
 import sys
-import tempfile
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -38,7 +37,10 @@ from typing import Any
 import numpy as np
 import yaml
 
-from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.debris import scratch_dir, sweep
+from psdr_room_core.engine.errors import PsdrRoomError, disk_full
+from psdr_room_core.engine.files import check_creatable, move_into_place
+from psdr_room_core.engine.interrupts import sigterm_interrupts, was_interrupted
 from psdr_room_core.engine.ownership import check_replaceable, claim
 from psdr_room_core.engine.plugins import plugin_system
 from psdr_room_core.method.artifacts import Light, PartAppearance, appearance_fields, vec3, write_png
@@ -48,6 +50,8 @@ from psdr_room_core.method.scene_state import check_state, read_state
 from psdr_room_core.method.stages.export import read_mesh_ply, scene_folder
 
 HOMOGENEOUS_KEYS = ("base_color", "roughness", "specular")
+EDIT = "edit"
+"""The scratch kind of an edited scene being written (beside ``--out``)."""
 
 
 def load_state(scene_dir: Path, library: Any) -> dict[str, Any]:
@@ -187,7 +191,9 @@ def edit_scene(
     scene: Path, edits: list[str], out: Path, spp: int = 64, max_depth: int = 3, denoiser: str = "oidn"
 ) -> Path:
     """Apply ``edits`` (``KEY=VALUE``) to the scene folder ``scene`` and write the edited scene, rendered to
-    ``render.png``, as the folder ``out`` (which appears whole, and replaces only a folder of ours); return it."""
+    ``render.png``, as the folder ``out`` (which appears whole, and replaces only a folder of ours); return it.
+    It is written in a scratch folder of kind :data:`EDIT` beside ``out``, renamed into place; what a killed edit
+    left there is removed first (:mod:`~psdr_room_core.engine.debris`)."""
     registry = plugin_system().registry
     clean = registry.implementation("denoiser", denoiser).factory()
     renderer = registry.implementation("renderer", "mitsuba").factory()  # the scene is a Mitsuba file
@@ -195,6 +201,7 @@ def edit_scene(
     if out.resolve() == scene_dir:
         raise PsdrRoomError(f"--out {out}: must differ from the scene folder it edits")
     check_replaceable(out, "--out")
+    check_creatable(out, "--out")
     library = registry.implementation("material_graph", "torch_graph").factory()
     state = load_state(scene_dir, library)
     for edit in edits:
@@ -204,7 +211,8 @@ def edit_scene(
         apply_edit(state, key.strip(), raw, library)
     files = scene_folder(rebuild(scene_dir, state, library), state, spp, max_depth, glb=True, usd=True)
     out.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=".edit-", dir=out.parent))
+    sweep(out.parent.absolute(), EDIT)
+    staging = scratch_dir(out.parent, EDIT)
     try:
         for name, data in files.items():
             (staging / name).parent.mkdir(parents=True, exist_ok=True)
@@ -212,9 +220,7 @@ def edit_scene(
         write_png(staging / "render.png", render_folder(staging, spp, renderer, clean))
         claim(staging)
         check_replaceable(out, "--out")
-        if out.exists():
-            shutil.rmtree(out)
-        os.replace(staging, out)
+        move_into_place(staging, out, EDIT)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     return out
@@ -240,10 +246,23 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = parser.parse_intermixed_args(argv)
     out = args.out or args.scene.with_name(args.scene.name + "-edited")
+    logging.basicConfig(level=logging.WARNING, format="%(message)s")  # warnings (a swept scratch folder) on stderr
     try:
-        edit_scene(args.scene, args.edits, out, args.spp, args.max_depth, args.denoiser)
+        with sigterm_interrupts():
+            edit_scene(args.scene, args.edits, out, args.spp, args.max_depth, args.denoiser)
     except PsdrRoomError as exc:
         print(f"psdr-room-edit: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:
+        full = disk_full(exc, out.parent)
+        if full is None:
+            raise
+        print(f"psdr-room-edit: error: {full}", file=sys.stderr)
+        return 2
+    except (KeyboardInterrupt, ImportError) as exc:
+        if not was_interrupted(exc):
+            raise
+        print("psdr-room-edit: error: interrupted; rerun the same command", file=sys.stderr)
+        return 130
     print(f"edited scene → {out} (render.png)")
     return 0

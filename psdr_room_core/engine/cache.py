@@ -9,28 +9,29 @@ lets concurrent processes (a multirun, or two users on a shared cache) compute e
 
 A hit is verified before use: each output is re-hashed against its manifest digest. An entry whose files
 changed on disk is logged in one line and moved aside to ``<root>/quarantine/`` (kept for inspection, never
-trusted), and the stage recomputes. ``psdr-room-cache`` verifies, measures and prunes a cache.
+trusted), and the stage recomputes. A commit that meets a full disk is one error naming the cache folder, its
+partial entry removed. ``psdr-room-cache`` verifies, measures and prunes a cache.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import fcntl
 import hashlib
 import json
 import logging
 import os
 import shutil
-import socket
 import tempfile
 import time
-import uuid
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from .artifacts import Artifact
+from .debris import scratch_dir, sweep
 from .errors import PsdrRoomError
 
 log = logging.getLogger("psdr_room")
@@ -142,7 +143,7 @@ class Store:
                 f"cache_dir={self.root}: cannot be created ({exc.strerror}); set cache_dir= to a writable directory"
             ) from None
         if self.writable():
-            self._remove_stale_tmp()
+            sweep(self.root / "tmp", "entry")  # entries a killed process left half-written
 
     def writable(self) -> bool:
         """Whether entries can be committed here (False for a read-only shared cache or file system)."""
@@ -223,8 +224,7 @@ class Store:
         there is kept (another process computed the same key: equal) unless ``replace``: a forced recompute
         (``run.only``, ``run.from``) supersedes the entry it recomputed. ``seconds`` and the stage's own
         ``timings`` go to the manifest, outside every digest."""
-        tmp = self.root / "tmp" / f"{key}@{socket.gethostname()}@{os.getpid()}@{uuid.uuid4().hex[:8]}"
-        tmp.mkdir(parents=True)
+        tmp = scratch_dir(self.root / "tmp", "entry")
         try:
             described = save_artifacts(outputs, tmp)
             manifest = {
@@ -249,20 +249,20 @@ class Store:
                     shutil.rmtree(old, ignore_errors=True)
                 else:
                     shutil.rmtree(tmp, ignore_errors=True)
+        except OSError as exc:
+            shutil.rmtree(tmp, ignore_errors=True)
+            if exc.errno != errno.ENOSPC:
+                raise
+            raise PsdrRoomError(
+                f"{self.root}: no space left on device for the results of stage {stage}; free some space there "
+                "or set cache_dir= to a folder on another disk"
+            ) from None
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise
         entry = self._read(key)
         assert entry is not None
         return entry
-
-    def _remove_stale_tmp(self) -> None:
-        """Remove temp dirs left by processes on this host that no longer run (e.g. killed mid-stage)."""
-        host = socket.gethostname()
-        for path in (self.root / "tmp").iterdir():
-            parts = path.name.split("@")
-            if len(parts) == 4 and parts[1] == host and parts[2].isdigit() and not _pid_alive(int(parts[2])):
-                shutil.rmtree(path, ignore_errors=True)
 
 
 def damage(entry: Entry) -> str | None:
@@ -278,13 +278,3 @@ def damage(entry: Entry) -> str | None:
         if digest_dir(directory) != described.get("digest"):
             return f"output {name} changed on disk"
     return None
-
-
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import errno
+from pathlib import Path
+
 
 class PsdrRoomError(Exception):
     """A problem with the user's input or configuration.
@@ -14,3 +17,12 @@ class PsdrRoomError(Exception):
 
     def __init__(self, message: str) -> None:
         super().__init__(" ".join(message.split()))
+
+
+def disk_full(exc: BaseException, folder: Path) -> PsdrRoomError | None:
+    """The one-line error for ``exc`` when it is a full disk (ENOSPC) met while writing under ``folder`` (the
+    file's own folder where the error names it), else None."""
+    if not isinstance(exc, OSError) or exc.errno != errno.ENOSPC:
+        return None
+    where = Path(exc.filename).parent if exc.filename else folder
+    return PsdrRoomError(f"{where}: no space left on device; free some space there or choose a folder on another disk")

@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import json
 import logging
-import os
 import shutil
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -17,13 +15,21 @@ from omegaconf.errors import InterpolationResolutionError, MissingMandatoryValue
 from .artifacts import Artifact
 from .cache import CACHE_MODES, Store
 from .dag import Pipeline, Runner, check_stage_inputs
+from .debris import scratch_dir, sweep
 from .errors import PsdrRoomError
+from .files import WRITING, move_into_place
+from .interrupts import sigterm_interrupts
 from .ownership import check_writable_into, claim
 from .plugins import PluginSystem, plugin_system
 from .records import RunRecord
 from .settings import check_config
 
 log = logging.getLogger("psdr_room")
+
+PUBLISHING = "publishing"
+"""The scratch kind of :func:`publish`'s staging folder."""
+STORE = "run_store"
+"""The scratch kind of the store a run keeps the results it does not cache in, in its run folder."""
 
 PUBLISHED = ("artifacts", "metrics.json", "run.json")
 """What :func:`publish` writes (and replaces) in every run directory; an artifact type with a ``published_as``
@@ -64,12 +70,15 @@ def plan(data: Mapping[str, Any], plugins: PluginSystem) -> tuple[Pipeline, dict
 
 
 def execute(cfg: DictConfig, run_dir: Path, plugins: PluginSystem | None = None) -> RunRecord:
-    """Run the configured pipeline and publish its results in ``run_dir``."""
+    """Run the configured pipeline and publish its results in ``run_dir``, first removing what a killed run left
+    there (:mod:`.debris`). SIGTERM stops it as Ctrl-C does (:mod:`.interrupts`)."""
     plugins = plugins or plugin_system()
     data = resolve_config(cfg)
     pipeline, injected = plan(data, plugins)
     mode = str(data["cache"])
     check_writable_into(run_dir, published(plugins), "run directory")
+    for kind in (PUBLISHING, STORE, WRITING):
+        sweep(run_dir, kind)
     photo = Path(str(data["image"])).expanduser().absolute()
     run = data["run"]
     selection = pipeline.select(only=run.get("only"), start=run.get("from"), until=run.get("until"))
@@ -81,11 +90,15 @@ def execute(cfg: DictConfig, run_dir: Path, plugins: PluginSystem | None = None)
             store.root,
         )
         mode = "read"
-    with tempfile.TemporaryDirectory(prefix="psdr-room-scratch-") as scratch:
-        runner = Runner(plugins, data, photo, store, Store(Path(scratch)), mode, injected)
-        record = runner.run(selection)
-        publish(record, run_dir, data, plugins)  # copies from the scratch store too
-    plugins.hook.after_run(run=record, run_dir=run_dir)
+    scratch = scratch_dir(run_dir, STORE)
+    try:
+        with sigterm_interrupts():
+            runner = Runner(plugins, data, photo, store, Store(scratch), mode, injected)
+            record = runner.run(selection)
+            publish(record, run_dir, data, plugins)  # copies from the scratch store too
+            plugins.hook.after_run(run=record, run_dir=run_dir)
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
     return record
 
 
@@ -115,11 +128,13 @@ def metrics(record: RunRecord, plugins: PluginSystem) -> dict[str, Any]:
 
 def publish(record: RunRecord, run_dir: Path, data: Mapping[str, Any], plugins: PluginSystem) -> None:
     """Write every artifact under ``artifacts/<name>/`` (and at ``<published_as>/`` when its type has one, as the
-    method's exported scene does), ``metrics.json`` and ``run.json``; all of it appears at once (staged in a hidden directory, then moved into place). The run
-    directory is marked as ours (:mod:`~psdr_room_core.engine.ownership`): a rerun into it may replace these."""
+    method's exported scene does), ``metrics.json`` and ``run.json``. All of it is written in a scratch folder of kind
+    :data:`PUBLISHING` in ``run_dir``, then each entry renamed into place (:func:`~.files.move_into_place`): each
+    appears whole, and a run killed meanwhile leaves only that scratch folder. The run directory is marked as ours
+    (:mod:`~psdr_room_core.engine.ownership`): a rerun into it may replace these."""
     run_dir.mkdir(parents=True, exist_ok=True)
     claim(run_dir)  # execute() refused a run directory holding files of the user's before any stage ran
-    staging = Path(tempfile.mkdtemp(prefix=".publishing-", dir=run_dir))
+    staging = scratch_dir(run_dir, PUBLISHING)
     try:
         for name, artifact in record.artifacts.items():
             _save(artifact, staging / "artifacts" / name, record.saved.get(name))
@@ -140,11 +155,8 @@ def publish(record: RunRecord, run_dir: Path, data: Mapping[str, Any], plugins: 
             )
             + "\n"
         )
-        for item in staging.iterdir():
-            target = run_dir / item.name
-            if target.is_dir():
-                shutil.rmtree(target)
-            os.replace(item, target)
+        for item in sorted(staging.iterdir()):
+            move_into_place(item, run_dir / item.name, PUBLISHING)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
 
