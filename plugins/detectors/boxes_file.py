@@ -19,11 +19,14 @@ from typing import TYPE_CHECKING, Any
 
 import yaml
 
+from psdr_room_core.engine.bounded import size_text
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.files import write_whole
 from psdr_room_core.method.artifacts import CATEGORIES, Detection, Detections, Image
 
 KEYS = ("label", "category", "box")
+MAX_BYTES = 4 << 20
+"""The largest boxes file read (a thousand boxes take about 60 kB)."""
 EXAMPLE = "boxes: [{label: sofa, category: object, box: [x0, y0, x1, y1]}]"
 
 
@@ -70,11 +73,20 @@ def _entry(path: Path, index: int, entry: Any, size: tuple[int, int]) -> Detecti
 def read_boxes(path: Path, size: tuple[int, int]) -> list[Detection]:
     """The boxes of a boxes file, validated against the photo's ``size`` (width, height), in photo pixels."""
     try:
-        data = yaml.safe_load(path.read_text())
+        with open(path, "rb") as file:
+            text = file.read(MAX_BYTES + 1)
+        if len(text) > MAX_BYTES:
+            raise PsdrRoomError(
+                f"{path}: {size_text(path.stat().st_size)}, larger than a boxes file ever is (at most "
+                f"{size_text(MAX_BYTES)}); write one box a line ({EXAMPLE})"
+            )
+        data = yaml.safe_load(text)
     except FileNotFoundError:
         raise PsdrRoomError(
             f"{path}: no such boxes file; write one ({EXAMPLE}) or fix detector.boxes_file.path"
         ) from None
+    except RecursionError:
+        raise PsdrRoomError(f"{path}: nested too deep to read; write one box a line ({EXAMPLE})") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}" if mark is not None else ""

@@ -13,6 +13,7 @@ import re
 from collections.abc import Iterable
 from pathlib import Path
 
+from .bounded import excerpt
 from .errors import PsdrRoomError
 
 MARKER = ".psdr-room"
@@ -59,6 +60,6 @@ def plain_name(name: object, source: Path, field: str) -> str:
     else a one-line error naming ``source`` and ``field``."""
     if not isinstance(name, str) or not PLAIN_NAME.fullmatch(name):
         raise PsdrRoomError(
-            f"{source}: {field} {name!r} is not a plain name (letters, digits, '_', '.', '-'); re-export the scene"
+            f"{source}: {field} {excerpt(repr(name))} is not a plain name (letters, digits, '_', '.', '-'); re-export the scene"
         )
     return name

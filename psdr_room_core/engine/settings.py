@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any
 from omegaconf import MISSING, OmegaConf
 from omegaconf.errors import ConfigKeyError, MissingMandatoryValue, ValidationError
 
+from .bounded import excerpt
 from .dag import AUTO, StageNode, with_settings
 from .errors import PsdrRoomError
 
@@ -84,9 +85,9 @@ def check_settings(schema: type, values: Mapping[str, Any], where: str) -> None:
     except ValidationError as exc:
         key = exc.full_key or "?"
         value = _value_at(values, key)
+        reason = str(exc).splitlines()[0].replace(str(value), _show(value))  # OmegaConf's words quote the value
         raise PsdrRoomError(
-            f"{_join(where, key)}={_show(value)} is invalid: {str(exc).splitlines()[0]}; "
-            f"allowed: {_allowed(schema, key)}"
+            f"{_join(where, key)}={_show(value)} is invalid: {reason}; allowed: {_allowed(schema, key)}"
         ) from None
     _check_rules(schema, merged, where)
     OmegaConf.to_object(merged)  # the schemas' __post_init__ rules
@@ -237,9 +238,10 @@ def _value_at(values: Mapping[str, Any], key: str) -> Any:
 
 
 def _show(value: Any) -> str:
+    """``value`` as an error line shows it: at most :data:`~.bounded.ECHO` characters."""
     if OmegaConf.is_config(value):
         value = OmegaConf.to_container(value)
-    return "null" if value is None else str(value)
+    return "null" if value is None else excerpt(str(value))
 
 
 def _join(where: str, key: str) -> str:

@@ -8,22 +8,29 @@ Encodings (``DEPTH_ENCODINGS``):
   R, ... in that order of preference, in the file's units.
 - ``npy``:   2-D float NumPy array, in the file's units.
 
-Zero, negative and non-finite values are invalid. Every problem raises :class:`SidecarError` with a
-one-line message that names the file and says how to fix it.
+Zero, negative and non-finite values are invalid. A file is read only once its size, and the size its header
+declares, are within :data:`MAX_SIDECAR_PIXELS`. Every problem raises :class:`SidecarError` with a one-line message
+that names the file and says how to fix it.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import struct
 from pathlib import Path
 
 import cv2
 import numpy as np
 
+from psdr_room_core.engine.bounded import JsonLimits, load_json, size_text
+from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.libraries.bounded_npy import load_npy
+
 __all__ = [
     "DEPTH_ENCODINGS",
     "DEPTH_SUFFIXES",
+    "MAX_SIDECAR_PIXELS",
     "SidecarError",
     "find_depth_sidecar",
     "read_depth",
@@ -33,6 +40,13 @@ __all__ = [
 DEPTH_ENCODINGS = ("png16", "sun", "exr", "npy")
 DEPTH_SUFFIXES = (".depth.png", ".depth.exr", ".depth.npy")
 """Sidecar names tried beside ``photo.jpg``: ``photo.depth.png``, ``photo.depth.exr``, ``photo.depth.npy``."""
+MAX_SIDECAR_PIXELS = 100_000_000
+"""The most pixels a depth map or segmentation may have: those of the largest photo ``load_image`` takes by
+default."""
+MAX_DEPTH_BYTES = MAX_SIDECAR_PIXELS * 8
+"""The largest depth file read: :data:`MAX_SIDECAR_PIXELS` float64 values."""
+OPTIONS_LIMITS = JsonLimits(max_bytes=1_000_000, max_string=1000)
+"""What a depth file's ``.json`` of options (two keys) may hold."""
 
 
 class SidecarError(ValueError):
@@ -62,8 +76,11 @@ def read_depth_options(depth_path: Path) -> dict:
     meta_path = depth_path.with_suffix(".json")
     if not meta_path.is_file():
         return {}
+    example = '{"encoding": "png16", "scale": 1000}'
     try:
-        meta = json.loads(meta_path.read_text(encoding="utf-8"))
+        meta = load_json(meta_path, OPTIONS_LIMITS, f"write e.g. {example}")
+    except PsdrRoomError as exc:
+        raise SidecarError(str(exc)) from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise SidecarError(
             f'{meta_path}: not valid JSON ({exc}); write e.g. {{"encoding": "png16", "scale": 1000}}'
@@ -98,6 +115,11 @@ def read_depth(path: Path, encoding: str = "auto", scale: float = 1000.0) -> tup
         )
     if not path.is_file():
         raise SidecarError(f"{path}: is not a file; give the path of a depth map (.png, .exr or .npy)")
+    if path.stat().st_size > MAX_DEPTH_BYTES:
+        raise SidecarError(
+            f"{path}: {size_text(path.stat().st_size)}, larger than a depth map of {MAX_SIDECAR_PIXELS:,} pixels; "
+            "save the depth at the photo's size"
+        )
     if encoding == "auto":
         encoding = _encoding_from_suffix(path)
 
@@ -170,11 +192,22 @@ def _describe_image(img: np.ndarray) -> str:
     return f"{bits} {kind}"
 
 
+def _check_pixels(path: Path, width: int, height: int) -> None:
+    if width * height > MAX_SIDECAR_PIXELS:
+        raise SidecarError(
+            f"{path}: the header declares {width}x{height} pixels, over the {MAX_SIDECAR_PIXELS:,} a depth map may "
+            "have; save the depth at the photo's size"
+        )
+
+
 def _read_png16(path: Path, encoding: str) -> np.ndarray:
     try:
         buf = np.fromfile(path, dtype=np.uint8)
     except OSError as exc:
         raise SidecarError(f"{path}: cannot read the file ({exc.strerror or exc}); check its permissions") from None
+    header = buf[:24].tobytes()
+    if header[:8] == b"\x89PNG\r\n\x1a\n" and header[12:16] == b"IHDR":
+        _check_pixels(path, *struct.unpack(">II", header[16:24]))
     img = cv2.imdecode(buf, cv2.IMREAD_UNCHANGED) if buf.size else None
     if img is None:
         raise SidecarError(f"{path}: not a readable image; save depth as a 16-bit single-channel PNG")
@@ -197,17 +230,14 @@ def _read_png16(path: Path, encoding: str) -> np.ndarray:
 
 
 def _read_npy(path: Path) -> np.ndarray:
+    fix = "save it with numpy.save(path, depth.astype('float32')) at the photo's size"
     try:
-        arr = np.load(path, allow_pickle=False)
+        arr = load_npy(path, MAX_DEPTH_BYTES, fix)
+    except PsdrRoomError as exc:
+        raise SidecarError(str(exc)) from None
     except (OSError, ValueError, EOFError) as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise SidecarError(
-            f"{path}: not a readable .npy array ({msg}); save it with numpy.save(path, depth.astype('float32'))"
-        ) from None
-    if not isinstance(arr, np.ndarray):  # an .npz archive under a .npy name
-        if hasattr(arr, "close"):
-            arr.close()
-        raise SidecarError(f"{path}: is an .npz archive, not a single array; save the depth with numpy.save")
+        raise SidecarError(f"{path}: not a readable .npy array ({msg}); {fix}") from None
     if arr.ndim == 3 and arr.shape[2] == 1:
         arr = arr[..., 0]
     if arr.ndim == 3 and arr.shape[0] == 1:
@@ -230,9 +260,34 @@ _DEPTH_CHANNELS = ("z", "depth", "d", "distance", "y", "r", "v", "gray", "grey",
 layered names (``ViewLayer.Depth.Z`` -> ``z``)."""
 
 
+def _exr_size(path: Path) -> tuple[int, int] | None:
+    """(width, height) of an OpenEXR file's ``dataWindow`` from its header (attributes: name, type, size, value);
+    None when the header cannot be followed (the EXR reader then says what is wrong)."""
+    with open(path, "rb") as file:
+        header = file.read(1 << 16)
+    if header[:4] != b"\x76\x2f\x31\x01":
+        return None
+    at = 8
+    try:
+        while header[at] != 0:
+            name_end = header.index(b"\0", at)
+            type_end = header.index(b"\0", name_end + 1)
+            (size,) = struct.unpack_from("<i", header, type_end + 1)
+            if header[at:name_end] == b"dataWindow" and size == 16:
+                x0, y0, x1, y1 = struct.unpack_from("<4i", header, type_end + 5)
+                return x1 - x0 + 1, y1 - y0 + 1
+            at = type_end + 5 + size
+    except (IndexError, ValueError, struct.error):
+        return None
+    return None
+
+
 def _read_exr(path: Path) -> np.ndarray:
     import mitsuba as mi  # imported here: slow to load and only EXR needs it; Bitmap needs no variant
 
+    size = _exr_size(path)
+    if size is not None:
+        _check_pixels(path, *size)
     try:
         bitmap = mi.Bitmap(str(path), mi.Bitmap.FileFormat.OpenEXR)
     except RuntimeError:

@@ -9,8 +9,9 @@ Two formats:
 
 Class names are mapped to the room categories :data:`~psdr_room_core.method.artifacts.CATEGORIES` by
 :func:`category_of`. The id map returned is int32 HxW; each core :class:`~psdr_room_core.method.artifacts.Segment`
-names its id, category and original label. Problems raise :class:`SidecarError` with a one-line message
-naming the file and the fix.
+names its id, category and original label. A file is parsed only within limits (its size, nesting, strings, the
+pixels it declares); problems raise :class:`SidecarError` with a one-line message naming the file and the fix, which
+shows at most :data:`~psdr_room_core.engine.bounded.ECHO` characters of a bad value.
 """
 
 from __future__ import annotations
@@ -19,8 +20,10 @@ import base64
 import binascii
 import io
 import json
+import logging
 import math
 import re
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -28,9 +31,13 @@ import cv2
 import numpy as np
 from PIL import Image
 
+from psdr_room_core.engine.bounded import JsonLimits, excerpt, load_json
+from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.method.artifacts import Segment, box4, panoptic_ids
 
-from .sidecar_depth import SidecarError
+from .sidecar_depth import MAX_SIDECAR_PIXELS, SidecarError
+
+log = logging.getLogger("psdr_room")
 
 __all__ = [
     "BACKGROUND_LABELS",
@@ -45,6 +52,10 @@ __all__ = [
 
 BACKGROUND_LABELS = frozenset({"_background_", "background", "unlabeled", "unlabelled", "void", "ignore", "none"})
 """LabelMe labels that mean "no segment" (their pixels are set to 0)."""
+LABELME_LIMITS = JsonLimits(max_bytes=256_000_000, max_string=256_000_000)
+"""What a LabelMe file may hold (its ``imageData`` is the whole photo, base64-encoded)."""
+PANOPTIC_LIMITS = JsonLimits(max_bytes=256_000_000)
+"""What a COCO-panoptic JSON (one annotation, or a whole COCO file) may hold."""
 
 
 # ------------------------------------------------------------------------------------- categories
@@ -203,9 +214,11 @@ def panoptic_json_for(png: Path) -> Path:
 
 
 # ---------------------------------------------------------------------------------- COCO panoptic
-def _load_json(path: Path, what: str) -> Any:
+def _load_json(path: Path, what: str, limits: JsonLimits) -> Any:
     try:
-        return json.loads(Path(path).read_text(encoding="utf-8"))
+        return load_json(path, limits, f"check this is the {what}")
+    except PsdrRoomError as exc:
+        raise SidecarError(str(exc)) from None
     except FileNotFoundError:
         raise SidecarError(f"{path}: {what} not found; create it or fix the path") from None
     except (OSError, UnicodeDecodeError) as exc:
@@ -218,19 +231,34 @@ def _load_json(path: Path, what: str) -> Any:
 
 def _as_int(value: Any, path: Path, what: str) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or value != int(value):
-        raise SidecarError(f"{path}: {what} must be an integer, got {value!r}; fix the JSON")
+        raise SidecarError(f"{path}: {what} must be an integer, got {excerpt(repr(value))}; fix the JSON")
     return int(value)
+
+
+def _open_image(source: Path | io.BytesIO) -> Image.Image:
+    """The image at ``source``, its header read only; over :data:`MAX_SIDECAR_PIXELS` (or PIL's decompression-bomb
+    limit) raises ValueError before any pixel is decoded."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", Image.DecompressionBombWarning)
+        try:
+            im = Image.open(source)
+        except (Image.DecompressionBombError, Image.DecompressionBombWarning) as exc:
+            raise ValueError(str(exc)) from None
+    if im.width * im.height > MAX_SIDECAR_PIXELS:
+        im.close()
+        raise ValueError(f"{im.width}x{im.height} pixels, over the {MAX_SIDECAR_PIXELS:,} of the largest photo")
+    return im
 
 
 def _read_panoptic_png(png: Path) -> np.ndarray:
     if not png.is_file():
         raise SidecarError(f"{png}: panoptic PNG not found; put the COCO-panoptic PNG there or fix the path")
     try:
-        with Image.open(png) as im:
+        with _open_image(png) as im:
             im.load()
             mode = im.mode
             arr = np.array(im)
-    except (OSError, ValueError, Image.DecompressionBombError) as exc:
+    except (OSError, ValueError) as exc:
         raise SidecarError(
             f"{png}: not a readable image ({exc}); save the id map as an RGB PNG (id = R + 256*G + 256^2*B)"
         ) from None
@@ -264,7 +292,7 @@ def _pick_annotation(doc: dict, png: Path, json_path: Path) -> dict:
             return found[0]
     if len(anns) == 1:  # a renamed single-image file (e.g. photo.panoptic.png)
         return anns[0]
-    names = ", ".join(str(a.get("file_name")) for a in anns[:3]) + (", ..." if len(anns) > 3 else "")
+    names = ", ".join(excerpt(str(a.get("file_name"))) for a in anns[:3]) + (", ..." if len(anns) > 3 else "")
     raise SidecarError(
         f"{json_path}: no annotation has file_name {png.name!r} (found {names}); rename the PNG or fix file_name"
     )
@@ -286,7 +314,7 @@ def read_coco_panoptic(png: Path, json_path: Path) -> tuple[np.ndarray, list[Seg
             f"write the COCO panoptic segments_info and categories there"
         )
     ids = _read_panoptic_png(png)
-    doc = _load_json(json_path, "panoptic JSON")
+    doc = _load_json(json_path, "panoptic JSON", PANOPTIC_LIMITS)
     if not isinstance(doc, dict):
         raise SidecarError(
             f"{json_path}: unknown JSON structure (top level is not an object); write a COCO panoptic annotation object"
@@ -333,17 +361,20 @@ def read_coco_panoptic(png: Path, json_path: Path) -> tuple[np.ndarray, list[Seg
             label = cat_name
         score, box = info.get("score"), info.get("prompt_box")
         if score is not None and not isinstance(score, (int, float)):
-            raise SidecarError(f"{json_path}: segment {sid} has score {score!r}; give a number or leave it out")
+            raise SidecarError(
+                f"{json_path}: segment {sid} has score {excerpt(repr(score))}; give a number or leave it out"
+            )
         if box is not None and not (
             isinstance(box, list) and len(box) == 4 and all(isinstance(v, (int, float)) for v in box)
         ):
             raise SidecarError(
-                f"{json_path}: segment {sid} has prompt_box {box!r}; give [x0, y0, x1, y1] or leave it out"
+                f"{json_path}: segment {sid} has prompt_box {excerpt(repr(box))}; give [x0, y0, x1, y1] or leave it out"
             )
         opinion = info.get("second_opinion")
         if opinion is not None and not isinstance(opinion, str):
             raise SidecarError(
-                f"{json_path}: segment {sid} has second_opinion {opinion!r}; give a label (text) or leave it out"
+                f"{json_path}: segment {sid} has second_opinion {excerpt(repr(opinion))}; "
+                "give a label (text) or leave it out"
             )
         segments.append(
             Segment(
@@ -411,7 +442,8 @@ def _points(shape: dict, k: int, json_path: Path) -> np.ndarray:
         arr = None
     if arr is None or arr.ndim != 2 or arr.shape[1] != 2 or not np.all(np.isfinite(arr)):
         raise SidecarError(
-            f"{json_path}: shape {k} ({shape.get('label')!r}) has malformed points; give a list of [x, y] pairs"
+            f"{json_path}: shape {k} ({excerpt(repr(shape.get('label')))}) has malformed points; "
+            "give a list of [x, y] pairs"
         )
     return arr.reshape(-1, 2)
 
@@ -420,14 +452,16 @@ def _decode_mask(shape: dict, k: int, json_path: Path) -> np.ndarray:
     data = shape.get("mask")
     if not isinstance(data, str):
         raise SidecarError(
-            f"{json_path}: mask shape {k} ({shape.get('label')!r}) has no base64 'mask'; redraw it or use a polygon"
+            f"{json_path}: mask shape {k} ({excerpt(repr(shape.get('label')))}) has no base64 'mask'; "
+            "redraw it or use a polygon"
         )
     try:
-        with Image.open(io.BytesIO(base64.b64decode(data))) as im:
+        with _open_image(io.BytesIO(base64.b64decode(data))) as im:
             return np.array(im.convert("L")) > 0
     except (binascii.Error, OSError, ValueError):
         raise SidecarError(
-            f"{json_path}: mask shape {k} ({shape.get('label')!r}) has an unreadable 'mask' image; redraw it or use a polygon"
+            f"{json_path}: mask shape {k} ({excerpt(repr(shape.get('label')))}) has an unreadable or oversized "
+            "'mask' image; redraw it or use a polygon"
         ) from None
 
 
@@ -439,10 +473,11 @@ def read_labelme(json_path: Path, shape: tuple[int, int] | None = None) -> tuple
     appearance). Points are continuous image coordinates (pixel ``i`` spans ``[i, i+1)``); a pixel is
     filled when its centre is inside. When ``shape`` (H, W) differs from the file's imageHeight/Width the
     points are scaled. polygon, rectangle, circle and mask shapes have area; line/linestrip/point shapes
-    and background labels (``_background_``...) are skipped. Segments left without pixels are dropped.
+    and background labels (``_background_``...) are skipped. Segments left without pixels are dropped; a shape
+    that covers no pixel of its own is logged as a warning.
     """
     json_path = Path(json_path)
-    doc = _load_json(json_path, "LabelMe JSON")
+    doc = _load_json(json_path, "LabelMe JSON", LABELME_LIMITS)
     if not isinstance(doc, dict) or not isinstance(doc.get("shapes"), list):
         raise SidecarError(
             f"{json_path}: not a LabelMe file (no 'shapes' list); save it from LabelMe or add \"shapes\": [...]"
@@ -462,6 +497,11 @@ def read_labelme(json_path: Path, shape: tuple[int, int] | None = None) -> tuple
         raise SidecarError(
             f"{json_path}: imageHeight/imageWidth must be positive, got {file_h}x{file_w}; fix them to the photo's size"
         )
+    if file_h * file_w > MAX_SIDECAR_PIXELS:
+        raise SidecarError(
+            f"{json_path}: imageHeight/imageWidth {file_h}x{file_w} is over the {MAX_SIDECAR_PIXELS:,} pixels of the "
+            "largest photo; fix them to the photo's size"
+        )
     out_h, out_w = (int(shape[0]), int(shape[1])) if shape is not None else (file_h, file_w)
     sx, sy = out_w / file_w, out_h / file_h
 
@@ -477,11 +517,11 @@ def read_labelme(json_path: Path, shape: tuple[int, int] | None = None) -> tuple
                 f"{json_path}: shape {k} has no label; give it a class name such as wall, floor or chair"
             )
         label = label.strip()
-        kind = str(shp.get("shape_type") or "polygon").lower()
+        kind = excerpt(str(shp.get("shape_type") or "polygon").lower())
         if kind in ("line", "linestrip", "point", "points") or label.lower() in BACKGROUND_LABELS:
             continue
         pts = _points(shp, k, json_path)
-        where = f"{json_path}: shape {k} ({label!r}, {kind})"
+        where = f"{json_path}: shape {k} ({excerpt(repr(label))}, {kind})"
         mask: np.ndarray = np.zeros((out_h, out_w), dtype=np.uint8)
         if kind == "polygon":
             if len(pts) < 3:
@@ -523,9 +563,13 @@ def read_labelme(json_path: Path, shape: tuple[int, int] | None = None) -> tuple
         else:
             raise SidecarError(f"{where}: unsupported shape_type {kind!r}; use polygon, rectangle, circle or mask")
 
+        if not mask.any():
+            _warn_empty(json_path, k, label, pts, (file_w, file_h))
         group = shp.get("group_id")
         if isinstance(group, bool) or not isinstance(group, (int, str, type(None))):
-            raise SidecarError(f"{where}: group_id must be an integer or null, got {group!r}; fix it in the JSON")
+            raise SidecarError(
+                f"{where}: group_id must be an integer or null, got {excerpt(repr(group))}; fix it in the JSON"
+            )
         key = (label, group)
         if group is not None and key in groups:
             sid = groups[key]
@@ -538,3 +582,12 @@ def read_labelme(json_path: Path, shape: tuple[int, int] | None = None) -> tuple
 
     present = set(np.unique(ids).tolist())
     return ids, [s for s in segments if s.id in present]
+
+
+def _warn_empty(json_path: Path, k: int, label: str, points: np.ndarray, size: tuple[int, int]) -> None:
+    """One warning line for a shape that covers no pixel (``points`` and ``size``: in the file's pixels)."""
+    width, height = size
+    (x0, y0), (x1, y1) = points.min(axis=0), points.max(axis=0)
+    outside = x1 <= 0 or y1 <= 0 or x0 >= width or y0 >= height
+    why = f"lies outside the {width}x{height} photo" if outside else "covers no pixel centre"
+    log.warning("%s: shape %d (%s) %s; dropped (fix its points or delete it)", json_path, k, excerpt(repr(label)), why)

@@ -3,7 +3,8 @@ it is checked (types, ranges, names, library materials) before anything is alloc
 
 :func:`read_state` reads and checks a file; :func:`check_state` checks a state in memory (``psdr-room-edit``
 calls it again after its edits, so an edit outside a value's range is refused with that range, the same
-way for every value). Every error is one line naming the file and the value's place in it.
+way for every value). The file is parsed only within :data:`LIMITS`; every error is one line naming the file and
+the value's place in it, showing at most :data:`~psdr_room_core.engine.bounded.ECHO` characters of the value.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from psdr_room_core.engine.bounded import JsonLimits, excerpt, load_json
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.ownership import plain_name
 
@@ -40,12 +42,14 @@ RANGES: dict[str, tuple[float, float]] = {
 scene folder cannot make the editor allocate gigabytes)."""
 TOP_KEYS = ("camera", "camera_to_world", "parts", "lights", "fixtures", "texture_size")
 PART_KEYS = ("part", "kind", "base_color", "roughness", "specular", "material", "scale", "rotation", "params")
+LIMITS = JsonLimits(max_bytes=64_000_000, max_string=4096)
+"""What an ``appearance.json`` may hold: its strings are names and kinds."""
 
 
 def read_state(path: Path, library: Any) -> dict[str, Any]:
     """``appearance.json`` at ``path``, checked by :func:`check_state` against the material ``library``."""
     try:
-        state = json.loads(path.read_text())
+        state = load_json(path, LIMITS, "re-export the scene")
     except json.JSONDecodeError as exc:
         raise PsdrRoomError(f"{path}: invalid JSON ({exc.msg} at line {exc.lineno}); re-export the scene") from None
     except UnicodeDecodeError:
@@ -106,14 +110,14 @@ def check_graph(material: Any, params: Any, library: Any, where: str) -> None:
     their shapes and inside their ranges."""
     if not isinstance(material, str) or material not in library.names():
         raise PsdrRoomError(
-            f"{where}: material {material!r} is not in the library; `psdr-room-materials list` shows them"
+            f"{where}: material {excerpt(repr(material))} is not in the library; `psdr-room-materials list` shows them"
         )
     if not isinstance(params, Mapping):
         raise PsdrRoomError(f"{where}: params must be an object of graph parameters")
     bounds = library.material(material).bounds
     for key, value in params.items():
         if key not in bounds:
-            raise PsdrRoomError(f"{where}: {material} has no parameter '{key}'; it has {', '.join(bounds)}")
+            raise PsdrRoomError(f"{where}: {material} has no parameter '{excerpt(key)}'; it has {', '.join(bounds)}")
         bound = bounds[key]
         try:
             array = np.asarray(value, dtype=np.float64)
@@ -121,13 +125,14 @@ def check_graph(material: Any, params: Any, library: Any, where: str) -> None:
             array = np.asarray(np.nan)
         if array.shape != tuple(bound.value.shape) or not np.all(np.isfinite(array)):
             raise PsdrRoomError(
-                f"{where}: {key}={json.dumps(value)} is invalid; allowed: numbers of shape {tuple(bound.value.shape)}"
+                f"{where}: {key}={excerpt(json.dumps(value))} is invalid; "
+                f"allowed: numbers of shape {tuple(bound.value.shape)}"
             )
         lo, hi = np.asarray(bound.lo, dtype=np.float32), np.asarray(bound.hi, dtype=np.float32)
         single = array.astype(np.float32)  # the graph's precision: a slider's 0.05 is its bound float32(0.05)
         if np.any(single < lo) or np.any(single > hi):
             raise PsdrRoomError(
-                f"{where}: {key}={json.dumps(value)} is out of range; allowed: {_span(lo)} to {_span(hi)}"
+                f"{where}: {key}={excerpt(json.dumps(value))} is out of range; allowed: {_span(lo)} to {_span(hi)}"
             )
 
 
@@ -138,7 +143,7 @@ class _Checker:
         self.source = source
 
     def fail(self, where: str, value: Any, allowed: str) -> None:
-        raise PsdrRoomError(f"{self.source}: {where}={json.dumps(value)} is invalid; allowed: {allowed}")
+        raise PsdrRoomError(f"{self.source}: {where}={excerpt(json.dumps(value))} is invalid; allowed: {allowed}")
 
     def mapping(
         self, value: Any, where: str, required: tuple[str, ...], optional: tuple[str, ...] = ()
@@ -148,7 +153,11 @@ class _Checker:
         missing = [k for k in required if k not in value]
         unknown = [k for k in value if k not in (*required, *optional)]
         if missing or unknown:
-            what = f"missing {', '.join(missing)}" if missing else f"unknown key(s) {', '.join(map(str, unknown))}"
+            what = (
+                f"missing {', '.join(missing)}"
+                if missing
+                else f"unknown key(s) {excerpt(', '.join(map(str, unknown)))}"
+            )
             raise PsdrRoomError(f"{self.source}: {where}: {what}; re-export the scene")
         return value
 
@@ -165,7 +174,8 @@ class _Checker:
             self.fail(where, value, f"{kind} from {lo:g} to {hi:g}")
         if not lo <= value <= hi:
             raise PsdrRoomError(
-                f"{self.source}: {where}={json.dumps(value)} is out of range; allowed: {kind} from {lo:g} to {hi:g}"
+                f"{self.source}: {where}={excerpt(json.dumps(value))} is out of range; "
+                f"allowed: {kind} from {lo:g} to {hi:g}"
             )
 
     def rgb(self, value: Any, where: str, key: str) -> None:

@@ -37,12 +37,15 @@ def read_npy(path: Path) -> np.ndarray:
 
 
 def write_png(path: Path, array: np.ndarray) -> None:
-    """Write an RGB (HxWx3) or gray array as PNG (uint8/uint16 as is), making its folder."""
+    """Write an RGB (HxWx3) or gray array as PNG (uint8/uint16 as is), making its folder; encoded in memory, so a
+    failed write is an OSError (a full disk: ENOSPC) for the caller to report, not a message from libpng."""
     path.parent.mkdir(parents=True, exist_ok=True)
     if array.ndim == 3:
         array = array[..., ::-1]
-    if not cv2.imwrite(str(path), np.ascontiguousarray(array)):
-        raise PsdrRoomError(f"{path}: could not be written; check the directory is writable")
+    encoded, data = cv2.imencode(".png", np.ascontiguousarray(array))
+    if not encoded:
+        raise PsdrRoomError(f"{path}: a {array.dtype} array of shape {array.shape} cannot be written as PNG")
+    path.write_bytes(data.tobytes())
 
 
 def read_png(path: Path) -> np.ndarray:
