@@ -215,3 +215,26 @@ def test_full_disk_under_the_cache_is_named(tmp_path: Path, cli_env: dict[str, s
     assert "left in tmp: 0" in result.stdout, result.stdout
     assert not (run_dir / "metrics.json").exists()
 
+
+def test_full_disk_under_the_run_folder_is_named(tmp_path: Path, cli_env: dict[str, str]) -> None:
+    """A run folder on a full disk (a 64 kB tmpfs in a private mount namespace, as above): one line naming the
+    folder and saying there is no space left, not an internal error."""
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    mount = 'mount -t tmpfs -o size=64k psdr-room-test "$0"'
+    unshare = shutil.which("unshare")
+    if unshare is None or subprocess.run([unshare, "-Urm", "sh", "-c", mount, str(run_dir)]).returncode != 0:
+        pytest.skip("cannot mount a small tmpfs in a private mount namespace here")
+    program = shutil.which("psdr-room") or "psdr-room"
+    args = [f"image={example(tmp_path)}", "run.until=load_image", f"hydra.run.dir={run_dir}"]
+    result = subprocess.run(
+        [unshare, "-Urm", "sh", "-c", f'{mount} && exec "$@"', str(run_dir), program, *args],
+        env=cli_env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert result.returncode == 2, result.stderr
+    lines = [line for line in result.stderr.splitlines() if any(w in line.lower() for w in ("error", "warn", "trace"))]
+    assert len(lines) == 1, result.stderr
+    assert lines[0].startswith(f"psdr-room: error: {run_dir}") and "no space left on device" in lines[0], lines[0]

@@ -8,7 +8,6 @@ and plugin config directories (the ``conf_searchpath`` hook) are added to Hydra'
 from __future__ import annotations
 
 import logging
-import os
 import re
 import sys
 import traceback
@@ -19,22 +18,25 @@ import hydra
 from hydra import compose, initialize_config_module
 from hydra.core.hydra_config import HydraConfig
 from hydra.core.override_parser.overrides_parser import OverridesParser
-from hydra.core.override_parser.types import Override
+from hydra.core.override_parser.types import ChoiceSweep, Override, RangeSweep
 from hydra.errors import OverrideParseException
 from hydra.types import RunMode
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import DictConfig, OmegaConf, open_dict, read_write
 
 from . import threads
 from .dag import AUTO, Pipeline
-from .errors import PsdrRoomError
+from .errors import PsdrRoomError, disk_full
 from .help import help_text
+from .hydra_writes import check_hydra_writes
 from .inputs import find_photos, require_file
-from .ownership import check_replaceable, claim
+from .interrupts import was_interrupted
+from .ownership import claim
 from .plugins import PluginSystem, plugin_system
 from .run import execute, plan, resolve_config
 from .settings import check_config
 
 CONFIG_MODULE = "psdr_room_conf"
+INTERRUPTED = "interrupted; finished stages are cached, rerun the same command to resume"
 _VALUE_FLAGS = {
     "--cfg",
     "-c",
@@ -109,41 +111,25 @@ def hydra_quote(text: str) -> str:
 
 def quote_photo(argv: list[str]) -> list[str]:
     """``image=PATH`` naming an existing file that Hydra's override grammar would not read as that one path
-    (non-ASCII letters, brackets, ``#``, quotes, or a ``,`` outside ``--multirun``): quoted for it, so that
-    paths work as people name them."""
+    (non-ASCII letters, brackets, ``#``, quotes, ``${`` that it would resolve, or a ``,`` outside
+    ``--multirun``): quoted for it, so that paths work as people name them."""
     _, flags = split_arguments(argv)
     out = []
     for arg in argv:
         raw = arg.removeprefix("image=")
         if arg.startswith("image=") and raw[:1] not in ("'", '"') and Path(raw).expanduser().is_file():
             parsed = _parse(arg)
-            if parsed is None or (parsed.is_sweep_override() and not flags & {"--multirun", "-m"}):
+            if parsed is None or "${" in raw or (parsed.is_sweep_override() and not flags & {"--multirun", "-m"}):
                 arg = f"image={hydra_quote(raw)}"
         out.append(arg)
     return out
 
 
-def check_run_folder(parsed: list[Override]) -> None:
-    """Refuse, before Hydra writes into it, a run folder given by ``hydra.run.dir=`` that is a file or holds
-    files psdr-room did not write, and a run folder (or the default ``outputs/``) that cannot be written."""
-    given = [o for o in parsed if o.key_or_group == "hydra.run.dir" and not o.is_sweep_override()]
-    value = str(given[-1].value()) if given else "outputs"
-    if "${" in value:
-        return  # a folder named by interpolation is resolved by Hydra; execute() checks it then
-    folder = Path(value).expanduser()
-    if given:
-        check_replaceable(folder, "hydra.run.dir")
-    existing = next(p for p in (folder, *folder.absolute().parents) if p.exists())
-    if not os.access(existing, os.W_OK | os.X_OK):
-        what = f"hydra.run.dir={value}" if given else f"the run folder {folder.absolute()}"
-        raise PsdrRoomError(
-            f"{what}: {existing} cannot be written (permission denied); give hydra.run.dir= a folder you can write to"
-        )
-
-
 def unknown_override(key: str, plugins: PluginSystem) -> PsdrRoomError:
     """The one-line error for overriding ``key`` that is not in the composed config: the same words as for an
     unknown key added with ``+`` (a did-you-mean and the valid names), never Hydra's hint to add it."""
+    if key.startswith("hydra."):
+        return PsdrRoomError(f"{key} is not a setting of Hydra; check the name against: psdr-room --cfg hydra")
     composed = OmegaConf.to_container(compose_config([], plugins), resolve=True)  # stages refer to each other
     assert isinstance(composed, dict)
     data: dict[str, Any] = {str(k): v for k, v in composed.items()}
@@ -162,11 +148,53 @@ def unknown_override(key: str, plugins: PluginSystem) -> PsdrRoomError:
     )
 
 
-def compose_config(overrides: list[str], plugins: PluginSystem | None = None) -> DictConfig:
-    """Compose the config as the CLI would (for tests, benchmarks and the preflight check)."""
+def compose_config(
+    overrides: list[str], plugins: PluginSystem | None = None, return_hydra_config: bool = False
+) -> DictConfig:
+    """Compose the config as the CLI would (for tests, benchmarks and the preflight check); with
+    ``return_hydra_config``, with the ``hydra`` node Hydra runs it with."""
     plugins = plugins or plugin_system()
     with initialize_config_module(config_module=CONFIG_MODULE, version_base="1.3"):
-        return compose(config_name="config", overrides=[*overrides, *searchpath_overrides(plugins)])
+        return compose(
+            config_name="config",
+            overrides=[*overrides, *searchpath_overrides(plugins)],
+            return_hydra_config=return_hydra_config,
+        )
+
+
+def composed(overrides: list[str], plugins: PluginSystem) -> DictConfig:
+    """:func:`compose_config` with the ``hydra`` node, a composition error turned into one line."""
+    try:
+        return compose_config(overrides, plugins, return_hydra_config=True)
+    except PsdrRoomError:
+        raise
+    except Exception as exc:  # Hydra/OmegaConf composition errors are multi-line: keep the first lines
+        missing = re.match(r"Could not override '([^']+)'", str(exc))
+        if missing:
+            raise unknown_override(missing.group(1), plugins) from None
+        lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+        raise PsdrRoomError(f"invalid override: {' '.join(lines[:2])}") from None
+
+
+def first_job(parsed: list[Override], plugins: PluginSystem) -> DictConfig:
+    """The config (with the ``hydra`` node) of a sweep's first job: each sweep of the command line and of
+    ``hydra.sweeper.params`` at its first value."""
+    given = [o for o in (_first_value(o) for o in parsed) if o is not None]
+    cfg = composed(given, plugins)
+    params = OmegaConf.select(cfg, "hydra.sweeper.params") or {}
+    swept = {o.key_or_group for o in parsed}
+    from_config = [o for o in (_parse(f"{key}={value}") for key, value in params.items()) if o is not None]
+    more = [v for v in (_first_value(o) for o in from_config if o.key_or_group not in swept) if v is not None]
+    return composed([*given, *more], plugins) if more else cfg
+
+
+def _first_value(override: Override) -> str | None:
+    """``override`` as a sweep's first job gets it; None for a sweep whose values only its sweeper knows."""
+    if not override.is_sweep_override():
+        return override.input_line
+    if not isinstance(override.value(), ChoiceSweep | RangeSweep):
+        return None
+    return f"{override.get_key_element()}={next(iter(override.sweep_string_iterator()))}"
 
 
 def preflight(argv: list[str], plugins: PluginSystem) -> None:
@@ -192,8 +220,8 @@ def preflight(argv: list[str], plugins: PluginSystem) -> None:
     if flags & _INFO_FLAGS:
         return  # info flags need no image and write nothing
     if flags & {"--multirun", "-m"}:
-        return  # sweeps are composed and checked per job (in a new folder each) by Hydra
-    check_run_folder(parsed)
+        check_hydra_writes(first_job(parsed, plugins), sweeping=True)
+        return  # each job's photo and settings are checked by that job, in its own folder
     image = [o for o in parsed if o.key_or_group == "image"]
     if image and image[0].is_sweep_override():
         raw = next(o for o in overrides if o.startswith("image="))
@@ -201,22 +229,18 @@ def preflight(argv: list[str], plugins: PluginSystem) -> None:
             f"{raw}: the ',' makes this a list of photos; quote the path: image=\"'{raw[6:]}'\" "
             "(or add --multirun to run each)"
         )
-    if image and all(o.key_or_group == "image" or o.key_or_group.startswith("hydra.") for o in parsed):
-        require_file(Path(str(image[0].value())).expanduser())  # only the photo can be wrong: skip a second composition
-        return
-    try:
-        cfg = compose_config(overrides, plugins)
-    except PsdrRoomError:
-        raise
-    except Exception as exc:  # Hydra/OmegaConf composition errors are multi-line: keep the first lines
-        missing = re.match(r"Could not override '([^']+)'", str(exc))
-        if missing:
-            raise unknown_override(missing.group(1), plugins) from None
-        lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
-        raise PsdrRoomError(f"invalid override: {' '.join(lines[:2])}") from None
+    cfg = composed(overrides, plugins)
+    check_hydra_writes(cfg, sweeping=False)
+    with read_write(cfg), open_dict(cfg):
+        del cfg["hydra"]  # the job's config, as Hydra hands it over
     data = resolve_config(cfg)
-    plan(data, plugins)
-    require_file(Path(str(data["image"])).expanduser())
+    if not all(o.key_or_group == "image" or o.key_or_group.startswith("hydra.") for o in parsed):
+        plan(data, plugins)  # the default settings are valid: only overridden ones can be wrong
+    photo_file = Path(str(data["image"])).expanduser()
+    typed = next((o.removeprefix("image=") for o in reversed(overrides) if o.startswith("image=")), "")
+    if "${" in typed and typed[:1] not in ("'", '"') and not photo_file.exists():
+        photo_file = Path(typed).expanduser()  # neither the name as typed nor what Hydra makes of it is a file
+    require_file(photo_file)
 
 
 def _parse(override: str) -> Override | None:
@@ -248,6 +272,8 @@ def _app(cfg: DictConfig) -> None:
     run_dir = Path(hydra_cfg.runtime.output_dir)
     sweeping = hydra_cfg.mode == RunMode.MULTIRUN
     try:
+        if sweeping:  # the sweep folder, like the job's: new, empty or ours (preflight checked it)
+            claim(Path(hydra_cfg.runtime.cwd) / hydra_cfg.sweep.dir)
         claim(run_dir)  # new, empty or ours (preflight checked it before Hydra wrote into it)
         count, source = threads.allotment(cfg.run.get("threads"), hydra_cfg.launcher)
         threads.apply(count)
@@ -260,8 +286,15 @@ def _app(cfg: DictConfig) -> None:
         where = exc.filename or exc
         _fail_run(f"{where}: permission denied; make it readable (or writable), or choose another path", 2, sweeping)
     except KeyboardInterrupt:
-        _fail_run("interrupted; finished stages are cached, rerun the same command to resume", 130, False)
+        _fail_run(INTERRUPTED, 130, False)
     except Exception as exc:
+        if was_interrupted(exc):  # an extension module stopped while it loads raises ImportError from it
+            _fail_run(INTERRUPTED, 130, False)
+            return
+        full = disk_full(exc, run_dir)
+        if full is not None:
+            _fail_run(str(full), full.exit_code, sweeping)
+            return
         log = run_dir / "error.log"
         log.parent.mkdir(parents=True, exist_ok=True)
         log.write_text(traceback.format_exc())
