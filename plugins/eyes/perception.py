@@ -2,6 +2,10 @@
 (:mod:`psdr_room_core.applications.train`) and shipped in the package (``eyes.onnx`` with ``eyes.json``: its
 sha256 and how it was made), run with onnxruntime alone.
 
+The network (the shipped one, or ``path``) is checked against the sha256 of the ``eyes.json`` beside it before it
+runs (:mod:`psdr_room_core.method.checksums`): a damaged one stops a run that chose ``eyes`` by name, and ``auto``
+passes over it (and over ``layout_eyes`` and ``nanodet_eyes``, which use it) with a warning line.
+
 The photo is stretched to the network's 320×240 input; its outputs (a quarter of that) are resized back to the
 working image: surface logits bilinearly, then argmax; depth bilinearly; instances (:func:`.decode.instances`)
 by nearest neighbour inside the full-resolution object pixels.
@@ -20,6 +24,7 @@ import numpy as np
 
 from psdr_room_core.engine import threads as run_threads
 from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method import checksums
 from psdr_room_core.method.artifacts import Camera, DepthMap, Detection, Detections, Image, Panoptic, Segment
 from psdr_room_core.method.image_boxes import mask_box
 
@@ -43,6 +48,16 @@ def missing(path: Path) -> str | None:
     if not path.is_file():
         return f"no eyes network at {path} (train one with psdr-room-train and copy its eyes.onnx there)"
     return None
+
+
+def checked_sha256(path: Path) -> str:
+    """The sha256 of the network at ``path``, checked against the ``eyes.json`` beside it
+    (:func:`~psdr_room_core.method.checksums.check_beside`)."""
+    if path.resolve() == SHIPPED:
+        fix = "restore it (`git checkout -- plugins/eyes/eyes.onnx` in a checkout) or reinstall psdr-room"
+    else:
+        fix = "copy it again with the eyes.json psdr-room-train wrote beside it"
+    return checksums.check_beside(path, fix)
 
 
 @functools.lru_cache(maxsize=2)
@@ -84,7 +99,18 @@ class Eyes:
         return [self.path]
 
     def unavailable(self, photo: Path) -> str | None:
-        return missing(self.path)
+        return missing(self.path) or self.damaged()
+
+    def damaged(self) -> str | None:
+        """Why ``auto`` passes over the network: it is not the file its note records (a warning line says so);
+        None when it is."""
+        return checksums.damage(self.sha256)
+
+    def sha256(self) -> str:
+        """The network's sha256, checked against its note once per instance (one per stage and run)."""
+        if self._digest is None:
+            self._digest = checked_sha256(self.path)
+        return self._digest
 
     def outputs(self, image: Image) -> dict[str, np.ndarray]:
         """The network's outputs for ``image`` (name → [C, 60, 80]); one run per image, shared by the stages
@@ -93,9 +119,7 @@ class Eyes:
         if reason:
             raise PsdrRoomError(reason)
         rgb = np.ascontiguousarray(image.rgb, np.float32)
-        if self._digest is None:  # the file is read once per instance (one per stage and run)
-            self._digest = hashlib.sha256(self.path.read_bytes()).hexdigest()
-        digest = self._digest
+        digest = self.sha256()
         key = (digest, hashlib.sha256(rgb.tobytes()).digest())
         if key not in _RECENT:
             session = _session(str(self.path), self.threads or run_threads.count(), digest)
@@ -187,7 +211,7 @@ class EyesSegmentation(Eyes):
         boxes = sidecar_path(photo)
         if boxes.is_file():
             return f"the photo has your boxes ({boxes.name}), which segmentation=layout cuts out"
-        return missing(self.path)
+        return super().unavailable(photo)
 
     def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic:
         return self.panoptic(image)

@@ -21,7 +21,7 @@ from psdr_room_core.engine.cache import default_cache_dir
 from psdr_room_core.method.artifacts import Camera, Candidate, ObjectMesh
 from psdr_room_core.method.objects import ObjectQuery
 
-from .network import InputSpec, ModelFile, OnnxNetwork, missing_reason, resolve_model, to_network
+from .network import InputSpec, ModelFile, OnnxNetwork, resolve_model, to_network, unusable_reason
 
 FAMILIES = ("clip_vit_b32_image", "clip_vit_l14_image")
 CLIP_SPEC = InputSpec(
@@ -90,7 +90,7 @@ class ClipRetrieval:
         return [self.model_file.path]
 
     def unavailable(self, photo: Path) -> str | None:
-        return missing_reason(self.model_file)
+        return unusable_reason(self.model_file)
 
     def describe(self) -> str:
         return f"clip_onnx ({self.model_file.name}) over {self.spec[0]} database"

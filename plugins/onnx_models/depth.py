@@ -24,7 +24,7 @@ import numpy as np
 
 from psdr_room_core.method.artifacts import Camera, DepthMap, Image, Panoptic
 
-from .network import INPUTS, ModelFile, OnnxNetwork, missing_reason, network_size, resolve_model, to_network
+from .network import INPUTS, ModelFile, OnnxNetwork, network_size, resolve_model, to_network, unusable_reason
 
 FAMILIES = ("depth_anything_v2", "dpt", "midas")
 
@@ -75,7 +75,7 @@ class OnnxDepth:
         return [self.network.model.path]
 
     def unavailable(self, photo: Path) -> str | None:
-        return missing_reason(resolve_model("depth", FAMILIES, **self._params))
+        return unusable_reason(resolve_model("depth", FAMILIES, **self._params))
 
     def estimate(self, image: Image, camera: Camera, panoptic: Panoptic, photo: Path) -> DepthMap:
         net = self.network

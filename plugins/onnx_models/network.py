@@ -2,7 +2,10 @@
 
 A model is named by its registry entry (``model``: see ``psdr-room-models list``) or given as a file
 (``path`` + ``family``). The session is created on first use with ``intra_op_threads`` threads; a missing,
-damaged or wrongly shaped file gives one line naming the file and the fix.
+damaged or wrongly shaped file gives one line naming the file and the fix. A file with a recorded sha256 (a
+registry entry's installed file, or a network with a JSON note beside it: :mod:`psdr_room_core.method.checksums`)
+is checked against it before it runs: a file onnxruntime cannot load is reported as such, one that loads but
+differs from its record stops the run, and ``auto`` passes over it (:func:`unusable_reason`) with a warning line.
 
 Input layout per family (:data:`INPUTS`): the photo (sRGB in [0, 1]) is resized either keeping its aspect
 ratio with the shorter side at ``size`` and both sides rounded to a multiple of ``multiple`` (the ViT
@@ -24,7 +27,7 @@ import numpy as np
 
 from psdr_room_core.engine import threads as run_threads
 from psdr_room_core.engine.errors import PsdrRoomError
-from psdr_room_core.method import models
+from psdr_room_core.method import checksums, models
 
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
 IMAGENET_STD = (0.229, 0.224, 0.225)
@@ -105,6 +108,17 @@ class ModelFile:
     family: str
     name: str
     fix: str
+    entry: models.ModelEntry | None = None
+    """The registry entry whose installed file ``path`` is, checked against its size and sha256."""
+    noted: bool = False
+    """Whether ``path`` is checked against the sha256 of the JSON note beside it, where there is one."""
+
+    def check(self) -> None:
+        """A :class:`~psdr_room_core.method.checksums.Mismatch` where the file differs from its record."""
+        if self.entry is not None:
+            checksums.check_installed(self.entry, self.path.parent)
+        elif self.noted:
+            checksums.check_beside(self.path, self.fix)
 
 
 def resolve_model(
@@ -148,12 +162,15 @@ def resolve_model(
             f"{key}: family '{chosen}' is not a {capability} family this implementation "
             f"reads; use one of {', '.join(families)}"
         )
-    return ModelFile(path=file, family=chosen, name=name, fix=fix)
+    return ModelFile(path=file, family=chosen, name=name, fix=fix, entry=None if path else entry)
 
 
-def missing_reason(model: ModelFile) -> str | None:
-    """Why ``model`` cannot be used (its file is absent, with the fix), or None when the file is there."""
-    return None if model.path.is_file() else f"weights not installed ({model.path}); {model.fix}"
+def unusable_reason(model: ModelFile) -> str | None:
+    """Why ``auto`` passes over ``model``: its file is absent, or differs from its record (a warning line says
+    so); None when it is there and whole."""
+    if not model.path.is_file():
+        return f"weights not installed ({model.path}); {model.fix}"
+    return checksums.damage(model.check)
 
 
 # ----------------------------------------------------------------------------------------- session
@@ -216,7 +233,7 @@ class OnnxNetwork:
         available = set(ort.get_available_providers())
         providers = [p for p in self.providers if p in available] or ["CPUExecutionProvider"]
         try:
-            return ort.InferenceSession(str(path), sess_options=options, providers=providers)
+            session = ort.InferenceSession(str(path), sess_options=options, providers=providers)
         except Exception as exc:  # onnxruntime raises its own types (InvalidProtobuf, Fail, ...)
             reason = " ".join(str(exc).split())
             reason = reason.split(" : ")[-1].replace(f"Load model from {path} failed:", "").strip()[:200]
@@ -224,6 +241,8 @@ class OnnxNetwork:
             raise self.error(
                 f"not a loadable ONNX model ({reason}); the file is damaged, incomplete or not ONNX: {self.model.fix}"
             ) from None
+        self.model.check()
+        return session
 
     @functools.cached_property
     def inputs(self) -> list[Port]:

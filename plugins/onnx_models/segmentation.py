@@ -27,7 +27,16 @@ import numpy as np
 from psdr_room_core.method.artifacts import Camera, Detections, Image, Panoptic, Segment
 
 from . import ade20k
-from .network import INPUTS, OnnxNetwork, Port, missing_reason, network_size, resize_channels, resolve_model, to_network
+from .network import (
+    INPUTS,
+    OnnxNetwork,
+    Port,
+    network_size,
+    resize_channels,
+    resolve_model,
+    to_network,
+    unusable_reason,
+)
 
 FAMILIES = ("segformer_ade20k", "mask2former_ade20k")
 N_CLASSES = len(ade20k.ADE20K_150)
@@ -103,7 +112,7 @@ class OnnxSegmentation:
         return [self.network.model.path]
 
     def unavailable(self, photo: Path) -> str | None:
-        return missing_reason(resolve_model("segmentation", FAMILIES, **self._params))
+        return unusable_reason(resolve_model("segmentation", FAMILIES, **self._params))
 
     def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic:
         net = self.network

@@ -25,7 +25,7 @@ import torch
 import torch.nn.functional as F
 
 from psdr_room_core.engine.errors import PsdrRoomError
-from psdr_room_core.method import models
+from psdr_room_core.method import checksums, models
 
 from .common import GramDescriptor, as_batch, colour_stats, gram, resize_short_side
 
@@ -134,11 +134,12 @@ class Vgg19Descriptor(GramDescriptor):
         self.size = None if size is None else int(size)
         self.colour_weight = float(colour_weight)
         self.device = torch.device(device)
+        self.entry: models.ModelEntry | None = None
         if path:
             self.path = Path(path).expanduser()
             self.fix = "check texture.vgg19.path"
         else:
-            entry = models.lookup(str(model), models.load_registry(), "texture")
+            entry = self.entry = models.lookup(str(model), models.load_registry(), "texture")
             self.path = entry.path(models.resolve_models_dir(models_dir))
             self.fix = (
                 f"run `psdr-room-models download {entry.name}`, or set texture.vgg19.models_dir to the "
@@ -147,14 +148,24 @@ class Vgg19Descriptor(GramDescriptor):
         self._last = max(known.index(name) for name in self.layers)
 
     def unavailable(self, photo: Path | None = None) -> str | None:
-        """None when the weights file exists, else why not (for ``texture=auto``-style fallbacks)."""
-        return None if self.path.is_file() else f"weights not installed: {self.path}"
+        """None when the weights file exists and matches its registry entry, else why not (for
+        ``texture=auto``-style fallbacks; a damaged file is logged as a warning)."""
+        if not self.path.is_file():
+            return f"weights not installed: {self.path}"
+        return checksums.damage(self.check)
+
+    def check(self) -> None:
+        """A :class:`~psdr_room_core.method.checksums.Mismatch` where the registry's file differs from its entry
+        (weights given by ``path`` have no record)."""
+        if self.entry is not None:
+            checksums.check_installed(self.entry, self.path.parent)
 
     def external_files(self, photo: Path | None = None) -> list[Path]:
         return [self.path]
 
     @functools.cached_property
     def weights(self) -> list[tuple[torch.Tensor, torch.Tensor]]:
+        self.check()
         return [(w.to(self.device), b.to(self.device)) for w, b in load_vgg19_features(self.path, self.fix)]
 
     def features(self, x: torch.Tensor) -> dict[str, torch.Tensor]:

@@ -7,8 +7,10 @@
 
 The models directory is ``--models-dir``, else ``$PSDR_ROOM_MODELS_DIR``, else
 ``<user data dir>/psdr-room/models``; the registry is ``psdr_room_core/method/models.json`` plus plugins'
-(``model_registries`` hook) plus any ``--registry FILE``. Errors are one line on stderr, exit status 2;
-``verify`` exits 1 when a file is corrupt (or a named one missing).
+(``model_registries`` hook) plus any ``--registry FILE``. Every command first removes what a download killed
+in that directory left (its scratch ``.part`` file, :func:`~psdr_room_core.engine.debris.sweep`) and says so in
+one line. Errors are one line on stderr, exit status 2; ``verify`` exits 1 when a file is corrupt (or a named one
+missing).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from psdr_room_core.engine.debris import sweep
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.method import models
 
@@ -144,6 +147,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         files = models.registry_files() + list(args.registry)
         registry = models.load_registry(files)
         models_dir = models.resolve_models_dir(args.models_dir)
+        sweep(models_dir, "download")
         if args.command == "list":
             return _list(registry, models_dir, args.capability)
         if args.command == "info":

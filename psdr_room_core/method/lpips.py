@@ -19,7 +19,7 @@ import torch.nn.functional as F
 
 from psdr_room_core.engine.errors import PsdrRoomError
 
-from . import models
+from . import checksums, models
 
 ALEXNET = "alexnet_imagenet"
 LINEAR = "lpips_alex_v01"
@@ -99,8 +99,14 @@ class Lpips:
 
 
 def installed(models_dir: str | Path | None = None) -> Lpips | None:
-    """The LPIPS scorer when both weight files are in the models directory, else None."""
+    """The LPIPS scorer when both weight files are in the models directory, else None; a
+    :class:`~.checksums.Mismatch` where one differs from its registry entry."""
     directory = models.resolve_models_dir(models_dir)
     registry = models.load_registry()
-    paths = [models.lookup(name, registry).path(directory) for name in (ALEXNET, LINEAR)]
-    return Lpips(*paths) if all(p.is_file() for p in paths) else None
+    entries = [models.lookup(name, registry) for name in (ALEXNET, LINEAR)]
+    paths = [entry.path(directory) for entry in entries]
+    if not all(p.is_file() for p in paths):
+        return None
+    for entry in entries:
+        checksums.check_installed(entry, directory)
+    return Lpips(*paths)

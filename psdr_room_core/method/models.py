@@ -14,10 +14,13 @@ from the ``model_registries`` hook. An entry::
 ``url`` is null for files that must be exported by hand (``obtain`` gives the exact command); ``sha256``
 and ``size`` are null where no checksum is published (such files are reported "unverified"), and
 ``sha256_prefix`` holds a published leading part of a checksum (torchvision file names).
-:func:`download` writes to a temporary file in the models directory, checks the checksum and renames the
-file into place, so an interrupted or failed download leaves nothing behind. This module is used by the
-``psdr-room-models`` command (:mod:`psdr_room_core.applications.models`) and by the ONNX implementations; it does
-not import onnxruntime.
+:func:`download` streams into a scratch file of the models directory (kind ``download``:
+:func:`psdr_room_core.engine.debris.scratch_file`), checks the size and checksum and renames the file into place:
+a failed download leaves nothing behind, and a killed one leaves a scratch file that the next
+``psdr-room-models`` command sweeps. Digests are remembered by (size, mtime_ns) (:func:`cached_sha256`), so that
+listing and the check before every use (:mod:`.checksums`) do not re-hash big files. This module is used by the
+``psdr-room-models`` command (:mod:`psdr_room_core.applications.models`) and by the implementations that read
+model files; it does not import onnxruntime.
 """
 
 from __future__ import annotations
@@ -29,7 +32,6 @@ import logging
 import os
 import re
 import sys
-import tempfile
 import urllib.error
 import urllib.parse
 import urllib.request
@@ -38,6 +40,8 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from psdr_room_core.engine.cache import default_cache_dir
+from psdr_room_core.engine.debris import scratch_file
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.files import write_whole
 
@@ -54,7 +58,10 @@ USES = (*CAPABILITIES, "metric")
 BUILTIN_REGISTRY = Path(__file__).with_name("models.json")
 MODELS_DIR_ENV = "PSDR_ROOM_MODELS_DIR"
 HASH_CACHE = ".sha256-cache.json"
-"""Checksums of installed files keyed by (size, mtime), so that ``list`` does not re-hash big files."""
+"""Digests of a models directory's files by (size, mtime_ns), kept in that directory (key: the file name)."""
+SHARED_HASH_CACHE = "sha256-cache.json"
+"""Digests of other files (networks shipped in the package or given by path) by (size, mtime_ns), kept in
+psdr-room's cache directory (key: the absolute path), so that nothing is written beside them."""
 _CHUNK = 1 << 20
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.\-]*$")
 _HEX64 = re.compile(r"^[0-9a-f]{64}$")
@@ -234,31 +241,60 @@ def sha256_of(path: Path) -> str:
     return digest.hexdigest()
 
 
-def _read_hash_cache(directory: Path) -> dict[str, Any]:
+_DIGESTS: dict[tuple[str, int, int], str] = {}
+"""This process's digests by (absolute path, size, mtime_ns): hashed once per process even where no cache file
+can be written."""
+
+
+def _hash_cache(path: Path, in_models_dir: bool) -> tuple[Path, str]:
+    """The cache file remembering the digest of ``path``, and its key there."""
+    if in_models_dir:
+        return path.parent / HASH_CACHE, path.name
+    return default_cache_dir() / SHARED_HASH_CACHE, str(path.absolute())
+
+
+def _read_hash_cache(cache_file: Path) -> dict[str, Any]:
     try:
-        cache = json.loads((directory / HASH_CACHE).read_text())
+        cache = json.loads(cache_file.read_text())
     except (OSError, ValueError):
         return {}
     return cache if isinstance(cache, dict) else {}
 
 
-def _remember_sha256(path: Path, digest: str) -> None:
-    """Record ``digest`` for ``path`` as it is now (size, mtime) in the models dir's hash cache."""
+def remember_sha256(path: Path, digest: str, *, in_models_dir: bool = False) -> None:
+    """Record ``digest`` for ``path`` as it is now (size, mtime_ns): in this process, and in the cache file
+    (:func:`cached_sha256`) where it can be written."""
     stat = path.stat()
-    cache = _read_hash_cache(path.parent)
-    cache[path.name] = [stat.st_size, stat.st_mtime_ns, digest]
-    with contextlib.suppress(OSError):  # a read-only models dir: hash again next time
-        write_whole(path.parent / HASH_CACHE, json.dumps(cache, indent=1, sort_keys=True))
+    _DIGESTS[(str(path.absolute()), stat.st_size, stat.st_mtime_ns)] = digest
+    cache_file, key = _hash_cache(path, in_models_dir)
+    cache = _read_hash_cache(cache_file)
+    cache[key] = [stat.st_size, stat.st_mtime_ns, digest]
+    with contextlib.suppress(OSError):  # a read-only folder: this process remembers it, the next hashes again
+        write_whole(cache_file, json.dumps(cache, indent=1, sort_keys=True))
 
 
-def _cached_sha256(path: Path) -> str:
-    """sha256 of an installed file, remembered in the models dir by (size, mtime) when writable."""
+def cached_sha256(path: Path, *, in_models_dir: bool = False) -> str:
+    """sha256 of ``path``, hashed again only when its size or mtime_ns changed since it was remembered: in this
+    process, and in :data:`HASH_CACHE` of the models directory for a file of it (``in_models_dir``), else in
+    :data:`SHARED_HASH_CACHE` of psdr-room's cache directory (``$PSDR_ROOM_CACHE_DIR``, else
+    ``~/.cache/psdr-room``)."""
     stat = path.stat()
-    hit = _read_hash_cache(path.parent).get(path.name)
-    if isinstance(hit, list) and len(hit) == 3 and hit[:2] == [stat.st_size, stat.st_mtime_ns]:
-        return str(hit[2])
+    as_now = (str(path.absolute()), stat.st_size, stat.st_mtime_ns)
+    if as_now in _DIGESTS:
+        return _DIGESTS[as_now]
+    cache_file, key = _hash_cache(path, in_models_dir)
+    hit = _read_hash_cache(cache_file).get(key)
+    if (
+        isinstance(hit, list)
+        and len(hit) == 3
+        and hit[:2] == [stat.st_size, stat.st_mtime_ns]
+        and isinstance(hit[2], str)
+        and _HEX64.match(hit[2])
+    ):
+        _DIGESTS[as_now] = hit[2]
+        return hit[2]
     digest = sha256_of(path)
-    _remember_sha256(path, digest)
+    remember_sha256(path, digest, in_models_dir=in_models_dir)
     return digest
 
 
@@ -300,12 +336,12 @@ def check_file(entry: ModelEntry, models_dir: Path, *, use_cache: bool = True) -
     if not entry.sha256 and not entry.sha256_prefix:
         return FileStatus(entry, path, "unverified")
     if use_cache:
-        digest = _cached_sha256(path)
+        digest = cached_sha256(path, in_models_dir=True)
     else:
         digest = sha256_of(path)
-        _remember_sha256(path, digest)
+        remember_sha256(path, digest, in_models_dir=True)
     if not _checksum_matches(entry, digest):
-        return FileStatus(entry, path, "corrupt", f"sha256 {digest[:12]}…, expected {entry.checksum[:12]}…")
+        return FileStatus(entry, path, "corrupt", f"sha256 {digest[:12]}…, expected {entry.checksum[:12].rstrip('…')}…")
     return FileStatus(entry, path, "installed")
 
 
@@ -326,8 +362,7 @@ def verify(models_dir: Path, registry: Mapping[str, ModelEntry], names: Sequence
 def require(entry: ModelEntry, models_dir: Path) -> Path:
     """The installed file of ``entry``, or a one-line error naming it and the command that gets it.
 
-    Only presence is checked here (hashing big files on every run is slow); ``psdr-room-models verify``
-    checks content, and a damaged file fails to load with an error that says so.
+    Only presence is checked here; :func:`.checksums.check_installed` checks the content before use.
     """
     path = entry.path(models_dir)
     if not path.is_file():
@@ -355,10 +390,10 @@ def download(
 ) -> Path:
     """Download model ``name`` into ``models_dir`` and return its path.
 
-    The file is streamed into a temporary file beside its final name, its size and checksum are checked
-    (when published), and it is renamed into place; on any failure the temporary file is removed and a
-    :class:`PsdrRoomError` with one line says why and how to get the file by hand. A file already there
-    is kept unless ``force`` when its checksum matches, or when none is published (``unverified``).
+    The file is streamed into a scratch file beside its final name (see the module docstring), its size and
+    checksum are checked (when published), and it is renamed into place; on any failure the scratch file is
+    removed and a :class:`PsdrRoomError` with one line says why and how to get the file by hand. A file already
+    there is kept unless ``force`` when its checksum matches, or when none is published (``unverified``).
     """
     registry = load_registry() if registry is None else registry
     entry = lookup(name, registry)
@@ -377,8 +412,7 @@ def download(
             f"choose another with --models-dir or ${MODELS_DIR_ENV}"
         ) from None
     host = urllib.parse.urlsplit(entry.url).hostname or entry.url
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{entry.file}.", suffix=".part", dir=models_dir)
-    tmp = Path(tmp_name)
+    fd, tmp = scratch_file(models_dir, "download", ".part")
     done = False
     try:
         try:
@@ -404,7 +438,7 @@ def download(
             )
         os.replace(tmp, target)
         done = True
-        _remember_sha256(target, digest)
+        remember_sha256(target, digest, in_models_dir=True)
     finally:
         if not done:
             tmp.unlink(missing_ok=True)
