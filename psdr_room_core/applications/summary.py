@@ -1,12 +1,13 @@
 """``psdr-room-summary RUN_DIR...``: one table over many runs (a sweep's job folders, or any run folders).
 
-Each run folder (one holding ``run.json`` or ``psdr-room.log``; a folder holding neither is searched for them,
-so a ``--multirun`` sweep folder names all its jobs) becomes a row: photo, status (``ok``, or ``failed`` with
-the log's last error), the implementations chosen, FoV, fitted objects, RMSE / SSIM / ꟻLIP at init → after the
-fit, and what the run cost: per stage the seconds it computed, or ``cached`` (0 s: the stage's result came from the
-cache, whatever it cost the run that made it), their sum, and the run's wall seconds. Written as ``summary.csv`` and
-a self-contained ``summary.html`` (a table that fits a laptop screen: each run's stages on a detail row below it)
-with each photo | render thumbnail, linked to the run's ``report.html``. Every ``psdr-room --multirun`` sweep writes them into its sweep folder too
+Each run folder (one holding ``run.json`` or ``psdr-room.log``; a folder holding neither is searched for them, so a
+``--multirun`` sweep folder names all its jobs) becomes a row: photo, status (``ok``, or ``failed`` with the log's
+last error, or with what is wrong in a damaged ``run.json`` or ``metrics.json``), the implementations chosen, FoV,
+fitted objects, RMSE / SSIM / ꟻLIP at init → after the fit, and what the run cost: per stage the seconds it
+computed, or ``cached`` (0 s: the stage's result came from the cache, whatever it cost the run that made it), their
+sum, and the run's wall seconds. Written as ``summary.csv`` and a self-contained ``summary.html`` (a table that
+fits a laptop screen: each run's stages on a detail row below it) with each photo | render thumbnail, linked to the
+run's ``report.html``. Every ``psdr-room --multirun`` sweep writes them into its sweep folder too
 (:class:`SweepSummary`, a Hydra callback).
 """
 
@@ -67,42 +68,130 @@ def find_runs(paths: Iterable[Path]) -> list[Path]:
     return runs
 
 
+FIT_KEYS = ("rmse_init", "rmse", "ssim_init", "ssim", "flip_init", "flip")
+"""The appearance fit's figures a row shows (``fit_appearance_log`` in ``metrics.json``)."""
+NUMBER, OBJECT, STRING, BOOLEAN, NULL = "a number", "an object", "a string", "true or false", "null"
+"""JSON kinds, as a damaged file's reason names them."""
+
+
+class DamagedRun(Exception):
+    """A run's file that is not as psdr-room writes it: the message (the file, the key, what is wrong) is the reason
+    on the run's failed row."""
+
+
+def _read(file: Path) -> bytes:
+    try:
+        return file.read_bytes()
+    except OSError as error:
+        raise DamagedRun(f"{file}: unreadable ({error.strerror})") from None
+
+
+def _json_object(file: Path) -> dict[str, Any]:
+    """``file``'s JSON object."""
+    try:
+        data = json.loads(_read(file))
+    except (ValueError, RecursionError) as error:  # ValueError: a UnicodeDecodeError too
+        raise DamagedRun(f"{file}: not valid JSON ({error})") from None
+    if not isinstance(data, dict):
+        raise DamagedRun(f"{file}: holds {_json_kind(data)}, not an object")
+    return data
+
+
+def _json_kind(value: Any) -> str:
+    if isinstance(value, bool):
+        return BOOLEAN
+    if isinstance(value, int) and abs(value) > sys.float_info.max:
+        return "too large a number"
+    if isinstance(value, (int, float)):
+        return NUMBER
+    if isinstance(value, str):
+        return STRING
+    if isinstance(value, dict):
+        return OBJECT
+    return "a list" if isinstance(value, list) else NULL
+
+
+def _field(data: dict[str, Any], key: str, kinds: tuple[str, ...], where: str, required: bool = True) -> Any:
+    """``data[key]`` when its JSON kind is one of ``kinds``, None when it is absent and not ``required``; else
+    :class:`DamagedRun` naming ``where`` (the file and the keys above ``key``)."""
+    if key not in data:
+        if required:
+            raise DamagedRun(f"{where}no {key!r}")
+        return None
+    kind = _json_kind(data[key])
+    if kind not in kinds:
+        raise DamagedRun(f"{where}{key!r} is {kind}, not {' or '.join(kinds)}")
+    return data[key]
+
+
+def _photo(run: Path) -> str:
+    """The run's photo: from ``run.json``; for a failed run (none published), from Hydra's config when it is
+    readable, else unknown (empty)."""
+    if (run / "run.json").is_file():
+        return str(_field(_json_object(run / "run.json"), "photo", (STRING,), f"{run / 'run.json'}: "))
+    config = run / ".hydra" / "config.yaml"
+    try:
+        data = yaml.safe_load(config.read_text(encoding="utf-8")) if config.is_file() else None
+    except (OSError, ValueError, yaml.YAMLError):
+        data = None
+    return str(data.get("image", "")) if isinstance(data, dict) else ""
+
+
 def _last_error(log: Path) -> str:
-    lines = log.read_text(errors="replace").splitlines() if log.is_file() else []
+    lines = _read(log).decode(errors="replace").splitlines() if log.is_file() else []
     errors = [line.split("]", 3)[-1].strip() for line in lines if "[ERROR]" in line]
     return errors[-1] if errors else "no metrics.json (the run stopped before publishing)"
 
 
+def _figures(metrics: dict[str, Any], where: str) -> dict[str, Any]:
+    """A published run's row figures from its ``metrics.json`` (``where``: the file, for the reasons of
+    :class:`DamagedRun`)."""
+    stages = _field(metrics, "stages", (OBJECT,), where)
+    computed: dict[str, float] = {}
+    cached: list[str] = []
+    for name in stages:
+        stage = _field(stages, name, (OBJECT,), f"{where}'stages': ")
+        seconds = _field(stage, "compute_seconds", (NUMBER,), f"{where}'stages': {name!r}: ", required=False)
+        if _field(stage, "cached", (BOOLEAN,), f"{where}'stages': {name!r}: ", required=False):
+            cached.append(name)
+        computed[name] = 0.0 if name in cached else float(seconds or 0.0)  # no compute_seconds: 0
+    implementations = _field(metrics, "implementations", (OBJECT,), where)
+    chosen = {
+        kind: _field(
+            _field(implementations, kind, (OBJECT,), f"{where}'implementations': "),
+            "name",
+            (STRING,),
+            f"{where}'implementations': {kind!r}: ",
+        )
+        for kind in sorted(implementations)
+    }
+    objects_log = _field(metrics, "fit_objects_log", (OBJECT,), where, required=False) or {}
+    fit = _field(metrics, "fit_appearance_log", (OBJECT,), where, required=False) or {}
+    return {
+        "implementations": " ".join(f"{kind}={name}" for kind, name in chosen.items()),
+        "vfov_deg": _field(metrics, "vfov_deg", (NUMBER, NULL), where, required=False),
+        "objects": _field(objects_log, "objects", (NUMBER, NULL), f"{where}'fit_objects_log': ", required=False),
+        "total_seconds": _field(metrics, "total_seconds", (NUMBER,), where),
+        "computed_seconds": round(sum(computed.values()), 4),
+        "cached_stages": " ".join(cached),
+        "stages": computed,
+        **{key: _field(fit, key, (NUMBER, NULL), f"{where}'fit_appearance_log': ", required=False) for key in FIT_KEYS},
+    }
+
+
 def summarise(run: Path) -> dict[str, Any]:
     """One run folder's row (plain values; ``stages``: stage → seconds computed by this run, 0 for a stage whose
-    result came from the cache; ``cached``: those stages)."""
+    result came from the cache; ``cached``: those stages). A run whose ``run.json`` or ``metrics.json`` is
+    damaged is a failed row whose error names the file and what is wrong."""
+    row: dict[str, Any] = {"run": str(run), "stages": {}}
     metrics_file = run / "metrics.json"
-    row: dict[str, Any] = {"run": str(run)}
-    if (run / "run.json").is_file():
-        row["photo"] = json.loads((run / "run.json").read_text()).get("photo", "")
-    elif (run / ".hydra" / "config.yaml").is_file():  # a failed run publishes no run.json; Hydra kept its config
-        row["photo"] = str((yaml.safe_load((run / ".hydra" / "config.yaml").read_text()) or {}).get("image", ""))
-    if not metrics_file.is_file():
-        return {**row, "status": "failed", "error": _last_error(run / "psdr-room.log"), "stages": {}}
     try:
-        metrics = json.loads(metrics_file.read_text())
-    except ValueError as error:
-        return {**row, "status": "failed", "error": f"{metrics_file}: unreadable ({error})", "stages": {}}
-    fit = metrics.get("fit_appearance_log", {})
-    stages = metrics.get("stages", {})
-    computed = {name: 0.0 if s.get("cached") else float(s.get("compute_seconds") or 0.0) for name, s in stages.items()}
-    row.update(
-        status="ok",
-        implementations=" ".join(f"{k}={v['name']}" for k, v in sorted(metrics.get("implementations", {}).items())),
-        vfov_deg=metrics.get("vfov_deg"),
-        objects=metrics.get("fit_objects_log", {}).get("objects"),
-        total_seconds=metrics.get("total_seconds"),
-        computed_seconds=round(sum(computed.values()), 4),
-        cached_stages=" ".join(name for name, s in stages.items() if s.get("cached")),
-        stages=computed,
-        **{key: fit.get(key) for key in ("rmse_init", "rmse", "ssim_init", "ssim", "flip_init", "flip")},
-    )
-    return row
+        row["photo"] = _photo(run)
+        if not metrics_file.is_file():
+            return {**row, "status": "failed", "error": _last_error(run / "psdr-room.log")}
+        return {**row, **_figures(_json_object(metrics_file), f"{metrics_file}: "), "status": "ok"}
+    except DamagedRun as damage:
+        return {**row, "status": "failed", "error": str(damage)}
 
 
 COLUMNS = (
@@ -239,13 +328,27 @@ def html_text(rows: list[dict[str, Any]], base: Path = Path(".")) -> str:
 
 
 def write_summary(rows: list[dict[str, Any]], out: Path) -> str:
-    """Write ``summary.csv`` and ``summary.html`` into ``out`` (both made before either is written); return
-    the line that reports them, with one more line per failed run."""
+    """Write ``summary.csv`` and ``summary.html`` into ``out``, both or neither (each written beside its place, then
+    renamed into it); return the line that reports them, with one more line per failed run."""
     if not out.is_dir():
         raise PsdrRoomError(f"--out {out}: not a folder; create it or pick another")
     texts = {"summary.csv": csv_text(rows), "summary.html": html_text(rows, out)}
-    for name, text in texts.items():
-        (out / name).write_text(text, encoding="utf-8")
+    for name in texts:
+        if (out / name).exists() and not (out / name).is_file():
+            raise PsdrRoomError(f"--out {out}: {name} there is not a file; move it away or pick another folder")
+    staged: dict[str, Path] = {}
+    try:
+        for name, text in texts.items():
+            staged[name] = out / f".{name}.{os.getpid()}.partial"
+            with staged[name].open("x", encoding="utf-8") as stream:
+                stream.write(text)
+        for name, partial in staged.items():
+            os.replace(partial, out / name)
+    except OSError as error:
+        raise PsdrRoomError(f"--out {out}: cannot write {name} there ({error.strerror}); pick another folder") from None
+    finally:
+        for partial in staged.values():
+            partial.unlink(missing_ok=True)
     failed = [row for row in rows if row["status"] != "ok"]
     return "\n".join(
         [
@@ -295,8 +398,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         print(write_summary([summarise(run) for run in find_runs(args.runs)], args.out))
     except PsdrRoomError as error:
-        print(f"psdr-room-summary: {error}", file=sys.stderr)
-        return 2
+        print(f"psdr-room-summary: error: {error}", file=sys.stderr)
+        return error.exit_code
     return 0
 
 
