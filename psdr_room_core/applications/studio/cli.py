@@ -1,7 +1,8 @@
 """``psdr-room-studio image=PHOTO [psdr-room overrides] [studio.port=N] [studio.run_dir=DIR]``.
 
 Starts the studio on 127.0.0.1 (only), prints its address, runs the preview and serves until Ctrl-C. The
-overrides are ``psdr-room``'s, checked the same way before anything starts.
+overrides are ``psdr-room``'s, checked the same way before anything starts. The studio answers only its own page
+(:mod:`.origin`).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.run import resolve_config
 from psdr_room_core.libraries.object_db.opening import open_database
 
+from .origin import own_page_only
 from .session import PREVIEW, Session, studio_plugins
 
 HOST = "127.0.0.1"
@@ -30,6 +32,11 @@ STOP_S = 20.0  # the longest a Ctrl-C may take: past it the studio prints every 
 SETTINGS = {"port": "a free port", "run_dir": "outputs/studio/<photo stem>"}
 USAGE = "usage: psdr-room-studio image=PHOTO [psdr-room overrides...] " + " ".join(
     f"[studio.{key}=...]" for key in SETTINGS
+)
+HELP = (
+    "The studio listens on 127.0.0.1 and answers only its own page: a request whose Host, or Origin when it has one,\n"
+    "is not localhost, 127.0.0.1 or [::1] with the studio's port gets 403 (another site's page cannot drive it).\n"
+    "Open the printed address; to reach it over SSH, forward the same port number (ssh -L PORT:127.0.0.1:PORT)."
 )
 
 
@@ -83,7 +90,7 @@ def main(argv: list[str] | None = None) -> None:
     """Entry point of ``psdr-room-studio``."""
     args = sys.argv[1:] if argv is None else argv
     if not args or args[0] in ("-h", "--help"):
-        print(USAGE)
+        print(USAGE + ("\n\n" + HELP if args else ""))
         sys.exit(0 if args else 2)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     faulthandler.register(signal.SIGUSR1, all_threads=True)  # `kill -USR1 PID` prints every thread's stack
@@ -102,9 +109,12 @@ def main(argv: list[str] | None = None) -> None:
 
     port = int(settings.get("port") or free_port())
     try:
-        server = viser.ViserServer(host=HOST, port=port, label="psdr-room studio", verbose=False)
+        with own_page_only(HOST):
+            server = viser.ViserServer(host=HOST, port=port, label="psdr-room studio", verbose=False)
     except OSError as exc:
         _fail(f"studio.port={port}: cannot listen there ({exc.strerror}); choose another port or leave it out")
+    except PsdrRoomError as exc:
+        _fail(str(exc))
     library = session.plugins.registry.implementation("material_graph", "torch_graph").factory()
     serve_until_interrupted(server, session, lambda: StudioApp(session, server, database, library))
 
