@@ -250,7 +250,25 @@ CASES: dict[str, Case] = {
 
 
 def test_corpus_is_large() -> None:
-    assert len(CASES) >= 70
+    """This file's cases and those of the corpus's other files (``test_bad_input_*.py``), each name once."""
+    import test_bad_input_debris
+    import test_bad_input_networks
+    import test_bad_input_paths
+    import test_bad_input_readers
+    import test_bad_input_summary
+
+    parts = [CASES] + [
+        m.CASES
+        for m in (
+            test_bad_input_debris,
+            test_bad_input_networks,
+            test_bad_input_paths,
+            test_bad_input_readers,
+            test_bad_input_summary,
+        )
+    ]
+    names = [name for part in parts for name in part]
+    assert len(names) == len(set(names)) and len(names) >= 100
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
