@@ -28,9 +28,8 @@ import cv2
 import numpy as np
 
 from psdr_room_core.engine.debris import scratch_dir, sweep
-from psdr_room_core.engine.errors import PsdrRoomError, disk_full
+from psdr_room_core.engine.errors import PsdrRoomError, exit_status
 from psdr_room_core.engine.files import check_creatable, move_into_place
-from psdr_room_core.engine.interrupts import sigterm_interrupts, was_interrupted
 from psdr_room_core.engine.plugins import plugin_system
 from psdr_room_core.method.artifacts import write_png
 from psdr_room_core.method.capabilities import Denoiser
@@ -178,7 +177,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     blend = args.out or args.scene / "scene.blend"
     logging.basicConfig(level=logging.WARNING, format="%(message)s")  # warnings (a swept scratch folder) on stderr
-    try:
+
+    def write() -> None:
         if args.spp < 1 or (args.width is not None and args.width < 8):
             raise PsdrRoomError("--spp must be at least 1 and --width at least 8")
         check_scene(args.scene)
@@ -187,22 +187,11 @@ def main(argv: list[str] | None = None) -> int:
             check_output(args.render, "--render")
         denoiser = plugin_system().registry.implementation("denoiser", args.denoiser).factory()
         blender = find_blender(args.blender)
-        with sigterm_interrupts():
-            write_outputs(args.scene, blend, blender, args.render, args.engine, args.spp, args.width, denoiser)
-    except PsdrRoomError as exc:
-        print(f"psdr-room-blender: error: {exc}", file=sys.stderr)
-        return 2
-    except OSError as exc:
-        full = disk_full(exc, blend.parent)
-        if full is None:
-            raise
-        print(f"psdr-room-blender: error: {full}", file=sys.stderr)
-        return 2
-    except (KeyboardInterrupt, ImportError) as exc:
-        if not was_interrupted(exc):
-            raise
-        print("psdr-room-blender: error: interrupted; rerun the same command", file=sys.stderr)
-        return 130
+        write_outputs(args.scene, blend, blender, args.render, args.engine, args.spp, args.width, denoiser)
+
+    status = exit_status("psdr-room-blender", blend.parent, write)
+    if status:
+        return status
     print(f"Blender scene → {blend}" + (f" (render: {args.render})" if args.render else ""))
     return 0
 

@@ -29,7 +29,6 @@ import argparse
 import logging
 import math
 import shutil
-import sys
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -38,9 +37,8 @@ import numpy as np
 import yaml
 
 from psdr_room_core.engine.debris import scratch_dir, sweep
-from psdr_room_core.engine.errors import PsdrRoomError, disk_full
+from psdr_room_core.engine.errors import PsdrRoomError, exit_status
 from psdr_room_core.engine.files import check_creatable, move_into_place
-from psdr_room_core.engine.interrupts import sigterm_interrupts, was_interrupted
 from psdr_room_core.engine.ownership import check_replaceable, claim
 from psdr_room_core.engine.plugins import plugin_system
 from psdr_room_core.method.artifacts import Light, PartAppearance, appearance_fields, vec3, write_png
@@ -247,22 +245,12 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_intermixed_args(argv)
     out = args.out or args.scene.with_name(args.scene.name + "-edited")
     logging.basicConfig(level=logging.WARNING, format="%(message)s")  # warnings (a swept scratch folder) on stderr
-    try:
-        with sigterm_interrupts():
-            edit_scene(args.scene, args.edits, out, args.spp, args.max_depth, args.denoiser)
-    except PsdrRoomError as exc:
-        print(f"psdr-room-edit: error: {exc}", file=sys.stderr)
-        return 2
-    except OSError as exc:
-        full = disk_full(exc, out.parent)
-        if full is None:
-            raise
-        print(f"psdr-room-edit: error: {full}", file=sys.stderr)
-        return 2
-    except (KeyboardInterrupt, ImportError) as exc:
-        if not was_interrupted(exc):
-            raise
-        print("psdr-room-edit: error: interrupted; rerun the same command", file=sys.stderr)
-        return 130
+    status = exit_status(
+        "psdr-room-edit",
+        out.parent,
+        lambda: edit_scene(args.scene, args.edits, out, args.spp, args.max_depth, args.denoiser),
+    )
+    if status:
+        return status
     print(f"edited scene → {out} (render.png)")
     return 0

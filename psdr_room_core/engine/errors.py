@@ -3,7 +3,11 @@
 from __future__ import annotations
 
 import errno
+import sys
+from collections.abc import Callable
 from pathlib import Path
+
+from .interrupts import sigterm_interrupts, was_interrupted
 
 
 class PsdrRoomError(Exception):
@@ -26,3 +30,25 @@ def disk_full(exc: BaseException, folder: Path) -> PsdrRoomError | None:
         return None
     where = Path(exc.filename).parent if exc.filename else folder
     return PsdrRoomError(f"{where}: no space left on device; free some space there or choose a folder on another disk")
+
+
+def exit_status(program: str, folder: Path, action: Callable[[], object]) -> int:
+    """Run ``action`` with SIGTERM taken as Ctrl-C: 0 when it returns; a :class:`PsdrRoomError`, a full disk under
+    ``folder`` or an interrupt is one ``<program>: error:`` line on stderr and its status (130 interrupted).
+    Anything else propagates."""
+    try:
+        with sigterm_interrupts():
+            action()
+        return 0
+    except PsdrRoomError as exc:
+        message, code = str(exc), exc.exit_code
+    except (OSError, KeyboardInterrupt, ImportError) as exc:
+        full = disk_full(exc, folder)
+        if full is not None:
+            message, code = str(full), full.exit_code
+        elif was_interrupted(exc):
+            message, code = "interrupted; rerun the same command", 130
+        else:
+            raise
+    print(f"{program}: error: {message}", file=sys.stderr)
+    return code
