@@ -257,16 +257,9 @@ def test_corpus_is_large() -> None:
     import test_bad_input_readers
     import test_bad_input_summary
 
-    parts = [CASES] + [
-        m.CASES
-        for m in (
-            test_bad_input_debris,
-            test_bad_input_networks,
-            test_bad_input_paths,
-            test_bad_input_readers,
-            test_bad_input_summary,
-        )
-    ]
+    paths = test_bad_input_paths
+    modules = (test_bad_input_debris, test_bad_input_networks, paths, test_bad_input_readers, test_bad_input_summary)
+    parts = [CASES, *(m.CASES for m in modules), paths.NAMED_RUN_DIR_CASES]
     names = [name for part in parts for name in part]
     assert len(names) == len(set(names)) and len(names) >= 100
 
