@@ -118,6 +118,9 @@ CASES: dict[str, Case] = {
     "probability_over_one": Case(overrides("place_objects.prune.min_iou=1.5"), "place_objects.prune.min_iou=1.5"),
     "list_of_wrong_length": Case(overrides("init_lights.ceiling_grid=[3]"), "init_lights.ceiling_grid=[3] is invalid"),
     "word_not_a_choice": Case(overrides("renderer.mitsuba.variant=gpu"), "renderer.mitsuba.variant=gpu is not one"),
+    "boundary_samples_zero": Case(
+        overrides("renderer.mitsuba.spp_boundary=0"), "renderer.mitsuba.spp_boundary=0 is out of range"
+    ),
     "mistyped_key": Case(overrides("room_init.ransac_treshold=0.1"), "ransac_treshold"),
     "added_unknown_key": Case(overrides("+room_fit.lr=0.1"), "room_fit.lr is not a setting of room_fit"),
     "unknown_implementation": Case(overrides("fov=nope"), "unknown fov implementation 'nope'"),

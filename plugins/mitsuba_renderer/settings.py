@@ -15,7 +15,7 @@ GUIDING = ("none", "grid", "octree")
 class MitsubaSettings:
     variant: str = setting(choices=VARIANTS)
     spp: int = setting(ge=1)
-    spp_boundary: int = setting(ge=0)
+    spp_boundary: int = setting(ge=1)
     rgb_spp: int = setting(ge=1)
     max_depth: int = setting(ge=1)
     rgb_sppi: int = setting(ge=0)
