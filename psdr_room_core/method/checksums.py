@@ -30,6 +30,7 @@ import re
 from collections.abc import Callable
 from pathlib import Path
 
+from psdr_room_core.engine.bounded import excerpt
 from psdr_room_core.engine.errors import PsdrRoomError
 
 from . import models
@@ -56,14 +57,14 @@ def note_sha256(network: Path) -> tuple[Path, str] | None:
     except (OSError, UnicodeDecodeError, ValueError) as exc:
         raise Mismatch(
             f"{note}: cannot read the note recording the sha256 of {network.name} "
-            f"({str(exc)[:80]}); restore it, or remove it to use {network.name} unchecked"
+            f"({excerpt(str(exc))}); restore it, or remove it to use {network.name} unchecked"
         ) from None
     sha256 = data.get("sha256") if isinstance(data, dict) else None
     if sha256 is None:
         return None
     if not isinstance(sha256, str) or not _HEX64.match(sha256):
         raise Mismatch(
-            f"{note}: sha256 must be 64 lower-case hex digits, got {str(sha256)[:80]!r}; restore the note, "
+            f"{note}: sha256 must be 64 lower-case hex digits, got {excerpt(repr(sha256))}; restore the note, "
             f"or remove it to use {network.name} unchecked"
         )
     return note, sha256

@@ -22,12 +22,11 @@ import websockets.asyncio.server
 from websockets.asyncio.server import ServerConnection
 from websockets.http11 import Request, Response
 
+from psdr_room_core.engine.bounded import excerpt
 from psdr_room_core.engine.errors import PsdrRoomError
 
 LOOPBACK = ("localhost", "127.0.0.1", "[::1]")
 """The names of this machine a browser may use for the studio."""
-SHOWN = 80
-"""The most characters of a refused header value a refusal repeats."""
 ProcessRequest = Callable[[ServerConnection, Request], Awaitable[Response | None] | Response | None]
 
 
@@ -48,9 +47,9 @@ def refusal(request: Request, bind_host: str, port: int) -> str | None:
     host, origin = request.headers.get_all("Host"), request.headers.get_all("Origin")
     address = f"http://{_name(bind_host)}:{port}"
     if len(host) != 1 or host[0].lower() not in hosts:
-        return f"Host {', '.join(repr(h[:SHOWN]) for h in host) or '(none)'} is not the studio; open {address}"
+        return f"Host {', '.join(excerpt(repr(h)) for h in host) or '(none)'} is not the studio; open {address}"
     if origin and (len(origin) > 1 or origin[0].lower() not in {f"http://{h}" for h in hosts}):
-        return f"Origin {', '.join(repr(o[:SHOWN]) for o in origin)} is not the studio's page; open {address}"
+        return f"Origin {', '.join(excerpt(repr(o)) for o in origin)} is not the studio's page; open {address}"
     return None
 
 
