@@ -13,8 +13,8 @@ log = logging.getLogger("psdr_room")
 
 
 @hookimpl
-def before_stage(stage: str, key: str, inputs: dict[str, Any]) -> None:
-    log.info("▶ %-16s running (key %s)", stage, key[:12])
+def before_stage(record: StageRecord, inputs: dict[str, Any]) -> None:
+    log.info("▶ %-16s running (key %s)", record.name, record.key[:12])
 
 
 @hookimpl
@@ -25,8 +25,8 @@ def after_stage(record: StageRecord, outputs: dict[str, Any]) -> None:
 
 
 @hookimpl
-def on_stage_error(stage: str, key: str, error: BaseException) -> None:
-    log.info("✗ %-16s failed", stage)
+def on_stage_error(record: StageRecord, error: BaseException) -> None:
+    log.info("✗ %-16s failed", record.name)
 
 
 @hookimpl

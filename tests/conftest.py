@@ -14,15 +14,21 @@ SHARED_DATA = REPO.parent / "shared" / "data"
 EXAMPLE = REPO / "examples" / "nyu_basement" / "photo.jpg"
 
 
+SESSION_DIRS = ("PSDR_ROOM_MODELS_DIR", "PSDR_ROOM_CACHE_DIR")
+
+
 def pytest_configure(config: pytest.Config) -> None:
-    """An empty models directory for the whole session (subprocesses too), so that ``auto`` selections never
-    depend on weights the developer has installed."""
-    os.environ["PSDR_ROOM_MODELS_DIR"] = tempfile.mkdtemp(prefix="psdr-room-models-")
+    """An empty models directory and cache for the whole session (subprocesses too): ``auto`` selections never
+    depend on weights the developer has installed, and what a test caches (stage results, network and code
+    digests) never lands in the developer's cache. The ``cache_dir`` fixture gives a test its own cache."""
+    for name in SESSION_DIRS:
+        os.environ[name] = tempfile.mkdtemp(prefix=f"{name.lower()}-")
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
-    """Remove the session's empty models directory."""
-    shutil.rmtree(os.environ.pop("PSDR_ROOM_MODELS_DIR", ""), ignore_errors=True)
+    """Remove the session's models directory and cache."""
+    for name in SESSION_DIRS:
+        shutil.rmtree(os.environ.pop(name, ""), ignore_errors=True)
 
 
 @pytest.fixture

@@ -15,12 +15,14 @@ import pytest
 
 import toy_plugin
 from psdr_room_core.engine.cache import Store
-from psdr_room_core.engine.dag import Pipeline, Runner, StageContext, check_stage_inputs
+from psdr_room_core.engine.context import StageContext
 from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.graph import Pipeline, check_stage_inputs
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import load_plugins
-from psdr_room_core.engine.records import RunRecord
+from psdr_room_core.engine.records import RunRecord, StageRecord
 from psdr_room_core.engine.registry import Origin, Registry
+from psdr_room_core.engine.runner import Runner
 from psdr_room_core.engine.settings import setting
 
 TOY = Origin("toy", "tests", "toy = toy_plugin")
@@ -36,19 +38,42 @@ BASE: dict[str, Any] = {
 
 
 class Events:
-    """Records run-event hooks."""
+    """Records run-event hooks: each stage hook's record, and what it held when the hook was called."""
 
     def __init__(self) -> None:
         self.errors: list[str] = []
-        self.started: list[str] = []
+        self.calls: list[tuple[str, StageRecord, dict[str, Any]]] = []
+
+    def _called(self, hook: str, record: StageRecord) -> None:
+        self.calls.append((hook, record, dict(vars(record))))
+
+    @hookimpl
+    def before_stage(self, record: StageRecord, inputs: dict) -> None:
+        self._called("before", record)
+
+    @hookimpl
+    def after_stage(self, record: StageRecord, outputs: dict) -> None:
+        self._called("after", record)
+
+    @hookimpl
+    def on_stage_error(self, record: StageRecord, error: BaseException) -> None:
+        self._called("error", record)
+        self.errors.append(record.name)
+
+
+class DeprecatedEvents:
+    """Stage hooks in the form before the stage record was their first argument."""
+
+    def __init__(self) -> None:
+        self.calls: list[tuple[str, str, str]] = []
 
     @hookimpl
     def before_stage(self, stage: str, key: str, inputs: dict) -> None:
-        self.started.append(stage)
+        self.calls.append(("before", stage, key))
 
     @hookimpl
     def on_stage_error(self, stage: str, key: str, error: BaseException) -> None:
-        self.errors.append(stage)
+        self.calls.append(("error", stage, key))
 
 
 @pytest.fixture
@@ -64,7 +89,7 @@ def run(
     store: Store,
     tmp_path: Path,
     mode: str = "readwrite",
-    events: Events | None = None,
+    events: object | None = None,
     **select: str,
 ) -> RunRecord:
     extra = [(toy_plugin, TOY)] + ([(events, Origin("events", "tests", "events"))] if events else [])
@@ -248,6 +273,47 @@ def test_failing_stage_leaves_no_entry(tmp_path: Path, photo: Path) -> None:
     assert recomputed(run(cfg, photo, store, tmp_path)) == {"b", "c", "d"}
 
 
+def test_stage_hooks_get_one_record_per_stage_filled_in_as_it_runs(tmp_path: Path, photo: Path) -> None:
+    """``before_stage`` gets the stage's record with its name and cache key; ``after_stage`` or ``on_stage_error``
+    gets that same object, the first with the stage's results filled in."""
+    store = Store(tmp_path / "cache")
+    events = Events()
+    record = run(BASE, photo, store, tmp_path, events=events)
+    assert [(hook, r.name) for hook, r, _ in events.calls] == [
+        (hook, name) for name in "abcd" for hook in ("before", "after")
+    ]
+    for (_, before, held), (_, after, _), done in zip(events.calls[::2], events.calls[1::2], record.stages):
+        assert before is after is done
+        assert held["name"] == done.name and held["key"] == done.key and held["function"] == done.function
+        assert held["implementations"] == done.implementations and not held["cached"] and held["outputs"] == {}
+        assert done.outputs == {a: record.digests[a] for a in done.outputs} and done.seconds > 0
+    cfg = copy.deepcopy(BASE)
+    cfg["b"]["fail"] = True
+    events = Events()
+    with pytest.raises(RuntimeError, match="toy failure"):
+        run(cfg, photo, store, tmp_path, events=events)
+    assert [(hook, r.name) for hook, r, _ in events.calls] == [("after", "a"), ("before", "b"), ("error", "b")]
+    assert events.calls[1][1] is events.calls[2][1]
+
+
+def test_stage_hooks_taking_stage_and_key_still_work_and_are_deprecated(tmp_path: Path, photo: Path) -> None:
+    """A plugin written for ``before_stage(stage, key, inputs)`` and ``on_stage_error(stage, key, error)`` gets
+    those arguments, and a DeprecationWarning when it is registered."""
+    events = DeprecatedEvents()
+    cfg = copy.deepcopy(BASE)
+    cfg["b"]["fail"] = True
+    with pytest.warns(DeprecationWarning) as warned, pytest.raises(RuntimeError, match="toy failure"):
+        run(cfg, photo, Store(tmp_path / "cache"), tmp_path, events=events)
+    assert sorted(str(w.message).split(" is deprecated")[0] for w in warned) == [
+        "before_stage: the argument 'key'",
+        "before_stage: the argument 'stage'",
+        "on_stage_error: the argument 'key'",
+        "on_stage_error: the argument 'stage'",
+    ]
+    assert [(hook, stage) for hook, stage, _ in events.calls] == [("before", "a"), ("before", "b"), ("error", "b")]
+    assert events.calls[1][2] == events.calls[2][2] and len(events.calls[1][2]) == 64
+
+
 def test_selection_until_from_only(tmp_path: Path, photo: Path) -> None:
     store = Store(tmp_path / "cache")
     assert [r.name for r in run(BASE, photo, store, tmp_path, until="b").stages] == ["a", "b"]
@@ -320,13 +386,21 @@ def test_injected_artifact_replaces_its_producer(tmp_path: Path, photo: Path) ->
     edited = tmp_path / "edited_a"
     edited.mkdir()
     toy_plugin.Number(10.0).save(edited)
-    cfg = copy.deepcopy(BASE)
-    del cfg["a"]
+    cfg = copy.deepcopy(BASE)  # stage a, which computes a, stays in the config: what was given replaces it
     plugins = load_plugins(extra=[(toy_plugin, TOY)])
     pipeline = Pipeline.from_config(cfg, provided=["a"])
+    assert "a" not in [node.name for node in pipeline.nodes]
     runner = Runner(plugins, cfg, photo, Store(tmp_path / "cache"), Store(tmp_path / "scratch"), injected={"a": edited})
     record = runner.run(pipeline.select())
+    assert "a" not in [s.name for s in record.stages]
     assert record.artifacts["c"].value == 10.0 + 20.0
+
+
+def test_an_injected_artifact_whose_stage_computes_more_is_refused_in_one_line() -> None:
+    cfg = copy.deepcopy(BASE)
+    cfg["a"]["_outputs_"] = {"value": "a", "extra": "a_extra"}
+    with pytest.raises(PsdrRoomError, match=r"inject.a is given but stage 'a' also computes a_extra; give those too"):
+        Pipeline.from_config(cfg, provided=["a"])
 
 
 AUTO = {
@@ -485,10 +559,13 @@ class Shifting:
         return value * self.factor + self.by
 
 
-def test_a_factory_gets_its_node_typed_and_its_own_defaults_without_one(tmp_path: Path, photo: Path) -> None:
+def test_a_factory_gets_its_node_typed_and_a_schema_without_a_node_must_give_every_value(
+    tmp_path: Path, photo: Path
+) -> None:
     """The factory is called with its schema's fields: an int in the config arrives as the float the schema
     declares, a nested node as its dataclass. An implementation named only in ``auto.order`` has no node: its
-    factory's own defaults apply (the schema's bare fields are not demanded of a node that is not there)."""
+    schema must then give every value, else the run stops in one line naming what it needs (a config mistake is
+    not a reason to pass over an implementation)."""
 
     def register(registry: Any) -> None:
         registry.add_implementation("scaler", "shifting", Shifting, params=ShiftingSettings)
@@ -508,7 +585,9 @@ def test_a_factory_gets_its_node_typed_and_its_own_defaults_without_one(tmp_path
     absent = copy.deepcopy(BASE)
     absent["scaler"] = {"impl": "auto", "auto": {"order": ["shifting"]}}
     Shifting.made.clear()
-    record = Runner(plugins, absent, photo, Store(tmp_path / "c2"), Store(tmp_path / "s2"), "readwrite").run(
-        Pipeline.from_config(absent).select()
-    )
-    assert Shifting.made[0] == (5.0, None) and record.artifacts["b"].value == 5.0
+    runner = Runner(plugins, absent, photo, Store(tmp_path / "c2"), Store(tmp_path / "s2"), "readwrite")
+    with pytest.raises(
+        PsdrRoomError, match=r"scaler.shifting has no settings in the config \(its schema needs factor, "
+    ):
+        runner.run(Pipeline.from_config(absent).select())
+    assert not Shifting.made

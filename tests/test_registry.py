@@ -6,8 +6,11 @@ import json
 import shutil
 import subprocess
 import sys
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from types import SimpleNamespace
+from typing import Any
 
 import PIL.Image
 import pytest
@@ -16,7 +19,7 @@ from conftest import EXAMPLE, REPO
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.hookspecs import hookimpl
 from psdr_room_core.engine.plugins import load_plugins
-from psdr_room_core.engine.registry import Origin
+from psdr_room_core.engine.registry import Origin, Registry
 
 BUILTIN_IMPLEMENTATIONS = {("fov", "vanishing_points"), ("fov", "fixed"), ("depth", "file"), ("segmentation", "file")}
 
@@ -41,19 +44,158 @@ def test_unknown_implementation_lists_valid_names() -> None:
         registry.implementation("fov", "nope")
 
 
-def test_conflicting_implementations_name_both_plugins() -> None:
+def test_a_plugin_taking_a_builtin_name_is_left_out_naming_both() -> None:
+    """A third-party implementation under a built-in's name: the built-in keeps it, and the rival plugin is left out
+    with one line naming both plugins, which a run selecting what else it provides gets too."""
+
     def register(registry):  # noqa: ANN001
+        registry.add_implementation("fov", "exif_rival", object)
         registry.add_implementation("fov", "fixed", object)
 
-    system = load_plugins(
-        extra=[(plugin(register_implementations=register), Origin("rival", "rival-dist 1.0", "rival = rival"))]
-    )
-    with pytest.raises(PsdrRoomError) as info:
-        system.registry.implementation("fov", "fixed")
-    message = str(info.value)
-    assert "plugin 'fov'" in message and "plugin 'rival'" in message and "\n" not in message
-    # other implementations still work
-    assert system.registry.implementation("fov", "vanishing_points").name == "vanishing_points"
+    rival = Origin("rival", "rival-dist 1.0", "rival = rival")
+    system = load_plugins(extra=[(plugin(register_implementations=register), rival)])
+    assert system.registry.implementation("fov", "fixed").origin.plugin == "fov"
+    why = system.registry.failures["rival"]
+    assert why.startswith("registration failed: ValueError: fov=fixed is registered by plugin 'fov' (")
+    assert why.endswith(f" and by {rival}; rename one of them") and "\n" not in why
+    assert system.registry.conflicts[("fov", "fixed")] == [
+        system.registry.implementations[("fov", "fixed")].origin,
+        rival,
+    ]
+    with pytest.raises(
+        PsdrRoomError, match="left out: rival: registration failed: ValueError: fov=fixed is registered"
+    ):
+        system.registry.implementation("fov", "exif_rival")
+
+
+class Gadget:
+    """An artifact type of kind ``gadget``."""
+
+    kind = "gadget"
+    marker = "gadget.json"
+
+    def save(self, directory: Path) -> None: ...
+
+    @classmethod
+    def load(cls, directory: Path) -> Gadget:
+        return cls()
+
+
+class OtherGadget(Gadget):
+    """Another artifact type of the same kind."""
+
+
+@dataclass
+class GadgetSettings:
+    size: int = 1
+
+
+@dataclass
+class OtherGadgetSettings:
+    size: float = 1.0
+
+
+def make_gadget(ctx: object) -> Gadget:
+    return Gadget()
+
+
+def make_other_gadget(ctx: object) -> Gadget:
+    return Gadget()
+
+
+KINDS = {
+    # kind: (hook, registering it, registering something else under its name, the error's name, conflicts' key)
+    "capability": (
+        "register_capabilities",
+        lambda registry: registry.add_capability("widgets", "makes widgets"),
+        lambda registry: registry.add_capability("widgets", "makes widgets", Gadget),
+        "capability 'widgets'",
+        ("capability", "widgets"),
+    ),
+    "artifact": (
+        "register_artifacts",
+        lambda registry: registry.add_artifact(Gadget),
+        lambda registry: registry.add_artifact(OtherGadget),
+        "artifact kind 'gadget'",
+        ("artifact", "gadget"),
+    ),
+    "implementation": (
+        "register_implementations",
+        lambda registry: registry.add_implementation("gadgets", "small", Gadget, params=GadgetSettings),
+        lambda registry: registry.add_implementation("gadgets", "small", Gadget, version="2", params=GadgetSettings),
+        "gadgets=small",
+        ("gadgets", "small"),
+    ),
+    "stage": (
+        "register_stages",
+        lambda registry: registry.add_stage("make_gadget", make_gadget, uses=["gadgets"]),
+        lambda registry: registry.add_stage("make_gadget", make_other_gadget, uses=["gadgets"]),
+        "stage 'make_gadget'",
+        ("stage", "make_gadget"),
+    ),
+    "settings": (
+        "register_settings",
+        lambda registry: registry.add_settings("gadget_shop", GadgetSettings),
+        lambda registry: registry.add_settings("gadget_shop", OtherGadgetSettings),
+        "settings 'gadget_shop'",
+        ("settings", "gadget_shop"),
+    ),
+}
+
+
+def _two_plugins(kind: str, second_registers: Callable[[Any], None]) -> Registry:
+    """The registry of a plugin declaring capability ``gadgets``, then plugins ``first`` and ``second`` that
+    register a ``kind``: the first as in :data:`KINDS`, the second with ``second_registers`` (in a function of its
+    own: pluggy refuses a plugin equal to one it has)."""
+    hook, first_registers, *_ = KINDS[kind]
+    base = plugin(register_capabilities=lambda registry: registry.add_capability("gadgets", "makes gadgets"))
+    return load_plugins(
+        extra=[
+            (base, Origin("base", "base 1", "base = base")),
+            (plugin(**{hook: first_registers}), Origin("first", "first 1", "first = first")),
+            (
+                plugin(**{hook: lambda registry: second_registers(registry)}),
+                Origin("second", "second 2", "second = second"),
+            ),
+        ],
+        discover=False,
+    ).registry
+
+
+def _owner(registry: Registry, kind: str) -> Origin | None:
+    """The plugin whose registration the registry holds, for the kinds that keep it."""
+    if kind == "implementation":
+        return registry.implementations[("gadgets", "small")].origin
+    if kind == "stage":
+        return registry.stages["make_gadget"].origin
+    return None
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_the_same_registration_twice_changes_nothing(kind: str) -> None:
+    """A second plugin registering what the first did (the same object, the same options) is no conflict."""
+    registry = _two_plugins(kind, KINDS[kind][1])
+    assert not registry.failures and not registry.conflicts
+    owner = _owner(registry, kind)
+    assert owner is None or owner.plugin == "first"
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_a_name_registered_twice_differently_leaves_the_second_plugin_out_naming_both(kind: str) -> None:
+    """Whatever the name names, a different registration under it is refused in one line naming both plugins; the
+    first keeps the name and the second is left out, none of its registrations kept."""
+    _, _, second_registers, name, key = KINDS[kind]
+    registry = _two_plugins(kind, second_registers)
+    first, second = Origin("first", "first 1", "first = first"), Origin("second", "second 2", "second = second")
+    assert registry.failures == {
+        "second": f"registration failed: ValueError: {name} is registered by {first} and by {second}; "
+        "rename one of them"
+    }
+    assert registry.conflicts == {key: [first, second]}
+    owner = _owner(registry, kind)
+    assert owner is None or owner.plugin == "first"
+    assert set(registry.capabilities.values()) <= {"makes gadgets", "makes widgets"} and not registry.protocols
+    assert set(registry.artifacts.values()) <= {Gadget} and set(registry.settings.values()) <= {GadgetSettings}
 
 
 def test_broken_plugins_are_left_out_with_a_reason(caplog: pytest.LogCaptureFixture) -> None:
@@ -64,10 +206,12 @@ def test_broken_plugins_are_left_out_with_a_reason(caplog: pytest.LogCaptureFixt
     broken = [
         (plugin(register_implementations=explode), Origin("exploding", "x 1", "exploding = x")),
         (plugin(register_everything=lambda: None), Origin("misspelt", "y 1", "misspelt = y")),
+        (plugin(register_stages=lambda registri: None), Origin("mistyped", "z 1", "mistyped = z")),
     ]
     system = load_plugins(extra=broken)
     assert "registration failed: RuntimeError: boom" in system.registry.failures["exploding"]
     assert "unknown hook(s) register_everything" in system.registry.failures["misspelt"]
+    assert "could not be registered" in system.registry.failures["mistyped"]  # a hook argument pluggy refuses
     assert ("depth", "half_done") not in system.registry.implementations  # rolled back
     assert set(system.registry.implementations) >= BUILTIN_IMPLEMENTATIONS
     assert any("exploding" in r.getMessage() for r in caplog.records)

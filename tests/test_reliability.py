@@ -1,7 +1,7 @@
 """What the bad-input corpus cannot show with one failing command: paths as people name them run, permission
 problems (simulated where the tests run as root, who may read and write anything) are one-line bad input,
-a read-only cache still gives a result, the same inputs give the same digests, and a cache key follows the
-code that computes it."""
+a read-only cache still gives a result, and the same inputs give the same digests (a cache key follows the
+code that computes it: tests/test_fingerprint.py)."""
 
 from __future__ import annotations
 
@@ -18,7 +18,6 @@ from conftest import EXAMPLE
 from psdr_room_core.engine.cache import Store
 from psdr_room_core.engine.cli import compose_config, preflight
 from psdr_room_core.engine.errors import PsdrRoomError
-from psdr_room_core.engine.fingerprint import _imports, code_fingerprint, code_modules
 from psdr_room_core.engine.plugins import plugin_system
 from psdr_room_core.engine.run import execute
 
@@ -111,53 +110,3 @@ def test_same_inputs_same_digests(tmp_path: Path) -> None:
         assert result.returncode == 0, result.stderr[-2000:]
         digests.append(result.stdout.strip().splitlines()[-1])
     assert digests[0] == digests[1]
-
-
-def test_a_stage_key_follows_its_own_code_only() -> None:
-    """Changing only fit_appearance's module changes fit_appearance's fingerprint and no other stage's (export_scene
-    then recomputes through its changed input digest); the renderer's own modules are in its fingerprint."""
-    registry = plugin_system().registry
-    own = registry.stages["fit_appearance"].fn.__module__
-    for name, stage in registry.stages.items():
-        assert (own in code_modules(stage.fn)) == (name == "fit_appearance"), name
-        assert not [m for m in code_modules(stage.fn) if m.startswith("psdr_room_core.engine")]
-    renderer = registry.implementation("renderer", "mitsuba")
-    assert {"psdr_room_plugins.mitsuba_renderer.session", "psdr_room_plugins.mitsuba_renderer.integrator"} <= set(
-        code_modules(renderer.factory)
-    )
-
-
-def test_fingerprint_changes_with_an_imported_module(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    package = tmp_path / "fp_toy"
-    package.mkdir()
-    (package / "__init__.py").write_text("")
-    (package / "stage.py").write_text("from .helper import twice\n\ndef run(x):\n    return twice(x)\n")
-    (package / "helper.py").write_text("def twice(x):\n    return 2 * x\n")
-    (package / "unrelated.py").write_text("Y = 1\n")
-    monkeypatch.syspath_prepend(str(tmp_path))
-    import importlib
-
-    from psdr_room_core.engine import fingerprint
-
-    stage = importlib.import_module("fp_toy.stage")
-    before = code_fingerprint(stage.run)
-    assert code_modules(stage.run) == ["fp_toy.helper", "fp_toy.stage"]
-    for change, differs in (("unrelated.py", False), ("helper.py", True)):
-        (package / change).write_text((package / change).read_text() + "# changed\n")
-        for cached in (fingerprint._fingerprint, fingerprint._closure, fingerprint._file_digest, fingerprint._source):
-            cached.cache_clear()  # a new process, as after an upgrade
-        assert (code_fingerprint(stage.run) != before) == differs, change
-    for name in ("fp_toy.stage", "fp_toy.helper", "fp_toy"):
-        sys.modules.pop(name, None)
-
-
-def test_the_fingerprint_reads_every_import_statement(tmp_path: Path) -> None:
-    """Imports at any depth, over several lines, after a comment's bracket; text that only reads like one
-    (a docstring line) may count too: a fingerprint may cover a module more, never one less."""
-    source = tmp_path / "mod.py"
-    source.write_text(
-        '"""Doc.\n\nfrom the top of the page\n"""\nimport a.b\nfrom .sibling import (\n    one,\n    two,\n)\n\n'
-        "def f():\n    if True:\n        from c import d  # (see e\n    import g, h as i\n"
-    )
-    found = set(_imports("pkg.mod", source))
-    assert {"a.b", "pkg.sibling", "pkg.sibling.one", "pkg.sibling.two", "c", "c.d", "g", "h"} <= found

@@ -33,7 +33,7 @@ def artifact_kind_of(directory: Path, types: Mapping[str, type[Artifact]]) -> st
     """Recognise a saved artifact directory (as published under a run's ``artifacts/``) by its marker file."""
     if not directory.is_dir():
         raise PsdrRoomError(
-            f"{directory}: not a directory; inject.NAME= takes an artifact directory from a run's artifacts/"
+            f"{directory}: not a directory; +inject.NAME= takes an artifact directory from a run's artifacts/"
         )
     for kind, cls in types.items():
         if (directory / cls.marker).is_file():

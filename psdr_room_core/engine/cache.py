@@ -36,7 +36,9 @@ from .errors import PsdrRoomError
 
 log = logging.getLogger("psdr_room")
 
-SCHEMA = 1
+SCHEMA = 2
+"""The format of keys and entries, part of every key: a new one recomputes every stage once. 2: code fingerprints
+digest code, not docstrings and comments (:mod:`.fingerprint`)."""
 CACHE_MODES = ("off", "read", "readwrite")
 
 

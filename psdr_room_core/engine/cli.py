@@ -23,9 +23,10 @@ from hydra.errors import OverrideParseException
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf, open_dict, read_write
 
-from . import threads
-from .dag import AUTO, Pipeline
+from . import dag_view, settings_view, threads
+from .choice import AUTO
 from .errors import PsdrRoomError, disk_full
+from .graph import Pipeline, check_stage_inputs
 from .help import help_text
 from .hydra_writes import check_hydra_writes
 from .inputs import find_photos, require_file
@@ -243,6 +244,46 @@ def preflight(argv: list[str], plugins: PluginSystem) -> None:
     require_file(photo_file)
 
 
+def dag(argv: list[str], plugins: PluginSystem) -> str:
+    """``psdr-room --dag [overrides...]`` (or ``--dag=mermaid``, ``--dag mermaid``): the pipeline of the config
+    these overrides compose, as :mod:`.dag_view` shows it. Nothing runs, and no photo is needed."""
+    at = next(i for i, arg in enumerate(argv) if arg.split("=")[0] == "--dag")
+    form = argv[at].partition("=")[2]
+    rest = [*argv[:at], *argv[at + 1 :]]
+    if not form and argv[at + 1 : at + 2] and argv[at + 1] in dag_view.FORMS:
+        form, rest = argv[at + 1], [*argv[:at], *argv[at + 2 :]]
+    form = form or "text"
+    if form not in dag_view.FORMS:
+        raise PsdrRoomError(f"--dag={form} is not a form of the graph; use --dag (text) or --dag=mermaid")
+    cfg = composed(split_arguments(rest)[0], plugins)
+    with read_write(cfg), open_dict(cfg):
+        del cfg["hydra"]
+    data = resolve_config(cfg, missing_ok=True)
+    pipeline = Pipeline.from_config(data, provided=data.get("inject") or {})
+    check_stage_inputs(pipeline.nodes, plugins.registry)
+    show = dag_view.mermaid if form == "mermaid" else dag_view.text
+    return show(pipeline, data, plugins.registry)
+
+
+def settings_reference(argv: list[str], plugins: PluginSystem) -> str:
+    """``psdr-room --settings NODE [overrides...]`` (``--settings=NODE``): what each setting of the stage or
+    implementation ``NODE`` (``place_objects``, ``segmentation.layout``) means and its value in the config these
+    overrides compose, as :mod:`.settings_view` shows it. Without NODE, the nodes there are. Nothing runs."""
+    at = next(i for i, arg in enumerate(argv) if arg.split("=")[0] == "--settings")
+    name = argv[at].partition("=")[2]
+    rest = [*argv[:at], *argv[at + 1 :]]
+    if not name and argv[at + 1 : at + 2] and "=" not in argv[at + 1] and not argv[at + 1].startswith("-"):
+        name, rest = argv[at + 1], [*argv[:at], *argv[at + 2 :]]
+    cfg = composed(split_arguments(rest)[0], plugins)
+    with read_write(cfg), open_dict(cfg):
+        del cfg["hydra"]
+    data = resolve_config(cfg, missing_ok=True)
+    if not name:
+        nodes = sorted(settings_view.schemas(data, plugins.registry))
+        return "settings nodes (psdr-room --settings NODE):\n" + "\n".join(f"  {n}" for n in nodes)
+    return settings_view.text(name, data, plugins.registry)
+
+
 def _parse(override: str) -> Override | None:
     """``override`` parsed by Hydra's grammar, or None when the grammar cannot read it."""
     try:
@@ -256,8 +297,15 @@ def main() -> None:
     try:
         argv = quote_photo(expand_photos(sys.argv[1:]))
         plugins = plugin_system()
-        if split_arguments(argv)[1] & {"--help", "-h"}:
+        flags = split_arguments(argv)[1]
+        if flags & {"--help", "-h"}:
             print(help_text(plugins, CONFIG_MODULE))
+            return
+        if "--dag" in flags:
+            print(dag(argv, plugins))
+            return
+        if "--settings" in flags:
+            print(settings_reference(argv, plugins))
             return
         preflight(argv, plugins)
     except PsdrRoomError as exc:

@@ -24,6 +24,8 @@ usage: psdr-room image=PHOTO [GROUP=OPTION ...] [KEY=VALUE ...]
 
 MORE = """\
 more:  psdr-room --cfg job          the composed config (every KEY=VALUE a run can be given)
+       psdr-room --settings NODE    what each setting of a stage or implementation means (--settings: the nodes)
+       psdr-room --dag              the stages with their inputs and outputs (--dag=mermaid: a flowchart)
        psdr-room-plugins            every implementation and the plugin it comes from
        psdr-room --hydra-help       Hydra's own options (--multirun, --cfg, hydra.run.dir=, launchers)"""
 

@@ -11,8 +11,10 @@ declares for others to implement; the method's are in :mod:`psdr_room_core.metho
 library's in :mod:`psdr_room_plugins.material_graph.hookspecs`), then
 ``register_capabilities`` and ``register_artifacts`` of every plugin, then ``register_implementations``,
 ``register_stages`` and ``register_settings``. ``conf_searchpath`` when Hydra composes the configuration. Then for each run
-``before_run``, for every stage ``before_stage`` followed by ``after_stage`` or ``on_stage_error``,
-``run_metrics`` when the run's ``metrics.json`` is written, and finally ``after_run``.
+``before_run``, for every stage ``before_stage`` (when it computes) followed by ``after_stage`` or
+``on_stage_error``, ``run_metrics`` when the run's ``metrics.json`` is written, and finally ``after_run``. The
+three stage hooks get the stage's :class:`~.records.StageRecord` first, as ``record``: one object per stage,
+filled in as it runs.
 """
 
 from __future__ import annotations
@@ -31,6 +33,18 @@ hookspec = pluggy.HookspecMarker(PROJECT)
 hookimpl = pluggy.HookimplMarker(PROJECT)
 
 
+def _stage_and_key_deprecated(hook: str) -> dict[str, Warning]:
+    """The warnings pluggy gives when a plugin registers a ``hook`` implementation taking ``stage`` or ``key``,
+    which the stage's record holds (``record.name``, ``record.key``)."""
+    return {
+        argument: DeprecationWarning(
+            f"{hook}: the argument '{argument}' is deprecated and goes in the next release; take 'record' "
+            f"and read record.{field}"
+        )
+        for argument, field in (("stage", "name"), ("key", "key"))
+    }
+
+
 @hookspec
 def add_hookspecs(plugin_manager: pluggy.PluginManager) -> None:
     """Declare hooks of this plugin's own for other plugins to implement: ``plugin_manager.add_hookspecs(module)``
@@ -47,7 +61,7 @@ def register_capabilities(registry: Registry) -> None:
 def register_artifacts(registry: Registry) -> None:
     """Add artifact types with ``registry.add_artifact(cls)``: classes with ``kind``, ``marker``, ``save`` and
     ``load`` (:class:`~psdr_room_core.engine.artifacts.Artifact`), so the engine can load them from the cache
-    and from ``inject.NAME=DIR``."""
+    and from ``+inject.NAME=DIR``."""
 
 
 @hookspec
@@ -90,22 +104,28 @@ def before_run(run: RunRecord) -> None:
     """Called before the first stage of a run; ``run.stages`` is still empty."""
 
 
-@hookspec
-def before_stage(stage: str, key: str, inputs: dict[str, Any]) -> None:
+@hookspec(warn_on_impl_args=_stage_and_key_deprecated("before_stage"))
+def before_stage(record: StageRecord, inputs: dict[str, Any], stage: str, key: str) -> None:
     """Called before a stage executes (not when its outputs come from the cache).
 
-    ``stage`` is the stage's name in the config, ``key`` its cache key, ``inputs`` its input artifacts.
+    ``record`` is the stage's record, the same object ``after_stage`` or ``on_stage_error`` gets next: its
+    ``name`` (the stage's name in the config), ``function``, ``key`` (its cache key) and ``implementations``
+    are set, the rest is filled in when the stage is done. ``inputs`` are its input artifacts. ``stage`` and
+    ``key`` (``record.name`` and ``record.key``) are deprecated.
     """
 
 
 @hookspec
 def after_stage(record: StageRecord, outputs: dict[str, Any]) -> None:
-    """Called when a stage has finished or was served from the cache (``record.cached``)."""
+    """Called when a stage has finished or was served from the cache (``record.cached``); ``outputs`` are its
+    output artifacts, by the stage function's output names."""
 
 
-@hookspec
-def on_stage_error(stage: str, key: str, error: BaseException) -> None:
-    """Called when a stage raises; nothing of it has been written to the cache."""
+@hookspec(warn_on_impl_args=_stage_and_key_deprecated("on_stage_error"))
+def on_stage_error(record: StageRecord, error: BaseException, stage: str, key: str) -> None:
+    """Called when a stage raises ``error``; nothing of it has been written to the cache. ``record`` is the
+    stage's record as ``before_stage`` got it; ``stage`` and ``key`` (``record.name`` and ``record.key``) are
+    deprecated."""
 
 
 @hookspec

@@ -4,8 +4,8 @@ Built-in plugins (this distribution's own entry points) are loaded exactly like 
 goes in phases so that no plugin depends on another's load order: every plugin's ``add_hookspecs`` (hooks a
 plugin declares for others, as the method does for its model registries and material libraries), then every
 ``register_capabilities`` and ``register_artifacts``, then each plugin's ``register_implementations``,
-``register_stages`` and ``register_settings``. A plugin that fails to import, implements an unknown hook, or raises while registering is
-reported in a one-line warning and left out; only a run that selects something it would have provided fails,
+``register_stages`` and ``register_settings``. A plugin that fails to import, implements an unknown hook, takes
+an argument its hook does not have, or raises while registering is reported in a one-line warning and left out; only a run that selects something it would have provided fails,
 with a message that names the plugin and its error.
 """
 
@@ -97,7 +97,7 @@ def load_plugins(extra: Iterable[tuple[object, Origin]] = (), discover: bool = T
             continue
         try:
             manager.register(plugin, name=origin.plugin)
-        except ValueError as exc:
+        except (ValueError, pluggy.PluginValidationError) as exc:
             _report_failure(registry, origin, f"could not be registered: {exc}")
             continue
         registered.append((plugin, origin))
@@ -141,7 +141,7 @@ def _register(
 
 def _builtin_first(found: Iterable[EntryPoint]) -> list[EntryPoint]:
     """Entry points by name, those of the engine's own distribution (the one whose entry points load from the
-    engine's top-level package) first, so a third-party stage of the same name replaces a built-in one."""
+    engine's top-level package) first, so a built-in name stays the built-in's (:mod:`.registry`)."""
     found = list(found)
     package = __name__.split(".")[0]
     own = {ep.dist.name for ep in found if ep.dist is not None and ep.value.split(".")[0] == package}

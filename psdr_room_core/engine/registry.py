@@ -1,9 +1,18 @@
 """The registry: what the loaded plugins provide (capabilities, artifact types, implementations, stages, settings
 schemas), each with the plugin it came from. Plugins fill it from their ``register_*`` hooks
-(:mod:`.hookspecs`); :mod:`.plugins` loads them."""
+(:mod:`.hookspecs`); :mod:`.plugins` loads them.
+
+A name is registered once, whatever it names. The same registration again (the same object with the same options,
+by another plugin or by the same one) changes nothing. A different one under a name already taken
+is refused with a one-line ``ValueError`` naming both plugins: the plugin registering second is left out, with a
+warning, and the first keeps the name (built-in plugins load first). To replace a built-in stage, register yours
+under a name of its own and swap it in by config (``stage@room_init=my_room_init``); another implementation of a
+capability takes a name of its own too (``fov=exif``).
+"""
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
@@ -85,6 +94,10 @@ class StageDef:
         return references.docstring(self.target)
 
 
+_FREE = object()
+"""What is registered under a name nobody registered."""
+
+
 @dataclass
 class Registry:
     """Everything the loaded plugins provide, with where each item came from."""
@@ -100,9 +113,14 @@ class Registry:
     settings: dict[str, type | None] = field(default_factory=dict)
     """Top-level config node a plugin reads → its schema (None: not checked beyond its name)."""
     conflicts: dict[tuple[str, str], list[Origin]] = field(default_factory=dict)
+    """The names two plugins registered differently: ``(capability, implementation)``, or ``(kind, name)`` of a
+    ``capability``, ``artifact``, ``stage`` or ``settings`` → the plugin that has it and the one refused."""
     failures: dict[str, str] = field(default_factory=dict)
     """Plugin name → why it was left out."""
     _origin: Origin = Origin("?", "?", "?")
+    _owners: dict[str, Origin] = field(default_factory=dict)
+    """Each name registered, as an error names it (``stage 'room_init'``, ``fov=fixed``) → the plugin that registered
+    it (read only for a name still registered: a left-out plugin's names are removed, not their owners)."""
 
     def add_capability(self, name: str, description: str, protocol: type | None = None) -> None:
         """Declare capability ``name``: a config group of the same name selects one of its implementations;
@@ -110,16 +128,21 @@ class Registry:
         checked when an implementation is constructed, before the stage that uses it runs)."""
         if not name.isidentifier():
             raise ValueError(f"capability name '{name}' is not an identifier")
-        self.capabilities.setdefault(name, description)
-        if protocol is not None:
-            self.protocols.setdefault(name, protocol)
+        registered = (self.capabilities[name], self.protocols.get(name)) if name in self.capabilities else _FREE
+        if self._claim(("capability", name), f"capability '{name}'", registered, (description, protocol)):
+            self.capabilities[name] = description
+            if protocol is not None:
+                self.protocols[name] = protocol
 
     def add_artifact(self, artifact_type: type[Artifact]) -> None:
-        """Register an artifact type under its ``kind`` (a kind registered twice keeps the first type)."""
+        """Register an artifact type under its ``kind``."""
         for attribute in ("kind", "marker", "save", "load"):
             if not hasattr(artifact_type, attribute):
                 raise ValueError(f"artifact type {artifact_type.__name__} has no '{attribute}'")
-        self.artifacts.setdefault(artifact_type.kind, artifact_type)
+        kind = artifact_type.kind
+        registered = self.artifacts.get(kind, _FREE)
+        if self._claim(("artifact", kind), f"artifact kind '{kind}'", registered, artifact_type):
+            self.artifacts[kind] = artifact_type
 
     def add_implementation(
         self,
@@ -144,12 +167,11 @@ class Registry:
         if capability not in self.capabilities:
             raise ValueError(f"unknown capability '{capability}'; expected one of {', '.join(self.capabilities)}")
         key = (capability, name)
-        if key in self.implementations:
-            self.conflicts.setdefault(key, [self.implementations[key].origin]).append(self._origin)
-            return
-        self.implementations[key] = Implementation(
-            capability, name, factory, version, self._origin, params, reads_files, description
-        )
+        new = Implementation(capability, name, factory, version, self._origin, params, reads_files, description)
+        registered = self.implementations.get(key)
+        as_registered = _FREE if registered is None else dataclasses.replace(registered, origin=new.origin)
+        if self._claim(key, f"{capability}={name}", as_registered, new):
+            self.implementations[key] = new
 
     def add_stage(
         self,
@@ -163,8 +185,8 @@ class Registry:
         params: type | None = None,
     ) -> None:
         """Register stage function ``fn`` (or a reference ``"module:attribute"`` to it, imported when the stage
-        first computes) under ``name`` (a later plugin's stage of the same name wins,
-        so a plugin can replace a built-in stage; bump ``version`` when its results change). ``uses``: the
+        first computes) under ``name`` (a name no other plugin registered: the config swaps a stage for another;
+        bump ``version`` when its results change). ``uses``: the
         capabilities it calls; ``reads_photo`` and ``sidecars`` (suffixes of files beside the photo): the
         files it reads itself, whose bytes join its cache key; ``params``: the dataclass schema of its config
         node's parameters (:mod:`psdr_room_core.engine.settings`), checked before any stage runs."""
@@ -172,7 +194,11 @@ class Registry:
         for capability in uses:
             if capability not in self.capabilities:
                 raise ValueError(f"stage '{name}' uses unknown capability '{capability}'")
-        self.stages[name] = StageDef(name, fn, version, uses, reads_photo, tuple(sidecars), self._origin, params)
+        new = StageDef(name, fn, version, uses, reads_photo, tuple(sidecars), self._origin, params)
+        registered = self.stages.get(name)
+        as_registered = _FREE if registered is None else dataclasses.replace(registered, origin=new.origin)
+        if self._claim(("stage", name), f"stage '{name}'", as_registered, new):
+            self.stages[name] = new
 
     def add_settings(self, name: str, params: type | None = None) -> None:
         """Declare ``name``, a top-level config node this plugin reads (the report's ``report``), with the
@@ -180,17 +206,26 @@ class Registry:
         that is neither a stage nor a capability is refused before any stage runs."""
         if not name.isidentifier():
             raise ValueError(f"settings name '{name}' is not an identifier")
-        self.settings.setdefault(name, params)
+        if self._claim(("settings", name), f"settings '{name}'", self.settings.get(name, _FREE), params):
+            self.settings[name] = params
+
+    def _claim(self, key: tuple[str, str], label: str, registered: object, registering: object) -> bool:
+        """Whether the name ``label`` (``key`` in :attr:`conflicts`) is free, so that the plugin registering now
+        takes it; False where ``registering`` is what is ``registered`` under it already (:data:`_FREE` where
+        nothing is). A different registration is refused (module docstring)."""
+        if registered is _FREE:
+            self._owners[label] = self._origin
+            return True
+        if registered == registering:
+            return False
+        owner = self._owners[label]
+        self.conflicts[key] = [owner, self._origin]
+        raise ValueError(f"{label} is registered by {owner} and by {self._origin}; rename one of them")
 
     # ------------------------------------------------------------------ lookups used by the runner
     def implementation(self, capability: str, name: str) -> Implementation:
         """The implementation selected by ``<capability>=<name>``, or a one-line error listing the choices."""
         key = (capability, name)
-        if key in self.conflicts:
-            both = " and ".join(str(o) for o in self.conflicts[key])
-            raise PsdrRoomError(
-                f"{capability}={name} is registered by {both}; uninstall one of them or rename its implementation"
-            )
         if key not in self.implementations:
             valid = sorted(n for c, n in self.implementations if c == capability)
             raise PsdrRoomError(

@@ -14,15 +14,17 @@ from omegaconf.errors import InterpolationResolutionError, MissingMandatoryValue
 
 from .artifacts import Artifact
 from .cache import CACHE_MODES, Store
-from .dag import Pipeline, Runner, check_stage_inputs
 from .debris import scratch_dir, sweep
 from .errors import PsdrRoomError
 from .files import WRITING, move_into_place
+from .graph import Pipeline, check_stage_inputs
 from .interrupts import sigterm_interrupts
 from .ownership import check_writable_into, claim
 from .plugins import PluginSystem, plugin_system
 from .records import RunRecord
+from .runner import Runner
 from .settings import check_config
+from .stage_config import stage_nodes
 
 log = logging.getLogger("psdr_room")
 
@@ -42,10 +44,11 @@ def published(plugins: PluginSystem) -> tuple[str, ...]:
     return (*PUBLISHED, *sorted({name for name in tops if name}))
 
 
-def resolve_config(cfg: DictConfig) -> dict[str, Any]:
-    """The composed config as plain data, with one-line errors for missing or unresolvable values."""
+def resolve_config(cfg: DictConfig, *, missing_ok: bool = False) -> dict[str, Any]:
+    """The composed config as plain data, with one-line errors for missing or unresolvable values; with
+    ``missing_ok``, a missing value (``???``, as ``image`` before one is given) stays as it is."""
     try:
-        data = OmegaConf.to_container(cfg, resolve=True, throw_on_missing=True)
+        data = OmegaConf.to_container(cfg, resolve=True, throw_on_missing=not missing_ok)
     except MissingMandatoryValue as exc:
         key = exc.full_key or "?"
         hint = "image=PATH/TO/photo.jpg" if key == "image" else f"{key}=VALUE"
@@ -65,7 +68,7 @@ def plan(data: Mapping[str, Any], plugins: PluginSystem) -> tuple[Pipeline, dict
     injected = {name: Path(str(path)).expanduser().absolute() for name, path in (data.get("inject") or {}).items()}
     pipeline = Pipeline.from_config(data, provided=injected)
     check_stage_inputs(pipeline.nodes, plugins.registry)
-    check_config(data, pipeline.nodes, plugins.registry)
+    check_config(data, stage_nodes(data), plugins.registry)  # a stage replaced by what was given too
     return pipeline, injected
 
 

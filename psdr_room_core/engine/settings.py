@@ -2,11 +2,13 @@
 
 A schema is a Hydra/OmegaConf structured config: field types say what a value must be (``int``,
 ``float``, ``bool``, ``str``, ``list[float]``, ``Optional[str]``, nested dataclasses), and :func:`setting`
-adds what a type cannot (ranges, allowed words, list lengths). The values and their comments stay in
-``conf/``; a schema field needs no default. Plugins pass theirs to ``registry.add_stage(..., params=S)``
-and ``registry.add_implementation(..., params=S)``; :func:`check_config` checks the composed config
-against every registered schema before any stage runs, and the first problem ends the run in one line
-naming the key, the value and what is allowed::
+adds what a type cannot (ranges, allowed words, list lengths) and what the key means (``doc``). The schema is
+the one home of a key's type, range and meaning; the shipped YAML in ``conf/`` is the one home of its value (a
+schema field has no default, except a key a config may leave out). :func:`reference` renders a node's keys,
+values and meanings from the two. Plugins pass their schemas to ``registry.add_stage(..., params=S)`` and
+``registry.add_implementation(..., params=S)``; :func:`check_config` checks the composed config against every
+registered schema before any stage runs, and the first problem ends the run in one line naming the key, the
+value and what is allowed::
 
     room_fit.iterations=-3 is out of range; allowed: an integer >= 1
 """
@@ -19,7 +21,7 @@ import difflib
 import operator
 import types
 import typing
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from typing import TYPE_CHECKING, Any
 
 from omegaconf import MISSING, OmegaConf
@@ -45,9 +47,14 @@ class NoSettings:
     """The schema of a stage or implementation that takes no parameters."""
 
 
+RULES = ("ge", "gt", "le", "lt", "choices", "length")
+"""The checks :func:`setting` may put on a field (its ``metadata`` also holds the ``doc``)."""
+
+
 def setting(
     default: Any = MISSING,
     *,
+    doc: str = "",
     ge: float | None = None,
     gt: float | None = None,
     le: float | None = None,
@@ -55,12 +62,58 @@ def setting(
     choices: tuple[str, ...] | None = None,
     length: int | None = None,
 ) -> Any:
-    """A schema field with bounds (applied to a number, or to every number of a list), allowed words
-    (``choices``) or a list ``length``; ``default`` only for keys a config may leave out."""
+    """A schema field with what its key means (``doc``: units, and what raising or lowering it does), bounds
+    (applied to a number, or to every number of a list), allowed words (``choices``) or a list ``length``;
+    ``default`` only for a key a config may leave out (its ``doc`` says why)."""
     rules = {k: v for k, v in dict(ge=ge, gt=gt, le=le, lt=lt, choices=choices, length=length).items() if v is not None}
+    metadata = {**rules, "doc": doc}
     if isinstance(default, (list, dict)) or dataclasses.is_dataclass(default):  # each instance its own copy
-        return dataclasses.field(default_factory=lambda: copy.deepcopy(default), metadata=rules)
-    return dataclasses.field(default=default, metadata=rules)
+        return dataclasses.field(default_factory=lambda: copy.deepcopy(default), metadata=metadata)
+    return dataclasses.field(default=default, metadata=metadata)
+
+
+@dataclasses.dataclass(frozen=True)
+class Entry:
+    """One key of a config node, as :func:`entries` walks it."""
+
+    key: str
+    """Its dotted path inside the node."""
+    depth: int
+    """How deep it is nested (0: a key of the node itself)."""
+    field: dataclasses.Field[Any]
+    """Its schema field (``field.metadata["doc"]``: what it means)."""
+    value: Any
+    """Its value in the node; :data:`~omegaconf.MISSING` where the node has none."""
+    nested: bool
+    """Whether it holds a nested schema's keys (the entries that follow, one level deeper)."""
+
+
+def entries(schema: type, values: Mapping[str, Any] | None, *, prefix: str = "", depth: int = 0) -> Iterator[Entry]:
+    """Every field of ``schema``, nested schemas' too (each after its parent), in declaration order, with its
+    value in ``values`` (a resolved config node)."""
+    hints = typing.get_type_hints(schema)
+    for field in dataclasses.fields(schema):
+        value = (values or {}).get(field.name, MISSING)
+        nested = _dataclass_of(hints[field.name])
+        key = f"{prefix}.{field.name}" if prefix else field.name
+        opened = nested is not None and isinstance(value, Mapping)
+        yield Entry(key, depth, field, value, opened)
+        if opened and nested is not None:
+            yield from entries(nested, value, prefix=key, depth=depth + 1)
+
+
+def reference(schema: type, values: Mapping[str, Any]) -> str:
+    """The reference of a config node: a line ``key = value  # what it means`` per key of ``schema`` (a nested
+    schema's keys indented under a line ``key:  # what it means``), the values from ``values`` (the resolved
+    node; ``???`` where it has none)."""
+    lines = []
+    for entry in entries(schema, values):
+        doc = entry.field.metadata.get("doc", "")
+        comment = f"  # {doc}" if doc else ""
+        name = entry.key.rpartition(".")[2]
+        shown = f"{name}:" if entry.nested else f"{name} = {_flow(entry.value)}"
+        lines.append(f"{'  ' * entry.depth}{shown}{comment}")
+    return "\n".join(lines)
 
 
 def check_settings(schema: type, values: Mapping[str, Any], where: str) -> None:
@@ -162,7 +215,7 @@ def _check_rules(schema: type, node: Any, where: str) -> None:
             if value is not None:
                 _check_rules(nested, value, key)
             continue
-        rules = field.metadata
+        rules = {name: rule for name, rule in field.metadata.items() if name in RULES}
         if not rules or value is None:
             continue
         items = list(value) if OmegaConf.is_list(value) else [value]
@@ -215,7 +268,8 @@ def _allowed(schema: type, key: str) -> str:
     fields = {f.name: f for f in dataclasses.fields(owner)}
     if name not in fields:
         return "see the schema"
-    return _describe(typing.get_type_hints(owner)[name], fields[name].metadata)
+    rules = {rule: bound for rule, bound in fields[name].metadata.items() if rule in RULES}
+    return _describe(typing.get_type_hints(owner)[name], rules)
 
 
 def _schema_at(schema: type, path: str) -> type:
@@ -242,6 +296,19 @@ def _show(value: Any) -> str:
     if OmegaConf.is_config(value):
         value = OmegaConf.to_container(value)
     return "null" if value is None else excerpt(str(value))
+
+
+def _flow(value: Any) -> str:
+    """``value`` as a YAML flow value: ``null``, ``true``, ``[1, 2]``, ``{bed: [pillow]}``; ``???``: none."""
+    if value is MISSING:
+        return "???"
+    if value is None or isinstance(value, bool):
+        return {None: "null", True: "true", False: "false"}[value]
+    if isinstance(value, Mapping):
+        return "{" + ", ".join(f"{key}: {_flow(item)}" for key, item in value.items()) + "}"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_flow(item) for item in value) + "]"
+    return str(value)
 
 
 def _join(where: str, key: str) -> str:
