@@ -9,29 +9,32 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from psdr_room_core.engine import shipped
 from psdr_room_core.libraries.object_db import CATEGORIES
 from psdr_room_core.method.artifacts import Camera, Image, Panoptic, PointCloud, RoomBox, Segment
-from psdr_room_core.method.grouping import GroupParams, Part, group_segments
+from psdr_room_core.method.grouping import Part, group_segments
 from psdr_room_core.method.labels import ANY, LABELS, meaning, primary_category
 from psdr_room_core.method.objects import ObjectQuery, object_queries, pose_matrix, transform
 from psdr_room_core.method.silhouette import depth_map
-from psdr_room_core.method.stages.objects import _rank_by_label
+from psdr_room_core.method.stages.objects.retrieve import _rank_by_label
+from psdr_room_core.method.stages.settings import GroupObjects
 from psdr_room_plugins.detectors.coco import COCO_80
 from psdr_room_plugins.onnx_models.ade20k import CATEGORIES as ADE_CATEGORIES
 from psdr_room_plugins.onnx_models.ade20k import LABELS as ADE_LABELS
 from psdr_room_plugins.onnx_models.ade20k import STUFF
-from psdr_room_plugins.retrieval_silhouette import SilhouetteRetrieval
+from psdr_room_plugins.retrieval_silhouette import SilhouetteRetrieval, SilhouetteSettings
 
 C2W = np.eye(4)
 C2W[:3, :3] = np.diag([-1.0, -1.0, 1.0])  # OpenCV camera looking along world +Z, Y up
 C2W[:3, 3] = [0.0, 1.5, -1.0]
 ROOM = RoomBox(camera_to_world=C2W, center=np.array([0.0, 1.5, 2.0]), half_size=np.array([3.0, 1.5, 3.0]), yaw=0.0)
 CAMERA = Camera.from_vfov(160, 120, 60.0)
+GROUP = shipped.settings(GroupObjects, "group_objects")
 
 
 @pytest.fixture(scope="module")
 def retriever() -> SilhouetteRetrieval:
-    return SilhouetteRetrieval()
+    return SilhouetteRetrieval(**shipped.arguments(SilhouetteSettings, "retrieval.silhouette"))
 
 
 def seen(retriever: SilhouetteRetrieval, model_id: str, to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -92,16 +95,24 @@ def test_a_bed_label_never_retrieves_a_desk(retriever: SilhouetteRetrieval) -> N
     """A bed a person labelled is searched among beds only, whatever its shape; a detector's "bed" on a bed stays a
     bed though desks, tables and sofas are searched too; a detector's "bed" on a desk (COCO has no desk) is a desk."""
     bed_mask, bed_points = seen(retriever, "kenney/bedDouble", pose_matrix(np.array([0.0, 0.0, 3.0]), math.pi, 1.0))
-    drawn = _rank_by_label(retriever, query(1, "bed", bed_mask, bed_points, guessed=False), CAMERA, C2W, 5, 0.1)
+    drawn = _rank_by_label(
+        retriever, query(1, "bed", bed_mask, bed_points, guessed=False), camera=CAMERA, c2w=C2W, k=5, margin=0.1
+    )
     assert drawn and all(c.category == "bed" for c in drawn)
-    guessed = _rank_by_label(retriever, query(1, "bed", bed_mask, bed_points, guessed=True), CAMERA, C2W, 5, 0.1)
+    guessed = _rank_by_label(
+        retriever, query(1, "bed", bed_mask, bed_points, guessed=True), camera=CAMERA, c2w=C2W, k=5, margin=0.1
+    )
     assert guessed[0].category == "bed" and guessed[0].model_id == "kenney/bedDouble"
     desk_mask, desk_points = seen(
         retriever, "parametric/desk_005", pose_matrix(np.array([0.2, 0.0, 2.5]), math.radians(200.0), 1.0)
     )
-    labelled = _rank_by_label(retriever, query(2, "bed", desk_mask, desk_points, guessed=False), CAMERA, C2W, 5, 0.1)
+    labelled = _rank_by_label(
+        retriever, query(2, "bed", desk_mask, desk_points, guessed=False), camera=CAMERA, c2w=C2W, k=5, margin=0.1
+    )
     assert all(c.category == "bed" for c in labelled)
-    detected = _rank_by_label(retriever, query(2, "bed", desk_mask, desk_points, guessed=True), CAMERA, C2W, 5, 0.1)
+    detected = _rank_by_label(
+        retriever, query(2, "bed", desk_mask, desk_points, guessed=True), camera=CAMERA, c2w=C2W, k=5, margin=0.1
+    )
     assert detected[0].category in ("desk", "table")
 
 
@@ -163,12 +174,12 @@ def _judge(retriever: SilhouetteRetrieval):  # type: ignore[no-untyped-def]
 
 def test_a_bed_split_in_two_segments_becomes_one_object(retriever: SilhouetteRetrieval) -> None:
     panoptic, cloud, mask, _ = _split_scene(retriever)
-    grouped, regrouped, notes = group_segments(panoptic, cloud, CAMERA, ROOM, True, GroupParams(), _judge(retriever))
+    grouped, regrouped, notes = group_segments(panoptic, cloud, CAMERA, ROOM, True, GROUP, _judge(retriever))
     objects = [s for s in grouped.segments if s.category == "object"]
     assert [(s.id, s.label, s.score) for s in objects] == [(6, "bed", 0.5)], notes
     assert np.array_equal(grouped.ids == 6, mask) and set(np.unique(regrouped.segment)) == {1, 6}
     assert "5 rests on 6" in notes[0] and notes[0].endswith("merged")
-    alone = group_segments(panoptic, cloud, CAMERA, ROOM, True, GroupParams(splittable=()), _judge(retriever))
+    alone = group_segments(panoptic, cloud, CAMERA, ROOM, True, replace(GROUP, splittable=[]), _judge(retriever))
     assert alone[0] is panoptic and alone[2] == []  # beds not splittable: not even a candidate
 
 
@@ -196,7 +207,7 @@ def test_a_floor_region_labelled_bed_under_a_bed_stays_apart(retriever: Silhouet
         segments=segments,
     )
     grouped, _, notes = group_segments(
-        Panoptic(ids=ids, segments=segments), cloud, CAMERA, ROOM, True, GroupParams(), _judge(retriever)
+        Panoptic(ids=ids, segments=segments), cloud, CAMERA, ROOM, True, GROUP, _judge(retriever)
     )
     assert sorted(s.id for s in grouped.segments if s.category == "object") == [6, 7]
     assert all("kept apart" in note for note in notes), notes
@@ -221,7 +232,7 @@ def test_two_desks_of_a_row_put_on_the_wall_stay_two(retriever: SilhouetteRetrie
     )
     panoptic = Panoptic(ids=ids, segments=segments)
     judge = _judge(retriever)
-    grouped, _, notes = group_segments(panoptic, cloud, CAMERA, room, False, GroupParams(), judge, unplaced={6, 7})
+    grouped, _, notes = group_segments(panoptic, cloud, CAMERA, room, False, GROUP, judge, unplaced={6, 7})
     assert grouped is panoptic and notes == []
-    _, _, found = group_segments(panoptic, cloud, CAMERA, room, False, GroupParams(), judge)
+    _, _, found = group_segments(panoptic, cloud, CAMERA, room, False, GROUP, judge)
     assert found and "6 and 7 occupy the same space" in found[0]

@@ -21,7 +21,7 @@ from psdr_room_plugins.material_graph.graph import GraphError, load_graph, parse
 from psdr_room_plugins.material_graph.library import TorchGraphLibrary
 from psdr_room_plugins.material_graph.nodes import Input, NodeType, builtin_node_types
 from psdr_room_plugins.material_graph.params import Float
-from psdr_room_plugins.material_graph.thumbnails import contact_sheet, shade
+from psdr_room_plugins.material_graph.thumbnails import shade
 from psdr_room_plugins.texture.random_cnn import RandomCnnDescriptor
 
 torch.set_num_threads(1)
@@ -342,12 +342,3 @@ def test_registered_and_configured_like_every_capability() -> None:
     assert library.names() == LIBRARY.names()
     with pytest.raises(PsdrRoomError, match="material graph directory not found"):
         implementation.factory(extra_dirs=["/nonexistent/graphs"])
-
-
-def test_contact_sheet_lays_out_labelled_thumbnails() -> None:
-    import numpy as np
-
-    images = [(f"m{i}", np.full((40, 50, 3), i * 20, np.uint8)) for i in range(5)]
-    sheet = contact_sheet(images, columns=3, label_height=12)
-    assert sheet.shape == (2 * 52, 3 * 50, 3)
-    assert (sheet[:40, 50:100] == 20).all()

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-import yaml
 
+from psdr_room_core.engine import shipped
 from psdr_room_core.engine.dag import StageContext
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.method.artifacts import Camera, Image, MaterialAssignment, Panoptic, Placements, RoomBox, Segment
@@ -31,7 +31,6 @@ from psdr_room_plugins.material_graph.library import TorchGraphLibrary
 from psdr_room_plugins.mitsuba_renderer.session import MitsubaRenderer
 from psdr_room_plugins.texture.random_cnn import RandomCnnDescriptor
 
-CONF = Path(__file__).resolve().parents[1] / "conf"
 C2W = np.eye(4)
 C2W[:3, :3] = np.diag([-1.0, -1.0, 1.0])  # OpenCV camera looking along world +Z, Y up ...
 tilt = math.radians(-25)  # ... pitched down to see the floor
@@ -43,11 +42,7 @@ ROOM = RoomBox(camera_to_world=C2W, center=np.array([0.0, 1.5, 0.0]), half_size=
 CAMERA = Camera.from_vfov(200, 150, 60.0)
 WALL = (0.62, 0.52, 0.40)
 PARAMS = {
-    **{
-        k: v
-        for k, v in yaml.safe_load((CONF / "stage" / "assign_materials.yaml").read_text()).items()
-        if not k.startswith("_")
-    },
+    **shipped.node("assign_materials"),
     "render_width": 200,
     "map_size": 128,
 }

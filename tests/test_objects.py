@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import fields, replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 import torch
 
+from psdr_room_core.engine import shipped
 from psdr_room_core.engine.dag import StageContext
 from psdr_room_core.method import silhouette as silhouette_module
 from psdr_room_core.method.artifacts import (
@@ -37,36 +38,26 @@ from psdr_room_core.method.objects import (
     wall_frame,
 )
 from psdr_room_core.method.physical import Settled
+from psdr_room_core.method.pose_model import Explained, ObjectTargets, PoseModel, explained_by, object_targets
 from psdr_room_core.method.silhouette import MeshCaster, camera_rays, depth_map, silhouette
-from psdr_room_core.method.stages.objects import (
-    Explained,
-    ObjectTargets,
-    PoseModel,
-    explained,
-    fit_objects,
-    object_targets,
-    restore_lost,
-    settle_restored,
-    try_yaw_turns,
-)
+from psdr_room_core.method.stages.objects.fit import fit_objects, restore_lost, settle_restored, try_yaw_turns
 from psdr_room_core.method.view_search import SearchParams, ViewTarget, fit_view
 from psdr_room_plugins.mitsuba_renderer.session import MitsubaRenderer
 from psdr_room_plugins.optimizer_adam import Adam
+from psdr_room_plugins.retrieval_silhouette import SilhouetteRetrieval, SilhouetteSettings
 
 C2W = np.eye(4)
 C2W[:3, :3] = np.diag([-1.0, -1.0, 1.0])  # OpenCV camera looking along world +Z, Y up
 C2W[:3, 3] = [0.0, 1.5, -2.5]
 ROOM = RoomBox(camera_to_world=C2W, center=np.array([0.0, 1.5, 0.0]), half_size=np.array([3.0, 1.5, 3.0]), yaw=0.0)
 CAMERA = Camera.from_vfov(160, 120, 60.0)
-PHYSICAL = {
-    "size_tolerance": 0.15,
-    "duplicate_share": 0.5,
-    "penetration": 0.03,
-    "max_shift": 0.5,
-    "directions": 16,
-    "keep_iou": 0.5,
-    "max_growth": 1.0,
-}
+SEARCH = shipped.settings(SearchParams, "place_objects.search")
+SUPPORT = shipped.settings(SupportParams, "place_objects.support")
+
+
+def _silhouette(**changes: object) -> SilhouetteRetrieval:
+    """The shipped ``retrieval=silhouette``, with ``changes`` to its settings."""
+    return SilhouetteRetrieval(**{**shipped.arguments(SilhouetteSettings, "retrieval.silhouette"), **changes})
 
 
 def plain_box(half_x: float, half_y: float, half_z: float) -> ObjectMesh:
@@ -180,17 +171,17 @@ def test_casters_share_one_copy_of_a_cameras_rays() -> None:
 def test_batched_scores_equal_single_ones_and_the_sweep_is_the_best_start() -> None:
     """A pose's score does not depend on the poses scored with it (the union window holds each one's own), and
     ViewSearch's start is its best moment-matched rotation, finished into fit_view's pose."""
-    from psdr_room_core.method.view_search import SearchParams, ViewSearch, _Scorer
+    from psdr_room_core.method.view_search import ViewSearch, _Scorer
 
     mesh = l_shape()
     truth = pose_matrix(np.array([0.4, 0.0, 1.8]), math.radians(50.0), 1.3)
     mask, points = _seen_points(mesh, truth)
     target = ViewTarget.build(CAMERA, C2W, mask, points, points, 160)
-    scorer = _Scorer(target, mesh.vertices, mesh.faces, SearchParams())
+    scorer = _Scorer(target, mesh.vertices, mesh.faces, SEARCH)
     poses = [truth, pose_matrix(np.array([-0.4, 0.0, 2.5]), 1.0, 0.9), pose_matrix(np.array([0.4, 0.0, 1.8]), 2.0, 1.3)]
     assert scorer.score_many(poses) == [scorer.score(p) for p in poses]
     assert scorer.score(truth)[1] > 0.95 and scorer.score(truth)[0] < min(scorer.score(p)[0] for p in poses[1:])
-    search = ViewSearch(target, mesh.vertices, mesh.faces, SearchParams(n_yaw=12), support_height=0.0)
+    search = ViewSearch(target, mesh.vertices, mesh.faces, SEARCH, support_height=0.0)
     assert len(search.hypotheses) == 12 and search.start == min(search.hypotheses, key=lambda h: h[0])
     view = search.finish()
     assert view.error <= search.start[0] and view.iou > 0.95
@@ -199,17 +190,16 @@ def test_batched_scores_equal_single_ones_and_the_sweep_is_the_best_start() -> N
 def test_the_shortlist_refines_only_the_best_starts() -> None:
     """retrieval=silhouette refines the `shortlist` models whose sweep scores best (or the `shortlist_share` of
     them): the true model is still ranked first, and a shortlist of every model gives the same ranking as none."""
-    from psdr_room_plugins.retrieval_silhouette import SilhouetteRetrieval
 
     model_id = "parametric/chair_004"
-    full = SilhouetteRetrieval(shortlist=0)
+    full = _silhouette(shortlist=0)
     mesh = full.mesh(model_id)
     truth = pose_matrix(np.array([0.2, 0.0, 2.0 + mesh.extent[2]]), math.radians(40.0), 1.0)
     mask, points = _seen_points(mesh, truth)
     query = ObjectQuery(1, "chair", ("chair",), mask, points, np.zeros((4, 4, 3), np.uint8), points)
     everything = full.rank(query, CAMERA, C2W, 5)
-    assert SilhouetteRetrieval(shortlist=1, shortlist_share=1.0).rank(query, CAMERA, C2W, 5) == everything
-    short = SilhouetteRetrieval(shortlist=6, shortlist_share=0.0).rank(query, CAMERA, C2W, 5)
+    assert _silhouette(shortlist=1, shortlist_share=1.0).rank(query, CAMERA, C2W, 5) == everything
+    short = _silhouette(shortlist=6, shortlist_share=0.0).rank(query, CAMERA, C2W, 5)
     assert short[0].model_id == model_id and len(short) == 5
     for candidate in short:  # the score's terms, as the studio lists them, make the score
         terms = dict(candidate.terms)
@@ -246,7 +236,7 @@ def test_fit_view_recovers_the_pose_from_mask_and_points(yaw_deg: float) -> None
     truth = pose_matrix(np.array([0.4, 0.0, 1.8]), math.radians(yaw_deg), 1.3)
     mask, points = _seen_points(mesh, truth)
     view = fit_view(
-        ViewTarget.build(CAMERA, C2W, mask, points, points, 160), mesh.vertices, mesh.faces, support_height=0.0
+        ViewTarget.build(CAMERA, C2W, mask, points, points, 160), mesh.vertices, mesh.faces, SEARCH, support_height=0.0
     )
     error = (math.degrees(view.yaw) - yaw_deg + 180.0) % 360.0 - 180.0
     assert abs(error) < 3.0  # the sweep's best rotation, polished
@@ -264,10 +254,11 @@ def test_an_object_hidden_behind_another_keeps_its_size() -> None:
     mask = nearest == 0
     assert 0.1 < mask.sum() / silhouette(CAMERA, C2W, transform(cabinet.vertices, truth), cabinet.faces).sum() < 0.6
     target = ViewTarget.build(CAMERA, C2W, mask, points[mask], points[nearest >= 0], 160)
-    view = fit_view(target, cabinet.vertices, cabinet.faces, support_height=0.0)
+    view = fit_view(target, cabinet.vertices, cabinet.faces, SEARCH, support_height=0.0)
     assert view.scale == pytest.approx(1.0, rel=0.05)
     assert np.linalg.norm(view.position - truth[:3, 3]) < 0.08
-    on_the_box = fit_view(target, cabinet.vertices, cabinet.faces, support_height=1.2)  # the rules' other reading
+    # the rules' other reading: the cabinet on the box
+    on_the_box = fit_view(target, cabinet.vertices, cabinet.faces, SEARCH, support_height=1.2)
     assert view.error < 0.5 * on_the_box.error
 
 
@@ -277,7 +268,7 @@ def test_an_object_cut_by_the_image_border_is_not_shrunk_into_it() -> None:
     mask, points = _seen_points(mesh, truth)
     assert mask[:, 0].any()
     view = fit_view(
-        ViewTarget.build(CAMERA, C2W, mask, points, points, 160), mesh.vertices, mesh.faces, support_height=0.0
+        ViewTarget.build(CAMERA, C2W, mask, points, points, 160), mesh.vertices, mesh.faces, SEARCH, support_height=0.0
     )
     assert view.scale == pytest.approx(1.2, rel=0.05)
     assert np.linalg.norm(view.position - truth[:3, 3]) < 0.08
@@ -303,10 +294,15 @@ def test_a_box_prompted_mask_without_the_legs_is_not_shrunk_into_the_seat() -> N
         ViewTarget.build(CAMERA, C2W, mask, points[tops], points, 160, box=box),
         mesh.vertices,
         mesh.faces,
+        SEARCH,
         support_height=0.0,
     )
     without = fit_view(
-        ViewTarget.build(CAMERA, C2W, mask, points[tops], points, 160), mesh.vertices, mesh.faces, support_height=0.0
+        ViewTarget.build(CAMERA, C2W, mask, points[tops], points, 160),
+        mesh.vertices,
+        mesh.faces,
+        SEARCH,
+        support_height=0.0,
     )
     assert with_box.scale == pytest.approx(1.0, rel=0.05) and with_box.iou > 0.9
     assert abs(without.scale - 1.0) > abs(with_box.scale - 1.0)
@@ -345,13 +341,13 @@ def test_support_rules_floor_parent_wall_free() -> None:
             5, _cloud([1.5, 0.5, 1.0], [0.3, 0.3, 0.3]), slice(60, 70), slice(120, 128)
         ),  # low but far from the floor mask
     ]
-    relations = support_relations(queries, floor, ROOM, SupportParams())
+    relations = support_relations(queries, floor, ROOM, SUPPORT)
     assert relations[1] == [("floor", None)]
     assert relations[2] == [("parent", 1)]
     assert relations[3] == [("wall", 1)]
     assert relations[4] == [("free", None)]
     assert relations[5][0][0] == "free"
-    strict = support_relations(queries, floor, ROOM, SupportParams(edge_px=1.0))
+    strict = support_relations(queries, floor, ROOM, replace(SUPPORT, edge_px=1.0))
     assert strict[1] == [("free", None)]  # the mask edge threshold is a config value
 
 
@@ -363,19 +359,19 @@ def test_a_parent_must_hold_its_child_and_hidden_bottoms_of_furniture_stand_on_t
     # are 1.5 behind the table's: not on the table; a grounded category, so on the floor
     behind = _cloud([0.0, 0.7, 2.5], [0.8, 0.2, 0.3])
     relations = support_relations(
-        [front, _query(2, behind, slice(45, 59), slice(30, 110), category="sofa")], floor, ROOM, SupportParams()
+        [front, _query(2, behind, slice(45, 59), slice(30, 110), category="sofa")], floor, ROOM, SUPPORT
     )
     assert relations[2] == [("floor", None)]
-    unknown = support_relations([front, _query(2, behind, slice(45, 59), slice(30, 110))], floor, ROOM, SupportParams())
+    unknown = support_relations([front, _query(2, behind, slice(45, 59), slice(30, 110))], floor, ROOM, SUPPORT)
     assert unknown[2] == [("free", None)]
     # a cabinet whose points stand right on the table's top: on it, or on the floor behind it; a vase: on it
     above = _cloud([0.0, 1.05, 1.1], [0.3, 0.25, 0.2])
     both = support_relations(
-        [front, _query(2, above, slice(45, 59), slice(50, 90), category="cabinet")], floor, ROOM, SupportParams()
+        [front, _query(2, above, slice(45, 59), slice(50, 90), category="cabinet")], floor, ROOM, SUPPORT
     )
     assert both[2] == [("parent", 1), ("floor", None)]
     vase = support_relations(
-        [front, _query(2, above, slice(45, 59), slice(50, 90), category="lamp")], floor, ROOM, SupportParams()
+        [front, _query(2, above, slice(45, 59), slice(50, 90), category="lamp")], floor, ROOM, SUPPORT
     )
     assert vase[2] == [("parent", 1)]
 
@@ -440,20 +436,10 @@ def test_fit_objects_recovers_perturbed_poses(tmp_path: Path) -> None:
         ]
     )
     params = {
+        **shipped.node("fit_objects"),
         "iterations": 60,
         "render_width": 96,
         "blur_sigmas": [2.0, 4.0],
-        "blur_weight": 1.0,
-        "size_prior": {"scale_weight": 0.01, "range_weight": 0.2},
-        "room_weight": 0.2,
-        "collision_weight": 2.0,
-        "back_weight": 0.05,
-        "wall_weight": 0.01,
-        "keep_share": 0.5,
-        "same_box": 0.5,
-        "physical": PHYSICAL,
-        "learning_rates": {"translation": 0.01, "log_scale": 0.01, "yaw": 1.0},
-        "yaw_test": {"at": 0.5, "angles": [180.0, 90.0, -90.0], "min_gain": 0.1},
         "convergence": {"window": 0, "tolerance": 0.01, "min_iterations": 0},
     }  # all 60 iterations
     ctx = StageContext(
@@ -503,9 +489,9 @@ def test_yaw_test_turns_an_object_placed_back_to_front() -> None:
         masks, _, _ = renderer.render(model.vertices(), 0)
         return (masks - t_masks).abs().sum(dim=(1, 2))
 
-    assert try_yaw_turns(model, mismatch, [180.0, 90.0, -90.0], min_gain=1.0) == {}  # nothing gains it all
+    assert try_yaw_turns(model, mismatch, angles=[180.0, 90.0, -90.0], min_gain=1.0) == {}  # nothing gains it all
     assert model.theta["yaw"].detach().tolist() == [0.0, 0.0]
-    assert try_yaw_turns(model, mismatch, [180.0, 90.0, -90.0], min_gain=0.1) == {2: 180.0}
+    assert try_yaw_turns(model, mismatch, angles=[180.0, 90.0, -90.0], min_gain=0.1) == {2: 180.0}
     assert model.theta["yaw"].detach().tolist() == [0.0, 180.0]
 
 
@@ -542,7 +528,7 @@ def test_a_box_the_mask_cannot_orient_is_posed_with_its_back_to_the_nearest_wall
     truth = pose_matrix(np.array([-1.0, 0.0, 2.5]), math.radians(180), 1.0)  # front to the camera, back to +Z
     nearest, points = _seen([(cabinet, truth)])
     mask, seen = nearest == 0, points[nearest == 0]
-    params = SearchParams(back_weight=0.5, wall_weight=0.1)
+    params = SEARCH  # back_weight 0.5, wall_weight 0.1
     target = ViewTarget.build(CAMERA, C2W, mask, seen, seen, 160, room=ROOM)
     view = fit_view(target, cabinet.vertices, cabinet.faces, params, support_height=0.0, backed=True)
     turn = (math.degrees(view.yaw) - 180.0 + 180.0) % 360.0 - 180.0
@@ -581,7 +567,7 @@ def test_a_bed_the_mask_cannot_orient_is_posed_with_its_back_away_from_the_camer
     truth = pose_matrix(np.array([0.3, 0.0, 2.6]), math.radians(15), 1.0)  # its front (+Z) away from the camera
     nearest, points = _seen([(bed, truth)])
     target = ViewTarget.build(CAMERA, C2W, nearest == 0, points[nearest == 0], points[nearest == 0], 160)
-    params = SearchParams(back_weight=0.5)
+    params = replace(SEARCH, wall_weight=0.0)  # back_weight 0.5
     view = fit_view(target, bed.vertices, bed.faces, params, support_height=0.0, backed=True)
     turn = (math.degrees(view.yaw) - 195.0 + 180.0) % 360.0 - 180.0
     assert abs(turn) < 3.0 and view.iou > 0.95, (math.degrees(view.yaw), view.iou)
@@ -606,6 +592,52 @@ def test_eq3_pays_for_a_backed_object_showing_its_back() -> None:
     assert penalty[0].item() > 0.95 and penalty[1].item() == 0.0 and penalty[2:].tolist() == [0.0, 0.0]
     penalty.sum().backward()
     assert model.theta["yaw"].grad[0].item() != 0.0
+
+
+def test_eq3_terms_add_up_to_each_objects_loss_and_are_the_documented_ones() -> None:
+    """ObjectLoss: each object's term is the sum of the weighted terms the log names (the blurred-mask term times
+    ``blur_weight``), the log names the terms of pose_model's eq. 3, and each weight it takes is a ``fit_objects``
+    setting its parameter table lists."""
+    from psdr_room_core.method import pose_model
+    from psdr_room_core.method.pose_model import ObjectLoss
+    from psdr_room_core.method.stages.settings import FitObjects
+
+    box = plain_box(0.4, 0.3, 0.4)
+    placements = Placements(
+        objects=[
+            Placement(1, "cabinet", "m", box, (-2.4, 0.0, 1.0), math.radians(10), 3.0, "floor", category="cabinet"),
+            Placement(2, "chair", "m", box, (-2.0, 0.0, 1.0), 0.0, 1.0, "floor", category="chair"),
+        ]
+    )
+    model = PoseModel(placements, ROOM, unit=3.0)
+
+    class Square:
+        """Every object rendered as the same square at 2 m."""
+
+        def render(self, vertices: object, iteration: int) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+            masks = torch.zeros(2, 20, 20)
+            masks[:, 5:15, 5:15] = 1.0
+            return masks, 2.0 * masks[0], masks[0]
+
+    target = np.zeros((2, 20, 20), np.float32)
+    target[:, 8:18, 6:16] = 1.0
+    targets = ObjectTargets(
+        masks=target, masked_depth=2.5 * target, weights=np.ones_like(target), boxes=np.full((2, 4), np.nan)
+    )
+    weights = {"scale_weight": 0.1, "range_weight": 0.2, "room_weight": 0.3, "collision_weight": 2.0}
+    weights.update(back_weight=0.5, wall_weight=0.01)
+    loss = ObjectLoss(model, Square(), targets, blur_sigmas=(2.0, 4.0), blur_weight=0.5, **weights)
+    terms = loss(0)
+    logged = dict(terms.logged)
+    assert 0.0 < logged.pop("mean_iou") < 1.0 and all(v > 0.0 for v in logged.values()), logged  # each term counts
+    logged["blurred_mask_l1"] *= 0.5
+    assert terms.per_object.sum().item() == pytest.approx(sum(logged.values()), rel=1e-6)
+    documented = pose_model.__doc__ or ""
+    assert all(f" {name} " in documented for name in logged)
+    settings = {f.name for f in fields(FitObjects)}
+    for name in ("blur_sigmas", "blur_weight", *weights):
+        setting = name if name in settings else f"size_prior.{name}"
+        assert setting.split(".")[0] in settings and f"``{setting}``" in documented, setting
 
 
 def test_an_object_the_fit_pushed_off_its_segment_goes_back_to_its_placed_pose() -> None:
@@ -695,13 +727,13 @@ def test_a_restore_that_costs_the_settling_an_object_is_undone() -> None:
         left = objects if len(seen) > 1 else [p for p in objects if p.segment_id != 2]
         return Settled(left, ROOM, dropped=["2:chair (m): passes through 1"] * (len(seen) == 1))
 
-    settled, undone = settle_restored(posed, fitted, [0, 2], settle_dropping_2, penetration=0.03)
+    settled, undone = settle_restored(posed, fitted, [0, 2], settle_scene=settle_dropping_2, penetration=0.03)
     assert undone == [0] and seen == [[0.0, 0.3, 3.0], [-1.5, 0.3, 3.0]]
     assert [p.segment_id for p in settled.placements] == [1, 2, 3]
 
     seen.clear()
     seen.append([])  # a settling that drops nothing
-    settled, undone = settle_restored(posed, fitted, [0, 2], settle_dropping_2, penetration=0.03)
+    settled, undone = settle_restored(posed, fitted, [0, 2], settle_scene=settle_dropping_2, penetration=0.03)
     assert undone == [] and len(seen) == 2 and settled.placements == posed
 
 
@@ -715,7 +747,7 @@ def test_what_a_render_explains_of_its_segment_and_prompt_box() -> None:
     rendered = torch.zeros(3, 20, 20)
     rendered[:, 5:15, 5:15] = 1.0  # the whole chair, down to the floor
     rendered[1] = 0.0
-    out = explained(rendered, targets)
+    out = explained_by(rendered, targets)
     assert out.mask.tolist() == pytest.approx([0.5, 0.0, 0.5])
     assert out.box[0] == pytest.approx(1.0) and np.isnan(out.box[1]) and np.isnan(out.box[2])
 
@@ -733,9 +765,8 @@ def test_silhouette_retrieval_ranks_the_true_model_first(model_id: str, yaw_deg:
     """A rendered view (mask and depth) of a database model, away from the sweep's rotations: among every
     model of its category, none explains it better than that model (a near twin may tie: within 0.1%). The cabinet
     shows its front: it stands with its back to a wall."""
-    from psdr_room_plugins.retrieval_silhouette import SilhouetteRetrieval
 
-    retriever = SilhouetteRetrieval()
+    retriever = _silhouette()
     mesh = retriever.mesh(model_id)
     category = retriever.database.record(model_id).category
     truth = pose_matrix(np.array([0.2, 0.0, 2.0 + mesh.extent[2]]), math.radians(yaw_deg), 1.0)
@@ -752,11 +783,10 @@ def test_guessed_objects_no_model_explains_are_dropped_drawn_ones_kept(tmp_path:
     explains (a flat patch of floor) is dropped; the same patch drawn by a person (no score) is kept, and a
     guessed chair the chair model explains stays."""
     from psdr_room_core.method.artifacts import Candidate, ObjectCandidates, PointCloud
-    from psdr_room_core.method.stages.objects import place_objects
-    from psdr_room_plugins.retrieval_silhouette import SilhouetteRetrieval
+    from psdr_room_core.method.stages.objects.place import place_objects
 
     chair_id = "parametric/chair_004"
-    retriever = SilhouetteRetrieval()
+    retriever = _silhouette()
     chair = retriever.mesh(chair_id)
     chair_mask, chair_points = _seen_points(chair, pose_matrix(np.array([-0.6, 0.0, 1.0]), math.radians(30), 1.0))
     rays = CAMERA.pixel_rays() @ C2W[:3, :3].T  # world directions, camera at C2W's origin
@@ -785,36 +815,12 @@ def test_guessed_objects_no_model_explains_are_dropped_drawn_ones_kept(tmp_path:
     candidates = ObjectCandidates(
         ranked={k: [Candidate(chair_id, 1.0)] for k in (5, 6, 7)}, labels={k: "chair" for k in (5, 6, 7)}
     )
+    quick = {"n_yaw": 8, "refine": 2, "coarse": 1, "polish": 1, "halvings": 1, "turns": [], "wall_weight": 0.0}
     params = {
-        "pick": {},
-        "init": "silhouette",
-        "radius_factor": 0.5,
-        "render_width": 160,
-        "search": {
-            "n_yaw": 8,
-            "refine": 2,
-            "coarse": 1,
-            "polish": 1,
-            "halvings": 1,
-            "turns": [],
-            "depth_weight": 2.0,
-            "hidden_margin": 0.03,
-            "room_weight": 2.0,
-            "back_weight": 0.5,
-        },
-        "min_points": 30,
+        **shipped.node("place_objects"),
+        "search": {**shipped.node("place_objects.search"), **quick},
         "min_pixels": 100,
-        "prune": {"min_iou": 0.3},
-        "size_prior": {"scale_weight": 0.3, "range_weight": 5.0},
-        "physical": PHYSICAL,
-        "support": {
-            "floor_distance": 0.1,
-            "edge_px": 20.0,
-            "wall_distance": 0.15,
-            "bottom_percentile": 2.0,
-            "grounded": ["chair"],
-            "floor_only": ["chair"],
-        },
+        "support": {**shipped.node("place_objects.support"), "grounded": ["chair"], "floor_only": ["chair"]},
     }
     ctx = StageContext(
         stage="place_objects",

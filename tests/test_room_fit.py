@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from psdr_room_core.engine import shipped
 from psdr_room_core.engine.dag import StageContext
 from psdr_room_core.libraries.synth.raycast import raycast
 from psdr_room_core.libraries.synth.scene import generate
@@ -16,13 +17,7 @@ from psdr_room_core.method.stages.room import room_fit, room_iou, room_targets
 from psdr_room_plugins.mitsuba_renderer.session import MitsubaRenderer
 from psdr_room_plugins.optimizer_adam import Adam
 
-PARAMS = {
-    "iterations": 80,
-    "render_width": 96,
-    "depth_weight": 1.0,
-    "keep_floor": False,
-    "learning_rates": {"yaw": 0.01, "translation": 0.01, "log_scale": 0.01, "tilt": 0.003, "log_focal": 0.0},
-}
+PARAMS = {**shipped.node("room_fit"), "iterations": 80, "render_width": 96}
 
 
 def truth_inputs(seed: int) -> tuple[RoomBox, Camera, DepthMap, Panoptic, Image]:

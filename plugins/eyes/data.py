@@ -15,6 +15,7 @@ import cv2
 import numpy as np
 
 from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.method.visualize import to_uint8
 
 from .labels import OBJECT
 from .network import INPUT_SIZE
@@ -127,7 +128,7 @@ def augment_photo(image: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     if rng.random() < 0.3:
         x = cv2.GaussianBlur(x, (0, 0), rng.uniform(0.4, 1.2))
     x = x + rng.normal(0.0, rng.uniform(0.0, 0.03), x.shape)
-    out = (np.clip(x, 0, 1) * 255.0 + 0.5).astype(np.uint8)
+    out = to_uint8(x)
     if rng.random() < 0.5:
         data = cv2.imencode(".jpg", out[..., ::-1], [cv2.IMWRITE_JPEG_QUALITY, int(rng.integers(40, 96))])[1]
         decoded = cv2.imdecode(data, cv2.IMREAD_COLOR)

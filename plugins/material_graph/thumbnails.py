@@ -1,4 +1,4 @@
-"""Pictures of materials: a fast torch shading of the maps, Mitsuba thumbnails, and contact sheets.
+"""Pictures of materials: a fast torch shading of the maps, and Mitsuba thumbnails.
 
 :func:`shade` lights the maps of a flat patch with one directional light and an ambient term (Lambert +
 GGX specular): cheap, differentiable, used by the retrieval benchmark and for quick looks.
@@ -18,6 +18,7 @@ import numpy as np
 import torch
 
 from psdr_room_core.method.shading import linear_to_srgb, srgb_to_linear
+from psdr_room_core.method.visualize import to_uint8
 
 DEFAULT_LIGHT = (-0.45, 0.55, 0.70)
 """Direction towards the light in the patch's tangent frame (x right, y up the image, z out)."""
@@ -54,9 +55,9 @@ def shade(
     return linear_to_srgb(radiance * exposure)
 
 
-def to_uint8(image: torch.Tensor) -> np.ndarray:
-    """[3, H, W] in [0, 1] → H×W×3 uint8."""
-    return (image.detach().clamp(0, 1).permute(1, 2, 0).cpu().numpy() * 255.0 + 0.5).astype(np.uint8)
+def tensor_to_uint8(image: torch.Tensor) -> np.ndarray:
+    """A [3, H, W] tensor in [0, 1] as H×W×3 uint8 (:func:`~psdr_room_core.method.visualize.to_uint8`)."""
+    return to_uint8(image.detach().permute(1, 2, 0).cpu().numpy())
 
 
 def map_images(maps: Mapping[str, torch.Tensor]) -> dict[str, np.ndarray]:
@@ -68,7 +69,7 @@ def map_images(maps: Mapping[str, torch.Tensor]) -> dict[str, np.ndarray]:
             x = x * 0.5 + 0.5
         if x.shape[0] == 1:
             x = x.expand(3, -1, -1)
-        out[name] = to_uint8(x)
+        out[name] = tensor_to_uint8(x)
     return out
 
 
@@ -202,33 +203,4 @@ class ThumbnailRenderer:
                     params[key] = type(params[key])(array)
             params.update()
         image = np.array(mi.render(self._scene, spp=self.spp, seed=0))
-        return to_uint8(linear_to_srgb(torch.from_numpy(image).permute(2, 0, 1) * 1.0))
-
-
-# -------------------------------------------------------------------------------------- contact sheet
-def contact_sheet(images: Sequence[tuple[str, np.ndarray]], columns: int = 8, label_height: int = 18) -> np.ndarray:
-    """Images (all the same size) in a grid with their names underneath: H×W×3 uint8."""
-    import cv2
-
-    if not images:
-        raise ValueError("no images for the contact sheet")
-    h, w = images[0][1].shape[:2]
-    rows = (len(images) + columns - 1) // columns
-    sheet = np.full((rows * (h + label_height), columns * w, 3), 255, np.uint8)
-    for index, (name, image) in enumerate(images):
-        r, c = divmod(index, columns)
-        y, x = r * (h + label_height), c * w
-        sheet[y : y + h, x : x + w] = image[:, :, :3]
-        scale = 0.4 if w >= 160 else 0.3
-        text = name if len(name) * 7 * scale / 0.4 < w else name[: int(w / (7 * scale / 0.4)) - 2] + ".."
-        cv2.putText(
-            sheet,
-            text,
-            (x + 4, y + h + label_height - 5),
-            cv2.FONT_HERSHEY_SIMPLEX,
-            scale,
-            (20, 20, 20),
-            1,
-            cv2.LINE_AA,
-        )
-    return sheet
+        return to_uint8(linear_to_srgb(torch.from_numpy(image)).numpy())

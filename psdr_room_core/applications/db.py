@@ -114,7 +114,8 @@ def _run(args: argparse.Namespace) -> int:
 
         print(f"wrote {build_index(args.root)}")
         return 0
-    from psdr_room_core.libraries.object_db.thumbnails import build_thumbnails, cache_dir, contact_sheet
+    from psdr_room_core.libraries.object_db.thumbnails import build_thumbnails, cache_dir
+    from psdr_room_core.method.visualize import contact_sheet
 
     db = open_database(args.root, args.future, args.subset, args.seed)
     if args.command == "list":

@@ -69,14 +69,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _run(args: argparse.Namespace) -> int:
     import torch
 
+    from psdr_room_core.method.visualize import contact_sheet
     from psdr_room_plugins.material_graph.library import TorchGraphLibrary
-    from psdr_room_plugins.material_graph.thumbnails import (
-        ThumbnailRenderer,
-        contact_sheet,
-        map_images,
-        shade,
-        to_uint8,
-    )
+    from psdr_room_plugins.material_graph.thumbnails import ThumbnailRenderer, map_images, shade, tensor_to_uint8
 
     library = TorchGraphLibrary(extra_dirs=[str(d) for d in args.dir])
     if args.command == "list":
@@ -114,7 +109,7 @@ def _run(args: argparse.Namespace) -> int:
             folder = args.out / name
             for key, image in map_images(maps).items():
                 write_png(folder / f"{key}.png", image)
-            write_png(folder / "preview.png", to_uint8(shade(maps)))
+            write_png(folder / "preview.png", tensor_to_uint8(shade(maps)))
             written = [f"{k}.png" for k in maps] + ["preview.png"]
             if renderer is not None:
                 write_png(folder / "thumbnail.png", renderer.render(maps))
@@ -131,7 +126,7 @@ def _run(args: argparse.Namespace) -> int:
         images.append((name, image))
         print(f"{name}: {args.out / (name + '.png')}", flush=True)
     sheet_path = args.sheet or args.out / "contact_sheet.png"
-    write_png(sheet_path, contact_sheet(images, columns=args.columns))
+    write_png(sheet_path, contact_sheet(images, columns=args.columns, font_scale=0.4 if args.size >= 160 else 0.3))
     print(f"contact sheet: {sheet_path} ({len(images)} materials, {time.perf_counter() - start:.0f} s)")
     return 0
 

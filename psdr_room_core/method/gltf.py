@@ -22,6 +22,7 @@ import numpy as np
 from .artifacts import Camera
 from .rgb_scene import RgbScene
 from .shading import SPECULAR_F0, linear_to_srgb
+from .visualize import to_uint8
 
 CV_TO_GL = np.diag([1.0, -1.0, -1.0, 1.0])
 """OpenCV camera axes (x right, y down, z forward) → glTF's (x right, y up, looking down −z)."""
@@ -101,12 +102,12 @@ def scene_glb(scene: RgbScene, camera: Camera, camera_to_world: np.ndarray) -> b
         surface = scene.surfaces[name]
         pbr: dict[str, Any] = {"metallicFactor": 0.0}
         if np.ndim(surface.base_color) == 3:
-            srgb = (linear_to_srgb(np.asarray(surface.base_color)) * 255 + 0.5).astype(np.uint8)
+            srgb = to_uint8(linear_to_srgb(np.asarray(surface.base_color)))
             pbr["baseColorTexture"] = {"index": texture(_png(srgb))}
         else:
             pbr["baseColorFactor"] = [float(c) for c in surface.base_color] + [1.0]
         if np.ndim(surface.roughness) == 3:
-            rough = (np.clip(np.asarray(surface.roughness)[..., 0], 0, 1) * 255 + 0.5).astype(np.uint8)
+            rough = to_uint8(np.asarray(surface.roughness)[..., 0])
             packed = np.stack([np.zeros_like(rough), rough, np.zeros_like(rough)], axis=-1)  # glTF: roughness in G
             pbr["metallicRoughnessTexture"] = {"index": texture(_png(packed))}
             pbr["roughnessFactor"] = 1.0

@@ -6,16 +6,16 @@ at ``y = 0``, centred on ``x = z = 0``, front facing +Z. A pose is ``to_world = 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
-from psdr_room_core.engine.settings import setting
-
-from .artifacts import Camera, Image, Panoptic, PointCloud, RoomBox, rotation_y
+from .artifacts import Camera, Image, Panoptic, Placement, PointCloud, RoomBox, rotation_y
 from .labels import alternates, meaning
+from .params import SupportParams
 from .silhouette import mask_l1, silhouette
 
 OBJECT_CATEGORIES = ("object", "lamp")
@@ -111,6 +111,17 @@ def transform(vertices: np.ndarray, to_world: np.ndarray) -> np.ndarray:
     return vertices @ to_world[:3, :3].T + to_world[:3, 3]
 
 
+def footprint(p: Placement) -> tuple[np.ndarray, float, float]:
+    """(4x2 xz corners of the object's rotated bounding box, bottom y, top y) in the world."""
+    v = p.mesh.vertices
+    lo, hi = v.min(axis=0) * p.scale, v.max(axis=0) * p.scale
+    corners = np.array([[lo[0], lo[2]], [hi[0], lo[2]], [hi[0], hi[2]], [lo[0], hi[2]]])
+    c, s = math.cos(p.yaw), math.sin(p.yaw)
+    # R_y acts on (x, z) as [[c, s], [-s, c]]
+    xz = corners @ np.array([[c, -s], [s, c]]) + [p.position[0], p.position[2]]
+    return xz, p.position[1] + lo[1], p.position[1] + hi[1]
+
+
 def mesh_radius(vertices: np.ndarray) -> float:
     """Median distance of the mesh's vertices to its bounding-box centre."""
     centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2.0
@@ -149,26 +160,6 @@ def best_yaw(
 
 
 # ----------------------------------------------------------------------------------- support relations
-@dataclass
-class SupportParams:
-    """Thresholds of §4.3's support rules (lengths in the room's units, distances in working-image pixels); the
-    ``support`` settings of place_objects."""
-
-    floor_distance: float = setting(0.1, ge=0)
-    """An object whose points' bottom is this close to the floor ..."""
-    edge_px: float = setting(20.0, ge=0)
-    """... and whose mask is this close to the floor mask stands on the floor; a floating object whose mask
-    is this close to a floor object's mask (and above it), whose bottom is no lower than that object's top
-    less ``floor_distance`` and whose points' centre is over that object's points, stands on that object."""
-    wall_distance: float = setting(0.15, ge=0)
-    """A floating object without a parent whose points lie this close to a wall is mounted on it."""
-    bottom_percentile: float = setting(2.0, ge=0, le=100)
-    """The points' bottom is this percentile of their heights (robust to stray points)."""
-    grounded: list[str] = setting(["chair", "table", "sofa", "bed", "desk", "rug", "plant", "cabinet", "shelf"])
-    """Database categories that stand on the floor when no parent holds them and their points' bottom is
-    below the room's mid-height (it is hidden behind something); higher up they may hang on a wall."""
-    floor_only: list[str] = setting(["bed", "sofa", "chair", "table", "desk", "ottoman", "refrigerator", "rug"])
-    """Database categories that never hang on a wall or float: on a parent, else on the floor."""
 
 
 def mask_distance(mask: np.ndarray, other: np.ndarray) -> float:

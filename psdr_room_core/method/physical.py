@@ -57,39 +57,14 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from psdr_room_core.engine.settings import setting
-
 from .artifacts import Camera, Placement, RoomBox, rotation_y, vec3
 from .labels import ANY, meaning
+from .params import PhysicalParams
 from .silhouette import depth_map, silhouette
 from .sizes import scale_range, size_excess
 from .solids import overlap, solid_of, to_model
 
 log = logging.getLogger("psdr_room")
-
-
-@dataclass
-class PhysicalParams:
-    """Knobs of :func:`settle` (lengths in metres); the ``physical`` settings of place_objects and fit_objects."""
-
-    size_tolerance: float = setting(0.15, ge=0)
-    """How far (log units: 0.15 ≈ 16%) outside its category's sizes a model may be before it is implausible."""
-    duplicate_share: float = setting(0.5, gt=0, le=1)
-    """Two objects sharing this share of the smaller one's volume are one thing found twice."""
-    penetration: float = setting(0.03, ge=0)
-    """Interpenetration allowed (a resting contact measures about one voxel)."""
-    max_shift: float = setting(0.5, ge=0)
-    """Longest horizontal move that resolves a collision."""
-    directions: int = setting(16, ge=1)
-    """Horizontal directions tried for a move."""
-    keep_iou: float = setting(0.5, ge=0, le=1)
-    """A change must keep this IoU of the object's silhouette (seen silhouette, rule 4) with before."""
-    max_growth: float = setting(1.0, ge=0)
-    """The room box grows by at most this beyond each side to hold an object."""
-    hidden_share: float = setting(0.5, ge=0, le=1)
-    """An object showing less than this share of the pixels of its segment it covers alone is hidden."""
-    weak_score: float = setting(0.3, ge=0, le=1)
-    """A guessed object whose prompt scored below this is a weak guess: it yields to any surer object."""
 
 
 @dataclass
@@ -638,6 +613,7 @@ class _Scene:
 
 def settle(
     placements: list[Placement],
+    *,
     room: RoomBox,
     camera: Camera,
     drawn: set[int],

@@ -66,25 +66,25 @@ def register_stages(registry: Registry) -> None:
         "room_fit", f"{STAGES}.room:room_fit", uses=["renderer", "optimizer"], version="2", params=settings.RoomFit
     )
     registry.add_stage(
-        "group_objects", f"{STAGES}.objects:group_objects", uses=["retrieval"], params=settings.GroupObjects
+        "group_objects", f"{STAGES}.objects.group:group_objects", uses=["retrieval"], params=settings.GroupObjects
     )
     registry.add_stage(
         "retrieve_objects",
-        f"{STAGES}.objects:retrieve_objects",
+        f"{STAGES}.objects.retrieve:retrieve_objects",
         uses=["retrieval"],
         version="3",
         params=settings.RetrieveObjects,
     )
     registry.add_stage(
         "place_objects",
-        f"{STAGES}.objects:place_objects",
+        f"{STAGES}.objects.place:place_objects",
         uses=["retrieval"],
         version="4",
         params=settings.PlaceObjects,
     )
     registry.add_stage(
         "fit_objects",
-        f"{STAGES}.objects:fit_objects",
+        f"{STAGES}.objects.fit:fit_objects",
         uses=["renderer", "optimizer"],
         version="4",
         params=settings.FitObjects,

@@ -16,6 +16,7 @@ import torch
 from .artifacts import Camera, Light, MaterialAssignment, PartAppearance, Placement, Placements, RoomBox, vec3
 from .geometry import TriangleMesh, quad_mesh, weld
 from .shading import Surface, linear_to_srgb, planar_uv, srgb_to_linear, texture_transform
+from .visualize import to_uint8
 
 FIXTURE_COLOUR = (0.8, 0.8, 0.8)
 """Linear base colour of window frames."""
@@ -201,4 +202,4 @@ def finished_render(
 def to_srgb8(linear: torch.Tensor | np.ndarray) -> np.ndarray:
     """A linear RGB render [H, W, 3] as displayable sRGB uint8."""
     array = linear.detach().cpu().numpy() if isinstance(linear, torch.Tensor) else np.asarray(linear)
-    return (linear_to_srgb(array) * 255.0 + 0.5).astype(np.uint8)
+    return to_uint8(linear_to_srgb(array))

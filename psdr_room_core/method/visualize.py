@@ -1,11 +1,20 @@
-"""Pictures of artifacts for reports and debugging: segment overlays, projected room edges, depth colour maps."""
+"""Pictures of artifacts for reports and debugging: segment overlays, projected room edges, depth colour maps,
+loss curves, contact sheets, the material stages' crop sheets, the object stages' candidate sheets and posed
+objects' outlines; and :func:`to_uint8`, the one conversion of a float image to 8 bits."""
 
 from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
 
 import cv2
 import numpy as np
 
-from .artifacts import CATEGORIES, Camera, Panoptic, RoomBox
+from psdr_room_core.engine.errors import PsdrRoomError
+
+from .artifacts import CATEGORIES, Camera, Candidate, Panoptic, PartMaterial, Placements, Rect, RoomBox
+from .objects import ObjectQuery
+from .silhouette import silhouette
 
 CATEGORY_COLORS = {
     "wall": (230, 159, 0),
@@ -20,6 +29,11 @@ CATEGORY_COLORS = {
 
 BOX_EDGES = [(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).count("1") == 1]
 """The 12 edges of a box as pairs of corner indices (corners differ in one bit)."""
+
+
+def to_uint8(image: np.ndarray) -> np.ndarray:
+    """A float image (any shape) as 8 bits: clipped to [0, 1], times 255, rounded half up."""
+    return (np.clip(image, 0, 1) * 255 + 0.5).astype(np.uint8)
 
 
 def segment_overlay(rgb8: np.ndarray, panoptic: Panoptic, alpha: float = 0.45, text_scale: float = 0.4) -> np.ndarray:
@@ -117,6 +131,112 @@ def depth_colormap(depth: np.ndarray, valid: np.ndarray) -> np.ndarray:
     return colored
 
 
+def contact_sheet(images: Sequence[tuple[str, np.ndarray]], *, columns: int = 8, font_scale: float = 0.3) -> np.ndarray:
+    """Labelled images (uint8, all the same size) in a grid at most ``columns`` wide, each outlined, its label
+    underneath in OpenCV's ``font_scale`` (wrapped after a '/' when too wide, then shortened): H×W×3 uint8."""
+    if not images:
+        raise PsdrRoomError("contact sheet: no images")
+    h, w = images[0][1].shape[:2]
+
+    def width(text: str) -> int:
+        return cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, font_scale, 1)[0][0]
+
+    def fit(text: str) -> str:
+        if width(text) <= w - 4:
+            return text
+        while len(text) > 1 and width(text + "..") > w - 4:
+            text = text[:-1]
+        return text + ".."
+
+    labels = []
+    for label, _ in images:
+        head, sep, tail = label.rpartition("/")
+        labels.append([fit(label)] if width(label) <= w - 4 or not sep else [fit(head + sep), fit(tail)])
+    line = int(round(22 * font_scale / 0.4 * 1.1)) + 2
+    label_height = line * max(len(lines) for lines in labels) + 3
+    columns = max(1, min(columns, len(images)))
+    rows = (len(images) + columns - 1) // columns
+    sheet = np.full((rows * (h + label_height), columns * w, 3), 255, np.uint8)
+    for index, ((_, image), lines) in enumerate(zip(images, labels)):
+        r, c = divmod(index, columns)
+        y, x = r * (h + label_height), c * w
+        sheet[y : y + h, x : x + w] = image[:, :, :3]
+        cv2.rectangle(sheet, (x, y), (x + w - 1, y + h - 1), (225, 225, 225), 1)
+        for k, text in enumerate(lines):
+            at = (x + 2, y + h + line * (k + 1) - 2)
+            cv2.putText(sheet, text, at, cv2.FONT_HERSHEY_SIMPLEX, font_scale, (20, 20, 20), 1, cv2.LINE_AA)
+    return sheet
+
+
+def fit_in_cell(rgb8: np.ndarray, cell: int, *, centred: bool = True) -> np.ndarray:
+    """A white ``cell``×``cell`` tile holding ``rgb8`` scaled to a long side of ``cell`` (area-averaged when it
+    shrinks, nearest pixel when it grows), centred or in the top-left corner."""
+    scale = cell / max(rgb8.shape[:2])
+    small = cv2.resize(
+        rgb8,
+        (max(1, round(rgb8.shape[1] * scale)), max(1, round(rgb8.shape[0] * scale))),
+        interpolation=cv2.INTER_AREA if scale < 1 else cv2.INTER_NEAREST,
+    )
+    tile = np.full((cell, cell, 3), 255, np.uint8)
+    y0, x0 = ((cell - small.shape[0]) // 2, (cell - small.shape[1]) // 2) if centred else (0, 0)
+    tile[y0 : y0 + small.shape[0], x0 : x0 + small.shape[1]] = small
+    return tile
+
+
+def crop_overlay(rgb8: np.ndarray, *, unclean: np.ndarray, crops: Sequence[tuple[str, Sequence[Rect]]]) -> np.ndarray:
+    """The photo with the ``unclean`` pixels (of the parts' regions: clutter, strong edges) tinted red, and each
+    part's crop windows outlined and named in a colour of its own."""
+    out = rgb8.copy()
+    out[unclean] = (0.5 * out[unclean] + [127, 0, 0]).astype(np.uint8)
+    for k, (name, rects) in enumerate(crops):
+        colour = tuple(
+            int(c) for c in cv2.applyColorMap(np.array([[53 * k % 255]], np.uint8), cv2.COLORMAP_HSV)[0, 0][::-1]
+        )
+        for x0, y0, x1, y1 in rects:
+            cv2.rectangle(out, (x0, y0), (x1 - 1, y1 - 1), colour, 2)
+            cv2.putText(out, name, (x0 + 3, y0 + 12), cv2.FONT_HERSHEY_SIMPLEX, 0.38, colour, 1, cv2.LINE_AA)
+    return out
+
+
+def crop_sheet(
+    rows: Sequence[tuple[str, Any, Any, tuple[float, float, float], PartMaterial]], *, cell: int = 96
+) -> np.ndarray:
+    """One row per crop pair (part name, photo crop and the retrieved material's view of it as [3, H, W] tensors,
+    flat colour, chosen material): the crop, the view at the chosen transform, the flat median colour, and what
+    was chosen."""
+    lines = []
+    for name, crop, view, albedo, chosen in rows:
+        tiles = [
+            fit_in_cell(to_uint8(crop.permute(1, 2, 0).numpy()), cell),
+            fit_in_cell(to_uint8(view.permute(1, 2, 0).numpy()), cell),
+            np.full((cell, cell, 3), np.round(np.asarray(albedo) * 255), np.uint8),
+        ]
+        caption = np.full((cell, 3 * cell, 3), 255, np.uint8)
+        text = [
+            name[:30],
+            f"-> {chosen.material or 'homogeneous'}",
+            f"scale {chosen.scale:g} rot {chosen.rotation:g}",
+            f"tex {chosen.scores.get('texture_loss', float('nan')):.3f} flat {chosen.scores.get('homogeneous_loss', float('nan')):.3f}",
+            f"sim {chosen.scores.get('similarity', float('nan')):.3f}",
+        ]
+        for i, line in enumerate(text):
+            cv2.putText(caption, line, (4, 16 + 17 * i), cv2.FONT_HERSHEY_SIMPLEX, 0.42, (0, 0, 0), 1, cv2.LINE_AA)
+        lines.append(np.hstack(tiles + [caption]))
+    return np.vstack(lines)
+
+
+def crop_pairs(
+    photo: np.ndarray, start: np.ndarray, final: np.ndarray, rects: Sequence[Sequence[int]], *, cell: int = 96
+) -> np.ndarray:
+    """Fig. 7: each crop window of the photo beside the same window of the initial and of the final render (sRGB
+    float images [H, W, 3])."""
+
+    def tile(image: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
+        return fit_in_cell(to_uint8(image[y0:y1, x0:x1]), cell, centred=False)
+
+    return np.vstack([np.hstack([tile(image, *rect) for image in (photo, start, final)]) for rect in rects])
+
+
 def plot_curves(curves: dict[str, list[float]], size: tuple[int, int] = (520, 260), title: str = "") -> np.ndarray:
     """A line plot (RGB uint8) of curves against the iteration, each scaled to its own range; the legend
     gives each curve's first and last value."""
@@ -142,3 +262,82 @@ def plot_curves(curves: dict[str, list[float]], size: tuple[int, int] = (520, 26
             plot, label, (width - right + 6, top + 16 * (k + 1)), cv2.FONT_HERSHEY_SIMPLEX, 0.36, color, 1, cv2.LINE_AA
         )
     return plot
+
+
+def candidate_sheet(
+    queries: list[ObjectQuery], ranked: dict[int, list[Candidate]], retriever: Any, cell: int = 96
+) -> np.ndarray | None:
+    """One row per object: its crop, then each candidate's thumbnail (``retriever.thumbnail``) with its id and
+    score."""
+    rows = []
+    for q in queries:
+        tiles = [_captioned_tile(q.crop, f"{q.segment_id}: {q.label}", cell)]
+        tiles += [
+            _captioned_tile(retriever.thumbnail(c.model_id), f"{c.model_id.split('/')[-1]} {c.score:.2f}", cell)
+            for c in ranked[q.segment_id]
+        ]
+        row = np.full((cell + 14, cell * (1 + max(len(r) for r in ranked.values())), 3), 255, np.uint8)
+        row[:, : cell * len(tiles)] = np.hstack(tiles)
+        rows.append(row)
+    return np.vstack(rows) if rows else None
+
+
+def _captioned_tile(rgb8: np.ndarray, caption: str, cell: int) -> np.ndarray:
+    """``rgb8`` area-resized to a long side of ``cell``, centred in a white tile with ``caption`` under it."""
+    scale = cell / max(rgb8.shape[:2])
+    small = cv2.resize(
+        rgb8, (max(1, round(rgb8.shape[1] * scale)), max(1, round(rgb8.shape[0] * scale))), interpolation=cv2.INTER_AREA
+    )
+    tile = np.full((cell + 14, cell, 3), 255, np.uint8)
+    y0, x0 = (cell - small.shape[0]) // 2, (cell - small.shape[1]) // 2
+    tile[y0 : y0 + small.shape[0], x0 : x0 + small.shape[1]] = small
+    cv2.putText(tile, caption[:18], (2, cell + 11), cv2.FONT_HERSHEY_SIMPLEX, 0.32, (0, 0, 0), 1, cv2.LINE_AA)
+    return tile
+
+
+def placement_outlines(rgb8: np.ndarray, camera: Camera, room: RoomBox, placements: Placements) -> np.ndarray:
+    """Each placed object's silhouette outlined over the image in a colour of its own, named by its segment id,
+    model and support."""
+    out = rgb8.copy()
+    c2w = np.asarray(room.camera_to_world)
+    for k, p in enumerate(placements.objects):
+        mask = silhouette(camera, c2w, p.world_vertices(), p.mesh.faces).astype(np.uint8)
+        contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+        colour = tuple(
+            int(c) for c in cv2.applyColorMap(np.array([[37 * k % 255]], np.uint8), cv2.COLORMAP_HSV)[0, 0][::-1]
+        )
+        cv2.drawContours(out, contours, -1, colour, 2)
+        if contours:
+            x, y = contours[0][0][0]
+            cv2.putText(
+                out,
+                f"{p.segment_id}:{p.model_id.split('/')[-1]} ({p.support})",
+                (int(x), max(12, int(y) - 4)),
+                cv2.FONT_HERSHEY_SIMPLEX,
+                0.4,
+                colour,
+                1,
+                cv2.LINE_AA,
+            )
+    return out
+
+
+def object_fit_pictures(
+    rgb8: np.ndarray,
+    panoptic: Panoptic,
+    camera: Camera,
+    room: RoomBox,
+    *,
+    before: Placements,
+    after: Placements,
+    history: list[dict[str, float]],
+) -> dict[str, np.ndarray]:
+    """The object fit's pictures: the objects outlined over the faint segmentation ``before`` and ``after`` it,
+    and its ``loss`` curves (of ``history``, the per-iteration log)."""
+    base = segment_overlay(rgb8, panoptic, alpha=0.25)
+    curves = {k: [h[k] for h in history] for k in history[0]}
+    return {
+        "before": placement_outlines(base, camera, room, before),
+        "after": placement_outlines(base, camera, room, after),
+        "loss": plot_curves(curves, title="fit_objects"),
+    }

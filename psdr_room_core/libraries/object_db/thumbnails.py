@@ -1,4 +1,4 @@
-"""Thumbnails of database models, rendered with Mitsuba and cached; contact sheets.
+"""Thumbnails of database models, rendered with Mitsuba and cached.
 
 The paper searches 3D-FUTURE by encoding the renderings the database ships (§4.3 "Model search"); our
 databases have none, so :class:`ThumbnailRenderer` makes them: the mesh's groups in their base colours
@@ -24,6 +24,7 @@ from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.files import write_whole
 from psdr_room_core.method.artifacts import ObjectMesh
 from psdr_room_core.method.shading import linear_to_srgb, srgb_to_linear
+from psdr_room_core.method.visualize import to_uint8
 
 VIEWS: tuple[tuple[float, float], ...] = ((30.0, 22.0), (-40.0, 22.0), (150.0, 22.0), (-130.0, 22.0))
 """(azimuth, elevation) in degrees: front-right, front-left, back-right, back-left, at one elevation."""
@@ -152,7 +153,7 @@ class ThumbnailRenderer:
             rgba = np.array(mi.render(loaded, sensor=sensor, seed=k), dtype=np.float64)
             alpha = np.clip(rgba[..., 3:4], 0.0, 1.0)
             rgb = rgba[..., :3] + (1.0 - alpha)  # premultiplied (hidden background is black) over white
-            images.append((linear_to_srgb(rgb) * 255.0 + 0.5).astype(np.uint8))
+            images.append(to_uint8(linear_to_srgb(rgb)))
         return images
 
 
@@ -236,50 +237,3 @@ def build_thumbnails(
         thumbnails_for(db, record.id, renderer)
         rendered += 1
     return rendered, cached
-
-
-def contact_sheet(images: Sequence[tuple[str, np.ndarray]], columns: int = 8, font_scale: float = 0.3) -> np.ndarray:
-    """Images (all the same size) in a grid with their labels underneath (wrapped after a '/' when too
-    wide, then shortened): H×W×3 uint8."""
-    import cv2
-
-    if not images:
-        raise PsdrRoomError("contact sheet: no images (is the database empty?)")
-    h, w = images[0][1].shape[:2]
-
-    def width(text: str) -> int:
-        return cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, font_scale, 1)[0][0]
-
-    def fit(text: str) -> str:
-        if width(text) <= w - 4:
-            return text
-        while len(text) > 1 and width(text + "..") > w - 4:
-            text = text[:-1]
-        return text + ".."
-
-    labels = []
-    for label, _ in images:
-        head, sep, tail = label.rpartition("/")
-        labels.append([fit(label)] if width(label) <= w - 4 or not sep else [fit(head + sep), fit(tail)])
-    line = int(round(22 * font_scale / 0.4 * 1.1)) + 2
-    label_height = line * max(len(lines) for lines in labels) + 3
-    columns = max(1, min(columns, len(images)))
-    rows = (len(images) + columns - 1) // columns
-    sheet = np.full((rows * (h + label_height), columns * w, 3), 255, np.uint8)
-    for index, ((_, image), lines) in enumerate(zip(images, labels)):
-        r, c = divmod(index, columns)
-        y, x = r * (h + label_height), c * w
-        sheet[y : y + h, x : x + w] = image[:, :, :3]
-        cv2.rectangle(sheet, (x, y), (x + w - 1, y + h - 1), (225, 225, 225), 1)
-        for k, text in enumerate(lines):
-            cv2.putText(
-                sheet,
-                text,
-                (x + 2, y + h + line * (k + 1) - 2),
-                cv2.FONT_HERSHEY_SIMPLEX,
-                font_scale,
-                (20, 20, 20),
-                1,
-                cv2.LINE_AA,
-            )
-    return sheet

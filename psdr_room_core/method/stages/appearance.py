@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, replace
+from functools import partial
 from typing import Any
 
 import cv2
@@ -32,7 +33,7 @@ from ..image_metrics import downsampled, flip, rmse, ssim, ssim_map
 from ..material_priors import LUMINANCE, PaintPrior, painted, within_paint
 from ..rgb_scene import build_scene, finished_render, graph_maps, initial_parts, part_meshes, render_part_ids
 from ..shading import linear_to_srgb, srgb_to_linear
-from ..visualize import plot_curves
+from ..visualize import crop_pairs, plot_curves, to_uint8
 from .settings import FitAppearance
 
 log = logging.getLogger("psdr_room")
@@ -78,11 +79,12 @@ class AppearanceModel:
         parts: list[PartAppearance],
         lights: Lights,
         library: Any,
+        *,
         map_size: int,
+        radiance_range: float,
+        colour_range: float,
+        paint: PaintPrior,
         free: set[str] | None = None,
-        radiance_range: float = 16.0,
-        colour_range: float = 2.0,
-        paint: PaintPrior | None = None,
     ) -> None:
         self.parts = parts
         self.lights = lights
@@ -92,7 +94,7 @@ class AppearanceModel:
         self.plain: set[str] = set()
         self.log_range = float(np.log(max(radiance_range, 1.0 + 1e-6)))
         self.log_colour_range = float(np.log(max(colour_range, 1.0 + 1e-6)))
-        self.paint = paint or PaintPrior()
+        self.paint = paint
         self.theta: dict[str, torch.Tensor] = {}
         self.chroma: dict[str, torch.Tensor] = {}
         """Initial chromaticity of each optimised homogeneous wall and the ceiling (see :func:`paint_colour`)."""
@@ -233,14 +235,8 @@ def fit_appearance(
     (:func:`eq4_targets`), so the photo itself scores zero on every term. ``T`` is the ``texture`` descriptor
     on the crop pairs, and ``P`` the paint prior on procedural walls and ceilings
     (:meth:`AppearanceModel.paint_penalty`). All terms compare sRGB values; the down-sampled images and the
-    means are averaged in linear light first. Parameters: see
-    :class:`AppearanceModel` (procedural maps evaluated at ``map_size``); ``learning_rates`` per group
-    (graph, base_color, roughness, specular, radiance, light_colour), ``iterations``, ``spp`` / ``grad_spp`` (primal and
-    gradient samples per pixel), ``final_spp`` (the final render), ``min_region_px`` (smaller parts get no
-    colour term, and are not optimised), ``crops_per_part`` (largest first), ``max_crop_aspect`` (see
-    :func:`squarish`), ``radiance_range`` (how far each light's intensity may move from its initial one),
-    ``colour_range`` (how far the lights' shared colour may move from its initial one, per channel) and ``paint``
-    (the walls' and ceiling's range: :class:`~psdr_room_core.method.material_priors.PaintPrior`).
+    means are averaged in linear light first. The ``optimizer`` moves the parameters of :class:`AppearanceModel`
+    of the parts with a colour term (:func:`eq4_targets`), at ``learning_rates`` per group.
 
     The init and final renders (``final_spp``) are pictures, not loss terms: the ``denoiser`` cleans them with
     the scene's albedo and normal. The log's summary has their RMSE (1/8 size), SSIM and ꟻLIP against the photo
@@ -264,34 +260,24 @@ def fit_appearance(
     targets = eq4_targets(image, camera, c2w, materials, meshes, scene.meshes, renderer, descriptor, settings, width)
     # Parts the camera does not see keep their initial material: only indirect light shows them, and it
     # trades off freely against the lights' radiance.
+    ranges = {"radiance_range": settings.radiance_range, "colour_range": settings.colour_range}
     model = AppearanceModel(
-        parts,
-        lights,
-        library,
-        settings.map_size,
-        free=targets.seen,
-        radiance_range=settings.radiance_range,
-        colour_range=settings.colour_range,
-        paint=settings.paint,
+        parts, lights, library, map_size=settings.map_size, free=targets.seen, paint=settings.paint, **ranges
     )
     # optimise eq. 4
     loss = eq4_loss(model, geometry, targets, descriptor, settings)
     rates = {name: getattr(settings.learning_rates, group) for name, group in model.group.items()}
+    optimizer, progress = ctx.impl("optimizer", Optimizer), partial(ctx.progress, total=settings.iterations)
     history = untimed(
-        ctx.impl("optimizer", Optimizer).minimize(
-            model.theta,
-            rates,
-            loss,
-            settings.iterations,
-            lambda it: ctx.progress(it, total=settings.iterations),
-            stop=settings.convergence,
-        ),
+        optimizer.minimize(model.theta, rates, loss, settings.iterations, progress, stop=settings.convergence),
         ctx.timings,
     )
     # decide: the final pictures, and which patterned parts read better plain
     final_spp, denoiser = settings.final_spp, ctx.impl("denoiser", Denoiser)
     with torch.no_grad():
-        initial = AppearanceModel(parts, lights, library, model.map_size, targets.seen, paint=settings.paint).inputs()
+        initial = AppearanceModel(
+            parts, lights, library, map_size=model.map_size, free=targets.seen, paint=settings.paint, **ranges
+        ).inputs()
         start = picture(geometry, denoiser, initial, final_spp, 10**6)
         final = picture(geometry, denoiser, model.inputs(), final_spp, 10**6 + 1)
         if settings.plain_check:
@@ -459,18 +445,17 @@ def appearance_report(
         metrics["flip"],
         metrics["denoiser"],
     )
-    as8 = lambda x: (np.clip(x, 0, 1) * 255 + 0.5).astype(np.uint8)  # noqa: E731
     curves: dict[str, list[float]] = {
         k: [h[k] for h in history]
         for k in ("loss", "image", "colour", "texture", "paint")
         if history and k in history[0]
     }
-    images = {"photo_init_final": np.hstack([as8(photo), as8(start_clean), as8(final_clean)])}
+    images = {"photo_init_final": np.hstack([to_uint8(photo), to_uint8(start_clean), to_uint8(final_clean)])}
     if targets.crops:
-        images["crop_pairs"] = _crop_pairs(photo, start_clean, final_clean, [c[0] for c in targets.crops])
+        images["crop_pairs"] = crop_pairs(photo, start_clean, final_clean, [c[0] for c in targets.crops])
     if curves:
         images["loss"] = plot_curves(curves, title="fit_appearance (eq. 4)")
-    appearance = SceneAppearance(parts=parts, radiance=radiance, images={"render": as8(final_clean)})
+    appearance = SceneAppearance(parts=parts, radiance=radiance, images={"render": to_uint8(final_clean)})
     return {"appearance": appearance, "log": OptimizationLog(history=history, images=images, summary=metrics)}
 
 
@@ -544,25 +529,3 @@ def squarish(rect: list[int], max_aspect: float) -> list[int]:
         y0 += (h - cut) // 2
         y1 = y0 + cut
     return [x0, y0, x1, y1]
-
-
-def _crop_pairs(
-    photo: np.ndarray, start: np.ndarray, final: np.ndarray, rects: list[list[int]], cell: int = 96
-) -> np.ndarray:
-    """Fig. 7: each crop of the photo beside the render's crop at initialisation and after the fit."""
-    rows = []
-    for x0, y0, x1, y1 in rects:
-        tiles = []
-        for picture in (photo, start, final):
-            crop = (np.clip(picture[y0:y1, x0:x1], 0, 1) * 255 + 0.5).astype(np.uint8)
-            s = cell / max(crop.shape[:2])
-            small = cv2.resize(
-                crop,
-                (max(1, round(crop.shape[1] * s)), max(1, round(crop.shape[0] * s))),
-                interpolation=cv2.INTER_AREA if s < 1 else cv2.INTER_NEAREST,
-            )
-            tile = np.full((cell, cell, 3), 255, np.uint8)
-            tile[: small.shape[0], : small.shape[1]] = small
-            tiles.append(tile)
-        rows.append(np.hstack(tiles))
-    return np.vstack(rows)

@@ -39,6 +39,7 @@ from ..gltf import scene_glb
 from ..rgb_scene import RgbScene, build_scene, part_meshes
 from ..shading import linear_to_srgb
 from ..usd import scene_usda
+from ..visualize import to_uint8
 from .settings import ExportScene
 
 CV_TO_MITSUBA = np.diag([-1.0, -1.0, 1.0, 1.0])
@@ -107,7 +108,8 @@ def _texture(name: str, channel: str, value: Any, files: dict[str, bytes]) -> li
 
 
 def _png8(image: np.ndarray) -> bytes:
-    data = (np.clip(image, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+    """A float image in [0, 1] (grey or RGB) as an 8-bit PNG file."""
+    data = to_uint8(image)
     ok, encoded = cv2.imencode(".png", np.ascontiguousarray(data[..., ::-1] if data.ndim == 3 else data))
     assert ok
     return encoded.tobytes()
@@ -256,14 +258,11 @@ def export_scene(
     appearance: SceneAppearance,
 ) -> SceneFiles:
     """Write the fitted scene: ``scene.xml`` (Mitsuba 3; ``mitsuba.load_file`` renders what ``fit_appearance``
-    rendered) with its meshes (PLY, texture coordinates on mapped parts) and the procedural parts' maps
-    baked at ``texture_size`` (``textures/``); ``scene.glb`` (glTF 2.0, when ``glb``); ``scene.usda``
-    (OpenUSD, when ``usd``); ``appearance.json``
-    (camera, every part's material with its graph parameters, the lights: what ``psdr-room-edit``
-    changes); and the segmented point cloud in world coordinates (``point_cloud.ply``).
-
-    Params: ``spp``, ``max_depth`` (the XML's path tracer defaults), ``texture_size``, ``glb``, ``usd``.
-    """
+    rendered; its path tracer takes ``spp`` samples and ``max_depth`` bounces unless told otherwise) with its
+    meshes (PLY, texture coordinates on mapped parts) and the procedural parts' maps baked at ``texture_size``
+    (``textures/``); ``scene.glb`` (glTF 2.0, when ``glb``); ``scene.usda`` (OpenUSD, when ``usd``);
+    ``appearance.json`` (camera, every part's material with its graph parameters, the lights: what
+    ``psdr-room-edit`` changes); and the segmented point cloud in world coordinates (``point_cloud.ply``)."""
     settings = ctx.settings(ExportScene)
     lit = [Light(l.name, l.kind, l.mesh, appearance.radiance.get(l.name, l.radiance), l.part) for l in lights.lights]
     scene = build_scene(

@@ -4,6 +4,7 @@ material retrieval with voting across crops, and the texture-transform search.""
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
+from functools import cached_property
 from typing import Any
 
 import cv2
@@ -17,9 +18,18 @@ from ..artifacts import Camera, Image, MaterialAssignment, Panoptic, PartMateria
 from ..capabilities import MaterialGraph, Renderer, TextureDescriptor
 from ..crops import crop_windows, crops_file, read_crops
 from ..geometry import TriangleMesh
+from ..material_search import MaterialIndex, TransformFit, flat_image, search_transform, surface_coordinates, vote
 from ..rgb_scene import object_parts, render_part_ids, room_quads
 from ..surface_colours import clean_pixels, dominant_colour, texture_energy
+from ..visualize import crop_overlay, crop_sheet
 from .settings import AssignMaterials
+
+Colour = tuple[float, float, float]
+CropView = tuple[torch.Tensor, Any, tuple[torch.Tensor, torch.Tensor]]
+"""A crop window of the photo: its pixels as a [3, h, w] tensor and as an (h, w, 3) array (a descriptor once
+described), and the surface coordinates of its pixels."""
+SheetRow = tuple[str, torch.Tensor, torch.Tensor, Colour, PartMaterial]
+"""A row of the crop sheet: part, photo crop, the chosen material's view of it, flat colour, chosen material."""
 
 
 @dataclass
@@ -74,32 +84,63 @@ def assign_materials(
     eroded by ``erode_px`` (up to ``max_crops``, none with a side under ``min_crop_px``), unless the user's
     ``<photo>.crops.yaml`` gives them (:mod:`..crops`). The albedo is the median colour of the clean pixels
     (else of the region, else of the segment); a wall or the ceiling the photo does not show takes the
-    colour most clean wall pixels share (:func:`~..surface_colours.dominant_colour`), and only with no wall
-    in view the ``room_colours`` default. The assignment's ``samples`` map keeps which pixels each median was
-    taken over: ``fit_appearance`` compares the render with it there.
+    colour most clean wall pixels share (:func:`walls_colour`), and only with no wall in view the
+    ``room_colours`` default. The assignment's ``samples`` map keeps which pixels each median was taken over:
+    ``fit_appearance`` compares the render with it there.
 
     A part is homogeneous (roughness ``roughness``) when it has no crop, when its crops are plain (median
     :func:`~..surface_colours.texture_energy` under ``flat_energy``), when its best retrieved graph's
     similarity is under ``min_similarity``, or when a flat colour matches its crops better than the
     retrieved graph at its best transform. Otherwise each crop ranks the ``material_graph`` library by
     ``texture`` descriptor distance (``top_k`` kept), the ranks are voted across crops, and the winner's
-    texture transform is searched over ``scales`` × ``rotations``. A room side ranks only the graphs of its
-    ``room_categories`` (a floor is never leather, a wall never brass; homogeneous when the library has none);
-    an object's parts rank them all. Params also: ``render_width``, ``map_size`` (texture side evaluated for
-    the search).
+    texture transform is searched over ``scales`` × ``rotations`` (:class:`Retrieval`). A room side ranks only
+    the graphs of its ``room_categories`` (a floor is never leather, a wall never brass; homogeneous when the
+    library has none); an object's parts rank them all.
     """
-    from ..material_search import MaterialIndex, flat_image, search_transform, surface_coordinates, vote
-
     settings = ctx.settings(AssignMaterials)
+    # set up: the parts, what the photo shows of each and where to crop it, and the visible walls' colour
     parts = scene_parts(room, placements, panoptic, asdict(settings.room_colours))
+    meshes = {p.name: p.mesh for p in parts}
     ids, depth = render_part_ids(
-        ctx.impl("renderer", Renderer),
-        camera,
-        room.camera_to_world,
-        {p.name: p.mesh for p in parts},
-        settings.render_width,
+        ctx.impl("renderer", Renderer), camera, room.camera_to_world, meshes, settings.render_width
     )
     rgb8 = image.to_uint8()
+    labels, clean = surface_regions(parts, ids, rgb8, settings=settings)
+    _apply_user_crops(ctx, image, parts, ids)
+    rgb = rgb8.astype(np.float32) / 255.0
+    photo = torch.from_numpy(rgb).permute(2, 0, 1).contiguous()
+    library, descriptor = ctx.impl("material_graph", MaterialGraph), ctx.impl("texture", TextureDescriptor)
+    retrieval = Retrieval(library, descriptor, settings, set(room_quads(room)))
+    c2w = np.asarray(room.camera_to_world)
+    height = heights(camera, c2w, depth)
+    walls = walls_colour(rgb8, parts, height, clear_height=settings.clear_height, min_px=settings.min_crop_px**2)
+    # search: each part's colour on its pixels, its material on its crops
+    assigned, sheet_rows = [], []
+    samples = np.full(labels.shape, -1, np.int16)
+    for k, part in enumerate(ctx.progress(parts, total=len(parts))):
+        unseen_side = part.name.startswith(("wall", "ceiling")) and not part.region.any()
+        source = next((m for m in (part.clean, part.region) if m is not None and m.any()), None)
+        if source is not None:
+            samples[source] = k  # regions are disjoint
+        albedo = walls if unseen_side and walls else median_colour(rgb, [source, part.target], part.fallback)
+        crops = crop_views(part.crops, photo, rgb, camera=camera, camera_to_world=c2w, depth=depth)
+        material, rows = choose_material(part, albedo, crops, retrieval, from_walls=bool(unseen_side and walls))
+        assigned.append(material)
+        sheet_rows += rows
+    # report: the crop windows over the photo, and the crop pairs with what each part was given
+    unclean = (labels >= 0) & ~clean
+    images = {"crops": crop_overlay(rgb8, unclean=unclean, crops=[(p.name, p.crops) for p in parts if p.crops])}
+    if sheet_rows:
+        images["crop_pairs"] = crop_sheet(sheet_rows)
+    return MaterialAssignment(parts=assigned, images=images, samples=samples)
+
+
+def surface_regions(
+    parts: list[ScenePart], ids: np.ndarray, rgb8: np.ndarray, *, settings: AssignMaterials
+) -> tuple[np.ndarray, np.ndarray]:
+    """Set each part's region (rendered part ``ids`` ∩ target), its clean pixels and its crop windows (the
+    largest rectangles in its clean pixels eroded by ``erode_px``). Returns the part index of each region pixel
+    (-1 elsewhere) and the clean-pixel mask."""
     labels = np.full(ids.shape, -1, np.int64)
     for k, part in enumerate(parts):
         part.region = (ids == k) & part.target
@@ -112,75 +153,121 @@ def assign_materials(
         part.clean = part.region & clean
         eroded = cv2.erode(part.clean.astype(np.uint8), kernel) > 0
         part.crops = tuple(crop_windows(eroded, settings.max_crops, side, side * side))
-    _apply_user_crops(ctx, image, parts, ids)
+    return labels, clean
 
-    rgb = rgb8.astype(np.float32) / 255.0
-    photo = torch.from_numpy(rgb).permute(2, 0, 1).contiguous()
-    library, descriptor = ctx.impl("material_graph", MaterialGraph), ctx.impl("texture", TextureDescriptor)
-    map_size = settings.map_size
-    index = None
-    c2w = np.asarray(room.camera_to_world)
-    walls_clean = np.zeros(labels.shape, bool)
+
+def walls_colour(
+    rgb8: np.ndarray, parts: list[ScenePart], height: np.ndarray, *, clear_height: float, min_px: int
+) -> Colour | None:
+    """The colour most clean wall pixels share (:func:`~..surface_colours.dominant_colour`), of those higher than
+    ``clear_height`` above the floor when at least ``min_px`` are (furniture stands lower); None when no clean
+    pixel of a wall is seen."""
+    walls_clean = np.zeros(height.shape, bool)
     for part in parts:
         if part.name.startswith("wall"):
             walls_clean |= part.clean
-    upper = walls_clean & (heights(camera, c2w, depth) > settings.clear_height)
-    walls = dominant_colour(rgb8, upper if upper.sum() >= side * side else walls_clean) if walls_clean.any() else None
-    roughness = settings.roughness
-    categories = {side: set(names) for side, names in asdict(settings.room_categories).items()}
-    room_sides = set(room_quads(room))
-    assigned, sheet_rows = [], []
-    samples = np.full(labels.shape, -1, np.int16)
-    for k, part in enumerate(ctx.progress(parts, total=len(parts))):
-        unseen_side = part.name.startswith(("wall", "ceiling")) and not part.region.any()
-        source = next((m for m in (part.clean, part.region) if m is not None and m.any()), None)
-        if source is not None:
-            samples[source] = k  # regions are disjoint
-        albedo = walls if unseen_side and walls else median_colour(rgb, [source, part.target], part.fallback)
-        crops = []
-        for rect in part.crops:
-            coords = surface_coordinates(camera, c2w, depth, rect)
-            if coords is not None:
-                x0, y0, x1, y1 = rect
-                crops.append((photo[:, y0:y1, x0:x1], rgb[y0:y1, x0:x1], coords))
-        if not crops:
-            reason = (
-                "no rendered depth in its crops"
-                if part.crops
-                else "unseen: the visible walls' colour"
-                if unseen_side and walls
-                else "no crop: the photo shows too little of it"
-            )
-            assigned.append(PartMaterial(part.name, "homogeneous", albedo, roughness, reason=reason))
-            continue
-        energy = float(np.median([texture_energy(c) for _, c, _ in crops]))
-        common = dict(part=part.name, albedo=albedo, roughness=roughness, crops=tuple(part.crops))
-        if energy < settings.flat_energy:
-            assigned.append(
-                PartMaterial(
-                    kind="homogeneous",
-                    scores={"texture_energy": energy},
-                    reason=f"plain: texture energy {energy:.3f} < flat_energy",
-                    **common,
-                )
-            )
-            continue
-        if index is None:
-            index = MaterialIndex.build(library, descriptor, map_size)
-        wanted = categories[part.name.split("_")[0]] if part.name in room_sides else None
-        allowed = torch.tensor(
-            [wanted is None or library.material(n).category in wanted for n in index.names], dtype=torch.bool
+    upper = walls_clean & (height > clear_height)
+    return dominant_colour(rgb8, upper if upper.sum() >= min_px else walls_clean) if walls_clean.any() else None
+
+
+def crop_views(
+    rects: tuple[Rect, ...],
+    photo: torch.Tensor,
+    rgb: np.ndarray,
+    *,
+    camera: Camera,
+    camera_to_world: np.ndarray,
+    depth: np.ndarray,
+) -> list[CropView]:
+    """The crop windows with rendered depth, each with its pixels of the photo ([3, H, W] ``photo`` and
+    (H, W, 3) ``rgb``) and their surface coordinates (:func:`~..material_search.surface_coordinates`)."""
+    crops = []
+    for rect in rects:
+        coords = surface_coordinates(camera, camera_to_world, depth, rect)
+        if coords is not None:
+            x0, y0, x1, y1 = rect
+            crops.append((photo[:, y0:y1, x0:x1], rgb[y0:y1, x0:x1], coords))
+    return crops
+
+
+def choose_material(
+    part: ScenePart, albedo: Colour, crops: list[CropView], retrieval: Retrieval, *, from_walls: bool
+) -> tuple[PartMaterial, list[SheetRow]]:
+    """A part's material (its colour ``albedo``, taken ``from_walls`` or from its own pixels) and its rows of the
+    crop sheet: homogeneous without crops, with plain crops, without a library material of its categories or one
+    similar enough, or when a flat colour matches its crops better than the best material at its best
+    transform; else that material, procedural."""
+    settings = retrieval.settings
+    if not crops:
+        reason = (
+            "no rendered depth in its crops"
+            if part.crops
+            else "unseen: the visible walls' colour"
+            if from_walls
+            else "no crop: the photo shows too little of it"
         )
-        if not allowed.any():
-            assigned.append(
-                PartMaterial(
-                    kind="homogeneous",
-                    scores={"texture_energy": energy},
-                    reason=f"no library material of the categories {sorted(wanted or ())}",
-                    **common,
-                )
-            )
-            continue
+        return PartMaterial(part.name, "homogeneous", albedo, settings.roughness, reason=reason), []
+    energy = float(np.median([texture_energy(c) for _, c, _ in crops]))
+    common: dict[str, Any] = dict(part=part.name, albedo=albedo, roughness=settings.roughness, crops=tuple(part.crops))
+    if energy < settings.flat_energy:
+        reason = f"plain: texture energy {energy:.3f} < flat_energy"
+        return PartMaterial(kind="homogeneous", scores={"texture_energy": energy}, reason=reason, **common), []
+    allowed = retrieval.allowed(part.name)
+    if not allowed.any():
+        reason = f"no library material of the categories {sorted(retrieval.categories(part.name) or ())}"
+        return PartMaterial(kind="homogeneous", scores={"texture_energy": energy}, reason=reason, **common), []
+    described, ranked, homogeneous_loss = retrieval.rank(crops, albedo, allowed)
+    name, best_similarity = ranked[0]
+    common["candidates"] = tuple((n, round(s, 4)) for n, s in ranked[:5])
+    scores = {"texture_energy": energy, "similarity": best_similarity, "homogeneous_loss": homogeneous_loss}
+    if best_similarity < settings.min_similarity:
+        reason = f"best similarity {best_similarity:.3f} < min_similarity"
+        return PartMaterial(kind="homogeneous", scores=scores, reason=reason, **common), []
+    fit = retrieval.transform(name, described)
+    scores["texture_loss"] = fit.loss
+    if fit.loss >= homogeneous_loss:
+        reason = f"a flat colour matches better than {name}"
+        chosen = PartMaterial(kind="homogeneous", scores=scores, reason=reason, **common)
+    else:
+        common.update(material=name, scale=fit.scale, rotation=fit.rotation)
+        chosen = PartMaterial(kind="procedural", scores=scores, reason="retrieved", **common)
+    return chosen, [(part.name, crop, view, albedo, chosen) for (crop, _, _), view in zip(described, fit.views)]
+
+
+@dataclass
+class Retrieval:
+    """The ``material_graph`` library searched by ``texture`` descriptor for a part's crops (§4.4): its index is
+    built at the first textured part."""
+
+    library: MaterialGraph
+    descriptor: TextureDescriptor
+    settings: AssignMaterials
+    room_sides: set[str]
+
+    @cached_property
+    def index(self) -> MaterialIndex:
+        return MaterialIndex.build(self.library, self.descriptor, self.settings.map_size)
+
+    def categories(self, part: str) -> set[str] | None:
+        """The library categories a room side may take (``room_categories``); None (all) for an object's part."""
+        if part not in self.room_sides:
+            return None
+        return set(asdict(self.settings.room_categories)[part.split("_")[0]])
+
+    def allowed(self, part: str) -> torch.Tensor:
+        """[M] bool: which of the index's materials the part may take."""
+        wanted = self.categories(part)
+        names = self.index.names
+        return torch.tensor(
+            [wanted is None or self.library.material(n).category in wanted for n in names], dtype=torch.bool
+        )
+
+    def rank(
+        self, crops: list[CropView], albedo: Colour, allowed: torch.Tensor
+    ) -> tuple[list[CropView], list[tuple[str, float]], float]:
+        """The crops with their descriptors, the ``allowed`` materials voted across the crops (each crop's
+        ``top_k`` nearest), and the flat colour's mean descriptor distance to the crops."""
+        descriptor, index = self.descriptor, self.index
         with torch.no_grad():
             described = [(crop, descriptor.describe(crop), coords) for crop, _, coords in crops]
             flats = [
@@ -190,60 +277,16 @@ def assign_materials(
             per_crop = []
             for _, target, _ in described:
                 distances = torch.where(allowed, index.distances(descriptor, target), torch.inf)
-                order = torch.argsort(distances)[: min(settings.top_k, int(allowed.sum()))].tolist()
+                order = torch.argsort(distances)[: min(self.settings.top_k, int(allowed.sum()))].tolist()
                 per_crop.append([(index.names[i], index.similarity(float(distances[i]))) for i in order])
-        ranked = vote(per_crop)
-        name, best_similarity = ranked[0]
-        homogeneous_loss = float(np.mean(flats))
-        common["candidates"] = tuple((n, round(s, 4)) for n, s in ranked[:5])
-        scores = {"texture_energy": energy, "similarity": best_similarity, "homogeneous_loss": homogeneous_loss}
-        if best_similarity < settings.min_similarity:
-            assigned.append(
-                PartMaterial(
-                    kind="homogeneous",
-                    scores=scores,
-                    reason=f"best similarity {best_similarity:.3f} < min_similarity",
-                    **common,
-                )
-            )
-            continue
-        material = library.material(name)
-        fit = search_transform(
-            library,
-            descriptor,
-            library.appearance(name, map_size),
-            float(material.tile_size),
-            described,
-            settings.scales,
-            settings.rotations,
-        )
-        scores["texture_loss"] = fit.loss
-        if fit.loss >= homogeneous_loss:
-            assigned.append(
-                PartMaterial(
-                    kind="homogeneous", scores=scores, reason=f"a flat colour matches better than {name}", **common
-                )
-            )
-        else:
-            assigned.append(
-                PartMaterial(
-                    kind="procedural",
-                    material=name,
-                    scale=fit.scale,
-                    rotation=fit.rotation,
-                    scores=scores,
-                    reason="retrieved",
-                    **common,
-                )
-            )
-        sheet_rows += [
-            (part.name, crop, view, albedo, assigned[-1]) for (crop, _, _), view in zip(described, fit.views)
-        ]
-    return MaterialAssignment(
-        parts=assigned,
-        images={"crops": crop_overlay(rgb8, parts), **({"crop_pairs": crop_sheet(sheet_rows)} if sheet_rows else {})},
-        samples=samples,
-    )
+        return described, vote(per_crop), float(np.mean(flats))
+
+    def transform(self, name: str, described: list[CropView]) -> TransformFit:
+        """Material ``name``'s best texture transform on the described crops, of ``scales`` × ``rotations``."""
+        library, settings = self.library, self.settings
+        tile = float(library.material(name).tile_size)
+        look = library.appearance(name, settings.map_size)
+        return search_transform(library, self.descriptor, look, tile, described, settings.scales, settings.rotations)
 
 
 def heights(camera: Camera, camera_to_world: np.ndarray, depth: np.ndarray) -> np.ndarray:
@@ -285,65 +328,3 @@ def _apply_user_crops(ctx: StageContext, image: Image, parts: list[ScenePart], i
         chosen.setdefault(name, []).append(crop.image)
     for part in parts:
         part.crops = tuple(chosen.get(part.name, ()))
-
-
-# ------------------------------------------------------------------------------------------ pictures
-def crop_overlay(rgb8: np.ndarray, parts: list[ScenePart]) -> np.ndarray:
-    """The photo with every crop window outlined and named, and the pixels of the parts' regions that are
-    not clean (clutter, strong edges) tinted red."""
-    out = rgb8.copy()
-    for part in parts:
-        if part.region is not None and part.clean is not None:
-            dirty = part.region & ~part.clean
-            out[dirty] = (0.5 * out[dirty] + [127, 0, 0]).astype(np.uint8)
-    for k, part in enumerate(p for p in parts if p.crops):
-        colour = tuple(
-            int(c) for c in cv2.applyColorMap(np.array([[53 * k % 255]], np.uint8), cv2.COLORMAP_HSV)[0, 0][::-1]
-        )
-        for x0, y0, x1, y1 in part.crops:
-            cv2.rectangle(out, (x0, y0), (x1 - 1, y1 - 1), colour, 2)
-            cv2.putText(out, part.name, (x0 + 3, y0 + 12), cv2.FONT_HERSHEY_SIMPLEX, 0.38, colour, 1, cv2.LINE_AA)
-    return out
-
-
-def crop_sheet(
-    rows: list[tuple[str, Any, Any, tuple[float, float, float], PartMaterial]], cell: int = 96
-) -> np.ndarray:
-    """One row per crop pair: the photo crop, the retrieved material in it at the chosen transform, the flat
-    median colour, and what was chosen."""
-    lines = []
-    for name, crop, view, albedo, chosen in rows:
-        tiles = [
-            _fit(_to_uint8(crop), cell),
-            _fit(_to_uint8(view), cell),
-            np.full((cell, cell, 3), np.round(np.asarray(albedo) * 255), np.uint8),
-        ]
-        caption = np.full((cell, 3 * cell, 3), 255, np.uint8)
-        text = [
-            name[:30],
-            f"-> {chosen.material or 'homogeneous'}",
-            f"scale {chosen.scale:g} rot {chosen.rotation:g}",
-            f"tex {chosen.scores.get('texture_loss', float('nan')):.3f} flat {chosen.scores.get('homogeneous_loss', float('nan')):.3f}",
-            f"sim {chosen.scores.get('similarity', float('nan')):.3f}",
-        ]
-        for i, line in enumerate(text):
-            cv2.putText(caption, line, (4, 16 + 17 * i), cv2.FONT_HERSHEY_SIMPLEX, 0.42, (0, 0, 0), 1, cv2.LINE_AA)
-        lines.append(np.hstack(tiles + [caption]))
-    return np.vstack(lines)
-
-
-def _to_uint8(image: torch.Tensor) -> np.ndarray:
-    return (image.clamp(0, 1).permute(1, 2, 0).numpy() * 255 + 0.5).astype(np.uint8)
-
-
-def _fit(rgb8: np.ndarray, cell: int) -> np.ndarray:
-    scale = cell / max(rgb8.shape[:2])
-    small = cv2.resize(
-        rgb8,
-        (max(1, round(rgb8.shape[1] * scale)), max(1, round(rgb8.shape[0] * scale))),
-        interpolation=cv2.INTER_AREA if scale < 1 else cv2.INTER_NEAREST,
-    )
-    tile = np.full((cell, cell, 3), 255, np.uint8)
-    y0, x0 = (cell - small.shape[0]) // 2, (cell - small.shape[1]) // 2
-    tile[y0 : y0 + small.shape[0], x0 : x0 + small.shape[1]] = small
-    return tile

@@ -1,7 +1,7 @@
 """Preprocess stage (paper §4.1): the photo, camera intrinsics, depth, segmentation, segmented point cloud.
 
 The estimates come from the selected ``fov``, ``depth`` and ``segmentation`` implementations; the user may
-correct any of them and feed the artifact back in (``inject.<artifact>=DIR``), as the paper allows.
+correct any of them and feed the artifact back in (``+inject.<artifact>=DIR``), as the paper allows.
 """
 
 from __future__ import annotations
@@ -20,11 +20,8 @@ from .settings import PointCloud as PointCloudSettings
 
 
 def load_image(ctx: StageContext) -> Image:
-    """Read the photo (EXIF-oriented, any bit depth) and resize it to the working resolution.
-
-    Params: ``max_side`` (long side in pixels of the working image), ``max_pixels`` (larger photos are
-    refused).
-    """
+    """Read the photo (EXIF-oriented, any bit depth; refused over ``max_pixels`` pixels) and shrink it to the
+    working resolution, its long side at most ``max_side`` pixels."""
     settings = ctx.settings(LoadImageSettings)
     rgb = read_photo(ctx.photo, settings.max_pixels)
     height, width = rgb.shape[:2]

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -44,7 +45,8 @@ log = logging.getLogger("psdr_room")
 
 
 def room_init(ctx: StageContext, cloud: PointCloud) -> RoomBox:
-    """Fit the initial room box and the camera pose in the room's frame (params: ``RoomInitParams``)."""
+    """Fit the initial room box and the camera pose in the room's frame (its settings:
+    :class:`~psdr_room_core.method.room_box.RoomInitParams`)."""
     params = RoomInitParams(**{**ctx.params, "seed": ctx.seed})
     points = {c: cloud.category_points(c).astype(np.float64) for c in ROOM_CATEGORIES}
     others = [s.id for s in cloud.segments if s.category not in ROOM_CATEGORIES]
@@ -178,16 +180,16 @@ def room_fit(
 ) -> dict[str, Any]:
     """Refine the room box (and the camera's focal length) by differentiable rendering (§4.2, eq. 2).
 
-    Minimises ``L_box = −Σ_i IoU(M_i^r, M_i^t) + w_depth · L1(D^r, D^t)`` over the box's yaw, translation and
-    per-axis scale, i ∈ {wall, floor, ceiling}, with anti-aliased masks and depth from the ``renderer`` whose
-    boundary terms carry gradients through the box's silhouette edges, and the ``optimizer`` (Adam, per-
-    parameter learning rates). Depths are normalised by the target's 98th percentile. Params:
-    ``iterations``, ``render_width``, ``depth_weight``, ``keep_floor`` (see :func:`box_vertices`),
-    ``learning_rates`` {yaw, translation, log_scale, tilt, log_focal}. Beyond the paper, the camera's
-    focal length is refined too (``log_focal``; learning rate 0 keeps the estimated FoV): masks and depth
-    together constrain it, and a FoV error otherwise bends the box.
+    Minimises ``L_box = −Σ_i IoU(M_i^r, M_i^t) + w_depth · L1(D^r, D^t)`` (:func:`box_loss`) over the box's yaw,
+    translation and per-axis scale, i ∈ {wall, floor, ceiling}, with anti-aliased masks and depth from the
+    ``renderer`` whose boundary terms carry gradients through the box's silhouette edges, and the ``optimizer``
+    (Adam, per-parameter ``learning_rates``). Depths are normalised by the target's 98th percentile; with
+    ``keep_floor`` the box stands on the floor (:func:`box_vertices`). Beyond the paper, the camera's focal
+    length is refined too (``log_focal``; learning rate 0 keeps the estimated FoV): masks and depth together
+    constrain it, and a FoV error otherwise bends the box.
     """
     settings = ctx.settings(RoomFit)
+    # set up: the targets at the render's size, a renderer of the box's sides, and the parameters
     cam = camera.resized(settings.render_width)
     targets = room_targets(panoptic, depth, (cam.width, cam.height))
     if targets.visible.sum() < 1.0:
@@ -195,7 +197,6 @@ def room_fit(
     meshes = {name: quad_mesh(quad) for name, quad in room_quads(room).items()}
     parts = {name: ROOM_PARTS["wall" if name.startswith("wall") else name] for name in meshes}
     renderer = ctx.impl("renderer", Renderer).geometry(cam, np.asarray(room.camera_to_world), meshes, parts)
-    scale = float(np.mean(room.half_size))
     theta = {
         "yaw": torch.zeros((), requires_grad=True),
         "translation": torch.zeros(3, requires_grad=True),
@@ -203,24 +204,8 @@ def room_fit(
         "tilt": torch.zeros(2, requires_grad=True),
         "log_focal": torch.zeros((), requires_grad=True),
     }
-    camera_to_world = np.asarray(room.camera_to_world, dtype=np.float64)
-    t_masks, visible = torch.from_numpy(targets.masks), torch.from_numpy(targets.visible)
-    t_depth, d_weight = torch.from_numpy(targets.depth), torch.from_numpy(targets.depth_weight)
-    valid = targets.depth[targets.depth_weight > 0]
-    depth_scale = float(np.percentile(valid, 98)) if valid.size else 1.0
-    weight_sum = d_weight.sum().clamp_min(1e-6)
-    keep_floor = settings.keep_floor
-
-    def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
-        quads = box_vertices(room, theta, scale, keep_floor)
-        vertices = {name: with_focal_scale(q, camera_to_world, theta["log_focal"]) for name, q in quads.items()}
-        masks, weighted_depth, alpha = renderer.render(vertices, iteration)
-        rendered_depth = weighted_depth / alpha.clamp_min(1e-3)  # coverage-weighted → depth of covered pixels
-        ious = [soft_iou(masks[k], t_masks[k], visible) for k in range(len(ROOM_PARTS))]
-        l1 = (d_weight * (rendered_depth - t_depth).abs()).sum() / weight_sum / depth_scale
-        terms = {f"iou_{name}": ious[k].item() for name, k in ROOM_PARTS.items()} | {"depth_l1": l1.item()}
-        return -torch.stack(ious).sum() + settings.depth_weight * l1, terms
-
+    # optimise eq. 2
+    loss = box_loss(room, theta, renderer, targets, depth_weight=settings.depth_weight, keep_floor=settings.keep_floor)
     history = untimed(
         ctx.impl("optimizer", Optimizer).minimize(
             theta,
@@ -231,6 +216,57 @@ def room_fit(
         ),
         ctx.timings,
     )
+    # decide: the box and the camera the parameters give
+    fitted_camera, fitted = fitted_room(room, camera, theta, keep_floor=settings.keep_floor, final=history[-1])
+    # report
+    return {
+        "room": fitted,
+        "camera": fitted_camera,
+        "log": _fit_log(history, image, (camera, room), (fitted_camera, fitted), panoptic),
+    }
+
+
+def box_loss(
+    room: RoomBox,
+    theta: dict[str, torch.Tensor],
+    renderer: Any,
+    targets: RoomTargets,
+    *,
+    depth_weight: float,
+    keep_floor: bool,
+) -> Callable[[int], tuple[torch.Tensor, dict[str, float]]]:
+    """Eq. 2 for the optimizer: minus the soft IoU of each rendered part's mask with its target over the visible
+    region, plus ``depth_weight`` times the coverage-weighted L1 of the depth over the target's 98th percentile,
+    of the box moved by ``theta`` (:func:`box_vertices`, translation in units of the box's mean half size) seen
+    with the focal length scaled by ``exp(theta["log_focal"])``."""
+    scale = float(np.mean(room.half_size))
+    camera_to_world = np.asarray(room.camera_to_world, dtype=np.float64)
+    t_masks, visible = torch.from_numpy(targets.masks), torch.from_numpy(targets.visible)
+    t_depth, d_weight = torch.from_numpy(targets.depth), torch.from_numpy(targets.depth_weight)
+    valid = targets.depth[targets.depth_weight > 0]
+    depth_scale = float(np.percentile(valid, 98)) if valid.size else 1.0
+    weight_sum = d_weight.sum().clamp_min(1e-6)
+
+    def loss(iteration: int) -> tuple[torch.Tensor, dict[str, float]]:
+        quads = box_vertices(room, theta, scale, keep_floor)
+        vertices = {name: with_focal_scale(q, camera_to_world, theta["log_focal"]) for name, q in quads.items()}
+        masks, weighted_depth, alpha = renderer.render(vertices, iteration)
+        rendered_depth = weighted_depth / alpha.clamp_min(1e-3)  # coverage-weighted → depth of covered pixels
+        ious = [soft_iou(masks[k], t_masks[k], visible) for k in range(len(ROOM_PARTS))]
+        l1 = (d_weight * (rendered_depth - t_depth).abs()).sum() / weight_sum / depth_scale
+        terms = {f"iou_{name}": ious[k].item() for name, k in ROOM_PARTS.items()} | {"depth_l1": l1.item()}
+        return -torch.stack(ious).sum() + depth_weight * l1, terms
+
+    return loss
+
+
+def fitted_room(
+    room: RoomBox, camera: Camera, theta: dict[str, torch.Tensor], *, keep_floor: bool, final: dict[str, float]
+) -> tuple[Camera, RoomBox]:
+    """The camera and the room box that the parameters ``theta`` of :func:`box_loss` give (``final``: the last
+    loss terms, kept in the box's ``extra``)."""
+    scale = float(np.mean(room.half_size))
+    camera_to_world = np.asarray(room.camera_to_world, dtype=np.float64)
     with torch.no_grad():
         half_size = np.asarray(room.half_size) * np.exp(theta["log_scale"].numpy().astype(np.float64))
         center = np.asarray(room.center) + scale * theta["translation"].numpy().astype(np.float64)
@@ -249,13 +285,9 @@ def room_fit(
             half_size=half_size,
             yaw=float(room.yaw) + float(theta["yaw"]),
             ceiling_visible=room.ceiling_visible,
-            extra={**room.extra, "room_fit": {k: float(v) for k, v in history[-1].items()}},
+            extra={**room.extra, "room_fit": {k: float(v) for k, v in final.items()}},
         )
-    return {
-        "room": fitted,
-        "camera": fitted_camera,
-        "log": _fit_log(history, image, (camera, room), (fitted_camera, fitted), panoptic),
-    }
+    return fitted_camera, fitted
 
 
 def _fit_log(
