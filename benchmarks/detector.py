@@ -23,6 +23,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from psdr_room_core.engine import shipped
 from psdr_room_core.method.artifacts import Detections, Image
 from psdr_room_core.method.capabilities import Detector
 from psdr_room_core.method.image_boxes import box_iou
@@ -32,7 +33,7 @@ from psdr_room_plugins.detectors.nanodet import NanodetOnnx
 REPO_ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_PHOTOS = [REPO_ROOT.parent / f"shared/data/photos/sunrgbd_total3d_0{i}" for i in range(1, 6)]
 THRESHOLDS = (0.5, 0.3)
-MAX_SIDE = 800  # conf/stage/load_image.yaml
+MAX_SIDE = shipped.node("load_image.max_side")
 
 TO_COCO = {
     "chair": "chair",

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+from psdr_room_core.engine import shipped
 from psdr_room_core.libraries.vanishing_points import VanishingPointParams, estimate_camera
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
@@ -49,7 +50,7 @@ def evaluate(photos_dir: Path, params: VanishingPointParams | None = None) -> li
             fy = float(entry["fy"])
             gt = math.degrees(2.0 * math.atan(rgb.shape[0] / (2.0 * fy)))
             start = time.perf_counter()
-            result = estimate_camera(rgb, params or VanishingPointParams())
+            result = estimate_camera(rgb, params or VanishingPointParams(**shipped.node("fov.vanishing_points")))
             elapsed = time.perf_counter() - start
             rows.append(
                 {

@@ -35,8 +35,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 import torch
-import yaml
 
+from psdr_room_core.engine import shipped
 from psdr_room_core.method.material_search import MaterialIndex
 from psdr_room_core.method.surface_colours import texture_energy
 from psdr_room_plugins.material_graph.library import TorchGraphLibrary
@@ -45,7 +45,6 @@ from psdr_room_plugins.material_graph.thumbnails import shade
 from psdr_room_plugins.texture.random_cnn import RandomCnnDescriptor
 
 CROP = 128
-STAGE_CONF = Path(__file__).resolve().parents[1] / "conf" / "stage" / "assign_materials.yaml"
 
 
 def timed(fn: Callable[[], object], repeat: int = 3) -> float:
@@ -254,7 +253,7 @@ def main() -> None:
     print("Confused with: " + "; ".join(f"{k} -> {', '.join(v)}" for k, v in r["confusions"].items()))  # type: ignore[union-attr]
     real = real_energies(args.real_runs) if args.real_runs else {}
     results["real_energy"] = real
-    flat_energy = float(yaml.safe_load(STAGE_CONF.read_text())["flat_energy"])
+    flat_energy = float(shipped.node("assign_materials.flat_energy"))
     flatness_table(r["energy"], real, flat_energy)  # type: ignore[arg-type]
 
     if not args.no_timings:

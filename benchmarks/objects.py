@@ -35,6 +35,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from psdr_room_core.engine import shipped
 from psdr_room_core.engine.dag import StageContext
 from psdr_room_core.libraries.object_db.opening import object_mesh
 from psdr_room_core.libraries.synth.scene import generate
@@ -53,37 +54,33 @@ from psdr_room_core.method.artifacts import (
 )
 from psdr_room_core.method.backs import BACKED, back_shown
 from psdr_room_core.method.geometry import TriangleMesh, weld
-from psdr_room_core.method.objects import object_queries, pose_matrix, transform
+from psdr_room_core.method.objects import footprint, object_queries, pose_matrix, transform
 from psdr_room_core.method.rgb_scene import room_quads
-from psdr_room_core.method.stages.objects import fit_objects, footprint, place_objects
+from psdr_room_core.method.stages.objects.fit import fit_objects
+from psdr_room_core.method.stages.objects.place import place_objects
 from psdr_room_core.method.stages.preprocess import backproject
 from psdr_room_plugins.mitsuba_renderer.session import MitsubaRenderer
 from psdr_room_plugins.optimizer_adam import Adam
-from psdr_room_plugins.retrieval_silhouette import SilhouetteRetrieval
+from psdr_room_plugins.retrieval_silhouette import SilhouetteRetrieval, SilhouetteSettings
 
 OUT: Path | None = Path("outputs/benchmarks/objects")
 """Where the before/after overlays of each scene are written."""
 FLOOR_CATEGORIES = ("chair", "table", "sofa", "bed", "cabinet", "shelf", "desk")
-CONF = Path(__file__).resolve().parents[1] / "conf" / "stage"
 
 
-OVERRIDES: dict[str, dict[str, object]] = {}
-"""Stage → parameter → value, from ``--set STAGE.KEY=VALUE``."""
+OVERRIDES: list[str] = []
+"""The config overrides of ``--set KEY=VALUE`` (as on the command line: place_objects.search.n_yaw=24)."""
 
 
 def stage_params(name: str, **overrides: object) -> dict:
-    """The stage's default parameters from ``conf/stage/<name>.yaml`` (``_stage_`` etc. dropped; ``${stage.key}``
-    references to another stage's resolved), overridden by the arguments, then by ``--set``."""
-    from omegaconf import OmegaConf
+    """The stage's node of the shipped config with ``--set``'s overrides, then the arguments'."""
+    return {**shipped.node(name, *OVERRIDES), **overrides}
 
-    stages = OmegaConf.create({path.stem: OmegaConf.load(path) for path in CONF.glob("*.yaml")})
-    params = OmegaConf.merge(
-        {k: v for k, v in OmegaConf.to_container(stages[name], resolve=True).items() if not k.startswith("_")},
-        overrides,
-    )
-    for key, value in OVERRIDES.get(name, {}).items():  # a dotted key sets a nested setting (search.n_yaw)
-        OmegaConf.update(params, key, value, merge=False)
-    return OmegaConf.to_container(params)
+
+def silhouette(**changes: object) -> SilhouetteRetrieval:
+    """``retrieval=silhouette`` as the shipped config with ``--set``'s overrides makes it, with ``changes``."""
+    arguments = shipped.arguments(SilhouetteSettings, "retrieval.silhouette", *OVERRIDES)
+    return SilhouetteRetrieval(**{**arguments, **changes})
 
 
 @dataclass
@@ -393,22 +390,13 @@ def main() -> None:
         "--set",
         action="append",
         default=[],
-        metavar="STAGE.KEY=VALUE",
-        help="override a stage parameter (YAML value), e.g. --set place_objects.search.n_yaw=24, or the silhouette "
-        "retrieval's (--set retrieval.back_weight=0)",
+        metavar="KEY=VALUE",
+        help="override a setting of the shipped config, e.g. --set place_objects.search.n_yaw=24, or the silhouette "
+        "retrieval's (--set retrieval.silhouette.search.back_weight=0)",
     )
     args = parser.parse_args()
-    import yaml
-
-    for item in args.set:
-        key, _, value = item.partition("=")
-        stage, _, name = key.partition(".")
-        if not (stage and name and _):
-            parser.error(f"--set {item}: expected STAGE.KEY=VALUE")
-        OVERRIDES.setdefault(stage, {})[name] = yaml.safe_load(value)
-    retrieval = OVERRIDES.get("retrieval", {})  # --set retrieval.back_weight=0: the silhouette retrieval's own
-    retriever = SilhouetteRetrieval(**retrieval)
-    small = SilhouetteRetrieval(**{**retrieval, "fraction": 0.05, "seed": 0})
+    OVERRIDES.extend(args.set)
+    retriever, small = silhouette(), silhouette(fraction=0.05, seed=0)
     rows = []
     print(HEADER, flush=True)
     for seed in args.seeds or range(args.scenes):

@@ -69,7 +69,7 @@ from psdr_room_core.method.artifacts import Camera, DepthMap, Image, Panoptic, P
 from psdr_room_core.method.guesses import guesses
 from psdr_room_core.method.image_boxes import box_iou, mask_box
 from psdr_room_core.method.objects import OBJECT_CATEGORIES
-from psdr_room_core.method.physical import PhysicalParams, hidden_by, interpenetrations, room_excess
+from psdr_room_core.method.physical import hidden_by, interpenetrations, room_excess
 from psdr_room_core.method.silhouette import depth_map, silhouette
 from psdr_room_core.method.sizes import scale_range
 from psdr_room_core.method.solids import overlap
@@ -77,6 +77,7 @@ from psdr_room_core.method.visualize import segment_overlay
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from preprocess import depth_errors  # noqa: E402  (sibling benchmark)
+from shipped import node as shipped_node  # noqa: E402  (the benchmarks' reader of the shipped config)
 
 REPO = Path(__file__).resolve().parents[1]
 LAYOUT_LABELS = REPO / "benchmarks" / "layout_labels"
@@ -498,10 +499,10 @@ def physical_rows(
 
 def hidden_objects(objects: list, depths: list[np.ndarray], panoptic: Panoptic, camera: Camera) -> list[int]:
     """Segment ids of the objects the others hide (:func:`~psdr_room_core.method.physical.hidden_by` with the
-    default ``hidden_share``; ``depths``: each object's depth map from ``camera``, 0 where it is not seen)."""
+    shipped ``place_objects.physical.hidden_share``; ``depths``: each object's depth map from ``camera``, 0 where it is not seen)."""
     by_id = {p.segment_id: np.where(d > 0, d, np.inf) for p, d in zip(objects, depths)}
     ids = panoptic.ids_at(camera.width, camera.height)
-    share = PhysicalParams().hidden_share
+    share = shipped_node("place_objects.physical.hidden_share")
     return [k for k in by_id if hidden_by(k, by_id, ids, share) is not None]
 
 

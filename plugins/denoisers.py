@@ -27,8 +27,6 @@ class OidnDenoiser:
     inside the wheel; when it cannot load, one logged line and the noisy image."""
 
     def __init__(self, quality: str = "high") -> None:
-        if quality not in QUALITIES:
-            raise ValueError(f"denoiser.oidn.quality={quality!r}: choose one of {', '.join(QUALITIES)}")
         self.quality = quality
         self._module: Any = None
         self._failure: str | None = None
@@ -68,7 +66,9 @@ class OidnDenoiser:
 
 @dataclass
 class OidnSettings:
-    quality: str = setting(choices=QUALITIES)
+    """``denoiser=oidn``: Open Image Denoise's filter."""
+
+    quality: str = setting(choices=QUALITIES, doc="The filter's quality: high (slowest, best), balanced or fast.")
 
 
 class NoDenoiser:

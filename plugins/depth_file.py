@@ -83,9 +83,16 @@ class FileDepth:
 
 @dataclass
 class FileDepthSettings:
-    path: str | None = setting()
-    encoding: str = setting(choices=("auto", *DEPTH_ENCODINGS))
-    scale: float | None = setting(gt=0)
+    """``depth=file``: where the depth file is and how its values are encoded."""
+
+    path: str | None = setting(doc="The depth file; null: <photo stem>.depth.png|.exr|.npy beside the photo.")
+    encoding: str = setting(
+        choices=("auto", *DEPTH_ENCODINGS),
+        doc='png16 | sun | exr | npy; auto: by the file\'s suffix, or "encoding" in <stem>.depth.json.',
+    )
+    scale: float | None = setting(
+        gt=0, doc="png16: units per metre (NYU/SUN 1000, TUM 5000); null: <stem>.depth.json's, else 1000."
+    )
 
 
 @hookimpl

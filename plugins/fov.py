@@ -39,7 +39,13 @@ class VanishingPointsFov:
 
 @dataclass
 class FixedFovSettings:
-    vfov_deg: float = setting(gt=0, lt=180)
+    """``fov=fixed``: the field of view."""
+
+    vfov_deg: float = setting(
+        gt=0,
+        lt=180,
+        doc="Vertical field of view, degrees; also fov=vanishing_points' fallback for photos with too few lines.",
+    )
 
 
 class FixedFov:

@@ -55,10 +55,12 @@ class Adam:
 
 @dataclass
 class AdamSettings:
-    beta1: float = setting(ge=0, lt=1)
-    beta2: float = setting(ge=0, lt=1)
-    eps: float = setting(gt=0)
-    decay: float = setting(gt=0, le=1)
+    """``optimizer=adam``: Adam's constants (the learning rates are each stage's)."""
+
+    beta1: float = setting(ge=0, lt=1, doc="Decay of the gradient's running mean.")
+    beta2: float = setting(ge=0, lt=1, doc="Decay of the squared gradient's running mean.")
+    eps: float = setting(gt=0, doc="Added to the denominator (numerical safety).")
+    decay: float = setting(gt=0, le=1, doc="Learning rates are multiplied by this after every iteration (1: constant).")
 
 
 @hookimpl

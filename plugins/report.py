@@ -200,10 +200,8 @@ def render_report(run: RunRecord, alpha: float) -> str:
 class ReportSettings:
     """The ``report`` node of the config."""
 
-    enabled: bool
-    """Write ``report.html`` into the run directory."""
-    overlay_alpha: float = setting(ge=0, le=1)
-    """Opacity of the segmentation drawn over the photo."""
+    enabled: bool = setting(doc="Write report.html into the run directory.")
+    overlay_alpha: float = setting(ge=0, le=1, doc="Opacity of the segmentation drawn over the photo.")
 
 
 @hookimpl

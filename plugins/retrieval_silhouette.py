@@ -23,6 +23,7 @@ from psdr_room_core.method.backs import BACKED
 from psdr_room_core.method.objects import ObjectQuery
 from psdr_room_core.method.silhouette import MeshCaster
 from psdr_room_core.method.sizes import SizePrior
+from psdr_room_core.method.stages.settings import SizePriorWeights
 from psdr_room_core.method.view_search import SearchParams, ViewSearch, ViewTarget
 
 if TYPE_CHECKING:
@@ -32,55 +33,30 @@ if TYPE_CHECKING:
 class SilhouetteRetrieval:
     """Rank models by how well each, posed by the view search, explains the object's mask and depth at a real
     size: score ``1 / (1 + error)`` (:class:`~psdr_room_core.method.view_search.ViewFit`), the error holding the
-    size prior (:class:`~psdr_room_core.method.sizes.SizePrior`: ``size_weight · |ln scale|``, database models are
-    in metres, plus ``range_weight`` × how far the posed model is outside its category's real sizes) and what the
-    pose reaching beyond the query's room box costs (``room_weight`` per metre), and ``back_weight`` for a model
-    that stands with its back to a wall posed with its back to the camera, ``wall_weight`` per metre the wall behind it
-    is farther than the nearest (:mod:`~psdr_room_core.method.backs`).
+    size prior (``size_prior``: :class:`~psdr_room_core.method.sizes.SizePrior`, database models are in metres) and
+    the terms of the ``search``'s error (:class:`~psdr_room_core.method.view_search.SearchParams`: a pose reaching
+    beyond the query's room box, a model that stands with its back to a wall showing the camera its back, ...).
     Every model is scored so at its best moment-matched start; the ``shortlist`` best, or the best
     ``shortlist_share`` of them where that is more (at least ``k``; ``shortlist`` 0: all), are refined and ranked
     by their refined score."""
 
     def __init__(
         self,
-        database: str = "builtin",
-        fraction: float = 1.0,
-        seed: int = 0,
-        n_yaw: int = 12,
-        refine: int = 2,
-        coarse: int = 1,
-        explore: int = 3,
-        polish: int = 2,
-        halvings: int = 2,
-        render_width: int = 160,
-        max_pixels: int = 3000,
-        size_weight: float = 0.3,
-        range_weight: float = 5.0,
-        box_weight: float = 0.5,
-        room_weight: float = 2.0,
-        back_weight: float = 0.5,
-        wall_weight: float = 0.1,
-        shortlist: int = 12,
-        shortlist_share: float = 0.2,
+        *,
+        database: str,
+        fraction: float,
+        seed: int,
+        search: SearchParams,
+        size_prior: SizePriorWeights,
+        render_width: int,
+        max_pixels: int,
+        shortlist: int,
+        shortlist_share: float,
     ) -> None:
         self.spec = (str(database), float(fraction), int(seed))
-        self.search = SearchParams(
-            n_yaw=int(n_yaw),
-            refine=int(refine),
-            coarse=int(coarse),
-            explore=int(explore),
-            polish=int(polish),
-            halvings=int(halvings),
-            turns=[],
-            box_weight=float(box_weight),
-            room_weight=float(room_weight),
-            back_weight=float(back_weight),
-            wall_weight=float(wall_weight),
-        )
-        self.render_width = int(render_width)
-        self.max_pixels = int(max_pixels)
-        self.size_weight, self.range_weight = float(size_weight), float(range_weight)
-        self.shortlist, self.shortlist_share = int(shortlist), float(shortlist_share)
+        self.search, self.size_prior = search, size_prior
+        self.render_width, self.max_pixels = render_width, max_pixels
+        self.shortlist, self.shortlist_share = shortlist, shortlist_share
         self._db: ObjectDatabase | None = None
         self._casters: dict[str, MeshCaster] = {}
 
@@ -123,7 +99,9 @@ class SilhouetteRetrieval:
         starts = []
         for record in models:
             mesh = self.database.mesh(record.id)
-            prior = SizePrior.of(record.category, record.extent, self.size_weight, self.range_weight)
+            prior = SizePrior.of(
+                record.category, record.extent, self.size_prior.scale_weight, self.size_prior.range_weight
+            )
             search = ViewSearch(
                 target,
                 mesh.vertices,
@@ -161,25 +139,33 @@ class SilhouetteRetrieval:
 
 @dataclass
 class SilhouetteSettings:
-    database: str = setting()
-    fraction: float = setting(gt=0, le=1)
-    seed: int = setting()
-    n_yaw: int = setting(ge=1)
-    refine: int = setting(ge=0)
-    coarse: int = setting(ge=0)
-    explore: int = setting(ge=0)
-    polish: int = setting(ge=0)
-    halvings: int = setting(ge=0)
-    render_width: int = setting(ge=16)
-    max_pixels: int = setting(ge=0)
-    size_weight: float = setting(ge=0)
-    range_weight: float = setting(ge=0)
-    box_weight: float = setting(ge=0)
-    room_weight: float = setting(ge=0)
-    back_weight: float = setting(ge=0)
-    wall_weight: float = setting(ge=0)
-    shortlist: int = setting(ge=0)
-    shortlist_share: float = setting(ge=0, le=1)
+    """``retrieval=silhouette``: which database, how each model is posed and what its error holds, which models
+    are refined."""
+
+    database: str = setting(
+        doc="The object database: builtin (the shipped library, `psdr-room-db list`) or a folder in its format "
+        "(e.g. converted 3D-FUTURE)."
+    )
+    fraction: float = setting(
+        gt=0,
+        le=1,
+        doc="A random fraction of the database's models per category is used (the paper's Fig. 10 ablation).",
+    )
+    seed: int = setting(doc="Seed of that random fraction.")
+    search: SearchParams = setting(
+        doc="The view search each model is posed by (:mod:`psdr_room_core.method.view_search`)."
+    )
+    size_prior: SizePriorWeights = setting(doc="Each pose's size prior: place_objects' (one prior for both).")
+    render_width: int = setting(ge=16, doc="Silhouettes are compared at this width, pixels ...")
+    max_pixels: int = setting(
+        ge=0, doc="... or narrower where the object would cover more pixels than this (speed; 0: no limit)."
+    )
+    shortlist: int = setting(
+        ge=0, doc="Only the models the rotation sweep ranks best are refined: this many (at least top_k; 0: all) ..."
+    )
+    shortlist_share: float = setting(
+        ge=0, le=1, doc="... or this share of them where more (a label naming no category ranks all the models)."
+    )
 
 
 @hookimpl

@@ -91,7 +91,11 @@ def read_segmentation(kind: str, path: Path, image: Image) -> Panoptic:
 
 @dataclass
 class FileSegmentationSettings:
-    path: str | None = setting()
+    """``segmentation=file``: where the segmentation file is."""
+
+    path: str | None = setting(
+        doc="The segmentation file; null: <photo stem>.labelme.json, else <photo stem>.panoptic.png (+ .panoptic.json)."
+    )
 
 
 @hookimpl

@@ -9,14 +9,15 @@ import math
 import shutil
 import subprocess
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
 import pytest
 import torch
-import yaml
 
 from psdr_room_core.applications.edit import main as edit_main
+from psdr_room_core.engine import shipped
 from psdr_room_core.engine.dag import StageContext
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.method.artifacts import (
@@ -34,6 +35,7 @@ from psdr_room_core.method.artifacts import (
     Segment,
 )
 from psdr_room_core.method.lighting import behind_camera, in_view
+from psdr_room_core.method.material_priors import PaintPrior
 from psdr_room_core.method.rgb_scene import build_scene, initial_parts, part_meshes, render_part_ids, room_quads
 from psdr_room_core.method.shading import linear_to_srgb, srgb_to_linear
 from psdr_room_core.method.stages.appearance import (
@@ -54,6 +56,12 @@ from psdr_room_plugins.optimizer_adam import Adam
 from psdr_room_plugins.texture.random_cnn import RandomCnnDescriptor
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def model_settings() -> dict[str, Any]:
+    """The shipped ``fit_appearance`` settings an :class:`AppearanceModel` takes (besides its map size)."""
+    fit = shipped.settings(FitAppearance, "fit_appearance")
+    return {"radiance_range": fit.radiance_range, "colour_range": fit.colour_range, "paint": fit.paint}
 
 
 def _c2w(z: float, pitch_deg: float) -> np.ndarray:
@@ -77,20 +85,9 @@ TRUE_SRGB = {
     "wall_z_pos": (0.55, 0.65, 0.45),
 }
 TRUE_RADIANCE = 2.5
-LIGHT_PARAMS = {
-    **{
-        k: v
-        for k, v in yaml.safe_load((ROOT / "conf" / "stage" / "init_lights.yaml").read_text()).items()
-        if not k.startswith("_")
-    },
-    "render_width": 96,
-}
+LIGHT_PARAMS = {**shipped.node("init_lights"), "render_width": 96}
 FIT_PARAMS = {
-    **{
-        k: v
-        for k, v in yaml.safe_load((ROOT / "conf" / "stage" / "fit_appearance.yaml").read_text()).items()
-        if not k.startswith("_")
-    },
+    **shipped.node("fit_appearance"),
     "iterations": 40,
     "render_width": 96,
     "spp": 8,
@@ -304,7 +301,8 @@ def test_a_pattern_the_photo_does_not_show_is_made_plain(
     geometry = build_scene(meshes, parts, lights.lights, lights.fixtures, library, 32).renderer(
         MitsubaRenderer(), CAMERA, C2W, 96
     )
-    model, denoiser = AppearanceModel(parts, lights, library, 32), OidnDenoiser(quality="fast")
+    model = AppearanceModel(parts, lights, library, map_size=32, **model_settings())
+    denoiser = OidnDenoiser(quality="fast")
     patterned = picture(geometry, denoiser, model.inputs(), 128, 1)
     # the photo: the same room with a plain floor, or with the pattern (independent samples)
     target = picture(geometry, denoiser, model.inputs(), 512, 7)[1] if photo_pattern else image.rgb
@@ -656,18 +654,18 @@ def test_walls_and_ceiling_stay_paint_whatever_the_fit_does(library: TorchGraphL
     started with (each channel of its chromaticity within ``hue_range``, 1.1x) and its specular at most 0.5 for any parameter
     value; the floor and objects keep their full ranges; a dark, glossy wall is brought into range with its hue
     before the fit starts."""
-    from psdr_room_core.method.material_priors import LUMINANCE, PaintPrior, within_paint
+    from psdr_room_core.method.material_priors import LUMINANCE, within_paint
 
     parts = [
         PartAppearance("wall_x_neg", "homogeneous", (0.004, 0.002, 0.001), 0.3, 0.95),
         PartAppearance("ceiling", "homogeneous", (0.9, 0.9, 0.9), 0.5, 0.5),
         PartAppearance("floor", "homogeneous", (0.004, 0.002, 0.001), 0.3, 0.95),
     ]
-    prior = PaintPrior()
+    prior = shipped.settings(PaintPrior, "fit_appearance.paint")
     start = within_paint(parts[0], prior)
     assert float(np.dot(start.base_color, LUMINANCE)) == pytest.approx(0.1) and start.specular == 0.5
     assert np.argmax(start.base_color) == 0 and within_paint(parts[2], prior) == parts[2]
-    model = AppearanceModel(parts, Lights(lights=[]), library, 16, paint=prior)
+    model = AppearanceModel(parts, Lights(lights=[]), library, map_size=16, **model_settings())
     with torch.no_grad():
         for value in model.theta.values():
             value.fill_(extreme)

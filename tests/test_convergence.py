@@ -24,7 +24,7 @@ def test_a_falling_loss_goes_on_a_flat_or_rising_one_stops() -> None:
     assert plateau(_log(rising))
     negative = [-2.0 - 0.02 * i for i in range(40)]  # a falling negative loss (room_fit's -IoU) goes on
     assert not plateau(_log(negative)) and plateau(_log([-v for v in negative]))
-    assert not Plateau(window=0)(_log(flat))  # window 0: never
+    assert not Plateau(window=0, tolerance=0.01, min_iterations=30)(_log(flat))  # window 0: never
 
 
 def test_the_best_iterate_is_restored() -> None:

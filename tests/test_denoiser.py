@@ -9,9 +9,11 @@ import cv2
 import numpy as np
 import pytest
 
+from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.plugins import plugin_system
+from psdr_room_core.engine.settings import check_settings
 from psdr_room_core.method.image_metrics import flip
-from psdr_room_plugins.denoisers import NoDenoiser, OidnDenoiser
+from psdr_room_plugins.denoisers import NoDenoiser, OidnDenoiser, OidnSettings
 
 
 def _noisy_ramp(seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -48,8 +50,8 @@ def test_none_and_registration() -> None:
     registry = plugin_system().registry
     assert registry.implementation("denoiser", "oidn").factory is OidnDenoiser
     assert registry.implementation("denoiser", "none").factory is NoDenoiser
-    with pytest.raises(ValueError, match="quality"):
-        OidnDenoiser(quality="best")
+    with pytest.raises(PsdrRoomError, match="^denoiser.oidn.quality=best is not one of the choices"):
+        check_settings(OidnSettings, {"quality": "best"}, "denoiser.oidn")
 
 
 def test_flip_orders_known_pairs() -> None:

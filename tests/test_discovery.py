@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from psdr_room_core.engine import shipped
 from psdr_room_core.method.artifacts import Camera, Detection, Detections, Image, Panoptic, Segment
 from psdr_room_core.method.labels import alternates, meaning, primary_category
 from psdr_room_core.method.surface_colours import SurfaceColours, unprompted
@@ -30,9 +31,17 @@ from psdr_room_plugins.layout.manhattan import frame_from_vanishing_points
 from psdr_room_plugins.layout.objects import SeenObjects
 from psdr_room_plugins.layout.proposals import clutter_proposals
 from psdr_room_plugins.layout.segmentation import LayoutSegmentation
-from psdr_room_plugins.layout.settings import DiscoveryParams, ProposalParams
+from psdr_room_plugins.layout.settings import (
+    DiscoveryParams,
+    GrabCutParams,
+    LayoutSegmentationSettings,
+    ProposalParams,
+)
 
 PHOTO = Path("room.png")
+DISCOVERY = shipped.settings(DiscoveryParams, "segmentation.layout.discovery")
+PROPOSALS = shipped.settings(ProposalParams, "segmentation.layout.proposals")
+GRABCUT = shipped.settings(GrabCutParams, "segmentation.layout.grabcut")
 ROOM = np.array([-2.0, 1.6, 0.7, -3.0, 3.2])  # camera heights (psdr_room_plugins.layout.box)
 WIDTH, HEIGHT = 320, 240
 
@@ -148,11 +157,11 @@ def test_how_common_each_pixels_colour_is_on_its_surface(room: dict) -> None:
     carpet = floor & ~pattern & ~leg
     assert np.median(colours.commonness[carpet]) > 0.2
     assert 0.0 < np.median(colours.commonness[pattern & ~leg]) < np.median(colours.commonness[carpet])
-    assert (colours.commonness[leg] < DiscoveryParams().leg_rarity).all()
+    assert (colours.commonness[leg] < DISCOVERY.leg_rarity).all()
 
 
 def test_implausible_footings_and_heights() -> None:
-    params = DiscoveryParams()
+    params = DISCOVERY
     chair = _candidate("chair", (0, 0, 10, 10), 0.5)
     assert implausible(chair, params) is None
     floating = Candidate(chair.detection, chair.mask, "chair", Footing(None, "floating"))
@@ -166,7 +175,7 @@ def test_implausible_footings_and_heights() -> None:
 
 # ----------------------------------------------------------------------------------------------- prompt rules
 def test_a_sofa_keeps_its_seats_whichever_is_found_first() -> None:
-    params = DiscoveryParams()
+    params = DISCOVERY
     sofa = _candidate("couch", (100, 100, 300, 180), 0.5)
     seat = _candidate("chair", (190, 110, 290, 180), 0.45)  # the right half, taken for a chair
     assert part_of(seat, sofa, params)  # the sofa first: the seat is its part
@@ -176,7 +185,7 @@ def test_a_sofa_keeps_its_seats_whichever_is_found_first() -> None:
 
 
 def test_chairs_behind_chairs_stay_apart_but_second_boxes_on_one_object_merge() -> None:
-    params = DiscoveryParams()
+    params = DISCOVERY
     near = _candidate("chair", (100, 100, 220, 300), 0.7)
     behind = _candidate("chair", (130, 110, 200, 220), 0.4)  # inside its box, standing further back (higher)
     assert not part_of(behind, near, params)
@@ -188,7 +197,7 @@ def test_chairs_behind_chairs_stay_apart_but_second_boxes_on_one_object_merge() 
 
 
 def test_a_box_round_two_chairs_is_a_group() -> None:
-    params = DiscoveryParams()
+    params = DISCOVERY
     both = _candidate("chair", (100, 100, 400, 300), 0.3)
     left, right = _candidate("chair", (105, 110, 240, 300), 0.6), _candidate("chair", (260, 105, 395, 298), 0.5)
     assert group_size(both, [both, left, right], params) == 2
@@ -206,7 +215,7 @@ def test_weak_prompts_the_room_explains_are_dropped(room: dict) -> None:
     around = (cols.min() - 3.0, rows.min() - 3.0, cols.max() + 4.0, rows.max() + 4.0)
     on_cabinet = Detection("oven", "object", around, 0.2)
     on_floor = Detection("bed", "object", (180.0, 200.0, 300.0, 238.0), 0.2)  # nothing there but floor
-    found = discover(rgb8, room["rays"], surfaces, [on_cabinet, on_floor], DiscoveryParams(), proposals=None)
+    found = discover(rgb8, room["rays"], surfaces, [on_cabinet, on_floor], DISCOVERY, None, GRABCUT)
     assert [f.detection.label for f in found] == ["oven"]
     assert (found[0].mask & cabinet).sum() / (found[0].mask | cabinet).sum() > 0.8
 
@@ -226,8 +235,9 @@ def test_nearer_objects_are_painted_over_farther_ones(room: dict) -> None:
         room["rays"],
         surfaces,
         [around(near, "chair", 0.8), around(far, "cabinet", 0.6)],
-        DiscoveryParams(),
-        proposals=None,
+        DISCOVERY,
+        None,
+        GRABCUT,
     )
     assert [f.detection.label for f in found] == ["cabinet", "chair"]  # far first
     assert not (found[0].mask & found[1].mask).any()
@@ -238,11 +248,12 @@ def test_what_the_room_cannot_explain_becomes_an_object(room: dict) -> None:
     """No prompt at all: a red cabinet against the plain room is found by its colour alone."""
     cabinet = _standing_box(room, 60, 120, height_m=0.9)
     rgb8, surfaces = _painted(room, (cabinet, [0.55, 0.25, 0.15]))
-    proposals = clutter_proposals(surfaces, np.zeros_like(cabinet), ProposalParams())
+    proposals = clutter_proposals(surfaces, np.zeros_like(cabinet), PROPOSALS)
     assert len(proposals) == 1 and proposals[0].label == "object"
-    assert proposals[0].score < DiscoveryParams().trusted_score  # weak: every check applies
+    assert proposals[0].score < DISCOVERY.trusted_score  # weak: every check applies
     image = Image(rgb=rgb8.astype(np.float32) / 255.0, source=str(PHOTO), original_size=(WIDTH, HEIGHT))
-    segmentation = LayoutSegmentation(n_random=1500, proposals=ProposalParams())
+    layout = shipped.arguments(LayoutSegmentationSettings, "segmentation.layout")
+    segmentation = LayoutSegmentation(**{**layout, "n_random": 1500})
     panoptic = segmentation.segment(image, room["camera"], Detections(items=[]), PHOTO)
     objects = [s for s in panoptic.segments if s.category == "object"]
     assert len(objects) == 1 and objects[0].label == "object" and objects[0].score == pytest.approx(0.2)
@@ -253,9 +264,9 @@ def test_what_the_room_cannot_explain_becomes_an_object(room: dict) -> None:
 def test_an_empty_room_gives_no_objects_and_no_error(room: dict) -> None:
     rgb8 = (room["rgb"] * 255).astype(np.uint8)
     surfaces = SurfaceColours(rgb8, room["labels"], np.ones(room["labels"].shape, bool))
-    assert clutter_proposals(surfaces, np.zeros(room["labels"].shape, bool), ProposalParams()) == []
-    assert discover(rgb8, room["rays"], surfaces, [], DiscoveryParams(), ProposalParams()) == []
-    selection = Selection(rgb8, room["rays"], surfaces, DiscoveryParams())
+    assert clutter_proposals(surfaces, np.zeros(room["labels"].shape, bool), PROPOSALS) == []
+    assert discover(rgb8, room["rays"], surfaces, [], DISCOVERY, PROPOSALS, GRABCUT) == []
+    selection = Selection(rgb8, room["rays"], surfaces, DISCOVERY, GRABCUT)
     selection.consider([Detection("chair", "object", (0.0, 0.0, 1.0, 1.0), 0.9)])  # a one-pixel box
     assert selection.kept == []
 
@@ -282,9 +293,9 @@ def test_a_proposal_inside_a_known_object_joins_it(room: dict) -> None:
     whole = back | seat
     rows, cols = np.nonzero(whole)
     box = (cols.min() - 2.0, rows.min() - 2.0, cols.max() + 3.0, rows.max() + 3.0)
-    selection = Selection(rgb8, room["rays"], surfaces, DiscoveryParams())
+    selection = Selection(rgb8, room["rays"], surfaces, DISCOVERY, GRABCUT)
     selection.kept = [Candidate(Detection("chair", "object", box, 0.8), back.copy(), "chair", Footing(None, "cut"))]
-    selection.consider(clutter_proposals(surfaces, selection.occupied, ProposalParams()))
+    selection.consider(clutter_proposals(surfaces, selection.occupied, PROPOSALS))
     assert len(selection.kept) == 1 and "joined to a chair" in selection.dropped
     assert (selection.kept[0].mask & whole).sum() / whole.sum() > 0.9
 
@@ -344,14 +355,14 @@ def test_where_grabcut_finds_nothing_the_networks_instance_is_the_mask(room: dic
     rgb8, surfaces = _painted(room, (row, [0.6, 0.15, 0.2]))
     rows, cols = np.nonzero(chair)
     prompt = Detection("chair", "object", (cols.min() - 1.0, rows.min() - 1.0, cols.max() + 2.0, rows.max() + 2.0), 0.5)
-    alone = Selection(rgb8, room["rays"], surfaces, DiscoveryParams())
+    alone = Selection(rgb8, room["rays"], surfaces, DISCOVERY, GRABCUT)
     alone.consider([prompt])
     assert alone.kept == [] and "GrabCut found no object" in alone.dropped
     ids = np.zeros(chair.shape, np.int32)
     ids[row] = 2
     ids[chair] = 1  # the network tells this chair from its neighbours
     panoptic = Panoptic(ids, [Segment(1, "object", "chair"), Segment(2, "object", "chair")])
-    found = discover(rgb8, room["rays"], surfaces, [prompt], DiscoveryParams(), None, seen=SeenObjects.of(panoptic))
+    found = discover(rgb8, room["rays"], surfaces, [prompt], DISCOVERY, None, GRABCUT, seen=SeenObjects.of(panoptic))
     assert [f.detection.label for f in found] == ["chair"]
     assert (found[0].mask & chair).sum() / (found[0].mask | chair).sum() > 0.95
 
@@ -368,12 +379,12 @@ def test_a_box_the_network_sees_as_one_object_is_no_group(room: dict) -> None:
     halves = [
         Detection("chair", "object", (x0, top + 5, x1, bottom), 0.4) for x0, x1 in ((102.0, 158.0), (162.0, 218.0))
     ]
-    alone = Selection(rgb8, room["rays"], surfaces, DiscoveryParams())
+    alone = Selection(rgb8, room["rays"], surfaces, DISCOVERY, GRABCUT)
     alone.consider([whole, *halves])
     assert "a box round 2 objects" in alone.dropped
     ids = chair.astype(np.int32)
     seen = SeenObjects.of(Panoptic(ids, [Segment(1, "object", "chair")]))
-    helped = Selection(rgb8, room["rays"], surfaces, DiscoveryParams(), seen=seen)
+    helped = Selection(rgb8, room["rays"], surfaces, DISCOVERY, GRABCUT, seen=seen)
     helped.consider([whole, *halves])
     assert "a box round 2 objects" not in helped.dropped
     assert helped.kept[0].detection == whole
@@ -392,7 +403,7 @@ def test_a_weak_box_the_network_sees_as_floor_is_no_object(room: dict) -> None:
     rgb8 = (rgb * 255).astype(np.uint8)
     surfaces = SurfaceColours(rgb8, room["labels"], unprompted(room["labels"].shape, [(150.0, 150.0, 320.0, 240.0)]))
     prompt = Detection("bed", "object", (198.0, 188.0, 302.0, 240.0), 0.2)
-    alone = Selection(rgb8, room["rays"], surfaces, DiscoveryParams())
+    alone = Selection(rgb8, room["rays"], surfaces, DISCOVERY, GRABCUT)
     alone.consider([prompt])
     assert [k.detection for k in alone.kept] == [prompt]
     floor = Panoptic(
@@ -400,7 +411,7 @@ def test_a_weak_box_the_network_sees_as_floor_is_no_object(room: dict) -> None:
         [Segment(1, "floor", "floor"), Segment(2, "wall", "wall")],
     )
     assert SeenObjects.of(floor).surface_share(patch) == 1.0
-    seeing_floor = Selection(rgb8, room["rays"], surfaces, DiscoveryParams(), seen=SeenObjects.of(floor))
+    seeing_floor = Selection(rgb8, room["rays"], surfaces, DISCOVERY, GRABCUT, seen=SeenObjects.of(floor))
     seeing_floor.consider([prompt])
     assert seeing_floor.kept == [] and "weak, and the network sees a room surface there" in seeing_floor.dropped
     trusted = replace(prompt, score=0.5)
@@ -410,7 +421,7 @@ def test_a_weak_box_the_network_sees_as_floor_is_no_object(room: dict) -> None:
     ids[patch] = 3
     seeing_bed = Panoptic(ids, [*floor.segments, Segment(3, "object", "bed")])
     assert SeenObjects.of(seeing_bed).surface_share(patch) == 0.0
-    helped = Selection(rgb8, room["rays"], surfaces, DiscoveryParams(), seen=SeenObjects.of(seeing_bed))
+    helped = Selection(rgb8, room["rays"], surfaces, DISCOVERY, GRABCUT, seen=SeenObjects.of(seeing_bed))
     helped.consider([prompt])
     assert [k.detection for k in helped.kept] == [prompt]
 
@@ -428,13 +439,13 @@ def test_a_chair_the_network_sees_in_front_of_others_is_no_piece_of_a_box_round_
     top = float(np.nonzero(behind[0] | behind[1])[0].min())
     three = Detection("chair", "object", (98.0, top - 1, 222.0, near_box[3] + 1), 0.3)
     prompts = [Detection("chair", "object", near_box, 0.6), three]
-    alone = Selection(rgb8, room["rays"], surfaces, DiscoveryParams())
+    alone = Selection(rgb8, room["rays"], surfaces, DISCOVERY, GRABCUT)
     alone.consider(prompts)
     assert "part of a chair" in alone.dropped and [k.detection for k in alone.kept] == [three]
     ids = np.zeros(near.shape, np.int32)
     ids[behind[0]], ids[behind[1]], ids[near] = 2, 3, 1
     segments = [Segment(i, "object", "chair") for i in (1, 2, 3)]
-    helped = Selection(rgb8, room["rays"], surfaces, DiscoveryParams(), seen=SeenObjects.of(Panoptic(ids, segments)))
+    helped = Selection(rgb8, room["rays"], surfaces, DISCOVERY, GRABCUT, seen=SeenObjects.of(Panoptic(ids, segments)))
     helped.consider(prompts)
     assert "part of a chair" not in helped.dropped and helped.kept[0].detection == prompts[0]
     back = np.zeros(near.shape, bool)
@@ -443,6 +454,6 @@ def test_a_chair_the_network_sees_in_front_of_others_is_no_piece_of_a_box_round_
     ids = back.astype(np.int32)
     seen_back = SeenObjects.of(Panoptic(ids, [Segment(1, "object", "chair")]))
     whole = Detection("chair", "object", near_box, 0.3)
-    pieces = Selection(rgb8, room["rays"], surfaces, DiscoveryParams(), seen=seen_back)
+    pieces = Selection(rgb8, room["rays"], surfaces, DISCOVERY, GRABCUT, seen=seen_back)
     pieces.consider([Detection("chair", "object", back_box, 0.6), whole])
     assert "part of a chair" in pieces.dropped and [k.detection for k in pieces.kept] == [whole]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from functools import cache
 from pathlib import Path
 
@@ -11,8 +12,11 @@ import numpy as np
 import pytest
 
 from boxroom import checker_floor, render_box_room
+from psdr_room_core.engine import shipped
 from psdr_room_core.libraries.vanishing_points import VanishingPointParams, estimate_camera
 from psdr_room_core.method.artifacts import Camera
+
+PARAMS = shipped.settings(VanishingPointParams, "fov.vanishing_points")
 
 # (vertical FoV, yaw, pitch, roll) in degrees
 VIEWS = [(45.0, 20.0, -5.0, 2.0), (60.0, -25.0, 5.0, -3.0), (75.0, 40.0, -10.0, 1.0)]
@@ -25,7 +29,7 @@ def _render(vfov: float, yaw: float, pitch: float, roll: float) -> np.ndarray:
 
 @pytest.mark.parametrize("vfov, yaw, pitch, roll", VIEWS)
 def test_recovers_vertical_fov(vfov: float, yaw: float, pitch: float, roll: float) -> None:
-    result = estimate_camera(_render(vfov, yaw, pitch, roll))
+    result = estimate_camera(_render(vfov, yaw, pitch, roll), PARAMS)
     assert result.method != "fallback"
     assert abs(result.vfov_deg - vfov) < 2.0
     assert result.focal_px == pytest.approx(240 / (2 * math.tan(math.radians(result.vfov_deg) / 2)))
@@ -39,7 +43,7 @@ def test_a_floor_of_big_tiles_seen_from_above_gives_the_fov(tile: float, pitch: 
     """Nine or so long tile edges and no vertical line (the synthetic floor-only case, a phone photo of a tiled
     floor): enough for the two floor vanishing points and the focal, not a fallback."""
     image = checker_floor(40.0, pitch, tile)
-    result = estimate_camera(image)
+    result = estimate_camera(image, PARAMS)
     assert result.n_segments < 12 and result.method == "orthogonal_pair"
     assert abs(result.vfov_deg - 40.0) < 3.0
 
@@ -48,14 +52,14 @@ def test_ignores_uniform_white_border() -> None:
     vfov, yaw, pitch, roll = VIEWS[1]
     framed = np.ones((240 + 16, 320 + 16, 3), dtype=np.float32)
     framed[8:-8, 8:-8] = _render(vfov, yaw, pitch, roll)
-    result = estimate_camera(framed)
+    result = estimate_camera(framed, PARAMS)
     # same scene, but the focal now refers to a 256 px tall image
     expected = math.degrees(2 * math.atan(256 / 240 * math.tan(math.radians(vfov) / 2)))
     assert abs(result.vfov_deg - expected) < 2.0
 
 
 def test_featureless_image_falls_back() -> None:
-    params = VanishingPointParams(fallback_vfov_deg=52.0)
+    params = replace(PARAMS, fallback_vfov_deg=52.0)
     rng = np.random.default_rng(1)
     flat = np.clip(0.5 + rng.normal(0.0, 0.01, (240, 320, 3)), 0.0, 1.0).astype(np.float32)
     result = estimate_camera(flat, params)
@@ -67,7 +71,7 @@ def test_featureless_image_falls_back() -> None:
 
 def test_deterministic_for_a_seed() -> None:
     image = _render(*VIEWS[0])
-    params = VanishingPointParams(seed=3)
+    params = replace(PARAMS, seed=3)
     assert estimate_camera(image, params) == estimate_camera(image, params)
 
 

@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 
 from boxroom import checker_floor
+from psdr_room_core.engine import shipped
 from psdr_room_core.engine.records import RunRecord
-from psdr_room_core.libraries.vanishing_points import estimate_camera
+from psdr_room_core.libraries.vanishing_points import VanishingPointParams, estimate_camera
 from psdr_room_core.method.artifacts import Camera, DepthMap, Detection, Detections, Image, Panoptic, Segment
 from psdr_room_core.method.guesses import FLOOR_GUESSES, fov_guesses
 from psdr_room_plugins.layout import box
@@ -22,11 +23,23 @@ from psdr_room_plugins.layout.fit import _room_labels, fit_layout, floor_colour_
 from psdr_room_plugins.layout.manhattan import ManhattanFrame, frame_from_vanishing_points
 from psdr_room_plugins.layout.objects import grabcut_mask
 from psdr_room_plugins.layout.segmentation import LayoutSegmentation
-from psdr_room_plugins.layout.settings import GrabCutParams, LayoutParams
+from psdr_room_plugins.layout.settings import GrabCutParams, LayoutDepthSettings, LayoutSegmentationSettings
 
 PHOTO = Path("room.png")  # named in logs only
 TRUE_BOX = np.array([-2.0, 1.6, 0.7, -3.0, 3.2])  # camera heights (see psdr_room_plugins.layout.box)
 CATEGORY = {box.FLOOR: "floor", box.CEILING: "ceiling"}
+GRABCUT = shipped.settings(GrabCutParams, "segmentation.layout.grabcut")
+
+
+def _segmentation() -> LayoutSegmentation:
+    """``segmentation=layout`` as shipped, quicker (1500 random hypotheses) and without clutter proposals."""
+    shipped_layout = shipped.arguments(LayoutSegmentationSettings, "segmentation.layout")
+    return LayoutSegmentation(**{**shipped_layout, "n_random": 1500, "proposals": None})
+
+
+def _depth(**changes: object) -> LayoutDepth:
+    """``depth=layout`` as shipped, quicker (1500 random hypotheses), with ``changes``."""
+    return LayoutDepth(**{**shipped.arguments(LayoutDepthSettings, "depth.layout"), "n_random": 1500, **changes})
 
 
 def _rotation(yaw_deg: float, pitch_deg: float) -> np.ndarray:
@@ -104,7 +117,7 @@ def _category_iou(panoptic: Panoptic, labels: np.ndarray) -> dict[str, float]:
 
 def test_layout_segmentation_recovers_the_room(room: tuple) -> None:
     camera, image, labels, _ = room
-    panoptic = LayoutSegmentation(n_random=1500).segment(image, camera, Detections(items=[]), PHOTO)
+    panoptic = _segmentation().segment(image, camera, Detections(items=[]), PHOTO)
     ious = _category_iou(panoptic, labels)
     assert min(ious.values()) > 0.9, ious
     walls = [s for s in panoptic.segments if s.category == "wall"]
@@ -139,7 +152,7 @@ def test_a_networks_walls_floor_and_ceiling_give_the_room_a_plain_photo_cannot(r
     for k, name in enumerate(("wall", "floor", "ceiling")):
         ids[names == name] = k + 1
         segments.append(Segment(k + 1, name, name))
-    layout = LayoutSegmentation(n_random=1500)
+    layout = _segmentation()
     alone = _category_iou(layout.segment(plain, camera, Detections(items=[]), PHOTO), labels)
     seen = _category_iou(
         layout.segment(plain, camera, Detections(items=[]), PHOTO, seen=Panoptic(ids, segments)), labels
@@ -152,7 +165,7 @@ def test_layout_depth_from_true_labels_is_the_room_depth(room: tuple) -> None:
     camera, image, labels, t = room
     segments = [Segment(int(s) + 1, CATEGORY.get(int(s), "wall"), box.SURFACES[int(s)]) for s in np.unique(labels)]
     panoptic = Panoptic(ids=labels.astype(np.int32) + 1, segments=segments)
-    depth = LayoutDepth(camera_height_m=1.5, n_random=1500).estimate(image, camera, panoptic, PHOTO)
+    depth = _depth().estimate(image, camera, panoptic, PHOTO)
     assert depth.valid.all() and not depth.metric
     relative = np.abs(depth.depth / (1.5 * t) - 1.0)
     assert np.median(relative) < 0.02 and np.mean(relative < 0.05) > 0.9
@@ -167,7 +180,7 @@ def test_layout_depth_names_the_objects_it_found_no_floor_contact_for(room: tupl
     ids[120:200, 140:170] = 20  # its bottom row on the floor
     ids[10:30, 140:170] = 21  # a picture on the wall
     segments += [Segment(20, "object", "cabinet", 0.5), Segment(21, "object", "picture", 0.5)]
-    depth = LayoutDepth(camera_height_m=1.5, n_random=1500).estimate(image, camera, Panoptic(ids, segments), PHOTO)
+    depth = _depth().estimate(image, camera, Panoptic(ids, segments), PHOTO)
     assert depth.unplaced == (21,)
     depth.save(tmp_path)
     assert DepthMap.load(tmp_path).unplaced == (21,)
@@ -184,7 +197,7 @@ def test_a_networks_relative_depth_gives_an_object_with_no_floor_contact_its_own
     ids[10:30, 140:170] = 21
     segments += [Segment(20, "object", "cabinet", 0.5), Segment(21, "object", "lamp", 0.5)]
     relative = 7.0 * t * np.where(ids == 21, 0.5, 1.0)  # the network's own units
-    layout = LayoutDepth(camera_height_m=1.5, n_random=1500)
+    layout = _depth()
     alone = layout.estimate(image, camera, Panoptic(ids, segments), PHOTO)
     depth = layout.estimate(image, camera, Panoptic(ids, segments), PHOTO, relative=relative)
     assert depth.unplaced == ()
@@ -207,16 +220,16 @@ def test_a_networks_relative_depth_lays_an_object_back_from_where_it_meets_the_f
     segments.append(Segment(20, "object", "bed", 0.5))
     panoptic, bed = Panoptic(ids, segments), ids == 20
     relative = 7.0 * t  # the network's own units
-    alone = LayoutDepth(camera_height_m=1.5, n_random=1500).estimate(image, camera, panoptic, PHOTO)
-    deep = LayoutDepth(camera_height_m=1.5, n_random=1500, relative_extent=2.0)  # a bed is deeper than wide
+    alone = _depth().estimate(image, camera, panoptic, PHOTO)
+    deep = _depth(relative_extent=2.0)  # a bed is deeper than wide
     shaped = deep.estimate(image, camera, panoptic, PHOTO, relative)
     assert np.median(alone.depth[200:204, 130] / (1.5 * t[200:204, 130])) < 0.85  # a slab, up to the top row
     assert np.median(np.abs(shaped.depth[bed] / (1.5 * t[bed]) - 1.0)) < 0.03  # lying on the floor
     assert np.all(shaped.depth[bed] >= alone.depth[bed] - 1e-5)
     assert np.array_equal(shaped.depth[~bed], alone.depth[~bed])
-    flat = LayoutDepth(camera_height_m=1.5, n_random=1500, relative_extent=0.0)
+    flat = _depth(relative_extent=0.0)
     assert np.array_equal(flat.estimate(image, camera, panoptic, PHOTO, relative).depth, alone.depth)
-    capped = LayoutDepth(camera_height_m=1.5, n_random=1500, relative_extent=0.02)
+    capped = _depth(relative_extent=0.02)
     behind = capped.estimate(image, camera, panoptic, PHOTO, relative).depth[bed] - alone.depth[bed]
     assert 0 < behind.max() <= 1.5 * 0.02 * 2.5  # the bed is under 2.5 camera heights wide
 
@@ -254,11 +267,11 @@ def test_grabcut_cuts_the_object_out_of_its_box() -> None:
     truth = ((xx - 130) / 60.0) ** 2 + ((yy - 100) / 45.0) ** 2 < 1.0
     rgb[truth] = [0.8, 0.2, 0.25]
     rgb8 = np.clip((rgb + rng.normal(0, 0.03, rgb.shape)) * 255, 0, 255).astype(np.uint8)
-    mask = grabcut_mask(rgb8, (62.0, 48.0, 198.0, 152.0), GrabCutParams())
+    mask = grabcut_mask(rgb8, (62.0, 48.0, 198.0, 152.0), GRABCUT)
     assert mask is not None
     assert (mask & truth).sum() / (mask | truth).sum() > 0.9
     flat = np.full_like(rgb8, 128)
-    assert grabcut_mask(flat, (62.0, 48.0, 198.0, 152.0), GrabCutParams(min_fill=0.9)) is None
+    assert grabcut_mask(flat, (62.0, 48.0, 198.0, 152.0), replace(GRABCUT, min_fill=0.9)) is None
 
 
 def test_box_prompts_become_object_segments(room: tuple) -> None:
@@ -268,7 +281,7 @@ def test_box_prompts_become_object_segments(room: tuple) -> None:
     sofa = ((xx - 160) / 40.0) ** 2 + ((yy - 170) / 25.0) ** 2 < 1.0
     rgb[sofa] = [0.8, 0.3, 0.2]
     prompts = Detections(items=[Detection("couch", "object", (112.0, 140.0, 208.0, 200.0), 0.8)])
-    panoptic = LayoutSegmentation(n_random=1500).segment(
+    panoptic = _segmentation().segment(
         Image(rgb=rgb, source="room.png", original_size=(320, 240)), camera, prompts, PHOTO
     )
     couch = [s for s in panoptic.segments if s.label == "couch"]
@@ -378,9 +391,13 @@ def test_a_tiled_floor_filling_the_photo_is_a_floor_not_a_wall_seen_from_below()
     vanishing points (under twelve lines the FoV was the fallback and the room stood upright, the floor only
     its lower 40%), and the floor, not a wall seen 35° from below, fills the photo."""
     rgb = checker_floor(40.0, 55.0, 0.8)
-    found = estimate_camera(rgb)
+    found = estimate_camera(rgb, shipped.settings(VanishingPointParams, "fov.vanishing_points"))
     camera = Camera.from_vfov(320, 240, found.vfov_deg, vanishing_points=found.vanishing_points)
-    layout = fit_layout(Image(rgb=rgb, original_size=(320, 240)), camera, LayoutParams(n_random=1500))
+    layout = fit_layout(
+        Image(rgb=rgb, original_size=(320, 240)),
+        camera,
+        replace(shipped.settings(LayoutDepthSettings, "depth.layout"), n_random=1500),
+    )
     labels, _ = layout.trace(camera, 160, 120)
     assert (labels == box.FLOOR).mean() > 0.95
     p = math.radians(55.0)

@@ -8,6 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from psdr_room_core.engine import shipped
 from psdr_room_core.libraries.object_db import ObjectDatabase, builtin_database
 from psdr_room_core.method.artifacts import Camera, ObjectMesh, Placement, RoomBox
 from psdr_room_core.method.geometry import box_mesh
@@ -21,7 +22,7 @@ C2W[:3, :3] = np.diag([-1.0, -1.0, 1.0])  # OpenCV camera looking along world +Z
 C2W[:3, 3] = [0.0, 1.5, -2.5]
 ROOM = RoomBox(camera_to_world=C2W, center=np.array([0.0, 1.5, 1.0]), half_size=np.array([3.0, 1.5, 3.5]), yaw=0.0)
 CAMERA = Camera.from_vfov(160, 120, 60.0)
-PARAMS = PhysicalParams()
+PARAMS = shipped.settings(PhysicalParams, "place_objects.physical")
 
 
 @pytest.fixture(scope="module")
@@ -121,13 +122,16 @@ def test_a_pillow_rests_on_the_bed_surface_not_on_its_headboard(db: ObjectDataba
 # --------------------------------------------------------------------------------------------- settle
 def test_an_object_that_needs_twice_its_real_size_is_dropped_with_the_reason(db: ObjectDatabase) -> None:
     bed = placed(db, "kenney/bedSingle", 5, (0.0, 0.0, 2.0), yaw_deg=90.0, scale=2.07)
-    settled = settle([bed], ROOM, CAMERA, drawn=set(), pixels={5: 4000}, params=PARAMS)
+    settled = settle([bed], room=ROOM, camera=CAMERA, drawn=set(), pixels={5: 4000}, params=PARAMS)
     assert settled.placements == [] and len(settled.dropped) == 1
     assert settled.dropped[0].startswith("5:bed (bedSingle): needs 2.07x its size") and "bed's" in settled.dropped[0]
-    drawn = settle([bed], ROOM, CAMERA, drawn={5}, pixels={5: 4000}, params=PARAMS)  # a person drew it: scaled in
+    # a person drew it: scaled in
+    drawn = settle([bed], room=ROOM, camera=CAMERA, drawn={5}, pixels={5: 4000}, params=PARAMS)
     (kept,) = drawn.placements
     assert kept.scale == pytest.approx(scale_range("bed", db.record("kenney/bedSingle").extent)[1])
-    slightly = settle([replace(bed, scale=1.15)], ROOM, CAMERA, drawn=set(), pixels={5: 4000}, params=PARAMS)
+    slightly = settle(
+        [replace(bed, scale=1.15)], room=ROOM, camera=CAMERA, drawn=set(), pixels={5: 4000}, params=PARAMS
+    )
     assert len(slightly.placements) == 1 and slightly.placements[0].scale < 1.12  # 2.59 m long, 4% over: scaled in
 
 
@@ -136,7 +140,7 @@ def test_a_mirror_duplicate_is_removed(db: ObjectDatabase) -> None:
     one that explains less of its segment goes."""
     bed = placed(db, "kenney/bedDouble", 5, (0.0, 0.0, 2.0), yaw_deg=180.0, explained=0.8)
     mirrored = placed(db, "parametric/bed_003", 9, (0.15, 0.0, 2.1), yaw_deg=175.0, explained=0.5)
-    settled = settle([bed, mirrored], ROOM, CAMERA, drawn=set(), pixels={5: 5000, 9: 5000}, params=PARAMS)
+    settled = settle([bed, mirrored], room=ROOM, camera=CAMERA, drawn=set(), pixels={5: 5000, 9: 5000}, params=PARAMS)
     assert [p.segment_id for p in settled.placements] == [5]
     assert settled.dropped[0].startswith("9:bed (bed_003): occupies the space of 5:bed (bedDouble)")
 
@@ -161,17 +165,23 @@ def test_an_object_of_no_named_kind_in_front_of_what_the_photo_shows_is_dropped(
     chair = placed(db, "parametric/chair_005", 2, (0.1, 0.0, 2.5), yaw_deg=180.0, explained=0.9)
     ids, pixels = _shown(panel, chair)
     assert pixels[1] > 5 * pixels[2]  # the panel explains far more pixels than the chair
-    settled = settle([panel, chair], ROOM, CAMERA, drawn=set(), pixels=pixels, params=PARAMS, ids=ids)
+    settled = settle([panel, chair], room=ROOM, camera=CAMERA, drawn=set(), pixels=pixels, params=PARAMS, ids=ids)
     assert [p.segment_id for p in settled.placements] == [2] and settled.placements[0] == chair
     assert settled.dropped == [
         "1:object (frame_003): hides 2:chair (chair_005), which the photo shows there; it cannot move back, and "
         "its label names no kind"
     ]
     named = settle(
-        [replace(panel, label="frame"), chair], ROOM, CAMERA, drawn=set(), pixels=pixels, params=PARAMS, ids=ids
+        [replace(panel, label="frame"), chair],
+        room=ROOM,
+        camera=CAMERA,
+        drawn=set(),
+        pixels=pixels,
+        params=PARAMS,
+        ids=ids,
     )
     assert len(named.placements) == 2 and not named.dropped  # which named one's depth is wrong the photo does not say
-    unchecked = settle([panel, chair], ROOM, CAMERA, drawn=set(), pixels=pixels, params=PARAMS)
+    unchecked = settle([panel, chair], room=ROOM, camera=CAMERA, drawn=set(), pixels=pixels, params=PARAMS)
     assert len(unchecked.placements) == 2  # without the segmentation nothing says the chair is seen
 
 
@@ -184,7 +194,9 @@ def test_a_blob_is_not_dropped_where_that_would_not_show_what_it_hides(db: Objec
     chair = placed(db, "parametric/chair_005", 2, (0.1, 0.0, 2.5), yaw_deg=180.0, explained=0.9)
     cabinet = placed(db, "parametric/cabinet_002", 3, (0.1, 0.0, 1.6), yaw_deg=180.0, explained=0.9)
     ids, pixels = _shown(panel, chair)
-    settled = settle([panel, chair, cabinet], ROOM, CAMERA, drawn=set(), pixels=pixels, params=PARAMS, ids=ids)
+    settled = settle(
+        [panel, chair, cabinet], room=ROOM, camera=CAMERA, drawn=set(), pixels=pixels, params=PARAMS, ids=ids
+    )
     assert len(settled.placements) == 3 and not settled.dropped
 
 
@@ -198,7 +210,7 @@ def test_an_object_in_front_of_what_the_photo_shows_moves_back_behind_it(db: Obj
     )
     chair = placed(db, "parametric/chair_005", 2, (0.1, 0.0, 1.2), yaw_deg=180.0, explained=0.9)
     ids, pixels = _shown(panel, chair)
-    settled = settle([panel, chair], ROOM, CAMERA, drawn=set(), pixels=pixels, params=PARAMS, ids=ids)
+    settled = settle([panel, chair], room=ROOM, camera=CAMERA, drawn=set(), pixels=pixels, params=PARAMS, ids=ids)
     assert not settled.dropped and settled.placements[1] == chair
     moved = settled.placements[0]
     assert moved.scale > panel.scale and moved.position[2] > 1.2 + 0.4  # behind the chair
@@ -215,7 +227,7 @@ def test_two_objects_passing_through_each_other_are_moved_apart(db: ObjectDataba
     half = 0.5 * float(np.ptp(bed.mesh.vertices[:, 0]))
     stand = placed(db, "parametric/cabinet_011", 6, (half + 0.2 - 0.15, 0.0, 3.0), yaw_deg=180.0, explained=0.9)
     assert interpenetrations([bed, stand], 0.05)
-    settled = settle([bed, stand], ROOM, CAMERA, drawn=set(), pixels={5: 6000, 6: 800}, params=PARAMS)
+    settled = settle([bed, stand], room=ROOM, camera=CAMERA, drawn=set(), pixels={5: 6000, 6: 800}, params=PARAMS)
     assert [p.segment_id for p in settled.placements] == [5, 6] and not settled.dropped
     assert interpenetrations(settled.placements, PARAMS.penetration) == []
     moved = settled.placements[1]
@@ -242,7 +254,9 @@ def test_what_made_room_for_a_dropped_object_goes_back(db: ObjectDatabase) -> No
         yaw=0.0,
     )
     pixels = {1: 3000, 2: 3000, 3: 1500}
-    settled = settle([weak, strong, box], room, CAMERA, drawn=set(), pixels=pixels, params=PARAMS, scores={3: 0.2})
+    settled = settle(
+        [weak, strong, box], room=room, camera=CAMERA, drawn=set(), pixels=pixels, params=PARAMS, scores={3: 0.2}
+    )
     assert [p.segment_id for p in settled.placements] == [2, 3]
     assert settled.dropped[0].startswith("1:desk (cube_1): passes")
     assert any(c.startswith("3:box (cube_3): moved") for c in settled.changed)
@@ -265,11 +279,22 @@ def test_a_weak_guess_never_makes_a_surer_object_change() -> None:
     guess = cube(2, 0.69, 1.0, explained=0.9)  # x from 0.19 to the wall
     assert interpenetrations([dresser, guess], 0.15)
     pixels = {1: 3000, 2: 3000}  # the guess explains more pixels: by that alone it is the stronger
-    placed_only = settle([dresser, guess], room, CAMERA, set(), pixels, PARAMS, final=False, scores={2: 0.2})
+    placed_only = settle(
+        [dresser, guess],
+        room=room,
+        camera=CAMERA,
+        drawn=set(),
+        pixels=pixels,
+        params=PARAMS,
+        final=False,
+        scores={2: 0.2},
+    )
     assert placed_only.placements == [dresser, guess] and not placed_only.changed
-    final = settle([dresser, guess], room, CAMERA, set(), pixels, PARAMS, scores={2: 0.2})
+    final = settle(
+        [dresser, guess], room=room, camera=CAMERA, drawn=set(), pixels=pixels, params=PARAMS, scores={2: 0.2}
+    )
     assert final.placements == [dresser] and final.dropped[0].startswith("2:cabinet (cube_2): passes")
-    as_sure = settle([dresser, guess], room, CAMERA, set(), pixels, PARAMS)
+    as_sure = settle([dresser, guess], room=room, camera=CAMERA, drawn=set(), pixels=pixels, params=PARAMS)
     assert as_sure.placements[0].position[0] < dresser.position[0] - 0.2 and as_sure.placements[1] == guess
 
 
@@ -287,9 +312,11 @@ def test_of_two_sure_objects_that_cannot_part_the_one_the_detector_is_surer_of_s
     )
     first, second = desk(1, -0.4, explained=0.9), desk(2, 0.25, explained=0.8)
     pixels = {1: 3000, 2: 3000}
-    unscored = settle([first, second], room, CAMERA, set(), pixels, PARAMS)
+    unscored = settle([first, second], room=room, camera=CAMERA, drawn=set(), pixels=pixels, params=PARAMS)
     assert unscored.placements == [first] and unscored.dropped[0].startswith("2:desk (cube_2): passes")
-    scored = settle([first, second], room, CAMERA, set(), pixels, PARAMS, scores={1: 0.55, 2: 0.8})
+    scored = settle(
+        [first, second], room=room, camera=CAMERA, drawn=set(), pixels=pixels, params=PARAMS, scores={1: 0.55, 2: 0.8}
+    )
     assert scored.placements == [second] and scored.dropped[0].startswith("1:desk (cube_1): passes")
 
 
@@ -311,9 +338,9 @@ def test_an_object_does_not_step_out_in_front_of_another() -> None:
     bed = block(1, "bed", (1.6, 0.8, 2.0), 3.0, 0.0)  # wall to wall, against the back wall
     box = block(2, "cabinet", (0.4, 1.2, 0.4), 2.22, 0.5)  # its front 2 cm behind the bed's foot
     pixels = {1: 8000, 2: 3000}
-    placed_only = settle([bed, box], room, CAMERA, set(), pixels, PARAMS, final=False)
+    placed_only = settle([bed, box], room=room, camera=CAMERA, drawn=set(), pixels=pixels, params=PARAMS, final=False)
     assert placed_only.placements == [bed, box] and not placed_only.changed
-    final = settle([bed, box], room, CAMERA, set(), pixels, PARAMS)
+    final = settle([bed, box], room=room, camera=CAMERA, drawn=set(), pixels=pixels, params=PARAMS)
     assert final.placements == [bed] and final.dropped[0].startswith("2:cabinet (block_2): passes")
 
 
@@ -333,7 +360,7 @@ def test_a_chair_in_a_crowded_row_steps_out_of_its_desk() -> None:
     objects = [desk, chair, *beside]
     assert {(a, b) for a, b, _ in interpenetrations(objects, PARAMS.penetration)} == {(1, 2), (2, 3), (2, 4)}
     pixels = {1: 6000, 2: 1500, 3: 1500, 4: 1500}
-    settled = settle(objects, room, CAMERA, drawn=set(), pixels=pixels, params=PARAMS)
+    settled = settle(objects, room=room, camera=CAMERA, drawn=set(), pixels=pixels, params=PARAMS)
     assert not settled.dropped and settled.placements[0] == desk
     assert interpenetrations(settled.placements, PARAMS.penetration) == []
     assert settled.changed[0].startswith("2:chair (cube_2): moved ")
@@ -342,27 +369,29 @@ def test_a_chair_in_a_crowded_row_steps_out_of_its_desk() -> None:
 def test_an_object_beyond_the_room_is_brought_in_or_the_room_grows(db: ObjectDatabase) -> None:
     chair = placed(db, "parametric/chair_004", 3, (0.0, 0.0, 4.45))  # its back 10 cm through the far wall
     assert room_excess(chair, ROOM)[2] > 0.05
-    settled = settle([chair], ROOM, CAMERA, drawn=set(), pixels={3: 500}, params=PARAMS)
+    settled = settle([chair], room=ROOM, camera=CAMERA, drawn=set(), pixels={3: 500}, params=PARAMS)
     (inside,) = settled.placements
     assert not np.any(room_excess(inside, settled.room)) and settled.room is ROOM
     assert "brought inside the room" in settled.changed[0]
     far = replace(chair, position=(0.0, 0.0, 6.0))  # 1.7 m beyond: no change keeps its silhouette
-    drawn = settle([far], ROOM, CAMERA, drawn={3}, pixels={3: 500}, params=replace(PARAMS, keep_iou=1.0))
+    drawn = settle([far], room=ROOM, camera=CAMERA, drawn={3}, pixels={3: 500}, params=replace(PARAMS, keep_iou=1.0))
     assert drawn.placements == [far] and not np.any(room_excess(far, drawn.room))  # a person drew it: the room grows
     assert drawn.room.half_size[2] > ROOM.half_size[2] and drawn.room.half_size[0] == ROOM.half_size[0]
     assert drawn.room.center[1] - drawn.room.half_size[1] == pytest.approx(0.0)  # the floor stays
-    guessed = settle([far], ROOM, CAMERA, drawn=set(), pixels={3: 500}, params=replace(PARAMS, keep_iou=1.0))
+    guessed = settle(
+        [far], room=ROOM, camera=CAMERA, drawn=set(), pixels={3: 500}, params=replace(PARAMS, keep_iou=1.0)
+    )
     assert guessed.placements == [] and "beyond the room box" in guessed.dropped[0]  # more than max_growth out
     near = settle(
         [replace(far, position=(0.0, 0.0, 5.0))],
-        ROOM,
-        CAMERA,
+        room=ROOM,
+        camera=CAMERA,
         drawn=set(),
         pixels={3: 500},
         params=replace(PARAMS, keep_iou=1.0),
     )
     assert len(near.placements) == 1 and near.room.half_size[2] > ROOM.half_size[2]  # 0.7 m out: the room grows
-    kept = settle([far], ROOM, CAMERA, drawn=set(), pixels={3: 500}, params=PARAMS, final=False)
+    kept = settle([far], room=ROOM, camera=CAMERA, drawn=set(), pixels={3: 500}, params=PARAMS, final=False)
     assert kept.room is ROOM and len(kept.placements) == 1  # place_objects leaves it to fit_objects
 
 
@@ -372,7 +401,7 @@ def test_eq3_pays_for_interpenetration_and_its_gradient_parts_the_objects() -> N
     import torch
 
     from psdr_room_core.method.artifacts import Placements
-    from psdr_room_core.method.stages.objects import PoseModel
+    from psdr_room_core.method.pose_model import PoseModel
 
     a = Placement(1, "box", "test/cube", cube_mesh(), (0.0, 0.0, 1.0), 0.0, 1.0, "floor")
     b = replace(a, segment_id=2, position=(0.7, 0.0, 1.0))
@@ -394,7 +423,7 @@ def test_in_eq3_a_weak_guess_through_a_surer_object_alone_moves_out() -> None:
     import torch
 
     from psdr_room_core.method.artifacts import Placements
-    from psdr_room_core.method.stages.objects import PoseModel
+    from psdr_room_core.method.pose_model import PoseModel
 
     a = Placement(1, "bed", "test/cube", cube_mesh(), (0.0, 0.0, 1.0), 0.0, 1.0, "floor")
     b = replace(a, segment_id=2, label="oven", position=(0.7, 0.0, 1.0))

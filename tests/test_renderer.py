@@ -15,12 +15,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from psdr_room_core.engine import shipped
 from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.engine.settings import check_settings
 from psdr_room_core.libraries.llvm import ensure_llvm, find_llvm, llvm_version
 from psdr_room_core.method.artifacts import Camera, RoomBox
 from psdr_room_core.method.geometry import TriangleMesh, box_mesh, quad_mesh
 from psdr_room_core.method.shading import Surface
 from psdr_room_plugins.mitsuba_renderer.session import weld_map
+from psdr_room_plugins.mitsuba_renderer.settings import MitsubaSettings
 
 
 # ------------------------------------------------------------------------------------------ LLVM lookup
@@ -87,8 +90,8 @@ def test_factory_is_cheap_and_validates() -> None:
     was_loaded = "mitsuba" in sys.modules
     MitsubaRenderer(spp=2, spp_boundary=2)
     assert was_loaded or "mitsuba" not in sys.modules
-    with pytest.raises(PsdrRoomError, match="renderer.mitsuba.spp"):
-        MitsubaRenderer(spp=0)
+    with pytest.raises(PsdrRoomError, match="^renderer.mitsuba.spp=0 is out of range"):  # the schema checks it
+        check_settings(MitsubaSettings, {**shipped.node("renderer.mitsuba"), "spp": 0}, "renderer.mitsuba")
     with pytest.raises(PsdrRoomError, match="variant"):
         _ = MitsubaRenderer(variant="vulkan").variant
 

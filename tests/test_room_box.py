@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
+from psdr_room_core.engine import shipped
 from psdr_room_core.method.room_box import RoomInitParams, RoomInitResult, box_iou_3d, fit_floor_plane, init_room_box
+
+PARAMS = shipped.settings(RoomInitParams, "room_init")
 
 # Ground-truth room (truth frame: Y up, floor y = 0): 5 x 2.8 x 4 m, yawed 20 degrees.
 BOX_CENTER = np.array([0.7, 1.4, -0.4])
@@ -112,7 +117,7 @@ def test_box_recovery(pitch_down_deg: float, ceiling_visible: bool) -> None:
     clouds, rotation, centre = render_room(np.array([0.5, 1.4, -1.3]), -6.0, pitch_down_deg, 2.0, rng)
     assert (len(clouds["ceiling"]) > 0) == ceiling_visible
 
-    result = init_room_box(clouds)
+    result = init_room_box(clouds, PARAMS)
 
     assert result.ceiling_visible == ceiling_visible
     assert abs(result.camera_height - 1.4) < 0.03
@@ -124,7 +129,7 @@ def test_box_recovery(pitch_down_deg: float, ceiling_visible: bool) -> None:
         assert box_iou_3d(center, half, yaw, BOX_CENTER, BOX_HALF, BOX_YAW) >= 0.85
     else:  # 1.2 x the top of the walls, and at least height_ratio camera heights: the walls go on above the frame
         top = max(((clouds["wall"] @ rotation.T)[:, 1] + centre[1]).max(), centre[1])
-        assert 2 * half[1] == pytest.approx(max(1.2 * top, RoomInitParams().height_ratio * 1.4), rel=0.03)
+        assert 2 * half[1] == pytest.approx(max(1.2 * top, PARAMS.height_ratio * 1.4), rel=0.03)
         same_height = np.array([center[0], BOX_CENTER[1], center[2]]), np.array([half[0], BOX_HALF[1], half[2]])
         assert box_iou_3d(*same_height, yaw, BOX_CENTER, BOX_HALF, BOX_YAW) >= 0.85
 
@@ -134,11 +139,11 @@ def test_walls_tilted_by_an_estimated_depth_still_give_the_box() -> None:
     clouds, rotation, centre = render_room(
         np.array([0.5, 1.4, -1.3]), -6.0, 10.0, 2.0, np.random.default_rng(3), depth_error=0.25
     )
-    result = init_room_box(clouds)
+    result = init_room_box(clouds, PARAMS)
     assert len(result.wall_planes) >= 2
     _, _, yaw = estimated_box_in_truth(result, rotation, centre)
     assert abs(np.degrees((yaw - BOX_YAW + np.pi / 4) % (np.pi / 2) - np.pi / 4)) < 3.0
-    assert not init_room_box(clouds, RoomInitParams(vertical_tolerance_deg=5.0)).wall_planes  # the old tolerance
+    assert not init_room_box(clouds, replace(PARAMS, vertical_tolerance_deg=5.0)).wall_planes  # the old tolerance
 
 
 def test_an_unseen_side_wall_lies_a_room_width_beyond_the_frame() -> None:
@@ -147,9 +152,9 @@ def test_an_unseen_side_wall_lies_a_room_width_beyond_the_frame() -> None:
     clouds, rotation, centre = render_room(
         np.array([0.0, 1.4, -1.6]), 0.0, 15.0, 0.0, np.random.default_rng(3), focal=120.0
     )
-    result = init_room_box(clouds)
+    result = init_room_box(clouds, PARAMS)
     assert len(result.wall_planes) == 1  # the far wall only
-    size = RoomInitParams().size_ratio * result.camera_height
+    size = PARAMS.size_ratio * result.camera_height
     assert 2 * result.half_size[0] == pytest.approx(size, rel=0.02)  # no side wall seen: the typical width
     behind = result.center[2] - result.half_size[2]
     assert -1.0 < behind < 0.0  # the wall the photo was taken from: just behind the camera (behind_margin)
@@ -157,8 +162,8 @@ def test_an_unseen_side_wall_lies_a_room_width_beyond_the_frame() -> None:
 
 def test_scale_free() -> None:
     clouds, _, _ = render_room(np.array([0.5, 1.4, -1.3]), -6.0, 10.0, 2.0, np.random.default_rng(3))
-    result = init_room_box(clouds)
-    scaled = init_room_box({name: 0.1 * cloud for name, cloud in clouds.items()})
+    result = init_room_box(clouds, PARAMS)
+    scaled = init_room_box({name: 0.1 * cloud for name, cloud in clouds.items()}, PARAMS)
 
     np.testing.assert_allclose(scaled.center, 0.1 * result.center, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(scaled.half_size, 0.1 * result.half_size, rtol=1e-9)
@@ -168,7 +173,7 @@ def test_scale_free() -> None:
 
 def test_deterministic() -> None:
     clouds, _, _ = render_room(np.array([0.5, 1.4, -1.3]), -6.0, 10.0, 2.0, np.random.default_rng(5))
-    params = RoomInitParams(seed=11)
+    params = replace(PARAMS, seed=11)
     first, second = init_room_box(clouds, params), init_room_box(clouds, params)
 
     for field in ("camera_to_world", "center", "half_size", "floor_plane"):
@@ -182,28 +187,29 @@ def test_without_a_floor_the_room_stands_on_the_ceiling_or_the_walls() -> None:
     clouds, rotation, centre = render_room(np.array([0.5, 1.4, -1.3]), -6.0, 10.0, 2.0, np.random.default_rng(3))
     true_up = rotation.T @ np.array([0.0, 1.0, 0.0])  # in the camera frame
     for dropped, source in ((("floor",), "ceiling"), (("floor", "ceiling"), "walls")):
-        result = init_room_box({k: (v[:12] if k in dropped else v) for k, v in clouds.items()})
+        result = init_room_box({k: (v[:12] if k in dropped else v) for k, v in clouds.items()}, PARAMS)
         assert result.floor_source == source
         assert np.degrees(np.arccos(np.clip(result.floor_plane[:3] @ true_up, -1, 1))) < 3.0, source
         assert result.camera_height > 0.5
-    on_ceiling = init_room_box({**clouds, "floor": clouds["floor"][:0]})
+    on_ceiling = init_room_box({**clouds, "floor": clouds["floor"][:0]}, PARAMS)
     ceiling_distance = 2 * BOX_HALF[1] - 1.4
-    assert on_ceiling.camera_height == pytest.approx(ceiling_distance / (RoomInitParams().height_ratio - 1), rel=0.05)
+    assert on_ceiling.camera_height == pytest.approx(ceiling_distance / (PARAMS.height_ratio - 1), rel=0.05)
 
 
 def test_a_room_stands_on_one_wall_or_the_camera_when_nothing_else_shows_the_floor() -> None:
     clouds, rotation, _ = render_room(np.array([0.5, 1.4, -1.3]), -6.0, 10.0, 2.0, np.random.default_rng(3))
     true_up = rotation.T @ np.array([0.0, 1.0, 0.0])
     wall = clouds["wall"][np.abs(clouds["wall"][:, 0] - np.median(clouds["wall"][:, 0])) < 0.01]  # a sliver
-    one_wall = init_room_box({"floor": clouds["floor"][:0], "wall": wall})
+    one_wall = init_room_box({"floor": clouds["floor"][:0], "wall": wall}, PARAMS)
     assert one_wall.floor_source in ("wall", "camera")
     assert np.degrees(np.arccos(np.clip(one_wall.floor_plane[:3] @ true_up, -1, 1))) < 12.0  # the camera's tilt
     lowest = float(np.max(-(wall @ one_wall.floor_plane[:3])))
-    assert one_wall.camera_height >= max(1.1 * lowest, RoomInitParams().camera_height) - 1e-9
-    beside = init_room_box({"wall": wall, "objects": wall + 3 * one_wall.floor_plane[:3] * -1})  # something lower
+    assert one_wall.camera_height >= max(1.1 * lowest, PARAMS.camera_height) - 1e-9
+    lower = wall + 3 * one_wall.floor_plane[:3] * -1  # something lower
+    beside = init_room_box({"wall": wall, "objects": lower}, PARAMS)
     assert beside.camera_height > one_wall.camera_height
     with pytest.raises(ValueError, match="no wall, floor or ceiling point"):
-        init_room_box({})
+        init_room_box({}, PARAMS)
 
 
 def test_box_iou_3d() -> None:

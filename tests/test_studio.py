@@ -43,7 +43,7 @@ from psdr_room_plugins.detectors.boxes_file import read_boxes
 FAST = [
     "room_fit.iterations=8",
     "room_fit.render_width=64",
-    "retrieval.silhouette.n_yaw=6",
+    "retrieval.silhouette.search.n_yaw=6",
     "fit_objects.iterations=4",
     "fit_objects.render_width=64",
     "assign_materials.map_size=128",

@@ -24,19 +24,34 @@ from .nanodet import NanodetOnnx
 
 @dataclass
 class NanodetSettings:
-    path: str | None = setting()
-    score_threshold: float = setting(ge=0, le=1)
-    nms_iou: float = setting(ge=0, le=1)
-    max_detections: int = setting(ge=1)
-    classes: list[str] | None = setting()
-    flip: bool = setting()
-    intra_op_threads: int = setting(ge=0)
-    providers: list[str] = setting()
+    """``detector=nanodet_onnx``: COCO boxes, prompts for the segmentation (their label is a weak prior: pictures
+    are often "tv")."""
+
+    path: str | None = setting(
+        doc="null: the bundled nanodet.onnx; or another NanoDet export (fixed HxW input, strides 8/16/32)."
+    )
+    score_threshold: float = setting(
+        ge=0, le=1, doc="(Cell, class) scores at least this are kept (low: segmentation=layout judges the boxes)."
+    )
+    nms_iou: float = setting(
+        ge=0, le=1, doc="Per class, boxes overlapping a better one by more than this IoU are suppressed."
+    )
+    max_detections: int = setting(ge=1, doc="At most this many boxes, best first.")
+    classes: list[str] | None = setting(
+        doc="COCO classes kept (null: all 80); COCO has no lamp, window, door, cabinet or shelf."
+    )
+    flip: bool = setting(doc="Also run the mirrored photo (test-time augmentation).")
+    intra_op_threads: int = setting(ge=0, doc="onnxruntime threads (0: the run's run.threads).")
+    providers: list[str] = setting(
+        doc="onnxruntime execution providers tried in order where available (e.g. CUDAExecutionProvider first)."
+    )
 
 
 @dataclass
 class BoxesFileSettings:
-    path: str | None = setting()
+    """``detector=boxes_file``: the file the user's boxes are read from."""
+
+    path: str | None = setting(doc="The boxes file; null: <photo stem>.boxes.yaml beside the photo.")
 
 
 class NoDetector:

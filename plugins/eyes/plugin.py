@@ -16,10 +16,12 @@ from ..layout.settings import LayoutDepthSettings, LayoutSegmentationSettings
 class EyesSettings:
     """Which network file, onnxruntime's threads, and how instances are read from its outputs."""
 
-    path: str | None = setting()
-    intra_op_threads: int = setting(ge=0)
-    center_threshold: float = setting(gt=0, lt=1)
-    min_instance_fraction: float = setting(ge=0, lt=1)
+    path: str | None = setting(doc="null: the shipped eyes.onnx; or a network of your own from psdr-room-train.")
+    intra_op_threads: int = setting(ge=0, doc="onnxruntime threads (0: the run's run.threads).")
+    center_threshold: float = setting(gt=0, lt=1, doc="An object centre is a heatmap peak at least this high.")
+    min_instance_fraction: float = setting(
+        ge=0, lt=1, doc="Objects and window/door regions smaller than this fraction of the photo are dropped."
+    )
 
 
 @dataclass
@@ -27,25 +29,38 @@ class NanodetAndEyesSettings:
     """``detector=nanodet_eyes``: each member's own settings (the config takes them from its node), and the box
     IoU from which an eyes box and a NanoDet box are one thing."""
 
-    nanodet: NanodetSettings = setting()
-    eyes: EyesSettings = setting()
-    same_iou: float = setting(0.5, ge=0, le=1)
+    nanodet: NanodetSettings = setting(
+        doc="NanoDet's settings: detector.nanodet_onnx's node (set detector.nanodet_onnx.X, not this)."
+    )
+    eyes: EyesSettings = setting(doc="The eyes network's settings: detector.eyes's node (set detector.eyes.X).")
+    same_iou: float = setting(
+        ge=0,
+        le=1,
+        doc="An eyes box this close (IoU) to a NanoDet box is the same thing: NanoDet's label stands where its "
+        "classes name it.",
+    )
 
 
 @dataclass
 class LayoutAndEyesSettings:
     """``segmentation=layout_eyes``: each member's own settings (the config takes them from its node)."""
 
-    layout: LayoutSegmentationSettings = setting()
-    eyes: EyesSettings = setting()
+    layout: LayoutSegmentationSettings = setting(
+        doc="The layout's settings: segmentation.layout's node (set segmentation.layout.X, not this); its "
+        "label_weight weighs the network's walls, floor and ceiling."
+    )
+    eyes: EyesSettings = setting(doc="The network's settings: segmentation.eyes's node (set segmentation.eyes.X).")
 
 
 @dataclass
 class LayoutDepthAndEyesSettings:
     """``depth=layout_eyes``: each member's own settings (the config takes them from its node)."""
 
-    layout: LayoutDepthSettings = setting()
-    eyes: EyesSettings = setting()
+    layout: LayoutDepthSettings = setting(
+        doc="The layout's settings: depth.layout's node (set depth.layout.X, not this); its relative_extent and "
+        "relative_min_width say where the network's relative depth shapes an object."
+    )
+    eyes: EyesSettings = setting(doc="The network's settings: depth.eyes's node (set depth.eyes.X).")
 
 
 DESCRIPTIONS = {

@@ -81,7 +81,7 @@ class LayoutDepth:
     photo's lines, objects placed on its floor; metres if the camera is ``camera_height_m`` above it."""
 
     def __init__(self, **settings: Any) -> None:
-        """``settings``: the fields of :class:`~.settings.LayoutDepthSettings` (its defaults for those left out)."""
+        """``settings``: the fields of :class:`~.settings.LayoutDepthSettings`."""
         self.settings = LayoutDepthSettings(**settings)
 
     def fit(self, image: Image, camera: Camera, panoptic: Panoptic) -> Layout:

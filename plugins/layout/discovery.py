@@ -266,11 +266,11 @@ class Selection:
         rays: np.ndarray,
         surfaces: SurfaceColours,
         params: DiscoveryParams,
-        grabcut: GrabCutParams | None = None,
+        grabcut: GrabCutParams,
         seen: SeenObjects | None = None,
     ) -> None:
         self.rgb8, self.rays, self.surfaces, self.params = rgb8, rays, surfaces, params
-        self.grabcut = grabcut or GrabCutParams()
+        self.grabcut = grabcut
         self.seen = seen
         self.rare = surfaces.commonness < params.leg_rarity
         """(H, W) pixels whose colour is rare on the room surface they lie on: what legs below a cut may be."""
@@ -414,14 +414,14 @@ def discover(
     surfaces: SurfaceColours,
     prompts: Sequence[Detection],
     params: DiscoveryParams,
-    proposals: ProposalParams | None = None,
-    grabcut: GrabCutParams | None = None,
+    proposals: ProposalParams | None,
+    grabcut: GrabCutParams,
     seen: SeenObjects | None = None,
 ) -> list[Discovered]:
     """The objects among ``prompts`` and then among the class-agnostic proposals round what they leave
     unexplained (:func:`~.proposals.clutter_proposals`, unless ``proposals`` is None), far to near (see the
     module docstring); ``rays`` as :func:`footing`'s, ``surfaces`` the colour models of the fitted room; each
-    prompt's mask cut by GrabCut with ``grabcut`` (its defaults when None), or, where GrabCut finds nothing,
+    prompt's mask cut by GrabCut with ``grabcut``, or, where GrabCut finds nothing,
     the instance a network ``seen`` sees filling its box (which is then no box round a group either)."""
     selection = Selection(rgb8, rays, surfaces, params, grabcut, seen)
     selection.consider(prompts)

@@ -35,11 +35,12 @@ class Layout:
         return labels[0].reshape(height, width), t[0].reshape(height, width)
 
 
-def manhattan_frame(image: Image, camera: Camera) -> ManhattanFrame:
-    """The room frame from the camera's vanishing points, estimated from the photo when ``fov`` gave none."""
+def manhattan_frame(image: Image, camera: Camera, lines: VanishingPointParams) -> ManhattanFrame:
+    """The room frame from the camera's vanishing points, estimated from the photo (with ``lines``) when ``fov``
+    gave none."""
     vps = camera.vanishing_points
     if len(vps) < 2:
-        vps = estimate_camera(image.rgb).vanishing_points
+        vps = estimate_camera(image.rgb, lines).vanishing_points
     return frame_from_vanishing_points(camera, vps)
 
 
@@ -126,7 +127,7 @@ def fit_layout(
     of the larger of their evidence totals: the lines are the same in either frame, and what differs is the
     floor prior below each frame's horizon, which a floor filling the photo earns and a wall cannot use.
     """
-    frame = manhattan_frame(image, camera)
+    frame = manhattan_frame(image, camera, params.lines)
     if detections is not None:
         detections = Detections(
             items=[d for d in detections.items if d.score >= params.box_score], source=detections.source
@@ -160,7 +161,7 @@ def _evidence(
     and the floor prior below the frame's horizon."""
     shape = _grid_shape(image, params.grid_side)
     zoom = np.diag([shape[1] / image.width, shape[0] / image.height, 1.0])
-    segments = line_segments(image.rgb, VanishingPointParams()) * np.tile(np.diag(zoom)[:2], 2)
+    segments = line_segments(image.rgb, params.lines) * np.tile(np.diag(zoom)[:2], 2)
     vps = frame.vanishing_points @ zoom.T
     families = segment_families(segments, vps, params.family_tolerance_deg)
     reach = params.sweep_fraction * float(np.hypot(*shape))

@@ -34,7 +34,7 @@ class LayoutSegmentation:
     (:mod:`.discovery`: the prompts GrabCut cuts out and the fitted room finds plausible, far to near)."""
 
     def __init__(self, **settings: Any) -> None:
-        """``settings``: the fields of :class:`~.settings.LayoutSegmentationSettings` (its defaults for those left out)."""
+        """``settings``: the fields of :class:`~.settings.LayoutSegmentationSettings`."""
         self.settings = LayoutSegmentationSettings(**settings)
 
     def segment(

@@ -30,9 +30,14 @@ from . import hookspecs
 
 @dataclass
 class TorchGraphSettings:
-    extra_dirs: list[str] = setting()
-    use_plugins: bool = setting()
-    device: str = setting()
+    """``material_graph=torch_graph``: where graphs come from and where they are evaluated."""
+
+    extra_dirs: list[str] = setting(
+        doc="More directories of graph files (*.yaml, *.yml, *.json), after the built-in library and plugins' "
+        "(material_graphs hook)."
+    )
+    use_plugins: bool = setting(doc="Take graphs and node types from plugins (material_graphs, material_nodes hooks).")
+    device: str = setting(doc="Torch device the maps are evaluated on (cpu, cuda).")
 
 
 @hookimpl

@@ -43,13 +43,8 @@ class TorchGraphLibrary:
     """Procedural node-graph materials evaluated with torch (differentiable w.r.t. their parameters)."""
 
     def __init__(self, extra_dirs: Sequence[str] = (), use_plugins: bool = True, device: str = "cpu") -> None:
-        """Parameters (``material_graph.torch_graph.*``):
-
-        extra_dirs: more directories of graph files (``*.yaml``, ``*.yml``, ``*.json``), after the built-in
-            library and the plugins' directories.
-        use_plugins: also take graphs and node types from plugins (``material_graphs``/``material_nodes``).
-        device: torch device the maps are evaluated on (``cpu``, ``cuda``).
-        """
+        """The settings are :class:`~psdr_room_plugins.material_graph.TorchGraphSettings`'
+        (``material_graph.torch_graph.*``)."""
         self.device = str(device)
         self.node_types: dict[str, NodeType] = builtin_node_types()
         dirs: list[Path] = [LIBRARY_DIR]

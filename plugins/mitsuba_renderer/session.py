@@ -30,13 +30,11 @@ import numpy as np
 
 from psdr_room_core.engine import threads as run_threads
 from psdr_room_core.engine.errors import PsdrRoomError
-from psdr_room_core.libraries.llvm import VARIANTS, resolve_variant
+from psdr_room_core.libraries.llvm import resolve_variant
 from psdr_room_core.method.artifacts import Camera
 from psdr_room_core.method.geometry import TriangleMesh
 from psdr_room_core.method.rgb_scene import GUIDE_SPP
 from psdr_room_core.method.shading import Surface
-
-from .settings import GUIDING
 
 if TYPE_CHECKING:
     import torch
@@ -109,52 +107,13 @@ class MitsubaRenderer:
         freeze: bool = True,
         reproducible: bool = True,
     ) -> None:
-        """Parameters (``renderer.mitsuba.*``):
-
-        variant: ``auto`` (``cuda_ad_rgb`` when a CUDA device works, else ``llvm_ad_rgb``), ``llvm_ad_rgb``,
-            ``cuda_ad_rgb`` or ``scalar_rgb`` (RGB forward renders only, no gradients).
-        spp: samples per pixel of mask/depth renders (primal and interior derivative).
-        spp_boundary: samples per pixel for the primarily visible silhouette (boundary) derivative.
-        rgb_spp: samples per pixel of RGB renders.
-        max_depth: path length of RGB renders (2: direct light only, 3: one indirect bounce, ...).
-        rgb_sppi: samples per pixel for *indirect* visibility (moving shadows) in RGB renders with moving
-            geometry; 0 drops those gradients and is 10-100x faster (``RENDERING-NOTES.md``).
-        rgb_guiding: how ``rgb_sppi`` samples find indirect silhouettes: ``none`` (uniform, cheap to set up),
-            ``grid`` or ``octree`` (Mitsuba's guiding structures, rebuilt every iteration: seconds).
-        rgb_geometry_gradients: allow vertex gradients through :meth:`MitsubaGeometryRenderer.render_rgb`
-            (``prb_projective``), knowing they are biased for flat-shaded meshes.
-        seed: base seed; each render uses a seed derived from it and the iteration number.
-        threads: Dr.Jit worker threads (0: the run's ``run.threads``, see :mod:`psdr_room_core.engine.threads`).
-        freeze: record each render pass once and replay its kernels on later calls (``dr.freeze``) instead
-            of tracing the integrator in Python every iteration: the same images and gradients, several
-            times less overhead per iteration (path-traced RGB; masks and depth are traced every time).
-        reproducible: gradient passes on one Dr.Jit thread (CPU), so that their scatter-adds sum in one
-            order and a fit gives the same bits on every run and machine (threads' atomics reorder the sums,
-            ~1e-7 apart, and a result that differs in its last bits changes every later stage's cache key);
-            false: every thread, faster. CUDA's atomics are never in a fixed order.
-        """
-        for name, value, low in (
-            ("spp", spp, 1),
-            ("spp_boundary", spp_boundary, 1),
-            ("rgb_spp", rgb_spp, 1),
-            ("max_depth", max_depth, 1),
-            ("rgb_sppi", rgb_sppi, 0),
-            ("threads", threads, 0),
-        ):
-            if int(value) != value or int(value) < low:
-                raise PsdrRoomError(f"renderer.mitsuba.{name}={value!r} must be an integer >= {low}")
-        if variant not in VARIANTS:
-            raise PsdrRoomError(
-                f"renderer.mitsuba.variant={variant!r} is not supported; use one of {', '.join(VARIANTS)}"
-            )
+        """The settings are :class:`~.settings.MitsubaSettings`'s (``renderer.mitsuba.*``), checked against it."""
         self.requested_variant = str(variant)
         self.spp = int(spp)
         self.spp_boundary = int(spp_boundary)
         self.rgb_spp = int(rgb_spp)
         self.max_depth = int(max_depth)
         self.rgb_sppi = int(rgb_sppi)
-        if rgb_guiding not in GUIDING:
-            raise PsdrRoomError(f"renderer.mitsuba.rgb_guiding={rgb_guiding!r} must be one of {', '.join(GUIDING)}")
         self.rgb_guiding = str(rgb_guiding)
         self.rgb_geometry_gradients = bool(rgb_geometry_gradients)
         self.seed = int(seed)

@@ -30,34 +30,62 @@ from .segmentation import OnnxSegmentation
 class OnnxModelSettings:
     """Which network file and how onnxruntime runs it (shared by the three implementations)."""
 
-    model: str = setting()
-    path: str | None = setting()
-    family: str | None = setting()
-    models_dir: str = setting()
-    intra_op_threads: int = setting(ge=0)
-    providers: list[str] = setting()
+    model: str = setting(doc="A model of `psdr-room-models list` (of the implementation's kind).")
+    path: str | None = setting(doc="Or an ONNX file of your own (then set family).")
+    family: str | None = setting(
+        doc="null: the model's; for a file of your own: depth_anything_v2 | dpt | midas (depth), segformer_ade20k | "
+        "mask2former_ade20k (segmentation)."
+    )
+    models_dir: str = setting(doc="Where downloaded models live.")
+    intra_op_threads: int = setting(ge=0, doc="onnxruntime threads (0: the run's run.threads).")
+    providers: list[str] = setting(
+        doc="onnxruntime execution providers tried in order where available (e.g. CUDAExecutionProvider first)."
+    )
 
 
 @dataclass
 class OnnxDepthSettings(OnnxModelSettings):
-    input_size: int | None = setting(ge=32)
-    disparity_eps: float = setting(ge=0, lt=1)
+    """``depth=onnx``: relative depth from an ONNX network, normalised to unit range (§4.1)."""
+
+    input_size: int | None = setting(
+        ge=32, doc="Network input: shorter side (square side for midas); null: the family's (518, 384, 256)."
+    )
+    disparity_eps: float = setting(
+        ge=0,
+        lt=1,
+        doc="Disparity at most this × the largest is invalid (farther than 1/this × the nearest: sky, edge artefacts).",
+    )
 
 
 @dataclass
 class OnnxSegmentationSettings(OnnxModelSettings):
-    input_size: int | None = setting(ge=32)
-    min_segment_fraction: float = setting(ge=0, lt=1)
+    """``segmentation=onnx``: panoptic segmentation from an ONNX ADE20K network (SegFormer, Mask2Former) (§4.1)."""
+
+    input_size: int | None = setting(
+        ge=32, doc="Network input: square side (segformer) or shorter side; null: the family's (512)."
+    )
+    min_segment_fraction: float = setting(
+        ge=0, lt=1, doc="Segments smaller than this fraction of the image are left unlabelled."
+    )
 
 
 @dataclass
 class ClipSettings(OnnxModelSettings):
-    database: str = setting()
-    fraction: float = setting(gt=0, le=1)
-    seed: int = setting()
-    category_filter: bool = setting()
-    batch: int = setting(ge=1)
-    cache_dir: str = setting()
+    """``retrieval=clip_onnx``: CLIP image-tower embeddings of the object crop against the database thumbnails,
+    cosine kNN (§4.3)."""
+
+    database: str = setting(doc="The object database (as retrieval=silhouette's).")
+    fraction: float = setting(
+        gt=0,
+        le=1,
+        doc="A random fraction of the database's models per category is used (the paper's Fig. 10 ablation).",
+    )
+    seed: int = setting(doc="Seed of that random fraction.")
+    category_filter: bool = setting(
+        doc="Only models of the segment label's categories (false: every model, as the paper ranks)."
+    )
+    batch: int = setting(ge=1, doc="Thumbnails embedded per network call.")
+    cache_dir: str = setting(doc="Where the thumbnails' embeddings are cached.")
 
 
 @hookimpl

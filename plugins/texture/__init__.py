@@ -17,25 +17,42 @@ from psdr_room_core.engine.settings import setting
 
 @dataclass
 class RandomCnnSettings:
-    seed: int = setting()
-    channels: int = setting(ge=1)
-    kernel: int = setting(ge=1)
-    levels: int = setting(ge=1)
-    size: int | None = setting(ge=16)
-    power: float = setting(gt=0)
-    colour_weight: float = setting(ge=0)
-    device: str = setting()
+    """``texture=random_cnn``: the random filters, the pyramid, and how crops are described."""
+
+    seed: int = setting(doc="Seed of the random filters (another seed is another descriptor).")
+    channels: int = setting(ge=1, doc="Random filters per pyramid level.")
+    kernel: int = setting(ge=1, doc="Filter size in pixels (odd).")
+    levels: int = setting(ge=1, doc="Pyramid levels, each half the resolution of the previous.")
+    size: int | None = setting(
+        ge=16,
+        doc="Crops are resized to this shorter side, pixels (null: as given; at least kernel·2^(levels-1)); the paper "
+        "resizes its VGG crops to 512.",
+    )
+    power: float = setting(gt=0, le=2, doc="Exponent on the Gram entries (1: plain Gram matrices, as VGG's).")
+    colour_weight: float = setting(
+        ge=0, doc="Weight of the mean/std/correlation colour statistics against the Gram part."
+    )
+    device: str = setting(doc="Torch device of the filters (cpu, cuda); inputs are moved there.")
 
 
 @dataclass
 class Vgg19Settings:
-    model: str = setting()
-    path: str | None = setting()
-    models_dir: str = setting()
-    layers: list[str] = setting()
-    size: int | None = setting(ge=16)
-    colour_weight: float = setting(ge=0)
-    device: str = setting()
+    """``texture=vgg19``: the paper's descriptor (§3.2) and its weights."""
+
+    model: str = setting(doc="A texture model of `psdr-room-models list` (torchvision's ImageNet state dict).")
+    path: str | None = setting(doc="Or a torchvision-layout VGG19 state dict of your own.")
+    models_dir: str = setting(doc="Where downloaded models live.")
+    layers: list[str] = setting(
+        doc="Layers whose Gram matrices are concatenated: the first of each block (Gatys et al.); any conv, relu or "
+        "pool name."
+    )
+    size: int | None = setting(
+        ge=16, doc="Crops are resized to this shorter side, pixels (null: as given), as the paper."
+    )
+    colour_weight: float = setting(
+        ge=0, doc="Weight of appended colour statistics (0: Gram matrices only, as the paper)."
+    )
+    device: str = setting(doc="Torch device (cpu, cuda).")
 
 
 @hookimpl

@@ -39,21 +39,8 @@ class RandomCnnDescriptor(GramDescriptor):
         colour_weight: float = 0.5,
         device: str = "cpu",
     ) -> None:
-        """Parameters (``texture.random_cnn.*``):
-
-        seed: seed of the random filters (the descriptor is a different one for another seed).
-        channels: filters per pyramid level.
-        kernel: filter size in pixels (odd).
-        levels: pyramid levels (each half the resolution of the previous one).
-        size: crops are resized so that their shorter side is this many pixels (null: as given); the paper
-            resizes its VGG crops the same way.
-        power: exponent applied to the Gram entries (1: plain Gram matrices, as for VGG).
-        colour_weight: weight of the colour statistics against the texture (Gram) part.
-        device: torch device of the filters (``cpu``, ``cuda``); inputs are moved there.
-        """
-        for name, value, low in (("channels", channels, 1), ("kernel", kernel, 1), ("levels", levels, 1)):
-            if int(value) != value or value < low:
-                raise PsdrRoomError(f"texture.random_cnn.{name}={value!r} must be an integer >= {low}")
+        """The settings are :class:`~psdr_room_plugins.texture.RandomCnnSettings`' (``texture.random_cnn.*``),
+        checked against it; what it cannot check (an odd kernel, a size the pyramid fits in) is checked here."""
         if kernel % 2 == 0:
             raise PsdrRoomError(f"texture.random_cnn.kernel={kernel} must be odd")
         if size is not None and (int(size) != size or size < kernel * 2 ** (levels - 1)):
@@ -61,8 +48,6 @@ class RandomCnnDescriptor(GramDescriptor):
                 f"texture.random_cnn.size={size!r} must be null or at least kernel·2^(levels−1) = "
                 f"{kernel * 2 ** (levels - 1)} pixels"
             )
-        if not 0 < power <= 2:
-            raise PsdrRoomError(f"texture.random_cnn.power={power!r} must be in (0, 2]")
         self.seed, self.channels, self.kernel, self.levels = int(seed), int(channels), int(kernel), int(levels)
         self.size = None if size is None else int(size)
         self.power = float(power)

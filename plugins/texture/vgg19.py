@@ -113,16 +113,8 @@ class Vgg19Descriptor(GramDescriptor):
         colour_weight: float = 0.0,
         device: str = "cpu",
     ) -> None:
-        """Parameters (``texture.vgg19.*``):
-
-        model: the registry entry of the weights (``psdr-room-models list``).
-        path: a state dict file of your own instead (same layout as torchvision's ``vgg19``).
-        models_dir: where downloaded models live (null: ``$PSDR_ROOM_MODELS_DIR`` or the user data dir).
-        layers: the layers whose Gram matrices are concatenated.
-        size: crops are resized so that their shorter side is this many pixels (null: as given).
-        colour_weight: weight of appended colour statistics (0: Gram matrices only, as the paper).
-        device: torch device (``cpu``, ``cuda``).
-        """
+        """The settings are :class:`~psdr_room_plugins.texture.Vgg19Settings`' (``texture.vgg19.*``), checked against
+        it; the layer names are checked here."""
         known = layer_names()
         unknown = [name for name in layers if name not in known]
         if unknown or not layers:

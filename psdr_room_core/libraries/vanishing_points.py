@@ -33,72 +33,77 @@ import cv2
 import numpy as np
 
 from psdr_room_core.engine.settings import setting
+from psdr_room_core.method.visualize import to_uint8
 
 
-@dataclass(frozen=True)
+@dataclass
 class VanishingPointParams:
-    """Tuning knobs of :func:`estimate_camera` (pixel values refer to the working image)."""
+    """Knobs of :func:`estimate_camera` (pixel values refer to the working image): the ``fov.vanishing_points``
+    settings, and the ``lines`` of the layout fit (``conf/lines.yaml`` holds the values both take)."""
 
-    max_side: int = 800
-    """Lines are detected on an image resized so its long side is at most this."""
-    min_segment_frac: float = 0.03
-    """Drop segments (after merging) shorter than this fraction of the image diagonal."""
-    min_piece_frac: float = 0.01
-    """LSD pieces shorter than this fraction of the diagonal are discarded before merging."""
-    max_pieces: int = 2000
-    """At most this many LSD pieces (the longest) are merged (bounds time and memory)."""
-    max_segments: int = 300
-    """Keep at most this many segments (the longest)."""
-    frame_std: float = 4.0
-    """Edge rows/columns whose grey-level std (0..255) is below this form a uniform frame, cropped."""
-    max_frame_frac: float = 0.05
-    """Never crop more than this fraction of the width/height per side as a frame."""
-    border_margin_px: float = 4.0
-    """Segments lying within this distance of the crop border are dropped."""
-    merge_angle_deg: float = 1.5
-    """Collinear pieces are merged when their directions differ by less than this ..."""
-    merge_offset_px: float = 1.5
-    """... their endpoints lie within this distance of the other's line ..."""
-    merge_gap_frac: float = 0.02
-    """... and the gap between them is below this fraction of the image diagonal."""
-    inlier_px: float = 1.5
-    """Endpoint distance to the midpoint-VP line below which a segment supports a VP."""
-    line_noise_px: float = 1.0
-    """Assumed endpoint noise; scales the residuals of the refinement."""
-    n_vp_samples: int = 1500
-    """Random segment pairs intersected to propose VP candidates."""
-    n_vp_candidates: int = 20
-    """At most this many distinct VP candidates are kept."""
-    candidate_overlap: float = 0.5
-    """A candidate is a duplicate if this fraction of its supporting segments support a kept one."""
-    min_vfov_deg: float = 20.0
-    """Smallest vertical FoV considered."""
-    max_vfov_deg: float = 110.0
-    """Largest vertical FoV considered."""
-    vfov_step_deg: float = 2.0
-    """Step of the FoV grid used to pair VP candidates."""
-    orthogonality_tol_deg: float = 6.0
-    """Two candidates form a frame at a grid focal if their directions are this close to 90 degrees."""
-    max_tilt_deg: float = 45.0
-    """One Manhattan axis must lie within this angle of the image's vertical axis (bounded pitch/roll)."""
-    n_refine: int = 20
-    """Best distinct frames refined by Gauss-Newton."""
-    refine_rounds: int = 3
-    """Segment-to-VP reassignment rounds of the refinement."""
-    gauss_newton_steps: int = 4
-    """Gauss-Newton steps per reassignment round."""
-    n_bootstrap: int = 200
-    """Segment resamplings used to choose among refined frames and measure the ambiguity."""
-    min_segments: int = 6
-    """Fewer usable segments than this gives the fallback (a big-tiled floor seen from above shows 9 long lines)."""
-    min_vp_support: int = 3
-    """A VP counts as observed when at least this many segments support it."""
-    prior_sigma_deg: float = 20.0
-    """Std of the Gaussian prior on the vertical FoV, centred on ``fallback_vfov_deg``."""
-    fallback_vfov_deg: float = setting(55.0, gt=0, lt=180)
-    """Used when the photo has too few lines for an estimate; also the prior's centre."""
-    seed: int = 0
-    """Seed of the random generator (segment-pair sampling and bootstrap)."""
+    max_side: int = setting(ge=64, doc="Lines are detected on an image resized so its long side is at most this.")
+    min_segment_frac: float = setting(
+        ge=0, le=1, doc="Drop segments (after merging) shorter than this fraction of the image diagonal."
+    )
+    min_piece_frac: float = setting(
+        ge=0, le=1, doc="LSD pieces shorter than this fraction of the diagonal are discarded before merging."
+    )
+    max_pieces: int = setting(
+        ge=1, doc="At most this many LSD pieces (the longest) are merged (bounds time and memory)."
+    )
+    max_segments: int = setting(ge=1, doc="Keep at most this many segments (the longest).")
+    frame_std: float = setting(
+        ge=0, doc="Edge rows/columns whose grey-level std (0..255) is below this form a uniform frame, cropped."
+    )
+    max_frame_frac: float = setting(
+        ge=0, lt=0.5, doc="Never crop more than this fraction of the width/height per side as a frame."
+    )
+    border_margin_px: float = setting(ge=0, doc="Segments lying within this distance of the crop border are dropped.")
+    merge_angle_deg: float = setting(
+        ge=0, doc="Collinear pieces are merged when their directions differ by less than this ..."
+    )
+    merge_offset_px: float = setting(ge=0, doc="... their endpoints lie within this distance of the other's line ...")
+    merge_gap_frac: float = setting(
+        ge=0, doc="... and the gap between them is below this fraction of the image diagonal."
+    )
+    inlier_px: float = setting(
+        gt=0, doc="Endpoint distance to the midpoint-VP line below which a segment supports a VP."
+    )
+    line_noise_px: float = setting(gt=0, doc="Assumed endpoint noise; scales the residuals of the refinement.")
+    n_vp_samples: int = setting(ge=1, doc="Random segment pairs intersected to propose VP candidates.")
+    n_vp_candidates: int = setting(ge=1, doc="At most this many distinct VP candidates are kept.")
+    candidate_overlap: float = setting(
+        ge=0, le=1, doc="A candidate is a duplicate if this fraction of its supporting segments support a kept one."
+    )
+    min_vfov_deg: float = setting(gt=0, lt=180, doc="Smallest vertical FoV considered.")
+    max_vfov_deg: float = setting(gt=0, lt=180, doc="Largest vertical FoV considered.")
+    vfov_step_deg: float = setting(gt=0, doc="Step of the FoV grid used to pair VP candidates.")
+    orthogonality_tol_deg: float = setting(
+        ge=0, le=90, doc="Two candidates form a frame at a grid focal if their directions are this close to 90 degrees."
+    )
+    max_tilt_deg: float = setting(
+        ge=0,
+        le=90,
+        doc="One Manhattan axis must lie within this angle of the image's vertical axis (bounded pitch/roll).",
+    )
+    n_refine: int = setting(ge=1, doc="Best distinct frames refined by Gauss-Newton.")
+    refine_rounds: int = setting(ge=1, doc="Segment-to-VP reassignment rounds of the refinement.")
+    gauss_newton_steps: int = setting(ge=0, doc="Gauss-Newton steps per reassignment round.")
+    n_bootstrap: int = setting(
+        ge=1, doc="Segment resamplings used to choose among refined frames and measure the ambiguity."
+    )
+    min_segments: int = setting(
+        ge=2,
+        doc="Fewer usable segments than this gives the fallback (a big-tiled floor seen from above shows 9 long lines).",
+    )
+    min_vp_support: int = setting(ge=2, doc="A VP counts as observed when at least this many segments support it.")
+    prior_sigma_deg: float = setting(
+        gt=0, doc="Std of the Gaussian prior on the vertical FoV, centred on ``fallback_vfov_deg``."
+    )
+    fallback_vfov_deg: float = setting(
+        gt=0, lt=180, doc="Used when the photo has too few lines for an estimate; also the prior's centre."
+    )
+    seed: int = setting(doc="Seed of the random generator (segment-pair sampling and bootstrap).")
 
 
 @dataclass(frozen=True)
@@ -134,7 +139,7 @@ class _Segments:
     scale: float  # working pixels per centred unit
 
 
-def estimate_camera(rgb: np.ndarray, params: VanishingPointParams = VanishingPointParams()) -> VanishingPointResult:
+def estimate_camera(rgb: np.ndarray, params: VanishingPointParams) -> VanishingPointResult:
     """Estimate the vertical FoV and focal length of ``rgb`` (float HxWx3 sRGB in [0, 1])."""
     height, width = rgb.shape[:2]
     grey, zoom = _working_grey(rgb, params.max_side)
@@ -179,7 +184,7 @@ def estimate_camera(rgb: np.ndarray, params: VanishingPointParams = VanishingPoi
 # --------------------------------------------------------------------------- line segments
 
 
-def line_segments(rgb: np.ndarray, params: VanishingPointParams = VanishingPointParams()) -> np.ndarray:
+def line_segments(rgb: np.ndarray, params: VanishingPointParams) -> np.ndarray:
     """(N, 4) line segments ``x1, y1, x2, y2`` of ``rgb`` in its own pixels, as the estimate uses them."""
     grey, zoom = _working_grey(rgb, params.max_side)
     return _detect_segments(grey, params) / zoom
@@ -187,7 +192,7 @@ def line_segments(rgb: np.ndarray, params: VanishingPointParams = VanishingPoint
 
 def _working_grey(rgb: np.ndarray, max_side: int) -> tuple[np.ndarray, float]:
     """uint8 grey image resized so its long side is at most ``max_side``; returns (grey, zoom)."""
-    rgb8 = (np.clip(rgb[..., :3], 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+    rgb8 = to_uint8(rgb[..., :3])
     grey = cv2.cvtColor(rgb8, cv2.COLOR_RGB2GRAY)
     zoom = min(1.0, max_side / max(grey.shape))
     if zoom < 1.0:

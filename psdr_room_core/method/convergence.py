@@ -36,9 +36,16 @@ class Plateau:
     ``window`` before them| below it, after at least ``min_iterations`` (``window`` 0: never). The ``convergence``
     settings of the fitting stages."""
 
-    window: int = setting(20, ge=0)
-    tolerance: float = setting(0.01, ge=0, lt=1)
-    min_iterations: int = setting(40, ge=0)
+    window: int = setting(
+        ge=0, doc="Iterations per window: the last window's mean loss is compared with the one before (0: never stop)."
+    )
+    tolerance: float = setting(
+        ge=0,
+        lt=1,
+        doc="The loss has flattened where the last window's mean is less than this share below the one before "
+        "(higher: stops sooner).",
+    )
+    min_iterations: int = setting(ge=0, doc="Iterations run before a plateau can stop the fit.")
 
     def __call__(self, history: Sequence[dict[str, float]]) -> bool:
         n = len(history)

@@ -34,35 +34,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from psdr_room_core.engine.settings import setting
-
 from .artifacts import Camera, Panoptic, PointCloud, RoomBox, Segment
 from .labels import primary_category
 from .objects import OBJECT_CATEGORIES, mask_distance
+from .params import GroupParams
 from .sizes import size_range
 
 log = logging.getLogger("psdr_room")
-
-
-@dataclass
-class GroupParams:
-    """Knobs of :func:`group_segments` (lengths in metres, distances in working-image pixels)."""
-
-    splittable: list[str] = setting(["bed", "sofa"])
-    """Categories whose parts an automatic segmentation cuts apart, one above the other."""
-    parts: dict[str, list[str]] = setting({"bed": ["pillow"], "sofa": ["pillow", "chair", "ottoman"]})
-    """Category → categories a segmentation names its parts (a sofa's seat taken for a chair)."""
-    edge_px: float = setting(3.0, ge=0)
-    """A part rests on another whose mask is this close below its lowest pixels."""
-    rests_share: float = setting(0.3, ge=0, le=1)
-    """... along at least this share of its lowest pixels' columns."""
-    slack: float = setting(1.1, ge=1)
-    """Together they must be no bigger than their category's largest size × this."""
-    same_space: float = setting(0.5, gt=0, le=1)
-    """Footprints overlapping this share of the smaller one (each grown by ``margin``) are the same space."""
-    margin: float = setting(0.1, ge=0)
-    keep_score: float = setting(0.95, ge=0)
-    """The union's model score must reach this share of the better part's score."""
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,7 @@ that matches the photo from its one camera still holds when a light or the camer
 ideal white). In practice the blackest paint has an LRV of about 5 and the whitest reaches the low 90s, and dark
 wall colours in use sit near 10 (e.g. PPG "Bigfoot", LRV 10, shown on a living-room wall):
 https://e-designcompany.com/what-is-light-reflectance-value-of-colour/. A fitted wall or ceiling therefore keeps
-the luminance of its (linear) base colour within ``albedo`` (default 0.1 to 0.9), and no channel above the top of
+the luminance of its (linear) base colour within ``albedo`` (LRVs of 10 to 90), and no channel above the top of
 that range (the whitest paints are spectrally flat: a wall cannot be whiter than white in red and blue by giving
 up green). Its hue is the photo's: each channel of its chromaticity (the colour over its brightest channel) stays
 within a factor ``hue_range`` of the initial one, so that a fit held in the luminance range cannot escape along
@@ -22,36 +22,15 @@ as its colour and roughness).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
-from psdr_room_core.engine.errors import PsdrRoomError
-from psdr_room_core.engine.settings import setting
-
 from .artifacts import PartAppearance, vec3
+from .params import PaintPrior
 
 LUMINANCE = (0.2126, 0.7152, 0.0722)
 """Rec. 709 / sRGB luminance weights of linear RGB: how LRV weighs a colour's reflectance."""
-
-
-@dataclass
-class PaintPrior:
-    """The range of a painted room surface's fitted material (see the module docstring for the sources)."""
-
-    albedo: list[float] = setting([0.1, 0.9], ge=0, le=1, length=2)
-    """Luminance of the linear base colour of a homogeneous wall or ceiling: [lowest, highest]."""
-    max_specular: float = setting(0.5, gt=0, le=1)
-    """Highest principled ``specular`` of any wall or ceiling (0.5: 4% reflectance at normal incidence)."""
-    hue_range: float = setting(1.1, ge=1)
-    """Each channel of a homogeneous wall's or ceiling's chromaticity stays within this factor of its initial one."""
-
-    def __post_init__(self) -> None:
-        low, high = self.albedo
-        if not low < high:
-            raise PsdrRoomError(
-                f"fit_appearance.paint.albedo={list(self.albedo)}: the lowest must be below the highest"
-            )
 
 
 def painted(part: str) -> bool:

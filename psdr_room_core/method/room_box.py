@@ -52,37 +52,53 @@ _WALL_AXIS_TOLERANCE_DEG = 20.0
 
 @dataclass(frozen=True)
 class RoomInitParams:
-    """Tuning knobs of :func:`init_room_box`; lengths are fractions of the scene scale."""
+    """Knobs of :func:`init_room_box`: the ``room_init`` settings. Lengths are fractions of the scene scale (the
+    median point distance to the camera)."""
 
-    ransac_threshold: float = setting(0.02, gt=0)
-    """Plane inlier distance, as a fraction of the median point distance to the camera."""
-    ransac_iterations: int = setting(1000, ge=1)
-    """RANSAC hypotheses per plane."""
-    max_walls: int = setting(4, ge=0)
-    """Planes extracted sequentially from the wall points."""
-    min_wall_inliers: float = setting(0.05, gt=0, le=1)
-    """Fraction of the wall points a wall plane needs; extraction stops at the first smaller plane."""
-    vertical_tolerance_deg: float = setting(20.0, ge=0, le=90)
-    """A wall plane's normal must be within this of horizontal (else it is dropped); an estimated depth's
-    smooth error tilts real walls by 10-15 degrees."""
-    ceiling_margin: float = setting(1.2, ge=1)
-    """Room height = this x the top of the room points when no ceiling is visible (paper §4.2) ..."""
-    height_ratio: float = setting(1.85, gt=0)
-    """... but at least this many camera heights (the walls go on above the frame: a camera held at 1.5 m
-    sees rooms about 2.8 m high)."""
-    size_ratio: float = setting(3.0, gt=0)
-    """A side that no wall bounds and that the camera does not turn its back to lies beyond the frame: at
-    least this many camera heights from the opposite side (rooms about 4.5 m across for a camera at 1.5 m)."""
-    extent_percentile: float = setting(98.0, gt=50, le=100)
-    """Robust 'maximum' of point coordinates (ceiling height, top of points, box sides without a wall)."""
-    behind_margin: float = setting(0.15, ge=0)
-    """Minimum camera clearance of box sides that no wall bounds (e.g. the unseen back wall). Photos are
-    typically taken 0.5-1 m in front of the back wall with a median point distance of 2.5-3.5 m."""
-    camera_height: float = setting(1.5, gt=0)
-    """Camera height above the floor (depth units) assumed when neither floor, ceiling nor two walls show where
-    the floor is: the 1.5 m the layout depth assumes too."""
-    seed: int = 0
-    """Seed of the RANSAC generators."""
+    ransac_threshold: float = setting(gt=0, doc="Plane inlier distance, a fraction of the median point distance.")
+    ransac_iterations: int = setting(ge=1, doc="RANSAC hypotheses per plane.")
+    max_walls: int = setting(ge=0, doc="Planes extracted one after another from the wall points.")
+    min_wall_inliers: float = setting(
+        gt=0, le=1, doc="Fraction of the wall points a wall plane needs; extraction stops at the first smaller plane."
+    )
+    vertical_tolerance_deg: float = setting(
+        ge=0,
+        le=90,
+        doc="A wall plane's normal must be within this (degrees) of horizontal, else it is dropped (an estimated "
+        "depth's smooth error tilts real walls by 10-15 degrees).",
+    )
+    ceiling_margin: float = setting(
+        ge=1, doc="Room height = this × the top of the room points when no ceiling is visible (§4.2) ..."
+    )
+    height_ratio: float = setting(
+        gt=0,
+        doc="... and at least this many camera heights (the walls go on above the frame: a camera at 1.5 m sees "
+        "rooms about 2.8 m high).",
+    )
+    size_ratio: float = setting(
+        gt=0,
+        doc="An unseen side the camera faces lies at least this many camera heights from the opposite side (rooms "
+        "about 4.5 m across for a camera at 1.5 m).",
+    )
+    extent_percentile: float = setting(
+        gt=50,
+        le=100,
+        doc="Robust 'maximum' of point coordinates (ceiling height, top of the points, box sides without a wall).",
+    )
+    behind_margin: float = setting(
+        ge=0,
+        doc="Box sides no wall bounds (the unseen back wall) are at least this far behind the camera, a fraction of "
+        "the median point distance (photos are taken 0.5-1 m in front of the back wall, points 2.5-3.5 m away).",
+    )
+    camera_height: float = setting(
+        gt=0,
+        doc="No floor, ceiling or two walls in view: the camera this high (depth units) above the floor (the 1.5 m "
+        "the layout depth assumes too).",
+    )
+    seed: int = setting(
+        0,
+        doc="Seed of the RANSAC generators: the run's seed, which the stage passes (so no key of room_init's node).",
+    )
 
 
 @dataclass(frozen=True)
@@ -132,7 +148,7 @@ def camera_to_world_from_floor(floor_plane: np.ndarray) -> np.ndarray:
     return transform
 
 
-def init_room_box(points: dict[str, np.ndarray], params: RoomInitParams = RoomInitParams()) -> RoomInitResult:
+def init_room_box(points: dict[str, np.ndarray], params: RoomInitParams) -> RoomInitResult:
     """Coarse room box from camera-frame points labelled "floor", "wall", "ceiling" (paper §4.2).
 
     Missing or empty categories are allowed; ``objects`` (optional) are the points of everything else, which

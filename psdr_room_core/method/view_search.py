@@ -23,12 +23,11 @@ from functools import cached_property
 import cv2
 import numpy as np
 
-from psdr_room_core.engine.settings import setting
-
 from .artifacts import Camera, RoomBox
 from .backs import back_shown, wall_gap
 from .image_boxes import box_iou, mask_box
 from .objects import pose_matrix
+from .params import SearchParams
 from .silhouette import MeshCaster, Window, world_to_camera
 from .sizes import SizePrior
 
@@ -176,43 +175,6 @@ ERROR_TERMS = {
     "wall": "wall_weight × metres farther than the nearest wall the wall behind a model that stands with its back to one is",
 }
 """The terms of :attr:`ViewFit.error`, by name: what a user reads to see why a model was ranked where it was."""
-
-
-@dataclass
-class SearchParams:
-    """How hard :func:`fit_view` looks and what its error holds; the ``search`` settings of place_objects."""
-
-    n_yaw: int = setting(12, ge=1)
-    """Rotations about the vertical axis swept."""
-    refine: int = setting(3, ge=0)
-    """Moment-matching steps per rotation (area, 3D median across the view, depth where they overlap)."""
-    coarse: int = setting(2, ge=0)
-    """Pattern-search step levels the explored rotations get (0: none)."""
-    explore: int = setting(0, ge=0)
-    """Rotations (the best after moment matching) that get the coarse search (0: all)."""
-    polish: int = setting(3, ge=0)
-    """Best rotations then refined at finer steps."""
-    depth_weight: float = setting(2.0, ge=0)
-    """Weight of the mean relative depth error against the mask disagreement."""
-    box_weight: float = setting(0.5, ge=0)
-    """Weight of 1 − IoU of the visible model's box with the segment's prompt box (where it has one: a
-    detector's box spans the object's thin parts a box-prompted cut loses)."""
-    hidden_margin: float = setting(0.03, ge=0)
-    """A model pixel is hidden where the photo sees a surface this much (relative) nearer."""
-    halvings: int = setting(3, ge=0)
-    """Finer step levels (each half the last) of the polish."""
-    turns: list[float] = setting([90.0, 180.0, 270.0])
-    """Turns (degrees) of the polished best, each refined at the fine levels (with ``polish`` > 0)."""
-    rounds: int = setting(12, ge=1)
-    """Most pattern-search moves at one step size."""
-    room_weight: float = setting(2.0, ge=0)
-    """Error per metre the posed model's bounding box reaches beyond the room box (a model is inside its room)."""
-    back_weight: float = setting(0.0, ge=0)
-    """Error of a model that stands with its back to a wall (``backed``) posed with its back square on to the
-    camera (:func:`~psdr_room_core.method.backs.back_shown` scales it)."""
-    wall_weight: float = setting(0.0, ge=0)
-    """Error per metre the wall behind a model that stands with its back to a wall (``backed``) is farther than
-    the wall nearest it (:func:`~psdr_room_core.method.backs.wall_gap`; with the target's room box)."""
 
 
 class _Scorer:
@@ -378,13 +340,12 @@ class ViewSearch:
         target: ViewTarget,
         vertices: np.ndarray,
         faces: np.ndarray,
-        params: SearchParams | None = None,
+        params: SearchParams,
         support_height: float | None = None,
         caster: MeshCaster | None = None,
         prior: SizePrior | None = None,
         backed: bool = False,
     ) -> None:
-        params = params or SearchParams()
         self.params, self.support_height = params, support_height
         self.scorer = _Scorer(target, vertices, faces, params, caster, prior, backed)
         box_centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2.0
@@ -472,7 +433,7 @@ def fit_view(
     target: ViewTarget,
     vertices: np.ndarray,
     faces: np.ndarray,
-    params: SearchParams | None = None,
+    params: SearchParams,
     support_height: float | None = None,
     prior: SizePrior | None = None,
     backed: bool = False,

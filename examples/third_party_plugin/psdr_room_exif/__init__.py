@@ -19,7 +19,9 @@ FULL_FRAME_DIAGONAL_MM = math.hypot(36.0, 24.0)
 class ExifSettings:
     """Checked against ``fov.exif`` before any stage runs."""
 
-    fallback_vfov_deg: float = setting(gt=0, lt=180)
+    fallback_vfov_deg: float = setting(
+        gt=0, lt=180, doc="Vertical field of view (degrees) of a photo without the EXIF tag."
+    )
 
 
 class ExifFov:

@@ -36,8 +36,7 @@ from psdr_room_core.method.view_search import ERROR_TERMS
 from psdr_room_core.method.visualize import segment_overlay
 from psdr_room_plugins.detectors.boxes_file import photo_scale, scaled
 from psdr_room_plugins.layout.objects import grabcut_mask
-from psdr_room_plugins.layout.settings import GrabCutParams
-from psdr_room_plugins.material_graph.thumbnails import to_uint8
+from psdr_room_plugins.material_graph.thumbnails import tensor_to_uint8
 
 from .scene_view import SceneView, overview, screen_to_photo
 from .session import EDITED, PREVIEW, Session, StageEvent
@@ -505,14 +504,14 @@ class StudioApp:
         if name == "homogeneous":
             self.material_look.image = np.full((LOOK, LOOK, 3), 255, np.uint8)
             return
-        self.material_look.image = to_uint8(self.library.appearance(name, LOOK))
+        self.material_look.image = tensor_to_uint8(self.library.appearance(name, LOOK))
 
     def _show_part_look(self) -> None:
         """The chosen part's material at its edited values (a homogeneous part: its flat colour)."""
         part = str(self.part.value)
         name, values = self.part_material(part)
         if name is not None:
-            self.part_look.image = to_uint8(self.library.appearance(name, LOOK, values))
+            self.part_look.image = tensor_to_uint8(self.library.appearance(name, LOOK, values))
         elif part in self.scene_parts:
             colour = linear_to_srgb(torch.tensor(self.scene_parts[part]["base_color"], dtype=torch.float32))
             self.part_look.image = np.broadcast_to(
@@ -727,6 +726,6 @@ class StudioApp:
         """Add the box a rectangle on the canvas covers on the photo, and show its GrabCut mask."""
         working = self._working_box(client_camera, screen_min, screen_max)
         image = self.session.run_image()
-        self.mask = grabcut_mask(image.to_uint8(), working, GrabCutParams())
+        self.mask = grabcut_mask(image.to_uint8(), working, self.session.grabcut())
         sx, sy = photo_scale(image)
         self.session.add_box(scaled(working, 1 / sx, 1 / sy), label=self.label.value, mask=self.mask)

@@ -32,6 +32,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 import yaml
+from omegaconf import OmegaConf
 
 from psdr_room_core.applications.edit import edit_scene
 from psdr_room_core.engine.cli import compose_config, hydra_quote
@@ -96,16 +97,16 @@ class StageEvents:
         self.listener: Callable[[StageEvent], None] = lambda event: None
 
     @hookimpl
-    def before_stage(self, stage: str, key: str, inputs: dict[str, Any]) -> None:
-        self.listener(StageEvent(stage, "running"))
+    def before_stage(self, record: StageRecord, inputs: dict[str, Any]) -> None:
+        self.listener(StageEvent(record.name, "running"))
 
     @hookimpl
     def after_stage(self, record: StageRecord, outputs: dict[str, Any]) -> None:
         self.listener(StageEvent(record.name, "cached" if record.cached else "computed", record.seconds))
 
     @hookimpl
-    def on_stage_error(self, stage: str, key: str, error: BaseException) -> None:
-        self.listener(StageEvent(stage, "failed"))
+    def on_stage_error(self, record: StageRecord, error: BaseException) -> None:
+        self.listener(StageEvent(record.name, "failed"))
 
 
 def studio_plugins() -> tuple[PluginSystem, StageEvents]:
@@ -150,6 +151,11 @@ class Session:
             *picks,
             *([f"run.until={until}"] if until else []),
         ]
+
+    def grabcut(self) -> GrabCutParams:
+        """The settings of the GrabCut that cuts a drawn box's object out: ``segmentation=layout``'s, as shipped."""
+        node = compose_config(["segmentation=layout"], self.plugins).segmentation.layout.grabcut
+        return GrabCutParams(**OmegaConf.to_container(node, resolve=True))  # type: ignore[arg-type]
 
     def command(self, until: str | None = None) -> str:
         """The command line that reproduces the run (with the boxes file beside the photo)."""
@@ -263,7 +269,7 @@ class Session:
         sx, sy = photo_scale(image)
         working = scaled((x0, y0, x1, y1), sx, sy)
         if mask is None:
-            mask = grabcut_mask(image.to_uint8(), working, GrabCutParams())
+            mask = grabcut_mask(image.to_uint8(), working, self.grabcut())
         if mask is None or not mask.any():
             raise PsdrRoomError(
                 f"the box {[round(v) for v in (x0, y0, x1, y1)]} holds no object GrabCut can cut "
