@@ -42,5 +42,5 @@ def settings(schema: type[SettingsT], key: str, *overrides: str) -> SettingsT:
 
 def arguments(schema: type, key: str, *overrides: str) -> dict[str, Any]:
     """The keyword arguments of the implementation whose node is ``key``: its settings, field by field."""
-    typed = settings(schema, key, *overrides)
+    typed: Any = settings(schema, key, *overrides)
     return {field.name: getattr(typed, field.name) for field in dataclasses.fields(typed)}
