@@ -9,7 +9,14 @@ One sample ``<seed>`` of a data set folder:
     <seed>.npz    surface (uint8, :data:`~psdr_room_plugins.eyes.labels.SURFACES`), category (uint8: 0 none, k =
                   :data:`~psdr_room_plugins.eyes.labels.CATEGORIES` [k-1]),
                   instance (uint16: 0 none, one id per object), depth (float16 z-depth, m; 0 across edges), all H×W;
-                  room (center xyz, half sizes, yaw), camera (fx, fy, cx, cy), camera_to_world (4×4)
+                  room (center xyz, half sizes, yaw), camera (fx, fy, cx, cy), camera_to_world (4×4);
+                  camera_pitch, camera_roll (radians);
+                  per instance id of the instance map (every one the generator placed, seen or not), in id order:
+                  instance_ids (uint16), instance_center (camera frame, m), instance_size (w, h, d along the
+                  model's own axes, m), instance_yaw (radians in [-π, π)) (all float32), instance_model (catalogue
+                  model id; empty for a ceiling panel), instance_category (uint8, as category), instance_visible
+                  (float32 share of its silhouette seen), instance_cut (bool: the frame cuts it); the frames and
+                  angles as :mod:`psdr_room_core.libraries.synth.instances` defines them
 
 Deterministic by seed: the same seed gives the same room, camera, labels and (Mitsuba's seeded sampler) photo.
 """
@@ -33,6 +40,7 @@ from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.engine.registry import Registry
 from psdr_room_core.libraries.object_db import ObjectDatabase
 from psdr_room_core.libraries.synth.furnish import THEMES, Furnisher, to_world
+from psdr_room_core.libraries.synth.instances import InstanceBox, camera_angles, camera_frame_boxes, visibility
 from psdr_room_core.libraries.synth.room import camera_pose
 from psdr_room_core.method.artifacts import Camera, RoomBox, rotation_y, vec3
 from psdr_room_core.method.capabilities import Denoiser, Renderer
@@ -65,6 +73,8 @@ class Sample:
     emitters: dict[str, tuple[TriangleMesh, tuple[float, float, float]]] = field(default_factory=dict)
     labels: dict[str, tuple[int, int, int]] = field(default_factory=dict)
     """Shape (or emitter) name → (surface class, category value, instance id)."""
+    boxes: dict[int, InstanceBox] = field(default_factory=dict)
+    """Instance id → its box as placed (world frame), model and category value."""
 
 
 class Looks:
@@ -367,6 +377,7 @@ def sample_room(
                 mesh_, look = looks.surface("object", mesh, 0.5)
             sample.meshes[name], sample.surfaces[name] = mesh_, look
             sample.labels[name] = (OBJECT, CATEGORIES.index(world.category) + 1, world.segment_id)
+        sample.boxes[world.segment_id] = InstanceBox.of_placement(world, CATEGORIES.index(world.category) + 1)
 
     panels = int(rng.choice([0, 1, 1, 2, 2, 3, 4])) if sample.emitters else int(rng.integers(1, 5))
     for k in range(panels):  # ceiling panels facing down
@@ -384,6 +395,9 @@ def sample_room(
             vec3(radiance),
         )
         sample.labels[name] = (OBJECT, CATEGORIES.index("lamp") + 1, 1000 + k)
+        sample.boxes[1000 + k] = InstanceBox(
+            local_to_world(spot), np.array([2 * size[0], 0.0, 2 * size[1]]), yaw, "", CATEGORIES.index("lamp") + 1
+        )
     return sample
 
 
@@ -412,6 +426,29 @@ def label_maps(sample: Sample, renderer: Renderer) -> dict[str, np.ndarray]:
         "category": values[..., 1].astype(np.uint8),
         "instance": values[..., 2].astype(np.uint16),
         "depth": np.where(single, depth / np.maximum(alpha, 1e-6), 0.0).astype(np.float16),
+    }
+
+
+def instance_labels(sample: Sample) -> dict[str, np.ndarray]:
+    """The 3D labels of ``sample``'s instances in id order and the camera's pitch and roll, exact from the
+    generator (:mod:`psdr_room_core.libraries.synth.instances`), under the keys of the sample file."""
+    meshes = {**sample.meshes, **{name: mesh for name, (mesh, _) in sample.emitters.items()}}
+    ids = sorted(sample.boxes)
+    parts: dict[int, list[TriangleMesh]] = {k: [] for k in ids}
+    others: list[TriangleMesh] = []
+    for name, mesh in meshes.items():
+        instance = sample.labels[name][2]
+        (parts[instance] if instance else others).append(mesh)
+    boxes = camera_frame_boxes({k: sample.boxes[k] for k in ids}, sample.camera_to_world)
+    visible, cut = visibility(sample.camera, sample.camera_to_world, {k: _merge(parts[k]) for k in ids}, _merge(others))
+    _, pitch, roll = camera_angles(sample.camera_to_world)
+    return {
+        "camera_pitch": np.array(pitch),
+        "camera_roll": np.array(roll),
+        "instance_ids": np.array(ids, np.uint16),
+        **{f"instance_{key}": value for key, value in boxes.items()},
+        "instance_visible": visible,
+        "instance_cut": cut,
     }
 
 
@@ -454,6 +491,7 @@ def write_sample(seed: int, out: Path, spp: int, width: int, height: int, textur
         "room": np.r_[sample.room.center, sample.room.half_size, sample.room.yaw],
         "camera": np.array([sample.camera.fx, sample.camera.fy, sample.camera.cx, sample.camera.cy]),
         "camera_to_world": sample.camera_to_world,
+        **instance_labels(sample),
     }
     np.savez_compressed(unfinished, **arrays)
     cv2.imwrite(str(photo.with_suffix(".part.jpg")), image[..., ::-1], [cv2.IMWRITE_JPEG_QUALITY, 95])
