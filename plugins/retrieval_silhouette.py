@@ -21,10 +21,10 @@ from psdr_room_core.engine.settings import setting
 from psdr_room_core.method.artifacts import Camera, Candidate, ObjectMesh
 from psdr_room_core.method.backs import BACKED
 from psdr_room_core.method.objects import ObjectQuery
+from psdr_room_core.method.params import SearchParams, SizePriorWeights
 from psdr_room_core.method.silhouette import MeshCaster
 from psdr_room_core.method.sizes import SizePrior
-from psdr_room_core.method.stages.settings import SizePriorWeights
-from psdr_room_core.method.view_search import SearchParams, ViewSearch, ViewTarget
+from psdr_room_core.method.view_search import ViewSearch, ViewTarget
 
 if TYPE_CHECKING:
     from psdr_room_core.libraries.object_db import ObjectDatabase
@@ -155,7 +155,7 @@ class SilhouetteSettings:
     search: SearchParams = setting(
         doc="The view search each model is posed by (:mod:`psdr_room_core.method.view_search`)."
     )
-    size_prior: SizePriorWeights = setting(doc="Each pose's size prior: place_objects' (one prior for both).")
+    size_prior: SizePriorWeights = setting(doc="Each pose's size prior (priors.size, as place_objects').")
     render_width: int = setting(ge=16, doc="Silhouettes are compared at this width, pixels ...")
     max_pixels: int = setting(
         ge=0, doc="... or narrower where the object would cover more pixels than this (speed; 0: no limit)."

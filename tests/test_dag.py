@@ -62,7 +62,7 @@ class Events:
 
 
 class DeprecatedEvents:
-    """Stage hooks in the form before the stage record was their first argument."""
+    """Stage hooks in the deprecated form: the stage's name and key instead of its record."""
 
     def __init__(self) -> None:
         self.calls: list[tuple[str, str, str]] = []

@@ -102,6 +102,8 @@ def test_fingerprint_follows_the_code_of_imported_modules(fresh: Path, toy_packa
         new_process()
         assert (code_fingerprint(stage.run) != before) == differs, text
         helper.write_text(original)
+    call = b'register(settings, doc="%s")\n'  # a doc= in a call that is a statement of its own
+    assert fingerprint._code(call % b"One.") == fingerprint._code(call % b"Two.") != fingerprint._code(b"register()\n")
 
 
 def _docstrings_reworded(source: str) -> str:

@@ -22,7 +22,7 @@ C2W[:3, :3] = np.diag([-1.0, -1.0, 1.0])  # OpenCV camera looking along world +Z
 C2W[:3, 3] = [0.0, 1.5, -2.5]
 ROOM = RoomBox(camera_to_world=C2W, center=np.array([0.0, 1.5, 1.0]), half_size=np.array([3.0, 1.5, 3.5]), yaw=0.0)
 CAMERA = Camera.from_vfov(160, 120, 60.0)
-PARAMS = shipped.settings(PhysicalParams, "place_objects.physical")
+PARAMS = shipped.settings(PhysicalParams, "priors.physical")
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from types import SimpleNamespace
-from typing import Any
+from typing import Any, Protocol
 
 import PIL.Image
 import pytest
@@ -203,16 +203,28 @@ def test_broken_plugins_are_left_out_with_a_reason(caplog: pytest.LogCaptureFixt
         registry.add_implementation("depth", "half_done", object)
         raise RuntimeError("boom")
 
+    def declare_gadgets(registry):  # noqa: ANN001
+        registry.add_capability("gadgets", "makes gadgets", protocol=Protocol)
+
+    def explode_later(registry):  # noqa: ANN001
+        raise RuntimeError("late")
+
     broken = [
         (plugin(register_implementations=explode), Origin("exploding", "x 1", "exploding = x")),
         (plugin(register_everything=lambda: None), Origin("misspelt", "y 1", "misspelt = y")),
         (plugin(register_stages=lambda registri: None), Origin("mistyped", "z 1", "mistyped = z")),
+        (
+            plugin(register_capabilities=declare_gadgets, register_stages=explode_later),
+            Origin("half_gone", "w 1", "half_gone = w"),
+        ),
     ]
     system = load_plugins(extra=broken)
     assert "registration failed: RuntimeError: boom" in system.registry.failures["exploding"]
     assert "unknown hook(s) register_everything" in system.registry.failures["misspelt"]
     assert "could not be registered" in system.registry.failures["mistyped"]  # a hook argument pluggy refuses
     assert ("depth", "half_done") not in system.registry.implementations  # rolled back
+    assert "registration failed: RuntimeError: late" in system.registry.failures["half_gone"]
+    assert "gadgets" not in system.registry.capabilities and "gadgets" not in system.registry.protocols  # every phase
     assert set(system.registry.implementations) >= BUILTIN_IMPLEMENTATIONS
     assert any("exploding" in r.getMessage() for r in caplog.records)
     with pytest.raises(PsdrRoomError, match="left out: exploding: registration failed"):

@@ -24,8 +24,6 @@ from psdr_room_core.engine.settings import entries, reference, setting
 from psdr_room_core.method.stages.settings import PlaceObjects
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
-OPTIONAL = {"room_init.seed"}
-"""The keys a shipped node may leave out (their schema gives a default, and its doc says why)."""
 
 
 def _configs(registry: Registry) -> Iterator[dict[str, Any]]:
@@ -69,7 +67,7 @@ def test_every_key_has_a_shipped_value_and_a_meaning() -> None:
         for where, schema, values in _nodes(data, registry):
             for entry in entries(schema, values):
                 key = f"{where}.{entry.key}"
-                if entry.value is MISSING and key not in OPTIONAL:
+                if entry.value is MISSING:
                     problems[key] = "has no value in the shipped config"
                 elif not entry.field.metadata.get("doc"):
                     problems[key] = f"has no doc in {schema.__qualname__}'s schema"
@@ -89,7 +87,7 @@ def test_no_schema_field_carries_a_code_default() -> None:
         for field in dataclasses.fields(schema)
         if field.default not in (MISSING, dataclasses.MISSING) or field.default_factory is not dataclasses.MISSING
     }
-    assert defaults == {"RoomInitParams.seed"}  # the stage passes the run's seed: no key of room_init's node
+    assert not defaults
 
 
 @dataclass

@@ -8,9 +8,11 @@ and plugin config directories (the ``conf_searchpath`` hook) are added to Hydra'
 from __future__ import annotations
 
 import logging
+import os
 import re
 import sys
 import traceback
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -247,18 +249,10 @@ def preflight(argv: list[str], plugins: PluginSystem) -> None:
 def dag(argv: list[str], plugins: PluginSystem) -> str:
     """``psdr-room --dag [overrides...]`` (or ``--dag=mermaid``, ``--dag mermaid``): the pipeline of the config
     these overrides compose, as :mod:`.dag_view` shows it. Nothing runs, and no photo is needed."""
-    at = next(i for i, arg in enumerate(argv) if arg.split("=")[0] == "--dag")
-    form = argv[at].partition("=")[2]
-    rest = [*argv[:at], *argv[at + 1 :]]
-    if not form and argv[at + 1 : at + 2] and argv[at + 1] in dag_view.FORMS:
-        form, rest = argv[at + 1], [*argv[:at], *argv[at + 2 :]]
+    form, data = _flag_and_config(argv, "--dag", plugins, takes=lambda arg: arg in dag_view.FORMS)
     form = form or "text"
     if form not in dag_view.FORMS:
         raise PsdrRoomError(f"--dag={form} is not a form of the graph; use --dag (text) or --dag=mermaid")
-    cfg = composed(split_arguments(rest)[0], plugins)
-    with read_write(cfg), open_dict(cfg):
-        del cfg["hydra"]
-    data = resolve_config(cfg, missing_ok=True)
     pipeline = Pipeline.from_config(data, provided=data.get("inject") or {})
     check_stage_inputs(pipeline.nodes, plugins.registry)
     show = dag_view.mermaid if form == "mermaid" else dag_view.text
@@ -269,19 +263,35 @@ def settings_reference(argv: list[str], plugins: PluginSystem) -> str:
     """``psdr-room --settings NODE [overrides...]`` (``--settings=NODE``): what each setting of the stage or
     implementation ``NODE`` (``place_objects``, ``segmentation.layout``) means and its value in the config these
     overrides compose, as :mod:`.settings_view` shows it. Without NODE, the nodes there are. Nothing runs."""
-    at = next(i for i, arg in enumerate(argv) if arg.split("=")[0] == "--settings")
-    name = argv[at].partition("=")[2]
-    rest = [*argv[:at], *argv[at + 1 :]]
-    if not name and argv[at + 1 : at + 2] and "=" not in argv[at + 1] and not argv[at + 1].startswith("-"):
-        name, rest = argv[at + 1], [*argv[:at], *argv[at + 2 :]]
-    cfg = composed(split_arguments(rest)[0], plugins)
-    with read_write(cfg), open_dict(cfg):
-        del cfg["hydra"]
-    data = resolve_config(cfg, missing_ok=True)
+    name, data = _flag_and_config(argv, "--settings", plugins, takes=lambda arg: "=" not in arg and arg[:1] != "-")
     if not name:
         nodes = sorted(settings_view.schemas(data, plugins.registry))
         return "settings nodes (psdr-room --settings NODE):\n" + "\n".join(f"  {n}" for n in nodes)
     return settings_view.text(name, data, plugins.registry)
+
+
+def _flag_and_config(
+    argv: list[str], flag: str, plugins: PluginSystem, *, takes: Callable[[str], bool]
+) -> tuple[str, dict[str, Any]]:
+    """The value of ``flag`` in ``argv`` (``--flag=VALUE``, or ``--flag VALUE`` where ``takes(VALUE)``; empty
+    without one) and the resolved config the other arguments compose, no photo needed."""
+    at = next(i for i, arg in enumerate(argv) if arg.split("=")[0] == flag)
+    value = argv[at].partition("=")[2]
+    rest = [*argv[:at], *argv[at + 1 :]]
+    if not value and argv[at + 1 : at + 2] and takes(argv[at + 1]):
+        value, rest = argv[at + 1], [*argv[:at], *argv[at + 2 :]]
+    cfg = composed(split_arguments(rest)[0], plugins)
+    with read_write(cfg), open_dict(cfg):
+        del cfg["hydra"]
+    return value, resolve_config(cfg, missing_ok=True)
+
+
+def _print(text: str) -> None:
+    """Print ``text``; a reader that closed the pipe (``| head``) has had what it wanted: no traceback."""
+    try:
+        print(text, flush=True)
+    except BrokenPipeError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # Python's flush at exit must not fail too
 
 
 def _parse(override: str) -> Override | None:
@@ -299,13 +309,13 @@ def main() -> None:
         plugins = plugin_system()
         flags = split_arguments(argv)[1]
         if flags & {"--help", "-h"}:
-            print(help_text(plugins, CONFIG_MODULE))
+            _print(help_text(plugins, CONFIG_MODULE))
             return
         if "--dag" in flags:
-            print(dag(argv, plugins))
+            _print(dag(argv, plugins))
             return
         if "--settings" in flags:
-            print(settings_reference(argv, plugins))
+            _print(settings_reference(argv, plugins))
             return
         preflight(argv, plugins)
     except PsdrRoomError as exc:

@@ -12,8 +12,9 @@ Mitsuba, rerun with ``cache=off`` or a new ``cache_dir``).
 
 A module's digest is of its code, not its prose: of its syntax tree (:func:`ast.dump`, which holds no comments,
 layout or line numbers) without the statements that are a string alone: docstrings, and the attribute docstrings
-after an assignment (which Python discards). Fixing a typo in a docstring or a comment recomputes nothing; string
-data (a value, an argument) is code. The tree's form is Python's own, so a new Python version recomputes
+after an assignment (which Python discards), and without the ``doc="..."`` keyword arguments that give a setting its
+meaning (:func:`psdr_room_core.engine.settings.setting`). Fixing a typo in a docstring, a comment or a setting's
+doc recomputes nothing; other string data (a value, an argument) is code. The tree's form is Python's own, so a new Python version recomputes
 everything once. Parsing every module a pipeline runs takes about a second, so each module's code digest is
 remembered against the digest of its bytes in :data:`TABLE` in psdr-room's cache directory
 (``$PSDR_ROOM_CACHE_DIR``, else ``~/.cache/psdr-room``): a process parses only the modules whose bytes changed
@@ -132,7 +133,7 @@ class _WithoutProse(ast.NodeTransformer):
     ``doc="..."`` keyword argument (a setting's meaning, :func:`psdr_room_core.engine.settings.setting`)."""
 
     def visit_Expr(self, node: ast.Expr) -> ast.Expr | None:
-        return None if _is_text(node.value) else node
+        return None if _is_text(node.value) else self.generic_visit(node)  # type: ignore[return-value]
 
     def visit_keyword(self, node: ast.keyword) -> ast.keyword | None:
         return None if node.arg == "doc" and _is_text(node.value) else node

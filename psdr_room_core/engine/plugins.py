@@ -116,12 +116,8 @@ def load_plugins(extra: Iterable[tuple[object, Origin]] = (), discover: bool = T
 def _register(
     manager: pluggy.PluginManager, plugin: object, origin: Origin, registry: Registry, hook_names: tuple[str, ...]
 ) -> bool:
-    """Run one plugin's registration hooks of one phase; on error, roll back what it added, leave it out and
-    return False."""
-    before = {
-        name: dict(getattr(registry, name))
-        for name in ("capabilities", "artifacts", "implementations", "stages", "settings")
-    }
+    """Run one plugin's registration hooks of one phase; on error, remove what it added in every phase, leave it
+    out and return False."""
     registry._origin = origin
     try:
         for hook_name in hook_names:
@@ -129,8 +125,7 @@ def _register(
             if fn is not None:
                 fn(registry=registry)
     except Exception as exc:
-        for name, items in before.items():
-            setattr(registry, name, items)
+        registry.forget(origin.plugin)
         manager.unregister(plugin)
         _report_failure(registry, origin, f"registration failed: {type(exc).__name__}: {exc}")
         return False

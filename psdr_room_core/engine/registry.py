@@ -121,6 +121,8 @@ class Registry:
     _owners: dict[str, Origin] = field(default_factory=dict)
     """Each name registered, as an error names it (``stage 'room_init'``, ``fov=fixed``) → the plugin that registered
     it (read only for a name still registered: a left-out plugin's names are removed, not their owners)."""
+    _added: dict[str, list[tuple[str, Any]]] = field(default_factory=dict)
+    """Plugin name → (registry attribute, key) of each item it added, for :meth:`forget`."""
 
     def add_capability(self, name: str, description: str, protocol: type | None = None) -> None:
         """Declare capability ``name``: a config group of the same name selects one of its implementations;
@@ -131,8 +133,10 @@ class Registry:
         registered = (self.capabilities[name], self.protocols.get(name)) if name in self.capabilities else _FREE
         if self._claim(("capability", name), f"capability '{name}'", registered, (description, protocol)):
             self.capabilities[name] = description
+            self._added_by_origin("capabilities", name)
             if protocol is not None:
                 self.protocols[name] = protocol
+                self._added_by_origin("protocols", name)
 
     def add_artifact(self, artifact_type: type[Artifact]) -> None:
         """Register an artifact type under its ``kind``."""
@@ -143,6 +147,7 @@ class Registry:
         registered = self.artifacts.get(kind, _FREE)
         if self._claim(("artifact", kind), f"artifact kind '{kind}'", registered, artifact_type):
             self.artifacts[kind] = artifact_type
+            self._added_by_origin("artifacts", kind)
 
     def add_implementation(
         self,
@@ -172,6 +177,7 @@ class Registry:
         as_registered = _FREE if registered is None else dataclasses.replace(registered, origin=new.origin)
         if self._claim(key, f"{capability}={name}", as_registered, new):
             self.implementations[key] = new
+            self._added_by_origin("implementations", key)
 
     def add_stage(
         self,
@@ -199,6 +205,7 @@ class Registry:
         as_registered = _FREE if registered is None else dataclasses.replace(registered, origin=new.origin)
         if self._claim(("stage", name), f"stage '{name}'", as_registered, new):
             self.stages[name] = new
+            self._added_by_origin("stages", name)
 
     def add_settings(self, name: str, params: type | None = None) -> None:
         """Declare ``name``, a top-level config node this plugin reads (the report's ``report``), with the
@@ -208,6 +215,15 @@ class Registry:
             raise ValueError(f"settings name '{name}' is not an identifier")
         if self._claim(("settings", name), f"settings '{name}'", self.settings.get(name, _FREE), params):
             self.settings[name] = params
+            self._added_by_origin("settings", name)
+
+    def forget(self, plugin: str) -> None:
+        """Remove everything plugin ``plugin`` registered, in every phase (it is left out)."""
+        for attribute, key in self._added.pop(plugin, []):
+            getattr(self, attribute).pop(key, None)
+
+    def _added_by_origin(self, attribute: str, key: Any) -> None:
+        self._added.setdefault(self._origin.plugin, []).append((attribute, key))
 
     def _claim(self, key: tuple[str, str], label: str, registered: object, registering: object) -> bool:
         """Whether the name ``label`` (``key`` in :attr:`conflicts`) is free, so that the plugin registering now

@@ -28,8 +28,9 @@ from omegaconf import MISSING, OmegaConf
 from omegaconf.errors import ConfigKeyError, MissingMandatoryValue, ValidationError
 
 from .bounded import excerpt
-from .dag import AUTO, StageNode, with_settings
+from .choice import AUTO, with_settings
 from .errors import PsdrRoomError
+from .stage_config import StageNode
 
 if TYPE_CHECKING:
     from .registry import Registry

@@ -3,9 +3,11 @@ composed config (the meanings are the schemas' ``doc``, :func:`.settings.referen
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
+from .choice import AUTO
 from .errors import PsdrRoomError
 from .settings import did_you_mean, reference
 from .stage_config import stage_nodes
@@ -13,7 +15,7 @@ from .stage_config import stage_nodes
 if TYPE_CHECKING:
     from .registry import Registry
 
-CHOICE_KEYS = ("impl", "auto")
+CHOICE_KEYS = ("impl", AUTO)
 """Keys of a capability's group that choose an implementation rather than configure one."""
 
 
@@ -55,7 +57,8 @@ def text(name: str, data: Mapping[str, Any], registry: Registry) -> str:
 
 
 def _first_sentence(doc: str) -> str:
-    """The first sentence of a docstring's first paragraph, on one line."""
+    """The first sentence of a docstring's first paragraph, on one line (it ends at a full stop before a capital:
+    not at "eq. 3")."""
     paragraph = " ".join(doc.strip().split("\n\n")[0].split())
-    end = paragraph.find(". ")
-    return paragraph if end < 0 else paragraph[: end + 1]
+    end = re.search(r"\.\s+(?=[A-Z])", paragraph)
+    return paragraph if end is None else paragraph[: end.start() + 1]

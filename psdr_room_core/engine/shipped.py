@@ -19,8 +19,13 @@ SettingsT = TypeVar("SettingsT")
 
 
 @functools.cache
+def _composed(overrides: tuple[str, ...]) -> Any:
+    return compose_config(list(overrides))
+
+
+@functools.cache
 def _resolved(key: str, overrides: tuple[str, ...]) -> Any:
-    value = OmegaConf.select(compose_config(list(overrides)), key, throw_on_missing=True)
+    value = OmegaConf.select(_composed(overrides), key, throw_on_missing=True)
     if value is None:
         raise KeyError(f"the shipped config has no {key}")
     return OmegaConf.to_container(value, resolve=True) if OmegaConf.is_config(value) else value

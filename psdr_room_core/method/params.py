@@ -83,7 +83,11 @@ class PhysicalParams:
         doc="Interpenetration allowed, metres (a resting contact measures about one voxel); more: the weaker object "
         "moves out ...",
     )
-    max_shift: float = setting(ge=0, doc="... by at most this horizontal step (metres), or is dropped.")
+    max_shift: float = setting(
+        ge=0,
+        doc="... by at most this horizontal step (metres); farther, it is dropped (place_objects leaves the pair to "
+        "fit_objects instead).",
+    )
     directions: int = setting(ge=1, doc="Horizontal directions tried for a move.")
     keep_iou: float = setting(
         ge=0,
@@ -155,7 +159,7 @@ class SearchParams:
 
 @dataclass
 class PaintPrior:
-    """The range of a painted room surface's fitted material (see the module docstring for the sources)."""
+    """The range of a painted room surface's fitted material (the sources are in :mod:`psdr_room_core.method.material_priors`)."""
 
     albedo: list[float] = setting(
         ge=0,
@@ -181,3 +185,28 @@ class PaintPrior:
             raise PsdrRoomError(
                 f"fit_appearance.paint.albedo={list(self.albedo)}: the lowest must be below the highest"
             )
+
+
+@dataclass
+class SizePriorWeights:
+    """The size prior on a pose at scale ``s`` (:class:`~psdr_room_core.method.sizes.SizePrior`; database models
+    are real size): ``scale_weight |ln s| + range_weight ×`` how far (log units) it is outside its category's
+    sizes."""
+
+    scale_weight: float = setting(
+        ge=0, doc="Cost per log unit of scale (|ln s|): higher keeps models nearer real size."
+    )
+    range_weight: float = setting(ge=0, doc="Cost per log unit the scaled model is outside its category's real sizes.")
+
+
+@dataclass
+class Priors:
+    """The settings several stages share (the ``priors`` node of ``conf/config.yaml``; the stages' nodes take them by
+    interpolation, so one value serves them all and a stage can be removed or swapped without the others)."""
+
+    size: SizePriorWeights = setting(
+        doc="The size prior of the view search: place_objects' poses and retrieval=silhouette's ranking."
+    )
+    physical: PhysicalParams = setting(
+        doc="What makes a scene physically possible (psdr_room_core/method/physical.py): place_objects and fit_objects."
+    )

@@ -57,7 +57,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .artifacts import Camera, Placement, RoomBox, rotation_y, vec3
+from .artifacts import Camera, Panoptic, Placement, RoomBox, rotation_y, vec3
 from .labels import ANY, meaning
 from .params import PhysicalParams
 from .silhouette import depth_map, silhouette
@@ -648,3 +648,42 @@ def interpenetrations(placements: list[Placement], threshold: float) -> list[tup
             if thickness > threshold:
                 found.append((a.segment_id, b.segment_id, round(thickness, 3)))
     return found
+
+
+def settle_logged(
+    objects: list[Placement],
+    *,
+    room: RoomBox,
+    camera: Camera,
+    panoptic: Panoptic,
+    physical: PhysicalParams,
+    stage: str,
+    final: bool,
+) -> Settled:
+    """:func:`settle` with its changes logged as ``stage``'s (segments with no
+    score were drawn; the others' prompt scores weigh their evidence)."""
+    drawn = {s.id for s in panoptic.segments if s.score is None}
+    scores = prompt_scores(panoptic)
+    counts = np.bincount(panoptic.ids.ravel())
+    pixels = {s.id: int(counts[s.id]) for s in panoptic.segments if s.id < len(counts)}
+    settled = settle(
+        objects,
+        room=room,
+        camera=camera,
+        drawn=drawn,
+        pixels=pixels,
+        params=physical,
+        final=final,
+        ids=panoptic.ids_at(camera.width, camera.height),
+        scores=scores,
+    )
+    for note in settled.changed:
+        log.info("%s: %s", stage, note)
+    if settled.dropped:
+        log.info("%s: dropped %d object(s): %s", stage, len(settled.dropped), "; ".join(settled.dropped))
+    return settled
+
+
+def prompt_scores(panoptic: Panoptic) -> dict[int, float]:
+    """Segment id → its prompt's score, for the segments guessed automatically (a drawn segment has none)."""
+    return {s.id: s.score for s in panoptic.segments if s.score is not None}

@@ -170,3 +170,11 @@ def after_run(run: RunRecord, run_dir: Path) -> None:
     """Say, one line each, what the run guessed because the photo did not show it (:mod:`.guesses`)."""
     for guess in guesses(run.artifact("camera", artifacts.Camera), run.artifact("room_box", artifacts.RoomBox)):
         log.warning("guessed: %s", guess)
+
+
+@hookimpl
+def register_settings(registry: Registry) -> None:
+    """The settings several stages share (``priors``: :class:`~psdr_room_core.method.params.Priors`)."""
+    from .params import Priors
+
+    registry.add_settings("priors", Priors)

@@ -95,10 +95,6 @@ class RoomInitParams:
         doc="No floor, ceiling or two walls in view: the camera this high (depth units) above the floor (the 1.5 m "
         "the layout depth assumes too).",
     )
-    seed: int = setting(
-        0,
-        doc="Seed of the RANSAC generators: the run's seed, which the stage passes (so no key of room_init's node).",
-    )
 
 
 @dataclass(frozen=True)
@@ -148,7 +144,7 @@ def camera_to_world_from_floor(floor_plane: np.ndarray) -> np.ndarray:
     return transform
 
 
-def init_room_box(points: dict[str, np.ndarray], params: RoomInitParams) -> RoomInitResult:
+def init_room_box(points: dict[str, np.ndarray], params: RoomInitParams, *, seed: int) -> RoomInitResult:
     """Coarse room box from camera-frame points labelled "floor", "wall", "ceiling" (paper §4.2).
 
     Missing or empty categories are allowed; ``objects`` (optional) are the points of everything else, which
@@ -164,16 +160,18 @@ def init_room_box(points: dict[str, np.ndarray], params: RoomInitParams) -> Room
     scale = _scene_scale(clouds)
     threshold = params.ransac_threshold * scale
     if len(clouds["floor"]) >= _MIN_FLOOR_POINTS:
-        floor_plane, _ = fit_floor_plane(clouds["floor"], threshold, params.ransac_iterations, params.seed)
+        floor_plane, _ = fit_floor_plane(clouds["floor"], threshold, params.ransac_iterations, seed)
         floor_source = "floor"
     else:
-        floor_plane, floor_source = floor_without_floor_points({**clouds, "objects": objects}, threshold, scale, params)
+        floor_plane, floor_source = floor_without_floor_points(
+            {**clouds, "objects": objects}, threshold, scale, params, seed=seed
+        )
     camera_to_world = camera_to_world_from_floor(floor_plane)
     world = {name: _transform(cloud, camera_to_world) for name, cloud in clouds.items()}
     camera_height = float(floor_plane[3])
     height, ceiling_visible = _room_height(world, camera_height, params)
 
-    walls = _extract_wall_planes(clouds["wall"], floor_plane[:3], threshold, params)
+    walls = _extract_wall_planes(clouds["wall"], floor_plane[:3], threshold, params, seed=seed)
     wall_normals = [camera_to_world[:3, :3] @ plane[:3] for plane, _ in walls]
     wall_inliers = [_transform(inliers, camera_to_world) for _, inliers in walls]
     yaw = _wall_yaw(wall_normals, [len(inliers) for inliers in wall_inliers])
@@ -198,7 +196,7 @@ def init_room_box(points: dict[str, np.ndarray], params: RoomInitParams) -> Room
 
 
 def floor_without_floor_points(
-    clouds: dict[str, np.ndarray], threshold: float, scale: float, params: RoomInitParams
+    clouds: dict[str, np.ndarray], threshold: float, scale: float, params: RoomInitParams, *, seed: int
 ) -> tuple[np.ndarray, str]:
     """The floor plane (camera frame, camera side positive) of a photo that shows no floor, and how it was found.
 
@@ -210,10 +208,10 @@ def floor_without_floor_points(
     ``camera_height`` below the camera.
     """
     if len(clouds["ceiling"]) >= _MIN_FLOOR_POINTS:
-        ceiling, _ = fit_floor_plane(clouds["ceiling"], threshold, params.ransac_iterations, params.seed)
+        ceiling, _ = fit_floor_plane(clouds["ceiling"], threshold, params.ransac_iterations, seed)
         up = -ceiling[:3]  # the ceiling's normal points down, to the camera
         return np.append(up, ceiling[3] / (params.height_ratio - 1.0)), "ceiling"
-    normals = _wall_normals(clouds["wall"], threshold, params)
+    normals = _wall_normals(clouds["wall"], threshold, params, seed=seed)
     pairs = [(a, b) for i, a in enumerate(normals) for b in normals[i + 1 :] if abs(a @ b) < 0.3]
     image_up = np.array([0.0, -1.0, 0.0])  # camera y points down
     if pairs:
@@ -228,9 +226,9 @@ def floor_without_floor_points(
     return np.append(up, max(1.1 * drop, params.camera_height if source != "walls" else 0.5 * scale)), source
 
 
-def _wall_normals(points: np.ndarray, threshold: float, params: RoomInitParams) -> list[np.ndarray]:
+def _wall_normals(points: np.ndarray, threshold: float, params: RoomInitParams, *, seed: int) -> list[np.ndarray]:
     """Normals of the planes found one after another in the wall points (at most ``max_walls``)."""
-    rng = np.random.default_rng((params.seed, 2))
+    rng = np.random.default_rng((seed, 2))
     remaining = points
     normals: list[np.ndarray] = []
     while len(remaining) >= _MIN_FLOOR_POINTS and len(normals) < params.max_walls:
@@ -360,10 +358,10 @@ def _room_height(world: dict[str, np.ndarray], camera_height: float, params: Roo
 
 
 def _extract_wall_planes(
-    points: np.ndarray, up: np.ndarray, threshold: float, params: RoomInitParams
+    points: np.ndarray, up: np.ndarray, threshold: float, params: RoomInitParams, *, seed: int
 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """Sequential RANSAC on the wall points: (plane, inlier points) of each near-vertical plane."""
-    rng = np.random.default_rng((params.seed, 1))
+    rng = np.random.default_rng((seed, 1))
     min_inliers = max(params.min_wall_inliers * len(points), _MIN_PLANE_POINTS)
     max_tilt = np.sin(np.radians(params.vertical_tolerance_deg))
     walls = []

@@ -30,7 +30,8 @@ from ..artifacts import (
 from ..capabilities import Denoiser, MaterialGraph, Optimizer, Renderer, TextureDescriptor
 from ..convergence import untimed
 from ..image_metrics import downsampled, flip, rmse, ssim, ssim_map
-from ..material_priors import LUMINANCE, PaintPrior, painted, within_paint
+from ..material_priors import LUMINANCE, painted, within_paint
+from ..params import PaintPrior
 from ..rgb_scene import build_scene, finished_render, graph_maps, initial_parts, part_meshes, render_part_ids
 from ..shading import linear_to_srgb, srgb_to_linear
 from ..visualize import crop_pairs, plot_curves, to_uint8

@@ -47,12 +47,12 @@ log = logging.getLogger("psdr_room")
 def room_init(ctx: StageContext, cloud: PointCloud) -> RoomBox:
     """Fit the initial room box and the camera pose in the room's frame (its settings:
     :class:`~psdr_room_core.method.room_box.RoomInitParams`)."""
-    params = RoomInitParams(**{**ctx.params, "seed": ctx.seed})
+    params = ctx.settings(RoomInitParams)
     points = {c: cloud.category_points(c).astype(np.float64) for c in ROOM_CATEGORIES}
     others = [s.id for s in cloud.segments if s.category not in ROOM_CATEGORIES]
     points["objects"] = cloud.points[np.isin(cloud.segment, others)].astype(np.float64)
     try:
-        fit = init_room_box(points, params)
+        fit = init_room_box(points, params, seed=ctx.seed)
     except ValueError as exc:
         raise PsdrRoomError(str(exc)) from None
     if fit.floor_source != "floor":

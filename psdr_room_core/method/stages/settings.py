@@ -10,7 +10,7 @@ from typing import Any
 from psdr_room_core.engine.settings import setting
 
 from ..convergence import Plateau
-from ..params import GroupParams, PaintPrior, PhysicalParams, SearchParams, SupportParams
+from ..params import GroupParams, PaintPrior, PhysicalParams, SearchParams, SizePriorWeights, SupportParams
 
 
 @dataclass
@@ -91,20 +91,10 @@ class Prune:
     """Which guessed objects (segments with a score) the fit cannot explain and drops."""
 
     min_iou: float = setting(
-        ge=0, le=1, doc="A guessed object whose posed model's visible silhouette overlaps its mask less is dropped."
+        ge=0,
+        le=1,
+        doc="A guessed object whose posed model's visible silhouette overlaps its mask less is dropped (init=silhouette).",
     )
-
-
-@dataclass
-class SizePriorWeights:
-    """The size prior on a pose at scale ``s`` (:class:`~psdr_room_core.method.sizes.SizePrior`; database models
-    are real size): ``scale_weight |ln s| + range_weight ×`` how far (log units) it is outside its category's
-    sizes."""
-
-    scale_weight: float = setting(
-        ge=0, doc="Cost per log unit of scale (|ln s|): higher keeps models nearer real size."
-    )
-    range_weight: float = setting(ge=0, doc="Cost per log unit the scaled model is outside its category's real sizes.")
 
 
 @dataclass
@@ -255,7 +245,11 @@ class AssignMaterials:
         doc="Crops with a median texture energy under this are plain: homogeneous (calibration: benchmarks/materials.py).",
     )
     max_crops: int = setting(ge=0, doc="Crop windows per part (largest first).")
-    min_crop_px: int = setting(ge=1, doc="A crop's shorter side, working-image pixels; smaller parts stay homogeneous.")
+    min_crop_px: int = setting(
+        ge=1,
+        doc="A crop's shorter side, working-image pixels; smaller parts stay homogeneous (and the walls' colour is "
+        "taken from the clear wall pixels where there are at least this squared).",
+    )
     top_k: int = setting(ge=1, doc="Graphs kept per crop before voting (the paper's 10).")
     min_similarity: float = setting(
         le=1,

@@ -17,13 +17,12 @@ from psdr_room_core.engine.dag import StageContext
 from ...artifacts import Camera, DepthMap, Image, OptimizationLog, Panoptic, Placement, Placements, RoomBox
 from ...capabilities import Optimizer, Renderer
 from ...convergence import BestIterate, untimed
-from ...physical import Settled, interpenetrations, weak_guesses
+from ...physical import Settled, interpenetrations, prompt_scores, settle_logged, weak_guesses
 from ...pose_model import Explained, ObjectLoss, ObjectTargets, PoseModel, explained_by, object_targets
 from ...sizes import size_excess
 from ...solids import overlap
 from ...visualize import object_fit_pictures
 from ..settings import FitObjects
-from .place import prompt_scores, settle_logged
 
 log = logging.getLogger("psdr_room")
 

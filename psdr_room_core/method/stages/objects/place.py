@@ -29,7 +29,7 @@ from ...artifacts import (
 from ...backs import BACKED
 from ...capabilities import ObjectRetriever
 from ...objects import ObjectQuery, best_yaw, initial_pose, object_queries, support_relations, wall_frame
-from ...physical import PhysicalParams, Settled, settle, support_top
+from ...physical import prompt_scores, settle_logged, support_top
 from ...sizes import SizePrior
 from ...view_search import ViewTarget, fit_view
 from ..settings import PlaceObjects
@@ -77,7 +77,9 @@ def place_objects(
     for q in parents_first:
         model_id, category = chosen[q.segment_id], categories[q.segment_id]
         mesh = retriever.mesh(model_id)
-        supports = [(k, a) for k, a in relations[q.segment_id] if k != "parent" or a in placement_of]
+        supports = [
+            (kind, anchor) for kind, anchor in relations[q.segment_id] if kind != "parent" or anchor in placement_of
+        ]
         supports = supports or [("free", None)]
         if settings.init == "silhouette":
             pose = _searched_pose(
@@ -134,7 +136,7 @@ def _chosen_models(queries: list[ObjectQuery], candidates: ObjectCandidates, pic
 
 
 def _pick(candidates: list[Candidate], choice: Any, segment_id: int) -> str:
-    """The chosen model: the best candidate, or ``objects`` pick ``<rank>`` (0-based) / ``<model id>``."""
+    """The chosen model: the best candidate, or ``place_objects.pick`` ``<rank>`` (0-based) / ``<model id>``."""
     if choice is None:
         return candidates[0].model_id
     if isinstance(choice, int) or (isinstance(choice, str) and choice.isdigit()):
@@ -265,42 +267,3 @@ def _placement(
         category=category,
         explained=pose.view_iou,
     )
-
-
-def settle_logged(
-    objects: list[Placement],
-    *,
-    room: RoomBox,
-    camera: Camera,
-    panoptic: Panoptic,
-    physical: PhysicalParams,
-    stage: str,
-    final: bool,
-) -> Settled:
-    """:func:`~psdr_room_core.method.physical.settle` with its changes logged as ``stage``'s (segments with no
-    score were drawn; the others' prompt scores weigh their evidence)."""
-    drawn = {s.id for s in panoptic.segments if s.score is None}
-    scores = prompt_scores(panoptic)
-    counts = np.bincount(panoptic.ids.ravel())
-    pixels = {s.id: int(counts[s.id]) for s in panoptic.segments if s.id < len(counts)}
-    settled = settle(
-        objects,
-        room=room,
-        camera=camera,
-        drawn=drawn,
-        pixels=pixels,
-        params=physical,
-        final=final,
-        ids=panoptic.ids_at(camera.width, camera.height),
-        scores=scores,
-    )
-    for note in settled.changed:
-        log.info("%s: %s", stage, note)
-    if settled.dropped:
-        log.info("%s: dropped %d object(s): %s", stage, len(settled.dropped), "; ".join(settled.dropped))
-    return settled
-
-
-def prompt_scores(panoptic: Panoptic) -> dict[int, float]:
-    """Segment id → its prompt's score, for the segments guessed automatically (a drawn segment has none)."""
-    return {s.id: s.score for s in panoptic.segments if s.score is not None}
