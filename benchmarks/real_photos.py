@@ -22,6 +22,10 @@ copied alone into a temporary folder and run through the ``psdr-room`` command w
   through each other by more than 5 cm; ``out``: objects reaching more than 5 cm beyond the final room box;
   ``hid``: fitted objects the others hide (in the scene's render from the photo's camera they explain less than
   half of the pixels of their segment they explain alone);
+* in 3D, where the photo's folder has Total3D's SUN RGB-D ground truth (``gt_3d_total3d.json``, read by
+  :mod:`boxes3d`): for the references the fitted objects recall, 3D box IoU, centre, size and yaw errors; the
+  3D IoU of the final room box and the reference layout; the fitted camera's pitch and roll errors (a second
+  table);
 * ``si-log`` / ``AbsRel`` / ``δ1`` (share of pixels within 1.25× after a median scale) of the estimated depth
   against sensor depth (a ``*depth*`` image in the photo's folder, decoded as ``gt_depth_format`` says), on
   the pixels both have;
@@ -46,6 +50,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import functools
 import json
 import math
 import os
@@ -63,6 +68,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from psdr_room_core.engine import shipped
 from psdr_room_core.libraries.object_db import ObjectDatabase, builtin_database
 from psdr_room_core.libraries.sidecar_depth import read_depth
 from psdr_room_core.method.artifacts import Camera, DepthMap, Image, Panoptic, Placement, Placements, RoomBox
@@ -76,8 +82,9 @@ from psdr_room_core.method.solids import overlap
 from psdr_room_core.method.visualize import segment_overlay
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import boxes3d  # noqa: E402  (sibling benchmark module)
+from objects import EXACT, symmetry_period  # noqa: E402  (sibling benchmark)
 from preprocess import depth_errors  # noqa: E402  (sibling benchmark)
-from shipped import node as shipped_node  # noqa: E402  (the benchmarks' reader of the shipped config)
 
 REPO = Path(__file__).resolve().parents[1]
 LAYOUT_LABELS = REPO / "benchmarks" / "layout_labels"
@@ -383,6 +390,16 @@ def evaluate(entry: Entry, run_dir: Path, db: ObjectDatabase, seconds: float, sh
             ignored=sorted(set(ignored)),
         )
         row["unmapped"] = sorted({n for n in ignored if n not in REFERENCE_CLASSES})
+        reference_3d = boxes3d.read_reference(entry.image.parent)
+        if reference_3d is not None and room_dir is not None:
+            row["boxes3d"] = boxes3d.scene_scores(
+                reference_3d,
+                references=[(n, b) for n, b in read_references(entry.boxes) if REFERENCE_CLASSES.get(n)],
+                pairs=found,
+                fitted=[p for _, p in fitted_masks],
+                symmetry=functools.partial(symmetry_period, tolerance=EXACT),
+                room=RoomBox.load(room_dir),
+            )
     else:
         matched_refs = set()
     if entry.depth is not None and (art / "depth").is_dir():
@@ -499,10 +516,10 @@ def physical_rows(
 
 def hidden_objects(objects: list, depths: list[np.ndarray], panoptic: Panoptic, camera: Camera) -> list[int]:
     """Segment ids of the objects the others hide (:func:`~psdr_room_core.method.physical.hidden_by` with the
-    shipped ``place_objects.physical.hidden_share``; ``depths``: each object's depth map from ``camera``, 0 where it is not seen)."""
+    shipped ``priors.physical.hidden_share``; ``depths``: each object's depth map from ``camera``, 0 where it is not seen)."""
     by_id = {p.segment_id: np.where(d > 0, d, np.inf) for p, d in zip(objects, depths)}
     ids = panoptic.ids_at(camera.width, camera.height)
-    share = shipped_node("place_objects.physical.hidden_share")
+    share = shipped.node("priors.physical.hidden_share")
     return [k for k in by_id if hidden_by(k, by_id, ids, share) is not None]
 
 
@@ -769,6 +786,9 @@ def main() -> None:
         f"{'; until ' + args.until if args.until else ''})\n"
     )
     print(format_table(rows))
+    if any("boxes3d" in r for r in rows):
+        print("\nin 3D, against SUN RGB-D's 3D boxes (Total3D's ground truth):")
+        print(boxes3d.format_table(rows))
     print(f"\nfinished: {len(rows)}/{len(rows) + len(failed)}")
     for name, error in failed.items():
         print(f"  {name} failed: {error}")
