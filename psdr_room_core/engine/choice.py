@@ -37,6 +37,15 @@ def with_settings(group: Mapping[str, Any], settings: Mapping[str, Any]) -> dict
     return out
 
 
+def capability_group(cfg: Mapping[str, Any], node: StageNode, capability: str) -> dict[str, Any]:
+    """The config group of ``capability`` as stage ``node`` sees it: the node's ``_uses_`` settings over the
+    configured ones; a one-line error where the config has no such group."""
+    group = cfg.get(capability)
+    if not isinstance(group, Mapping) or "impl" not in group:
+        raise PsdrRoomError(f"stage '{node.name}' needs the '{capability}' config group; add {capability}=NAME")
+    return with_settings(group, node.uses.get(capability, {}))
+
+
 @dataclass(frozen=True)
 class Chosen:
     """The implementations of a stage's capabilities, as :meth:`Chooser.for_stage` chose them."""
@@ -70,12 +79,7 @@ class Chooser:
             )
         instances, described, selected_by = {}, {}, {}
         for capability in stage.uses:
-            group = self.cfg.get(capability)
-            if not isinstance(group, Mapping) or "impl" not in group:
-                raise PsdrRoomError(
-                    f"stage '{stage.name}' needs the '{capability}' config group; add {capability}=NAME"
-                )
-            group = with_settings(group, node.uses.get(capability, {}))
+            group = capability_group(self.cfg, node, capability)
             name = str(group["impl"])
             if name == AUTO:
                 name, instances[capability], skipped = self.first_available(capability, group)

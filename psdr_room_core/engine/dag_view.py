@@ -6,8 +6,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from .choice import AUTO, with_settings
-from .errors import PsdrRoomError
+from .choice import AUTO, capability_group
 from .graph import Pipeline
 from .registry import Registry
 from .stage_config import StageNode
@@ -29,10 +28,7 @@ def implementations(node: StageNode, cfg: Mapping[str, Any], registry: Registry)
     registers, is a one-line error (as in a run)."""
     chosen: dict[str, str] = {}
     for capability in registry.stage(node.function).uses:
-        group = cfg.get(capability)
-        if not isinstance(group, Mapping) or "impl" not in group:
-            raise PsdrRoomError(f"stage '{node.name}' needs the '{capability}' config group; add {capability}=NAME")
-        group = with_settings(group, node.uses.get(capability, {}))
+        group = capability_group(cfg, node, capability)
         name = str(group["impl"])
         if name == AUTO:
             order = (group.get(AUTO) or {}).get("order") or []
