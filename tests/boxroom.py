@@ -188,10 +188,17 @@ def _blur(image: np.ndarray) -> np.ndarray:
 
 
 def checker_floor(
-    vfov: float, pitch: float, tile: float, yaw: float = 20.0, width: int = 320, height: int = 240
+    vfov: float,
+    pitch: float,
+    tile: float,
+    yaw: float = 20.0,
+    width: int = 320,
+    height: int = 240,
+    noise_seed: int = 0,
 ) -> np.ndarray:
     """A floor of big black and white tiles (``tile`` metres) filling the view of a camera 1.5 m above it, looking
-    ``pitch`` degrees down: two families of a few long lines, no vertical one."""
+    ``pitch`` degrees down: two families of a few long lines, no vertical one; sensor noise drawn from
+    ``noise_seed``."""
     focal = height / (2 * np.tan(np.radians(vfov) / 2))
     ys, xs = np.mgrid[0 : 2 * height, 0 : 2 * width] / 2.0 + 0.25  # 2x2 rays per pixel
     rays = np.stack([(xs - width / 2) / focal, (ys - height / 2) / focal, np.ones_like(xs)], -1)  # y down, z ahead
@@ -202,5 +209,5 @@ def checker_floor(
     hit = 1.5 / np.maximum(world[..., 1], 1e-6)
     tiles = (np.floor(world[..., 0] * hit / tile) + np.floor(world[..., 2] * hit / tile)) % 2
     grey = np.where(world[..., 1] > 0, 0.35 + 0.3 * tiles, 0.8).reshape(height, 2, width, 2).mean(axis=(1, 3))
-    grey += np.random.default_rng(0).normal(0.0, 0.04, grey.shape)
+    grey += np.random.default_rng(noise_seed).normal(0.0, 0.04, grey.shape)
     return np.clip(np.repeat(grey[..., None], 3, axis=-1), 0.0, 1.0).astype(np.float32)

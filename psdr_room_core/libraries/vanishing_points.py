@@ -97,6 +97,11 @@ class VanishingPointParams:
         doc="Fewer usable segments than this gives the fallback (a big-tiled floor seen from above shows 9 long lines).",
     )
     min_vp_support: int = setting(ge=2, doc="A VP counts as observed when at least this many segments support it.")
+    min_confirming_support: int = setting(
+        ge=2,
+        doc="Segments that confirm a further VP of a frame one VP already pins: two lines that meet where the "
+        "frame puts a VP are evidence (two lines at random meet anywhere, not there).",
+    )
     prior_sigma_deg: float = setting(
         gt=0, doc="Std of the Gaussian prior on the vertical FoV, centred on ``fallback_vfov_deg``."
     )
@@ -160,7 +165,7 @@ def estimate_camera(rgb: np.ndarray, params: VanishingPointParams) -> VanishingP
     contrib = _segment_support(segs, _frame_vps(focals, rots), tau)  # (frames, segments)
     best = int(np.argmax(contrib.sum(axis=1)))
     vps = _frame_vps(focals[best], rots[best])
-    n_observed = int(np.sum(_vp_support(segs, vps, tau) >= params.min_vp_support))
+    n_observed = _observed_vps(_vp_support(segs, vps, tau), params)
     if n_observed < 2:
         return fallback
 
@@ -335,6 +340,14 @@ def _vp_support(segs: _Segments, vps: np.ndarray, tau: float) -> np.ndarray:
     dist = _vp_distances(segs, vps)
     inlier = dist.min(axis=0) < tau
     return np.bincount(dist.argmin(axis=0)[inlier], minlength=3)
+
+
+def _observed_vps(support: np.ndarray, params: VanishingPointParams) -> int:
+    """How many of a frame's VPs the segments observe: none unless one has ``min_vp_support``; then each with
+    ``min_confirming_support``."""
+    if support.max() < params.min_vp_support:
+        return 0
+    return int(np.sum(support >= min(params.min_confirming_support, params.min_vp_support)))
 
 
 def _vp_candidates(segs: _Segments, rng: np.random.Generator, params: VanishingPointParams) -> np.ndarray:

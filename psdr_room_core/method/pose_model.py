@@ -387,7 +387,7 @@ class PoseModel:
     def placements_now(self) -> list[Placement]:
         """The objects at their current poses."""
         return [
-            replace(p, position=vec3(position.detach()), yaw=float(yaw), scale=float(scale))
+            replace(p, position=vec3(position.detach()), yaw=float(yaw.detach()), scale=float(scale.detach()))
             for p, (position, yaw, scale) in zip(self.placements, self.poses())
         ]
 
