@@ -215,6 +215,92 @@ def test_two_training_steps_lower_the_loss(pack, precision: str) -> None:
         assert float(total()) < float(first)
 
 
+def _perfect_outputs(item: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The 3D heads' outputs equal to an example's targets (the yaw bins as near one-hot logits)."""
+    from psdr_room_plugins.eyes.box3d import EMBEDDING, YAW_BINS
+
+    bins = np.where(item["yaw_bin"] >= 0, item["yaw_bin"], 0)
+    return {
+        "box_depth": item["box_depth"],
+        "box_size": item["box_size"],
+        "yaw_bin": 30.0 * (np.arange(YAW_BINS)[:, None, None] == bins[None]).astype(np.float32),
+        "yaw_residual": np.repeat(item["yaw_residual"][None], YAW_BINS, axis=0),
+        "amodal": item["amodal"],
+        "embedding": np.ones((EMBEDDING, *bins.shape), np.float32),
+    }
+
+
+@pytest.mark.parametrize("augmented", [False, True])
+def test_the_3d_targets_read_back_give_each_instances_box(pack, augmented: bool) -> None:
+    """The pack's boxes encoded as the 3D heads' per-pixel targets, read back as if the network had output them,
+    give each box the generator placed: its depth, size, observation angle and amodal image box; through a crop
+    and zoom (the focal grows by the zoom) and a mirror (the box turns the other way), the same depth, size and
+    mirrored angle."""
+    from psdr_room_plugins.eyes.box3d import read_box, wrap
+    from psdr_room_plugins.eyes.data import example
+
+    read = 0
+    for index in range(len(pack)):
+        item = example(pack, index, np.random.default_rng(index) if augmented else None)
+        out = _perfect_outputs(item)
+        for slot, row in enumerate(item["slot_row"][item["slot_row"] >= 0]):
+            box = read_box(out, item["slot"] == slot, *pack.focal[index])  # focal: right for the plain example
+            depth_scale = 1.0
+            if augmented:  # the zoom of the cut image: the box's width on it over the original's
+                depth_scale = (box.amodal[2] - box.amodal[0]) / (pack.box_amodal[row, 2] - pack.box_amodal[row, 0])
+            assert box.center[2] * depth_scale == pytest.approx(
+                pack.box_center[row, 2], rel=0.03 if augmented else 1e-4
+            )
+            assert box.size == pytest.approx(pack.box_size[row], rel=1e-4)
+            alpha = float(wrap(box.yaw + np.arctan2(box.center[0], box.center[2])))
+            if not augmented:
+                assert alpha == pytest.approx(float(pack.box_alpha[row]), abs=1e-4)
+                assert box.amodal == pytest.approx(pack.box_amodal[row], abs=1e-3)
+            else:
+                assert min(abs(wrap(alpha - pack.box_alpha[row])), abs(wrap(alpha + pack.box_alpha[row]))) < 1e-4
+            read += 1
+    assert read >= 8
+
+
+def test_the_3d_heads_learn_in_two_steps_and_leave_the_image_plane_heads_as_they_were(pack) -> None:
+    """With the encoder and the image-plane heads frozen (``--freeze plane``) on the shipped weights, two steps
+    lower the 3D heads' loss, embedding included, and change none of the other outputs."""
+    import torch
+
+    from psdr_room_core.applications.train import LOSS_WEIGHTS, losses, predict
+    from psdr_room_plugins.eyes.box3d import BOX_OUTPUTS, EMBEDDING
+    from psdr_room_plugins.eyes.data import example
+    from psdr_room_plugins.eyes.network import PLANE_OUTPUTS, EyesNet
+    from psdr_room_plugins.eyes.perception import SHIPPED
+
+    torch.manual_seed(0)
+    net = EyesNet()
+    net.load_onnx(SHIPPED)
+    net.freeze_plane()
+    proxies = torch.nn.Parameter(0.1 * torch.randn(len(pack.models), EMBEDDING))
+    items = [example(pack, i, None) for i in range(len(pack))]
+    batch = {k: torch.from_numpy(np.stack([it[k] for it in items])) for k in items[0]}
+    batch["image"] = batch["image"].float() / 255.0
+    optimiser = torch.optim.AdamW([p for p in net.parameters() if p.requires_grad] + [proxies], lr=3e-3)
+    assert {id(p) for p in net.parameters() if p.requires_grad} == {id(p) for p in net.box_parameters()}
+
+    def box_loss() -> torch.Tensor:
+        terms = losses(predict(net, batch["image"]), batch, proxies)
+        return sum(LOSS_WEIGHTS[k] * terms[k] for k in BOX_OUTPUTS)
+
+    with torch.no_grad():
+        before = predict(net, batch["image"])
+    first = box_loss()
+    for _ in range(2):
+        optimiser.zero_grad()
+        box_loss().backward()
+        optimiser.step()
+    with torch.no_grad():
+        assert float(box_loss()) < float(first)
+        after = predict(net, batch["image"])
+    assert all(torch.equal(before[name], after[name]) for name in PLANE_OUTPUTS)
+
+
 def test_psdr_room_train_resumes_and_exports_a_network_onnxruntime_runs(pack, tmp_path: Path) -> None:
     import onnxruntime as ort
     import torch

@@ -1,9 +1,10 @@
 """Training data of the eyes network: a data set folder of ``psdr-room-synth-data`` packed into one file, the
 per-batch augmentation that makes a render look like any photo, and the targets of each head.
 
-A pack (:func:`build_pack`) holds each sample's photo as JPEG bytes at the network's input size and its labels
-at the heads' quarter resolution (surface, category, instance, depth in whole centimetres): small enough to copy
-to another machine (about 11 KB a sample: 3,600 samples in 41 MB), fast enough to read every epoch.
+A pack (:func:`build_pack`) holds each sample's photo as JPEG bytes at the network's input size, its labels
+at the heads' quarter resolution (surface, category, instance, depth in whole centimetres) and a table of its
+instances' 3D boxes: small enough to copy to another machine (about 11 KB a sample: 3,600 samples in 41 MB), fast
+enough to read every epoch.
 """
 
 from __future__ import annotations
@@ -17,12 +18,15 @@ import numpy as np
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.method.visualize import to_uint8
 
+from .box3d import AMODAL_UNIT, REFERENCE_FOCAL, amodal_box, camera_frame_corners, observation_angle, yaw_targets
 from .labels import OBJECT
 from .network import INPUT_SIZE
 
 STRIDE = 4
 LABEL_SIZE = (INPUT_SIZE[0] // STRIDE, INPUT_SIZE[1] // STRIDE)
 IGNORE = -100
+MAX_SLOTS = 64
+"""Instances of one example the embedding loss pools (the data engine places fewer)."""
 
 
 @dataclass
@@ -37,6 +41,24 @@ class Pack:
     instance: np.ndarray
     depth_cm: np.ndarray
     """z-depth in centimetres, uint16 (0: none); compressed, about half the size of float16 metres."""
+    focal: np.ndarray
+    """[N, 2] each sample's (fx, fy) in input pixels."""
+    models: np.ndarray
+    """The catalogue model ids the boxes name (str)."""
+    box_sample: np.ndarray
+    """Per box row (one per instance with a catalogue model): its sample's index, int32; then, per row,"""
+    box_instance: np.ndarray
+    """its id in the sample's instance map (uint16),"""
+    box_center: np.ndarray
+    """its centre in the camera frame (float32 [K, 3], m),"""
+    box_size: np.ndarray
+    """its size along its own axes (float32 [K, 3], m),"""
+    box_alpha: np.ndarray
+    """its observation angle (float32, :func:`.box3d.observation_angle`),"""
+    box_amodal: np.ndarray
+    """its projected box (float32 [K, 4], x0 y0 x1 y1 in input pixels),"""
+    box_model: np.ndarray
+    """and its model's index in ``models`` (int32)."""
 
     def __len__(self) -> int:
         return len(self.seeds)
@@ -50,6 +72,10 @@ class Pack:
                 f"sample {index} (seed {self.seeds[index]}): damaged JPEG in the pack; delete the pack to rebuild it"
             )
         return image[..., ::-1]
+
+    def boxes(self, index: int) -> np.ndarray:
+        """The box rows of sample ``index``."""
+        return np.flatnonzero(self.box_sample == index)
 
     def split(self, validation: float) -> tuple[np.ndarray, np.ndarray]:
         """(training, validation) indices: the highest seeds are held out."""
@@ -91,7 +117,9 @@ def build_pack(folder: Path, path: Path, quality: int = 80, limit: int | None = 
     chunks: list[np.ndarray] = []
     offsets = [0]
     labels: dict[str, list[np.ndarray]] = {k: [] for k in ("surface", "category", "instance", "depth")}
-    for seed in seeds:
+    focals: list[tuple[float, float]] = []
+    rows: list[dict[str, np.ndarray]] = []
+    for index, seed in enumerate(seeds):
         image = cv2.imread(str(folder / f"{seed:06d}.jpg"), cv2.IMREAD_COLOR)
         if image is None:
             raise PsdrRoomError(
@@ -103,6 +131,11 @@ def build_pack(folder: Path, path: Path, quality: int = 80, limit: int | None = 
         with np.load(folder / f"{seed:06d}.npz") as data:
             for key in labels:
                 labels[key].append(_quarter(data[key]))
+            zoom = (INPUT_SIZE[1] / data["surface"].shape[1], INPUT_SIZE[0] / data["surface"].shape[0])
+            focals.append((float(data["camera"][0]) * zoom[0], float(data["camera"][1]) * zoom[1]))
+            rows.append(_box_rows(data, index, zoom))
+    table = {k: np.concatenate([r[k] for r in rows]) if rows else np.zeros(0) for k in _BOX_KEYS}
+    models, model_index = np.unique(table["model"].astype(str), return_inverse=True)
     pack = Pack(
         np.array(seeds, np.int64),
         np.concatenate(chunks) if chunks else np.zeros(0, np.uint8),
@@ -111,9 +144,46 @@ def build_pack(folder: Path, path: Path, quality: int = 80, limit: int | None = 
         category=np.stack(labels["category"]),
         instance=np.stack(labels["instance"]),
         depth_cm=np.round(np.stack(labels["depth"]).astype(np.float32) * 100.0).astype(np.uint16),
+        focal=np.array(focals, np.float32).reshape(-1, 2),
+        models=models,
+        box_sample=table["sample"].astype(np.int32),
+        box_instance=table["instance"].astype(np.uint16),
+        box_center=table["center"].astype(np.float32).reshape(-1, 3),
+        box_size=table["size"].astype(np.float32).reshape(-1, 3),
+        box_alpha=table["alpha"].astype(np.float32),
+        box_amodal=table["amodal"].astype(np.float32).reshape(-1, 4),
+        box_model=model_index.astype(np.int32),
     )
     pack.save(path)
     return pack
+
+
+_BOX_KEYS = ("sample", "instance", "center", "size", "alpha", "amodal", "model")
+
+
+def _box_rows(data: np.lib.npyio.NpzFile, index: int, zoom: tuple[float, float]) -> dict[str, np.ndarray]:
+    """The box rows of one sample file: its instances with a catalogue model, amodal boxes in input pixels."""
+    if "instance_ids" not in data:
+        raise PsdrRoomError(
+            "a data set sample without 3D labels (made by an older psdr-room-synth-data); render it again"
+        )
+    keep = np.char.str_len(data["instance_model"].astype(str)) > 0
+    fx, fy, cx, cy = (float(v) for v in data["camera"])
+    centers, sizes, yaws = data["instance_center"][keep], data["instance_size"][keep], data["instance_yaw"][keep]
+    amodal = [
+        amodal_box(camera_frame_corners(c, s, float(y), data["camera_to_world"]), fx, fy, cx, cy)
+        for c, s, y in zip(centers, sizes, yaws)
+    ]
+    scale = np.array([zoom[0], zoom[1], zoom[0], zoom[1]])
+    return {
+        "sample": np.full(int(keep.sum()), index),
+        "instance": data["instance_ids"][keep],
+        "center": centers,
+        "size": sizes,
+        "alpha": observation_angle(yaws, centers),
+        "amodal": np.array(amodal).reshape(-1, 4) * scale,
+        "model": data["instance_model"][keep].astype(str),
+    }
 
 
 def augment_photo(image: np.ndarray, rng: np.random.Generator) -> np.ndarray:
@@ -159,15 +229,18 @@ def centre_targets(instance: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nda
 
 
 def example(pack: Pack, index: int, rng: np.random.Generator | None) -> dict[str, np.ndarray]:
-    """One training example (augmented when ``rng`` is given): image uint8 [3, 240, 320] (sRGB), and the
-    targets surface, category (IGNORE off objects), center, offset, offset_weight, depth (0: none)."""
+    """One training example (augmented when ``rng`` is given): image uint8 [3, 240, 320] (sRGB), the image-plane
+    targets surface, category (IGNORE off objects), center, offset, offset_weight, depth (0: none), and the 3D
+    heads' (:func:`box_targets`)."""
     image = pack.photo(index)
     surface, category = pack.surface[index].astype(np.int64), pack.category[index].astype(np.int64)
     instance, depth = pack.instance[index], pack.depth_cm[index].astype(np.float32) / 100.0
+    window, flipped = (0, 0, LABEL_SIZE[1], LABEL_SIZE[0]), False
     if rng is not None:
         zoom = rng.uniform(1.0, 1.4)
         lh, lw = int(round(LABEL_SIZE[0] / zoom)), int(round(LABEL_SIZE[1] / zoom))
         y0, x0 = int(rng.integers(0, LABEL_SIZE[0] - lh + 1)), int(rng.integers(0, LABEL_SIZE[1] - lw + 1))
+        window = (x0, y0, lw, lh)
         crop = (slice(y0, y0 + lh), slice(x0, x0 + lw))
         image = cv2.resize(
             image[y0 * STRIDE : (y0 + lh) * STRIDE, x0 * STRIDE : (x0 + lw) * STRIDE],
@@ -177,7 +250,8 @@ def example(pack: Pack, index: int, rng: np.random.Generator | None) -> dict[str
         rows = (np.arange(LABEL_SIZE[0]) * lh // LABEL_SIZE[0])[:, None]
         cols = (np.arange(LABEL_SIZE[1]) * lw // LABEL_SIZE[1])[None, :]
         surface, category, instance, depth = (a[crop][rows, cols] for a in (surface, category, instance, depth))
-        if rng.random() < 0.5:
+        flipped = bool(rng.random() < 0.5)
+        if flipped:
             image, surface, category, instance, depth = (
                 np.ascontiguousarray(a[:, ::-1]) for a in (image, surface, category, instance, depth)
             )
@@ -192,4 +266,56 @@ def example(pack: Pack, index: int, rng: np.random.Generator | None) -> dict[str
         "offset": offset,
         "offset_weight": weight[None],
         "depth": depth[None],
+        **box_targets(pack, index, instance * (surface == OBJECT), window, flipped),
     }
+
+
+def box_targets(
+    pack: Pack, index: int, instance: np.ndarray, window: tuple[int, int, int, int], flipped: bool
+) -> dict[str, np.ndarray]:
+    """The 3D heads' targets of sample ``index`` whose label maps were cut to ``window`` (x0, y0, width, height in
+    label pixels), scaled back to the label size and mirrored when ``flipped``; ``instance`` is the instance map
+    so transformed, 0 off objects. On the pixels of each instance with a box (``box_weight`` 1): box_depth,
+    box_size, yaw_bin (IGNORE elsewhere), yaw_residual, amodal (:mod:`.box3d`); ``slot`` numbers the instances
+    (-1: none), and ``slot_model`` and ``slot_row`` [MAX_SLOTS] give each one's model index and box row (-1:
+    none)."""
+    h, w = LABEL_SIZE
+    x0, y0, lw, lh = window
+    sx, sy = w / lw, h / lh
+    targets: dict[str, np.ndarray] = {
+        "box_depth": np.zeros((1, h, w), np.float32),
+        "box_size": np.zeros((3, h, w), np.float32),
+        "yaw_bin": np.full((h, w), IGNORE, np.int64),
+        "yaw_residual": np.zeros((h, w), np.float32),
+        "amodal": np.zeros((4, h, w), np.float32),
+        "box_weight": np.zeros((1, h, w), np.float32),
+        "slot": np.full((h, w), -1, np.int64),
+        "slot_model": np.full(MAX_SLOTS, -1, np.int64),
+        "slot_row": np.full(MAX_SLOTS, -1, np.int64),
+    }
+    ys, xs = np.mgrid[0:h, 0:w].astype(np.float32) + 0.5
+    fy = float(pack.focal[index, 1]) * sy
+    slot = 0
+    for row in pack.boxes(index):
+        mask = instance == pack.box_instance[row]
+        if not mask.any() or slot == MAX_SLOTS:
+            continue
+        left, top, right, bottom = pack.box_amodal[row] / STRIDE
+        left, right = (left - x0) * sx, (right - x0) * sx
+        top, bottom = (top - y0) * sy, (bottom - y0) * sy
+        alpha = float(pack.box_alpha[row])
+        if flipped:
+            left, right, alpha = w - right, w - left, -alpha
+        yaw_bin, residual = yaw_targets(np.array(alpha))
+        targets["box_depth"][0][mask] = np.log(pack.box_center[row, 2] * REFERENCE_FOCAL / fy)
+        targets["box_size"][:, mask] = np.log(pack.box_size[row])[:, None]
+        targets["yaw_bin"][mask] = yaw_bin
+        targets["yaw_residual"][mask] = residual
+        for k, reach in enumerate((xs - left, ys - top, right - xs, bottom - ys)):
+            targets["amodal"][k][mask] = reach[mask] / AMODAL_UNIT
+        targets["box_weight"][0][mask] = 1.0
+        targets["slot"][mask] = slot
+        targets["slot_model"][slot] = pack.box_model[row]
+        targets["slot_row"][slot] = row
+        slot += 1
+    return targets

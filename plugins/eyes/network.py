@@ -10,6 +10,9 @@ and added to the backbone's stride-4 map, then each output is a 3×3 + 1×1 conv
     center    [B, 1, H/4, W/4]                probability that an object's centre is here
     offset    [B, 2, H/4, W/4]                (dx, dy) from the pixel to its object's centre, quarter pixels
     depth     [B, 1, H/4, W/4]                log z-depth up to a constant (scale-invariant)
+
+and the 3D heads (:data:`.box3d.BOX_OUTPUTS`, what they mean in :mod:`.box3d`): a 3×3 convolution of the shared
+map, then one 1×1 convolution per output.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from .box3d import BOX_OUTPUTS
 from .encoder import CHANNELS, OnnxEncoder, normalise
 from .labels import CATEGORIES, SURFACES
 
@@ -30,7 +34,9 @@ if TYPE_CHECKING:
 
 WIDTH = 64
 """Channels of the heads' shared map."""
-OUTPUTS = {"surface": len(SURFACES), "category": len(CATEGORIES), "center": 1, "offset": 2, "depth": 1}
+PLANE_OUTPUTS = {"surface": len(SURFACES), "category": len(CATEGORIES), "center": 1, "offset": 2, "depth": 1}
+"""The image-plane heads' outputs: name → channels."""
+OUTPUTS = {**PLANE_OUTPUTS, **BOX_OUTPUTS}
 """Output name → channels, in the exported ONNX's output order."""
 INPUT_SIZE = (240, 320)
 """Height and width the network is trained and exported at (a photo is resized to it)."""
@@ -51,11 +57,15 @@ class EyesNet(nn.Module):
         self.lateral = nn.ModuleDict({name: nn.Conv2d(CHANNELS[name], WIDTH, 1) for name in ("p3", "p4", "p5", "c2")})
         self.smooth8 = nn.Sequential(nn.Conv2d(WIDTH, WIDTH, 3, padding=1), nn.LeakyReLU(0.1))
         self.smooth4 = nn.Sequential(nn.Conv2d(WIDTH, WIDTH, 3, padding=1), nn.LeakyReLU(0.1))
-        heads = {name: _block(WIDTH, channels) for name, channels in OUTPUTS.items()}
+        heads = {name: _block(WIDTH, channels) for name, channels in PLANE_OUTPUTS.items()}
         centre = heads["center"][-1]
         assert isinstance(centre, nn.Conv2d) and centre.bias is not None
         nn.init.constant_(centre.bias, -4.0)  # a centre is rare: start near probability 0.02
         self.heads = nn.ModuleDict(heads)
+        self.box_trunk = nn.Sequential(nn.Conv2d(WIDTH, WIDTH, 3, padding=1), nn.LeakyReLU(0.1))
+        self.box_heads = nn.ModuleDict({name: nn.Conv2d(WIDTH, channels, 1) for name, channels in BOX_OUTPUTS.items()})
+        self.plane_frozen = False
+        """True: the encoder and the image-plane heads run without gradients (only the 3D heads train)."""
 
     def features(self, rgb: torch.Tensor) -> torch.Tensor:
         """The shared stride-4 map [B, WIDTH, H/4, W/4]."""
@@ -71,10 +81,43 @@ class EyesNet(nn.Module):
         return self.smooth4(f4)
 
     def forward(self, rgb: torch.Tensor) -> dict[str, torch.Tensor]:
-        shared = self.features(rgb)
-        out = {name: head(shared) for name, head in self.heads.items()}
+        with torch.set_grad_enabled(torch.is_grad_enabled() and not self.plane_frozen):
+            shared = self.features(rgb)
+            out = {name: head(shared) for name, head in self.heads.items()}
         out["center"] = torch.sigmoid(out["center"])
+        trunk = self.box_trunk(shared)
+        out.update({name: head(trunk) for name, head in self.box_heads.items()})
         return out
+
+    def freeze_plane(self) -> None:
+        """Keep the encoder and the image-plane heads as they are: only the 3D heads train."""
+        self.plane_frozen = True
+        for parameter in self.plane_parameters():
+            parameter.requires_grad_(False)
+
+    def plane_parameters(self) -> list[nn.Parameter]:
+        own = {id(p) for p in self.box_parameters()}
+        return [p for p in self.parameters() if id(p) not in own]
+
+    def box_parameters(self) -> list[nn.Parameter]:
+        return [*self.box_trunk.parameters(), *self.box_heads.parameters()]
+
+    def load_onnx(self, path: Path) -> list[str]:
+        """Take the weights of an exported eyes network (:func:`export_onnx`) whose names match; the names of
+        the parameters it lacks (the 3D heads of a network exported without them)."""
+        import onnx
+        from onnx import numpy_helper
+
+        stored = {
+            init.name.removeprefix("net.").removesuffix("_fp16"): numpy_helper.to_array(init)
+            for init in onnx.load(str(path)).graph.initializer
+        }
+        state = self.state_dict()
+        lacking = [key for key in state if key not in stored]
+        self.load_state_dict(
+            {key: torch.from_numpy(stored[key].astype("float32")) for key in state if key in stored}, strict=False
+        )
+        return lacking
 
     def encoder_parameters(self) -> list[nn.Parameter]:
         return list(self.encoder.parameters())

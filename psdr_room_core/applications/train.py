@@ -34,18 +34,36 @@ if TYPE_CHECKING:
 
     from psdr_room_plugins.eyes.data import Pack
 
-LOSS_WEIGHTS = {"surface": 1.0, "category": 1.0, "center": 1.0, "offset": 0.1, "depth": 1.0}
+LOSS_WEIGHTS = {
+    "surface": 1.0,
+    "category": 1.0,
+    "center": 1.0,
+    "offset": 0.1,
+    "depth": 1.0,
+    "box_depth": 1.0,
+    "box_size": 1.0,
+    "yaw_bin": 0.5,
+    "yaw_residual": 0.5,
+    "amodal": 0.5,
+    "embedding": 0.5,
+}
+EMBEDDING_SCALE = 16.0
+"""Cosine similarities to the model proxies are multiplied by this before the softmax (normalised softmax loss)."""
+CATALOGUE = "eyes_models.npz"
+"""The file beside eyes.onnx with the catalogue models' embeddings (:func:`write_catalogue`)."""
 TIMING_STEPS = 20
 """``--minutes`` times steps TIMING_STEPS..2·TIMING_STEPS of a run (after its warm-up) to set the number of steps."""
 PRECISION = ("fp32", "bf16")
 """The forward pass's arithmetic: float32, or bfloat16 autocast (mixed precision; no loss scaling needed)."""
-FREEZE = ("none", "stride8", "encoder")
-"""What of the encoder stays fixed: nothing, the layers up to stride 8, or all of it
-(:meth:`psdr_room_plugins.eyes.encoder.OnnxEncoder.frozen`)."""
+FREEZE = ("none", "stride8", "encoder", "plane")
+"""What stays fixed: nothing, the encoder's layers up to stride 8, all of the encoder
+(:meth:`psdr_room_plugins.eyes.encoder.OnnxEncoder.frozen`), or the encoder and the image-plane heads (``plane``:
+only the 3D heads train, from ``--init``'s weights)."""
 
 
-def losses(out: dict, batch: dict) -> dict:
-    """Each head's loss on a batch (torch tensors; targets from :func:`psdr_room_plugins.eyes.data.example`)."""
+def losses(out: dict, batch: dict, proxies: torch.Tensor | None = None) -> dict:
+    """Each head's loss on a batch (torch tensors; targets from :func:`psdr_room_plugins.eyes.data.example`);
+    the embedding's given the model ``proxies``."""
     import torch
     import torch.nn.functional as F
 
@@ -68,7 +86,63 @@ def losses(out: dict, batch: dict) -> dict:
     mean = difference.flatten(1).sum(1) / count
     squared = (difference**2).flatten(1).sum(1) / count
     terms["depth"] = (squared - 0.85 * mean**2).clamp(min=0).sqrt().mean()  # scale-invariant log error
+    return terms | box_losses(out, batch, proxies)
+
+
+def box_losses(out: dict, batch: dict, proxies: torch.Tensor | None = None) -> dict:
+    """The 3D heads' losses (targets from :func:`psdr_room_plugins.eyes.data.box_targets`): L1 on the pixels of
+    instances with a box for depth, size, amodal extent and the true bin's yaw residual, cross-entropy for the
+    yaw bin and, given the model ``proxies`` [models, EMBEDDING], a normalised softmax of each instance's mean
+    embedding against them."""
+    import torch.nn.functional as F
+
+    from psdr_room_plugins.eyes.data import IGNORE
+
+    weight = batch["box_weight"]
+    pixels = weight.sum().clamp(min=1)
+    terms = {
+        name: ((out[name] - batch[name]).abs() * weight).sum() / (pixels * out[name].shape[1])
+        for name in ("box_depth", "box_size", "amodal")
+    }
+    terms["yaw_bin"] = F.cross_entropy(out["yaw_bin"], batch["yaw_bin"], ignore_index=IGNORE, reduction="sum") / pixels
+    true_bin = batch["yaw_bin"].clamp(min=0)[:, None]
+    residual = out["yaw_residual"].gather(1, true_bin)[:, 0]
+    terms["yaw_residual"] = ((residual - batch["yaw_residual"]).abs() * weight[:, 0]).sum() / pixels
+    if proxies is not None:
+        terms["embedding"] = embedding_loss(out["embedding"], batch["slot"], batch["slot_model"], proxies)
     return terms
+
+
+def pooled_embeddings(embedding: torch.Tensor, slot: torch.Tensor, slot_model: torch.Tensor):
+    """(unit mean embedding [K, E], model index [K]) of each instance of a batch with a model: ``embedding`` [B,
+    E, h, w] averaged over the pixels of each ``slot`` [B, h, w] (-1 none), ``slot_model`` [B, S] its model."""
+    import torch
+    import torch.nn.functional as F
+
+    batch, channels = embedding.shape[:2]
+    slots = slot_model.shape[1]
+    index = torch.where(slot >= 0, slot + slots * torch.arange(batch, device=slot.device)[:, None, None], -1)
+    index = index.flatten()
+    keep = index >= 0
+    values = embedding.permute(0, 2, 3, 1).reshape(-1, channels)[keep]
+    sums = torch.zeros(batch * slots, channels, device=embedding.device).index_add(0, index[keep], values)
+    counts = torch.zeros(batch * slots, device=embedding.device).index_add(
+        0, index[keep], torch.ones_like(index[keep], dtype=embedding.dtype)
+    )
+    models = slot_model.flatten()
+    present = (counts > 0) & (models >= 0)
+    return F.normalize(sums[present] / counts[present, None], dim=1), models[present]
+
+
+def embedding_loss(embedding: torch.Tensor, slot: torch.Tensor, slot_model: torch.Tensor, proxies: torch.Tensor):
+    """Normalised softmax cross-entropy of the batch's instance embeddings against the model proxies."""
+    import torch.nn.functional as F
+
+    pooled, models = pooled_embeddings(embedding, slot, slot_model)
+    if len(models) == 0:
+        return embedding.sum() * 0.0
+    logits = EMBEDDING_SCALE * pooled @ F.normalize(proxies, dim=1).T
+    return F.cross_entropy(logits, models)
 
 
 def predict(net: torch.nn.Module, images: torch.Tensor, precision: str = "fp32") -> dict[str, torch.Tensor]:
@@ -81,9 +155,12 @@ def predict(net: torch.nn.Module, images: torch.Tensor, precision: str = "fp32")
     return {k: v.float() for k, v in out.items()}
 
 
-def validate(net, pack, indices: Sequence[int] | np.ndarray, device: str, batch_size: int) -> dict[str, float]:
+def validate(
+    net, pack, indices: Sequence[int] | np.ndarray, device: str, batch_size: int, proxies: np.ndarray | None = None
+) -> dict[str, float]:
     """Held-out scores: surface pixel accuracy, object-pixel category accuracy, depth AbsRel and δ<1.25 after
-    a median scale, and instance recall (decoded instances with mask IoU ≥ 0.5 per reference instance)."""
+    a median scale, instance recall (decoded instances with mask IoU ≥ 0.5 per reference instance), and over
+    the recalled instances with a box (:func:`box_errors`) the 3D heads' median errors."""
     import torch
 
     from psdr_room_plugins.eyes.data import example
@@ -93,6 +170,7 @@ def validate(net, pack, indices: Sequence[int] | np.ndarray, device: str, batch_
     net.eval()
     counts = {"surface": [0, 0], "category": [0, 0], "recall": [0, 0]}
     absrel, delta = [], []
+    errors: list[dict[str, float]] = []
     with torch.no_grad():
         for start in range(0, len(indices), batch_size):
             items = [example(pack, int(i), None) for i in indices[start : start + batch_size]]
@@ -114,13 +192,19 @@ def validate(net, pack, indices: Sequence[int] | np.ndarray, device: str, batch_
                     absrel.append(float(np.mean(np.abs(depth - truth) / truth)))
                     delta.append(float(np.mean(np.maximum(depth / truth, truth / depth) < 1.25)))
                 found = instances(out["surface"][b], out["category"][b], out["center"][b], out["offset"][b])
-                instance_map = pack.instance[int(indices[start + b])]
+                sample = int(indices[start + b])
+                instance_map = pack.instance[sample]
+                rows = {int(pack.box_instance[r]): r for r in pack.boxes(sample)}
                 for value in np.unique(instance_map[instance_map != 0]):
                     mask = (instance_map == value) & (item["surface"] == OBJECT)
                     if mask.sum() < 6:
                         continue
                     counts["recall"][1] += 1
-                    counts["recall"][0] += any((m.mask & mask).sum() / (m.mask | mask).sum() >= 0.5 for m in found)
+                    match = next((m for m in found if (m.mask & mask).sum() / (m.mask | mask).sum() >= 0.5), None)
+                    counts["recall"][0] += match is not None
+                    if match is not None and int(value) in rows:
+                        outputs = {k: v[b] for k, v in out.items()}
+                        errors.append(box_errors(pack, rows[int(value)], outputs, match.mask, proxies))
     net.train()
     return {
         "surface_accuracy": counts["surface"][0] / max(counts["surface"][1], 1),
@@ -128,7 +212,36 @@ def validate(net, pack, indices: Sequence[int] | np.ndarray, device: str, batch_
         "instance_recall": counts["recall"][0] / max(counts["recall"][1], 1),
         "depth_absrel": float(np.mean(absrel)) if absrel else float("nan"),
         "depth_delta1": float(np.mean(delta)) if delta else float("nan"),
+        **{key: float(np.median([e[key] for e in errors])) if errors else float("nan") for key in BOX_SCORES},
+        **({"model_top1": float(np.mean([e["model_top1"] for e in errors]))} if errors and proxies is not None else {}),
     }
+
+
+BOX_SCORES = ("box_depth_absrel", "box_yaw_deg", "box_size_logerr", "box_amodal_iou")
+"""The 3D heads' validation scores: medians over recalled instances with a box."""
+
+
+def box_errors(pack, row: int, out: dict[str, np.ndarray], mask: np.ndarray, proxies: np.ndarray | None) -> dict:
+    """How far the box read on ``mask`` (:func:`psdr_room_plugins.eyes.box3d.read_box`) is from box ``row`` of
+    the pack: the centre's depth AbsRel, the yaw error in degrees, the mean |log| size ratio, the amodal boxes'
+    IoU and, given the model ``proxies``, whether the nearest is the model's."""
+    from psdr_room_core.method.image_boxes import box_iou
+    from psdr_room_plugins.eyes.box3d import read_box, wrap, yaw_of
+
+    sample = int(pack.box_sample[row])
+    fx, fy = (float(v) for v in pack.focal[sample])
+    box = read_box(out, mask, fx, fy)
+    truth = pack.box_center[row]
+    errors = {
+        "box_depth_absrel": abs(box.center[2] - truth[2]) / truth[2],
+        "box_yaw_deg": abs(float(np.degrees(wrap(box.yaw - yaw_of(pack.box_alpha[row], truth))))),
+        "box_size_logerr": float(np.mean(np.abs(np.log(box.size / pack.box_size[row])))),
+        "box_amodal_iou": float(box_iou(box.amodal, pack.box_amodal[row][None])[0]),
+    }
+    if proxies is not None:
+        unit = proxies / np.linalg.norm(proxies, axis=1, keepdims=True)
+        errors["model_top1"] = float(int(np.argmax(unit @ box.embedding)) == int(pack.box_model[row]))
+    return errors
 
 
 _PACK: Pack | None = None
@@ -204,6 +317,7 @@ def train(args: argparse.Namespace) -> dict:
     """Train (or resume) per ``args``; the final validation scores."""
     import torch
 
+    from psdr_room_plugins.eyes.box3d import EMBEDDING
     from psdr_room_plugins.eyes.data import Pack, build_pack
     from psdr_room_plugins.eyes.network import EyesNet, export_onnx
 
@@ -220,12 +334,20 @@ def train(args: argparse.Namespace) -> dict:
         build_pack(args.data, pack_path, limit=args.limit)
     pack = Pack.load(pack_path)
     training, held = pack.split(args.validation)
-    net = EyesNet().to(device)
-    for key in net.encoder.frozen(args.freeze):
-        net.encoder.params[key].requires_grad_(False)
+    net = EyesNet()
+    if args.init is not None:
+        lacking = net.load_onnx(args.init)
+        print(f"psdr-room-train: weights from {args.init} ({len(lacking)} new parameter tensors)", flush=True)
+    net = net.to(device)
+    if args.freeze == "plane":
+        net.freeze_plane()
+    else:
+        for key in net.encoder.frozen(args.freeze):
+            net.encoder.params[key].requires_grad_(False)
+    proxies = torch.nn.Parameter(0.1 * torch.randn(len(pack.models), EMBEDDING, device=device))
     groups = [
         {"params": [p for p in net.encoder_parameters() if p.requires_grad], "lr": args.lr_encoder},
-        {"params": net.head_parameters(), "lr": args.lr_head},
+        {"params": [p for p in net.head_parameters() if p.requires_grad] + [proxies], "lr": args.lr_head},
     ]
     optimiser = torch.optim.AdamW([g for g in groups if g["params"]], weight_decay=1e-4)
     steps_per_epoch = max(1, len(training) // args.batch)
@@ -238,6 +360,7 @@ def train(args: argparse.Namespace) -> dict:
     if checkpoint.is_file():
         state = torch.load(checkpoint, map_location=device, weights_only=False)
         net.load_state_dict(state["net"])
+        proxies.data.copy_(state["proxies"])
         optimiser.load_state_dict(state["optimiser"])
         epoch, step, history = state["epoch"], state["step"], state["history"]
         spent = history[-1]["seconds"]  # a checkpoint is saved after its history's entry
@@ -266,7 +389,7 @@ def train(args: argparse.Namespace) -> dict:
             for group, lr in zip(optimiser.param_groups, base):
                 group["lr"] = lr * warm * 0.5 * (1 + math.cos(math.pi * step / total))
             tensors = {k: torch.from_numpy(v).to(device, non_blocking=True) for k, v in batch.items()}
-            terms = losses(predict(net, tensors["image"].float() / 255.0, args.precision), tensors)
+            terms = losses(predict(net, tensors["image"].float() / 255.0, args.precision), tensors, proxies)
             loss = sum(LOSS_WEIGHTS[k] * v for k, v in terms.items())
             optimiser.zero_grad(set_to_none=True)
             loss.backward()
@@ -286,7 +409,7 @@ def train(args: argparse.Namespace) -> dict:
         epoch += 1
         if epoch % args.validate_every and step < total:
             continue
-        scores = validate(net, pack, held, device, args.batch)
+        scores = validate(net, pack, held, device, args.batch, proxies.detach().cpu().numpy())
         history.append(
             {
                 "epoch": epoch,
@@ -305,6 +428,7 @@ def train(args: argparse.Namespace) -> dict:
         torch.save(
             {
                 "net": net.state_dict(),
+                "proxies": proxies.detach(),
                 "optimiser": optimiser.state_dict(),
                 "epoch": epoch,
                 "step": step,
@@ -318,8 +442,10 @@ def train(args: argparse.Namespace) -> dict:
     if pool is not None:
         pool.shutdown(cancel_futures=True)
     onnx_path = export_onnx(net.cpu(), args.out / "eyes.onnx", half=True)
+    catalogue = write_catalogue(args.out / CATALOGUE, pack.models, proxies.detach().cpu().numpy())
     note = {
         "sha256": hashlib.sha256(onnx_path.read_bytes()).hexdigest(),
+        "catalogue": {"file": catalogue.name, "sha256": hashlib.sha256(catalogue.read_bytes()).hexdigest()},
         "command": " ".join(["psdr-room-train", *sys.argv[1:]]),
         "commit": _commit(),
         "data_seeds": [int(pack.seeds.min()), int(pack.seeds.max())],
@@ -329,12 +455,23 @@ def train(args: argparse.Namespace) -> dict:
         "steps": step,
         "device": device,
         "freeze": args.freeze,
+        "init": str(args.init) if args.init else None,
         "precision": args.precision,
         "validation": history[-1] if history else {},
     }
     (args.out / "eyes.json").write_text(json.dumps(note, indent=2) + "\n")
     print(f"psdr-room-train: wrote {onnx_path} ({onnx_path.stat().st_size / 1e6:.1f} MB)", flush=True)
     return note["validation"]
+
+
+def write_catalogue(path: Path, models: np.ndarray, proxies: np.ndarray) -> Path:
+    """The catalogue file: each model id the network learnt (``model_ids``) with its unit embedding
+    (``embeddings``, float32); the path."""
+    unit = proxies / np.linalg.norm(proxies, axis=1, keepdims=True)
+    partial = path.with_suffix(".part.npz")
+    np.savez(partial, model_ids=np.asarray(models, str), embeddings=unit.astype(np.float32))
+    partial.replace(path)
+    return path
 
 
 def main(argv: Sequence[str] | None = None) -> None:
@@ -357,7 +494,16 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--lr-head", type=float, default=1e-3)
     parser.add_argument("--lr-encoder", type=float, default=1e-4)
     parser.add_argument("--warmup", type=int, default=200, help="steps of linear learning-rate warm-up")
-    parser.add_argument("--freeze", choices=FREEZE, default="stride8")
+    parser.add_argument(
+        "--freeze",
+        choices=FREEZE,
+        default="stride8",
+        help="what stays fixed: nothing, the encoder up to stride 8, the encoder, or the encoder and the "
+        "image-plane heads (plane: only the 3D heads train; give --init)",
+    )
+    parser.add_argument(
+        "--init", type=Path, help="an eyes.onnx whose weights start the run (the shipped one: plugins/eyes/eyes.onnx)"
+    )
     parser.add_argument(
         "--precision",
         choices=PRECISION,
@@ -379,6 +525,10 @@ def main(argv: Sequence[str] | None = None) -> None:
     args = parser.parse_args(argv)
     if args.data is None and args.pack is None:
         parser.error("give --data (a psdr-room-synth-data folder) or --pack")
+    if args.init is not None and not args.init.is_file():
+        parser.error(f"--init {args.init}: no such file (an eyes.onnx psdr-room-train wrote)")
+    if args.freeze == "plane" and args.init is None:
+        parser.error("--freeze plane keeps the image-plane heads as --init gives them: give --init")
     if args.pack is not None and not args.pack.is_file():
         parser.error(f"--pack {args.pack}: no such file (make one with --data)")
     if args.pack is None and not (args.out / "pack.npz").is_file() and not any(args.data.glob("*.npz")):
