@@ -85,6 +85,13 @@ class SilhouetteRetrieval:
 
     def rank(self, query: ObjectQuery, camera: Camera, camera_to_world: np.ndarray, k: int) -> list[Candidate]:
         models = [r for name in query.categories for r in self.database.category(name)] or list(self.database.records)
+        return self.rank_models(query, camera, camera_to_world, [r.id for r in models], k)
+
+    def rank_models(
+        self, query: ObjectQuery, camera: Camera, camera_to_world: np.ndarray, model_ids: list[str], k: int
+    ) -> list[Candidate]:
+        """The ``k`` of ``model_ids`` that, posed, best explain ``query``, best first."""
+        models = [self.database.record(model_id) for model_id in model_ids]
         target = ViewTarget.build(
             camera,
             camera_to_world,

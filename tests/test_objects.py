@@ -42,6 +42,7 @@ from psdr_room_core.method.pose_model import Explained, ObjectTargets, PoseModel
 from psdr_room_core.method.silhouette import MeshCaster, camera_rays, depth_map, silhouette
 from psdr_room_core.method.stages.objects.fit import fit_objects, restore_lost, settle_restored, try_yaw_turns
 from psdr_room_core.method.view_search import SearchParams, ViewTarget, fit_view
+from psdr_room_plugins.eyes import labels
 from psdr_room_plugins.mitsuba_renderer.session import MitsubaRenderer
 from psdr_room_plugins.optimizer_adam import Adam
 from psdr_room_plugins.retrieval_silhouette import SilhouetteRetrieval, SilhouetteSettings
@@ -207,6 +208,65 @@ def test_the_shortlist_refines_only_the_best_starts() -> None:
         assert candidate.score == pytest.approx(1 / (1 + sum(terms.values())), rel=1e-9)
     assert short[0].terms["iou"] > 0.8 > short[-1].terms["iou"]
     assert {c.model_id for c in short} <= {c.model_id for c in full.rank(query, CAMERA, C2W, 26)}
+
+
+@pytest.fixture(scope="module")
+def eyes_network(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The shipped eyes network's weights with seeded 3D heads, exported (no catalogue beside it yet)."""
+    from psdr_room_plugins.eyes.network import EyesNet, export_onnx
+    from psdr_room_plugins.eyes.perception import SHIPPED
+
+    torch.manual_seed(0)
+    net = EyesNet()
+    net.load_onnx(SHIPPED)
+    return export_onnx(net, tmp_path_factory.mktemp("eyes") / "eyes.onnx")
+
+
+def test_retrieval_eyes_ranks_first_the_model_whose_embedding_the_network_sees(eyes_network: Path) -> None:
+    """retrieval=eyes ranks first the model whose catalogue embedding is what the network sees on the object's
+    mask, searches the category the network votes for beside the label's, and scores each posed model by its
+    cosine, its category's probability and its silhouette; without a catalogue beside the network it is
+    unavailable, saying why."""
+    from psdr_room_plugins.eyes.plugin import EyesSettings
+    from psdr_room_plugins.eyes.retrieval import CATALOGUE, EyesRetrieval
+
+    model_id = "parametric/chair_004"
+    eyes = EyesRetrieval(
+        network=replace(shipped.settings(EyesSettings, "segmentation.eyes"), path=str(eyes_network)),
+        silhouette=replace(shipped.settings(SilhouetteSettings, "retrieval.silhouette"), shortlist=0),
+        shortlist=4,
+        category_weight=0.5,
+        silhouette_weight=0.5,
+    )
+    assert "no eyes_models.npz beside" in (eyes.unavailable(eyes_network) or "")
+    mesh = eyes.mesh(model_id)
+    truth = pose_matrix(np.array([0.2, 0.0, 2.0 + mesh.extent[2]]), math.radians(40.0), 1.0)
+    mask, points = _seen_points(mesh, truth)
+    photo = np.full((*mask.shape, 3), 0.8, np.float32)
+    photo[mask] = (0.5, 0.3, 0.2)
+    query = ObjectQuery(1, "chair", ("chair",), mask, points, np.zeros((4, 4, 3), np.uint8), points, photo=photo)
+    seen, votes = eyes.seen(query)
+    records = eyes.silhouette.database.records
+    others = np.random.default_rng(0).normal(size=(len(records), len(seen)))
+    others -= np.outer(others @ seen, seen)  # orthogonal to what the network sees: cosine 0
+    embeddings = np.where([[r.id == model_id] for r in records], seen, others)
+    np.savez(
+        eyes_network.with_name(CATALOGUE),
+        model_ids=np.array([r.id for r in records]),
+        embeddings=(embeddings / np.linalg.norm(embeddings, axis=1, keepdims=True)).astype(np.float32),
+    )
+    assert eyes.unavailable(eyes_network) is None
+    appearance = eyes.appearance(query)
+    assert max(appearance, key=lambda m: appearance[m][0]) == model_id
+    assert appearance[model_id][0] == pytest.approx(1.0, abs=1e-5)
+    voted = labels.CATEGORIES[int(votes.argmax())]
+    assert {eyes.category(m) for m in appearance} == {"chair", voted}
+    ranked = eyes.rank(query, CAMERA, C2W, 3)
+    assert ranked[0].model_id == model_id and len(ranked) == 3
+    for candidate in ranked:
+        terms = candidate.terms
+        assert candidate.score == pytest.approx(terms["cosine"] + 0.5 * terms["category_p"] + 0.5 * terms["silhouette"])
+    assert ranked[0].terms["iou"] > 0.8
 
 
 def _seen(

@@ -11,8 +11,8 @@ and added to the backbone's stride-4 map, then each output is a 3×3 + 1×1 conv
     offset    [B, 2, H/4, W/4]                (dx, dy) from the pixel to its object's centre, quarter pixels
     depth     [B, 1, H/4, W/4]                log z-depth up to a constant (scale-invariant)
 
-and the 3D heads (:data:`.box3d.BOX_OUTPUTS`, what they mean in :mod:`.box3d`): a 3×3 convolution of the shared
-map, then one 1×1 convolution per output.
+and the 3D heads (:data:`.box3d.BOX_OUTPUTS`, what they mean in :mod:`.box3d`): two 3×3 convolutions of the
+shared map, then one 1×1 convolution per output.
 """
 
 from __future__ import annotations
@@ -62,7 +62,12 @@ class EyesNet(nn.Module):
         assert isinstance(centre, nn.Conv2d) and centre.bias is not None
         nn.init.constant_(centre.bias, -4.0)  # a centre is rare: start near probability 0.02
         self.heads = nn.ModuleDict(heads)
-        self.box_trunk = nn.Sequential(nn.Conv2d(WIDTH, WIDTH, 3, padding=1), nn.LeakyReLU(0.1))
+        self.box_trunk = nn.Sequential(
+            nn.Conv2d(WIDTH, WIDTH, 3, padding=1),
+            nn.LeakyReLU(0.1),
+            nn.Conv2d(WIDTH, WIDTH, 3, padding=1),
+            nn.LeakyReLU(0.1),
+        )
         self.box_heads = nn.ModuleDict({name: nn.Conv2d(WIDTH, channels, 1) for name, channels in BOX_OUTPUTS.items()})
         self.plane_frozen = False
         """True: the encoder and the image-plane heads run without gradients (only the 3D heads train)."""

@@ -10,6 +10,7 @@ from psdr_room_core.engine.settings import setting
 
 from ..detectors import NanodetSettings
 from ..layout.settings import LayoutDepthSettings, LayoutSegmentationSettings
+from ..retrieval_silhouette import SilhouetteSettings
 
 
 @dataclass
@@ -63,6 +64,24 @@ class LayoutDepthAndEyesSettings:
     eyes: EyesSettings = setting(doc="The network's settings: depth.eyes's node (set depth.eyes.X).")
 
 
+@dataclass
+class EyesRetrievalSettings:
+    """``retrieval=eyes``: the network, the silhouette search that breaks ties (its node), and how the scores
+    combine."""
+
+    network: EyesSettings = setting(doc="The eyes network: a network of your own needs its eyes_models.npz beside it.")
+    silhouette: SilhouetteSettings = setting(
+        doc="The view search that poses the shortlist: retrieval.silhouette's node (set retrieval.silhouette.X)."
+    )
+    shortlist: int = setting(ge=1, doc="The models the appearance score ranks best that the view search poses.")
+    category_weight: float = setting(
+        ge=0, doc="Weight of the network's probability of a model's category beside the embedding's cosine."
+    )
+    silhouette_weight: float = setting(
+        ge=0, doc="Weight of the posed silhouette's score (0..1) added to the appearance score."
+    )
+
+
 DESCRIPTIONS = {
     "segmentation": "walls, floor, ceiling, windows, doors and furniture instances from psdr-room's own network "
     "(trained on its renders)",
@@ -88,6 +107,15 @@ def register_implementations(registry: Registry) -> None:
             reads_files=True,
             description=DESCRIPTIONS[capability],
         )
+    registry.add_implementation(
+        "retrieval",
+        "eyes",
+        "psdr_room_plugins.eyes.retrieval:EyesRetrieval",
+        params=EyesRetrievalSettings,
+        reads_files=True,
+        description="catalogue models ranked by psdr-room's own network's embedding and category vote, posed "
+        "silhouettes breaking ties",
+    )
     registry.add_implementation(
         "detector",
         "nanodet_eyes",

@@ -48,6 +48,9 @@ class ObjectQuery:
     """The segment is an automatic guess (it has a score): its label is weak."""
     room: RoomBox | None = None
     """The room box the object stands in (its model must fit inside)."""
+    photo: np.ndarray | None = None
+    """The working image (float RGB, one array shared by all queries): the object in its whole picture, for an
+    image network that reads the room around it."""
 
 
 def object_queries(
@@ -83,6 +86,7 @@ def object_queries(
                 alternates(named, segment.second_opinion) if guessed else (),
                 guessed,
                 room,
+                image.rgb,
             )
         )
     return queries

@@ -54,6 +54,7 @@ def group_objects(
                 scene,
                 part.segment.box,
                 room=room,
+                photo=image.rgb,
             )
             ranked = retriever.rank(query, camera, c2w, 1)
             return ranked[0].score if ranked else 0.0
