@@ -5,7 +5,8 @@ instance it finds is read as a 3D box (:func:`psdr_room_plugins.eyes.box3d.read_
 focal, put in the level frame with the reference pitch and roll (so only the network's own error counts), and
 matched to the reference object whose 2D box its mask's box overlaps most (IoU ≥ ``--iou``, each used once, best
 first). Per photo and in all: matched pairs, pairs at 3D IoU ≥ 0.25, mean 3D IoU, and the median centre error,
-relative size error, yaw error and depth ratio (network / reference) of the pairs.
+relative size error, yaw error (of the front; ``axis``: of the front's line, modulo 180°, as for a table) and
+horizontal distance ratio (network / reference) of the pairs.
 
     python benchmarks/eyes3d.py [--network plugins/eyes/eyes.onnx] [--iou 0.3]
 """
@@ -21,7 +22,15 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from boxes3d import IOU_3D, TOTAL3D_TO_OPENCV, LevelBox, pair_scores, read_reference, total3d_rotation  # noqa: E402
+from boxes3d import (  # noqa: E402
+    IOU_3D,
+    TOTAL3D_TO_OPENCV,
+    LevelBox,
+    pair_scores,
+    read_reference,
+    total3d_rotation,
+    yaw_error,
+)
 
 from psdr_room_core.method.artifacts import Image  # noqa: E402
 from psdr_room_core.method.image_boxes import box_iou, mask_box  # noqa: E402
@@ -76,7 +85,13 @@ def photo_row(eyes: Eyes, folder: Path, iou: float) -> dict | None:
         truth = reference.boxes[r]
         scores = pair_scores(found[k][2], truth, 2 * np.pi)
         depth = float(np.linalg.norm(truth.center[[0, 2]]))
-        pairs.append({**scores, "depth_ratio": float(np.linalg.norm(found[k][2].center[[0, 2]])) / depth})
+        pairs.append(
+            {
+                **scores,
+                "yaw_axis": yaw_error(found[k][2], truth, np.pi),
+                "depth_ratio": float(np.linalg.norm(found[k][2].center[[0, 2]])) / depth,
+            }
+        )
     return {"photo": folder.name, "references": len(reference.boxes), "found": len(found), "pairs": pairs}
 
 
@@ -88,7 +103,8 @@ def line(name: str, pairs: list[dict], references: int, found: int) -> str:
     mean = format(float(np.mean([p["iou"] for p in pairs])), ".3f") if pairs else "-"
     return (
         f"{name:<26} {found:>5} {f'{len(pairs)}/{references}':>7} {f'{hits}/{references}':>7} {mean:>6} "
-        f"{median('centre', '.2f'):>8} {median('size', '.2f'):>6} {median('yaw', '.0f'):>5} {median('depth_ratio', '.2f'):>7}"
+        f"{median('centre', '.2f'):>8} {median('size', '.2f'):>6} {median('yaw', '.0f'):>5} {median('yaw_axis', '.0f'):>6} "
+        f"{median('depth_ratio', '.2f'):>7}"
     )
 
 
@@ -101,7 +117,7 @@ def main() -> None:
     rows = [r for r in (photo_row(eyes, f, args.iou) for f in sorted(PHOTOS.iterdir()) if f.is_dir()) if r]
     header = (
         f"{'photo':<26} {'found':>5} {'matched':>7} {'IoU≥.25':>7} {'IoU3D':>6} {'centre m':>8} {'size':>6} "
-        f"{'yaw°':>5} {'depth×':>7}"
+        f"{'yaw°':>5} {'axis°':>6} {'depth×':>7}"
     )
     print(f"the eyes network's 3D boxes alone ({args.network.name}), reference focal, pitch and roll")
     print(header)

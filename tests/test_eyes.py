@@ -375,7 +375,8 @@ def test_the_shipped_network_is_whole_and_sees_the_example_room() -> None:
 
     note = shipped_note()
     assert note["sha256"] == hashlib.sha256(SHIPPED.read_bytes()).hexdigest()
-    assert SHIPPED.stat().st_size <= 25e6 and note["samples"] >= 1000
+    assert SHIPPED.stat().st_size <= 25e6 and note["samples"] >= 800  # the 3D heads' renders
+    assert note["init"]["note"]["samples"] >= 1000  # the renders the image-plane heads were trained on
     rgb = cv2.imread(str(EXAMPLE))[..., ::-1].astype(np.float32) / 255.0
     image = Image(rgb=rgb)
     camera = Camera(image.width, image.height, 519.0, 519.0, image.width / 2, image.height / 2)
@@ -388,6 +389,69 @@ def test_the_shipped_network_is_whole_and_sees_the_example_room() -> None:
     rows = np.nonzero(floor.any(axis=1))[0]
     near, far = rows.max(), rows.min()  # the floor recedes up the photo
     assert np.median(depth.depth[near][floor[near]]) < np.median(depth.depth[far][floor[far]])
+
+
+def test_the_shipped_network_gives_each_instance_a_3d_box_and_its_catalogue_names_database_models() -> None:
+    """onnxruntime runs the shipped network's 3D heads on the bundled example: each piece of furniture it finds
+    has a box in front of the camera, of a furniture's size; the catalogue beside it matches its note and names
+    models of the object database, each with a unit embedding."""
+    import cv2
+
+    from conftest import EXAMPLE
+    from psdr_room_core.libraries.object_db.builtin import builtin_database
+    from psdr_room_core.method.artifacts import Image
+    from psdr_room_plugins.eyes.box3d import EMBEDDING, read_box
+    from psdr_room_plugins.eyes.decode import instances
+    from psdr_room_plugins.eyes.perception import SHIPPED, Eyes, shipped_note
+    from psdr_room_plugins.eyes.retrieval import CATALOGUE
+
+    rgb = cv2.imread(str(EXAMPLE))[..., ::-1].astype(np.float32) / 255.0
+    out = Eyes().outputs(Image(rgb=rgb))
+    found = instances(out["surface"], out["category"], out["center"], out["offset"])
+    focal = 519.0 * 240 / rgb.shape[0]  # the example's focal in the network's input pixels
+    boxes = [read_box(out, item.mask, focal, focal) for item in found]
+    assert len(boxes) >= 2
+    for box in boxes:
+        assert 0.3 < box.center[2] < 12 and ((box.size > 0.02) & (box.size < 5)).all()
+        assert 0 < box.yaw_confidence <= 1 and box.embedding @ box.embedding == pytest.approx(1.0)
+    catalogue = SHIPPED.with_name(CATALOGUE)
+    assert shipped_note()["catalogue"]["sha256"] == hashlib.sha256(catalogue.read_bytes()).hexdigest()
+    with np.load(catalogue) as data:
+        ids, embeddings = data["model_ids"], data["embeddings"]
+    assert set(ids) <= {r.id for r in builtin_database().records} and len(ids) >= 150
+    assert embeddings.shape == (len(ids), EMBEDDING) and np.allclose(np.linalg.norm(embeddings, axis=1), 1, atol=1e-5)
+
+
+def test_the_shipped_embedding_ranks_a_rendered_model_near_the_top_of_its_category(made: Tools) -> None:
+    """On rooms the network never saw (seeds beyond its data's), ``retrieval=eyes``' appearance ranks the model the
+    generator placed near the top of its category's models for the well-seen objects (chance: the middle)."""
+
+    from psdr_room_core.engine import shipped
+    from psdr_room_core.method.objects import ObjectQuery
+    from psdr_room_plugins.eyes.plugin import EyesRetrievalSettings
+    from psdr_room_plugins.eyes.retrieval import EyesRetrieval
+
+    eyes = EyesRetrieval(**shipped.arguments(EyesRetrievalSettings, "retrieval.eyes", "retrieval=eyes"))
+    ranks, chance = [], []
+    for seed in range(20000, 20006):
+        sample = sample_room(seed, made.database, made.library, [], 320, 240)
+        instance = label_maps(sample, made.renderer)["instance"]
+        photo = render_photo(sample, made.renderer, made.denoiser, 16).astype(np.float32) / 255.0
+        for value, box in sample.boxes.items():
+            mask = instance == value
+            if mask.sum() < 600 or not box.model_id:
+                continue
+            category = made.database.record(box.model_id).category
+            none = np.zeros((0, 3))
+            query = ObjectQuery(
+                value, category, (category,), mask, none, np.zeros((4, 4, 3), np.uint8), none, photo=photo
+            )
+            seen = {m: v[0] for m, v in eyes.appearance(query).items() if eyes.category(m) == category}
+            ranks.append(sorted(seen, key=lambda m: -seen[m]).index(box.model_id))
+            chance.append((len(seen) - 1) / 2)
+    assert len(ranks) >= 10
+    assert np.median(ranks) <= 3 < np.median(chance) - 4
+    assert np.mean(np.array(ranks) < 3) >= 0.4
 
 
 def test_an_eyes_box_adds_to_nanodets_where_it_names_what_coco_cannot_or_nanodet_boxed_nothing() -> None:

@@ -451,6 +451,7 @@ def _ready_to_drag(driver: Any, what: str) -> None:
     time.sleep(0.5)
 
 
+@pytest.mark.slow  # minutes: a real browser drives the studio from a box to an edited fit
 def test_draw_a_box_preview_pick_fit_edit_in_a_real_browser(studio: str, room: SimpleNamespace, tmp_path: Path) -> None:
     from selenium.webdriver.common.by import By
     from selenium.webdriver.common.keys import Keys

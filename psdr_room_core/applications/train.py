@@ -455,13 +455,19 @@ def train(args: argparse.Namespace) -> dict:
         "steps": step,
         "device": device,
         "freeze": args.freeze,
-        "init": str(args.init) if args.init else None,
+        "init": init_record(args.init) if args.init else None,
         "precision": args.precision,
         "validation": history[-1] if history else {},
     }
     (args.out / "eyes.json").write_text(json.dumps(note, indent=2) + "\n")
     print(f"psdr-room-train: wrote {onnx_path} ({onnx_path.stat().st_size / 1e6:.1f} MB)", flush=True)
     return note["validation"]
+
+
+def init_record(path: Path) -> dict:
+    """What a run started from: the network file and the note beside it (how those weights were made)."""
+    note = path.with_suffix(".json")
+    return {"file": str(path), "note": json.loads(note.read_text()) if note.is_file() else None}
 
 
 def write_catalogue(path: Path, models: np.ndarray, proxies: np.ndarray) -> Path:
