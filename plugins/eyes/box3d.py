@@ -25,6 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .decode import softmax
+
 YAW_BINS = 12
 EMBEDDING = 16
 REFERENCE_FOCAL = 240.0 / (2.0 * math.tan(math.radians(30.0)))
@@ -58,6 +60,7 @@ def yaw_of(alpha: np.ndarray | float, center: np.ndarray) -> np.ndarray:
 
 
 def bin_centres() -> np.ndarray:
+    """The yaw bins' centres (radians)."""
     return -math.pi + (np.arange(YAW_BINS) + 0.5) * 2 * math.pi / YAW_BINS
 
 
@@ -108,9 +111,7 @@ def read_box(out: dict[str, np.ndarray], mask: np.ndarray, fx: float, fy: float,
     centre lies on the ray through the amodal box's middle."""
     ys, xs = np.nonzero(mask)
     mean = {name: out[name][:, ys, xs].mean(axis=1) for name in ("box_depth", "box_size", "yaw_residual", "embedding")}
-    logits = out["yaw_bin"][:, ys, xs]
-    probabilities = np.exp(logits - logits.max(axis=0))
-    probabilities = (probabilities / probabilities.sum(axis=0)).mean(axis=1)
+    probabilities = softmax(out["yaw_bin"][:, ys, xs]).mean(axis=1)
     k = int(probabilities.argmax())
     alpha = float(wrap(bin_centres()[k] + np.clip(mean["yaw_residual"][k], -1.0, 1.0) * math.pi / YAW_BINS))
     px, py = xs + 0.5, ys + 0.5
