@@ -36,14 +36,15 @@ from psdr_room_core.method.artifacts import Image  # noqa: E402
 from psdr_room_core.method.image_boxes import box_iou, mask_box  # noqa: E402
 from psdr_room_plugins.eyes.box3d import BOX_OUTPUTS, read_box  # noqa: E402
 from psdr_room_plugins.eyes.decode import instances  # noqa: E402
-from psdr_room_plugins.eyes.labels import CATEGORIES  # noqa: E402
 from psdr_room_plugins.eyes.perception import SHIPPED, Eyes  # noqa: E402
 
 PHOTOS = Path(__file__).resolve().parents[2] / "shared" / "data" / "photos"
 
 
-def network_boxes(eyes: Eyes, rgb: np.ndarray, K: np.ndarray, pitch: float, roll: float) -> list[tuple]:
-    """(photo-pixel box, category, level-frame box) of each instance the network finds in ``rgb``."""
+def network_boxes(
+    eyes: Eyes, rgb: np.ndarray, K: np.ndarray, pitch: float, roll: float
+) -> list[tuple[np.ndarray, LevelBox]]:
+    """(photo-pixel box, level-frame box) of each instance the network finds in ``rgb``."""
     out = eyes.outputs(Image(rgb=rgb))
     if not all(name in out for name in BOX_OUTPUTS):
         raise SystemExit(f"{eyes.path}: a network without the 3D heads ({', '.join(BOX_OUTPUTS)})")
@@ -57,8 +58,7 @@ def network_boxes(eyes: Eyes, rgb: np.ndarray, K: np.ndarray, pitch: float, roll
         pixels = mask_box(mask)
         if pixels is None:
             continue
-        level_box = LevelBox(center=level @ box.center, size=box.size, yaw=-box.yaw)
-        found.append((np.asarray(pixels, float), CATEGORIES[item.category], level_box, box.center[2]))
+        found.append((np.asarray(pixels, float), LevelBox(center=level @ box.center, size=box.size, yaw=-box.yaw)))
     return found
 
 
@@ -82,14 +82,13 @@ def photo_row(eyes: Eyes, folder: Path, iou: float) -> dict | None:
             continue
         used_found.add(k)
         used_reference.add(r)
-        truth = reference.boxes[r]
-        scores = pair_scores(found[k][2], truth, 2 * np.pi)
-        depth = float(np.linalg.norm(truth.center[[0, 2]]))
+        truth, box = reference.boxes[r], found[k][1]
+        distance = float(np.linalg.norm(truth.center[[0, 2]]))
         pairs.append(
             {
-                **scores,
-                "yaw_axis": yaw_error(found[k][2], truth, np.pi),
-                "depth_ratio": float(np.linalg.norm(found[k][2].center[[0, 2]])) / depth,
+                **pair_scores(box, truth, 2 * np.pi),
+                "yaw_axis": yaw_error(box, truth, np.pi),
+                "depth_ratio": float(np.linalg.norm(box.center[[0, 2]])) / distance,
             }
         )
     return {"photo": folder.name, "references": len(reference.boxes), "found": len(found), "pairs": pairs}

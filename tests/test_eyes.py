@@ -186,19 +186,28 @@ def test_a_pack_keeps_each_samples_depth_to_the_centimetre(pack, eyes_data: Path
         assert np.array_equal(depth > 0, truth >= 0.005)
 
 
+def _whole_pack_batch(pack: Pack) -> dict:
+    """Every sample of ``pack``, unaugmented, as one batch of torch tensors (images in [0, 1])."""
+    import torch
+
+    from psdr_room_plugins.eyes.data import example
+
+    items = [example(pack, i, None) for i in range(len(pack))]
+    batch = {k: torch.from_numpy(np.stack([it[k] for it in items])) for k in items[0]}
+    batch["image"] = batch["image"].float() / 255.0
+    return batch
+
+
 @pytest.mark.parametrize("precision", ["fp32", "bf16"])
 def test_two_training_steps_lower_the_loss(pack, precision: str) -> None:
     import torch
 
     from psdr_room_core.applications.train import LOSS_WEIGHTS, losses, predict
-    from psdr_room_plugins.eyes.data import example
     from psdr_room_plugins.eyes.network import EyesNet
 
     torch.manual_seed(0)
     net = EyesNet()
-    items = [example(pack, i, None) for i in range(len(pack))]
-    batch = {k: torch.from_numpy(np.stack([it[k] for it in items])) for k in items[0]}
-    batch["image"] = batch["image"].float() / 255.0
+    batch = _whole_pack_batch(pack)
     optimiser = torch.optim.AdamW(
         [{"params": net.head_parameters(), "lr": 1e-3}, {"params": net.encoder_parameters(), "lr": 1e-4}]
     )
@@ -269,7 +278,6 @@ def test_the_3d_heads_learn_in_two_steps_and_leave_the_image_plane_heads_as_they
 
     from psdr_room_core.applications.train import LOSS_WEIGHTS, losses, predict
     from psdr_room_plugins.eyes.box3d import BOX_OUTPUTS, EMBEDDING
-    from psdr_room_plugins.eyes.data import example
     from psdr_room_plugins.eyes.network import PLANE_OUTPUTS, EyesNet
     from psdr_room_plugins.eyes.perception import SHIPPED
 
@@ -278,9 +286,7 @@ def test_the_3d_heads_learn_in_two_steps_and_leave_the_image_plane_heads_as_they
     net.load_onnx(SHIPPED)
     net.freeze_plane()
     proxies = torch.nn.Parameter(0.1 * torch.randn(len(pack.models), EMBEDDING))
-    items = [example(pack, i, None) for i in range(len(pack))]
-    batch = {k: torch.from_numpy(np.stack([it[k] for it in items])) for k in items[0]}
-    batch["image"] = batch["image"].float() / 255.0
+    batch = _whole_pack_batch(pack)
     optimiser = torch.optim.AdamW([p for p in net.parameters() if p.requires_grad] + [proxies], lr=3e-3)
     assert {id(p) for p in net.parameters() if p.requires_grad} == {id(p) for p in net.box_parameters()}
 
@@ -400,10 +406,9 @@ def test_the_shipped_network_gives_each_instance_a_3d_box_and_its_catalogue_name
     from conftest import EXAMPLE
     from psdr_room_core.libraries.object_db.builtin import builtin_database
     from psdr_room_core.method.artifacts import Image
-    from psdr_room_plugins.eyes.box3d import EMBEDDING, read_box
+    from psdr_room_plugins.eyes.box3d import CATALOGUE, EMBEDDING, read_box
     from psdr_room_plugins.eyes.decode import instances
     from psdr_room_plugins.eyes.perception import SHIPPED, Eyes, shipped_note
-    from psdr_room_plugins.eyes.retrieval import CATALOGUE
 
     rgb = cv2.imread(str(EXAMPLE))[..., ::-1].astype(np.float32) / 255.0
     out = Eyes().outputs(Image(rgb=rgb))

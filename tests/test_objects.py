@@ -227,8 +227,9 @@ def test_retrieval_eyes_ranks_first_the_model_whose_embedding_the_network_sees(e
     mask, searches the category the network votes for beside the label's, and scores each posed model by its
     cosine, its category's probability and its silhouette; without a catalogue beside the network it is
     unavailable, saying why."""
+    from psdr_room_plugins.eyes.box3d import CATALOGUE
     from psdr_room_plugins.eyes.plugin import EyesSettings
-    from psdr_room_plugins.eyes.retrieval import CATALOGUE, EyesRetrieval
+    from psdr_room_plugins.eyes.retrieval import EyesRetrieval
 
     model_id = "parametric/chair_004"
     eyes = EyesRetrieval(

@@ -42,6 +42,8 @@ BOX_OUTPUTS = {
     "embedding": EMBEDDING,
 }
 """The 3D heads' outputs: name → channels."""
+CATALOGUE = "eyes_models.npz"
+"""The file beside a network with its catalogue models' unit embeddings (``model_ids``, ``embeddings``)."""
 
 
 def wrap(angle: np.ndarray | float) -> np.ndarray:
@@ -69,18 +71,6 @@ def yaw_targets(alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     width = 2 * math.pi / YAW_BINS
     index = np.clip(np.floor((wrap(alpha) + math.pi) / width).astype(np.int64), 0, YAW_BINS - 1)
     return index, wrap(alpha - bin_centres()[index]) / (width / 2)
-
-
-def camera_frame_corners(center: np.ndarray, size: np.ndarray, yaw: float, camera_to_world: np.ndarray) -> np.ndarray:
-    """The 8 corners (8, 3) of a camera-frame box (``yaw`` heading-relative) of a camera posed by
-    ``camera_to_world``."""
-    rotation = camera_to_world[:3, :3]
-    forward = rotation[:, 2]
-    turn = math.atan2(forward[0], forward[2]) + yaw
-    c, s = math.cos(turn), math.sin(turn)
-    axes = rotation.T @ np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-    signs = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
-    return center + (signs * size) @ axes.T
 
 
 def amodal_box(corners: np.ndarray, fx: float, fy: float, cx: float, cy: float, near: float = 0.1) -> np.ndarray:

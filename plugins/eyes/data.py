@@ -16,9 +16,10 @@ import cv2
 import numpy as np
 
 from psdr_room_core.engine.errors import PsdrRoomError
+from psdr_room_core.libraries.synth.instances import camera_frame_corners
 from psdr_room_core.method.visualize import to_uint8
 
-from .box3d import AMODAL_UNIT, REFERENCE_FOCAL, amodal_box, camera_frame_corners, observation_angle, yaw_targets
+from .box3d import AMODAL_UNIT, REFERENCE_FOCAL, amodal_box, observation_angle, yaw_targets
 from .labels import OBJECT
 from .network import INPUT_SIZE
 

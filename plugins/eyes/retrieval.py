@@ -25,14 +25,11 @@ from psdr_room_core.method.artifacts import Camera, Candidate, Image, ObjectMesh
 from psdr_room_core.method.objects import ObjectQuery
 from psdr_room_plugins.retrieval_silhouette import SilhouetteRetrieval, SilhouetteSettings
 
-from .box3d import EMBEDDING
+from .box3d import CATALOGUE, EMBEDDING
 from .decode import softmax
 from .labels import CATEGORIES
 from .perception import Eyes
 from .plugin import EyesSettings
-
-CATALOGUE = "eyes_models.npz"
-"""The catalogue file beside a network: model ids and their unit embeddings (``psdr-room-train`` writes it)."""
 
 
 class EyesRetrieval:

@@ -49,8 +49,6 @@ LOSS_WEIGHTS = {
 }
 EMBEDDING_SCALE = 16.0
 """Cosine similarities to the model proxies are multiplied by this before the softmax (normalised softmax loss)."""
-CATALOGUE = "eyes_models.npz"
-"""The file beside eyes.onnx with the catalogue models' embeddings (:func:`write_catalogue`)."""
 TIMING_STEPS = 20
 """``--minutes`` times steps TIMING_STEPS..2·TIMING_STEPS of a run (after its warm-up) to set the number of steps."""
 PRECISION = ("fp32", "bf16")
@@ -317,7 +315,7 @@ def train(args: argparse.Namespace) -> dict:
     """Train (or resume) per ``args``; the final validation scores."""
     import torch
 
-    from psdr_room_plugins.eyes.box3d import EMBEDDING
+    from psdr_room_plugins.eyes.box3d import CATALOGUE, EMBEDDING
     from psdr_room_plugins.eyes.data import Pack, build_pack
     from psdr_room_plugins.eyes.network import EyesNet, export_onnx
 

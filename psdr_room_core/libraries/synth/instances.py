@@ -84,6 +84,15 @@ def camera_frame_boxes(boxes: Mapping[int, InstanceBox], camera_to_world: np.nda
     }
 
 
+def camera_frame_corners(center: np.ndarray, size: np.ndarray, yaw: float, camera_to_world: np.ndarray) -> np.ndarray:
+    """The 8 corners (8, 3) of a box in the camera frame (``center``, ``size``, heading-relative ``yaw``: as
+    :func:`camera_frame_boxes` gives them) of a camera posed by ``camera_to_world``."""
+    heading = camera_angles(camera_to_world)[0]
+    axes = camera_to_world[:3, :3].T @ rotation_y(heading + yaw)
+    signs = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
+    return np.asarray(center) + (signs * size) @ axes.T
+
+
 def _pixel_span(low: float, high: float, pad: int, size: int) -> tuple[int, int]:
     """The pixel columns (or rows) ``[start, stop)`` of a padded canvas ``size`` wide whose centres may lie in
     image coordinates ``[low, high]``."""
