@@ -102,6 +102,7 @@ class SilhouetteRetrieval:
             self.max_pixels,
             query.box,
             query.room,
+            query.seen,
         )
         starts = []
         for record in models:

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from psdr_room_core.engine import shipped
-from psdr_room_core.method.artifacts import Camera, Detection, Detections, Image, Panoptic, Segment
+from psdr_room_core.method.artifacts import Camera, Detection, Detections, Image, Panoptic, SeenBox, Segment
 from psdr_room_core.method.labels import alternates, meaning, primary_category
 from psdr_room_core.method.surface_colours import SurfaceColours, unprompted
 from psdr_room_plugins.layout import box
@@ -344,6 +344,19 @@ def test_a_networks_instance_is_a_second_opinion_on_the_label() -> None:
     assert alternates(bed, seen.label(bed_box, 0.5)) == ()  # confirmed
     assert alternates(bed, seen.label(cabinet_box, 0.5)) == ("desk", "table")
     assert alternates(bed, "desk") == ("desk", "table")  # one of its alternates: still weighed by the shape
+
+
+def test_a_networks_instance_gives_the_segment_it_fills_its_3d_box() -> None:
+    """The 3D box of the instance filling a prompt's box goes to the segment (``layout_eyes``); a box no one
+    instance fills, or an instance without a 3D box, gives none."""
+    ids = np.zeros((100, 100), np.int32)
+    ids[30:90, 10:60] = 1
+    ids[30:90, 65:95] = 2
+    box_3d = SeenBox((-0.4, 0.3, 2.5), (1.9, 0.6, 1.0), 3.0, 0.4)
+    seen = SeenObjects.of(Panoptic(ids, [Segment(1, "object", "bed", seen=box_3d), Segment(2, "object", "cabinet")]))
+    assert seen.box_3d((8.0, 28.0, 62.0, 92.0), 0.5) == box_3d
+    assert seen.box_3d((63.0, 28.0, 96.0, 92.0), 0.5) is None
+    assert seen.box_3d((0.0, 0.0, 100.0, 100.0), 0.5) is None
 
 
 def test_where_grabcut_finds_nothing_the_networks_instance_is_the_mask(room: dict) -> None:

@@ -427,6 +427,30 @@ def test_the_shipped_network_gives_each_instance_a_3d_box_and_its_catalogue_name
     assert embeddings.shape == (len(ids), EMBEDDING) and np.allclose(np.linalg.norm(embeddings, axis=1), 1, atol=1e-5)
 
 
+def test_segmentation_eyes_gives_each_piece_of_furniture_its_3d_box_for_the_photos_camera() -> None:
+    """``segmentation=eyes`` on the bundled example: every furniture segment carries the network's box, in front of
+    the camera and saved with the segmentation; a camera of twice the focal sees each box twice as far (the same
+    apparent size) at the same yaw."""
+    import cv2
+
+    from conftest import EXAMPLE
+    from psdr_room_core.method.artifacts import Camera, Detections, Image
+    from psdr_room_plugins.eyes.perception import EyesSegmentation
+
+    rgb = cv2.imread(str(EXAMPLE))[..., ::-1].astype(np.float32) / 255.0
+    image, height, width = Image(rgb=rgb), *rgb.shape[:2]
+    camera = Camera(width=width, height=height, fx=519.0, fy=519.0, cx=width / 2, cy=height / 2)
+    longer = Camera(width=width, height=height, fx=1038.0, fy=1038.0, cx=width / 2, cy=height / 2)
+    segments = [s for s in EyesSegmentation().segment(image, camera, Detections([]), EXAMPLE).segments if s.seen]
+    assert len(segments) >= 2 and all(s.category in ("object", "lamp") for s in segments)
+    farther = {s.id: s.seen for s in EyesSegmentation().segment(image, longer, Detections([]), EXAMPLE).segments}
+    for segment in segments:
+        seen, far = segment.seen, farther[segment.id]
+        assert seen is not None and far is not None and seen.center[2] > 0.3
+        assert far.center[2] == pytest.approx(2 * seen.center[2], rel=1e-4)
+        assert far.size == seen.size and 0 < seen.confidence <= 1
+
+
 def test_the_shipped_embedding_ranks_a_rendered_model_near_the_top_of_its_category(made: Tools) -> None:
     """On rooms the network never saw (seeds beyond its data's), ``retrieval=eyes``' appearance ranks the model the
     generator placed near the top of its category's models for the well-seen objects (chance: the middle)."""

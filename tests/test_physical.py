@@ -439,3 +439,27 @@ def test_in_eq3_a_weak_guess_through_a_surer_object_alone_moves_out() -> None:
     both.collision_penalty().sum().backward()
     grad = both.theta["translation"].grad
     assert grad is not None and grad[0, 0] > 0 > grad[1, 0]
+
+
+def test_a_named_object_the_networks_boxes_put_behind_what_it_hides_moves_back(db: ObjectDatabase) -> None:
+    """A free-hanging frame posed too near, in front of a chair the photo shows: between two named objects the photo
+    does not say whose depth is wrong, but where the network's 3D boxes put the chair nearer, the frame moves back
+    along its ray behind it; where they put the frame nearer, or the rule is off, nothing changes. A named object
+    that cannot move back is not dropped."""
+    frame = replace(
+        placed(db, "parametric/frame_003", 1, (0.0, 0.5, 0.5), yaw_deg=180.0, scale=0.6, explained=0.9),
+        support="free",
+    )
+    chair = placed(db, "parametric/chair_005", 2, (0.1, 0.0, 1.2), yaw_deg=180.0, explained=0.9)
+    ids, pixels = _shown(frame, chair)
+    common = {"room": ROOM, "camera": CAMERA, "drawn": set(), "pixels": pixels, "ids": ids}
+    settled = settle([frame, chair], params=PARAMS, seen_depths={1: 4.0, 2: 3.0}, **common)
+    assert not settled.dropped and settled.placements[1] == chair
+    assert settled.placements[0].position[2] > 1.2 + 0.4  # behind the chair
+    assert settled.changed[0].startswith("1:frame (frame_003): moved back along its ray")
+    for seen_depths, params in (({1: 2.9, 2: 3.0}, PARAMS), ({1: 4.0, 2: 3.0}, replace(PARAMS, seen_order=0.0))):
+        kept = settle([frame, chair], params=params, seen_depths=seen_depths, **common)
+        assert kept.placements == [frame, chair] and not kept.changed
+    standing = replace(frame, support="wall", anchor=0)
+    held = settle([standing, chair], params=PARAMS, seen_depths={1: 4.0, 2: 3.0}, **common)
+    assert len(held.placements) == 2 and not held.dropped

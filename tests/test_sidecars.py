@@ -27,7 +27,7 @@ from psdr_room_core.libraries.sidecar_segmentation import (
     read_coco_panoptic,
     read_labelme,
 )
-from psdr_room_core.method.artifacts import CATEGORIES, Panoptic, Segment, write_coco_panoptic
+from psdr_room_core.method.artifacts import CATEGORIES, Panoptic, SeenBox, Segment, write_coco_panoptic
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = REPO / "examples" / "nyu_basement"
@@ -327,8 +327,9 @@ def _random_ids(h: int = 30, w: int = 40) -> tuple[np.ndarray, list[Segment]]:
 def test_panoptic_round_trip(tmp_path: Path):
     """A saved Panoptic artifact loads back, and read as <stem>.panoptic.png/.json by segmentation=file."""
     ids, segments = _random_ids()
-    # an automatic object keeps its score, prompt box and second opinion
-    segments[2] = Segment(segments[2].id, "object", "wardrobe", 0.4, (1.0, 2.0, 3.5, 4.0), second_opinion="cabinet")
+    # an automatic object keeps its score, prompt box, second opinion and the network's 3D box
+    seen = SeenBox((0.5, -0.2, 3.1), (1.2, 1.9, 0.6), -2.5, 0.35)
+    segments[2] = Segment(segments[2].id, "object", "wardrobe", 0.4, (1.0, 2.0, 3.5, 4.0), "cabinet", seen)
     Panoptic(ids=ids, segments=segments).save(tmp_path)
     loaded = Panoptic.load(tmp_path)
     np.testing.assert_array_equal(loaded.ids, ids)
@@ -415,6 +416,13 @@ def test_panoptic_errors(tmp_path: Path):
     with pytest.raises(SidecarError) as e:
         read_coco_panoptic(png, js)
     one_line_error(e, js, "second_opinion 3", "a label")
+
+    for seen_box in ({"center": [0, 0, -1], "size": [1, 1, 1], "yaw": 0, "confidence": 0.5}, [1, 2, 3]):
+        bad = dict(good, segments_info=[dict(good["segments_info"][0], seen_box=seen_box)] + good["segments_info"][1:])
+        js.write_text(json.dumps(bad))
+        with pytest.raises(SidecarError) as e:
+            read_coco_panoptic(png, js)
+        one_line_error(e, js, "seen_box", "center, size, yaw and confidence")
 
     with pytest.raises(PsdrRoomError) as e:
         write_coco_panoptic(png, js, ids, segments[1:])

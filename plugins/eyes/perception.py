@@ -8,7 +8,8 @@ passes over it (and over ``layout_eyes`` and ``nanodet_eyes``, which use it) wit
 
 The photo is stretched to the network's 320×240 input; its outputs (a quarter of that) are resized back to the
 working image: surface logits bilinearly, then argmax; depth bilinearly; instances (:func:`.decode.instances`)
-by nearest neighbour inside the full-resolution object pixels.
+by nearest neighbour inside the full-resolution object pixels, each with its 3D box in the photo's camera frame
+(:func:`.box3d.read_box`, for the camera's focal) where the network has the 3D heads.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import functools
 import hashlib
 import json
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import cv2
 import numpy as np
@@ -25,9 +26,19 @@ import numpy as np
 from psdr_room_core.engine import threads as run_threads
 from psdr_room_core.engine.errors import PsdrRoomError
 from psdr_room_core.method import checksums
-from psdr_room_core.method.artifacts import Camera, DepthMap, Detection, Detections, Image, Panoptic, Segment
+from psdr_room_core.method.artifacts import (
+    Camera,
+    DepthMap,
+    Detection,
+    Detections,
+    Image,
+    Panoptic,
+    SeenBox,
+    Segment,
+)
 from psdr_room_core.method.image_boxes import mask_box
 
+from .box3d import BOX_OUTPUTS, read_box
 from .decode import instances
 from .labels import CATEGORIES, SURFACES
 
@@ -163,9 +174,10 @@ class Eyes:
         return Panoptic(ids=ids, segments=segments)
 
     def objects(
-        self, image: Image, out: dict[str, np.ndarray], surface: np.ndarray
-    ) -> list[tuple[np.ndarray, str, float]]:
-        """(mask, category name, score) of each piece of furniture found, at working resolution."""
+        self, image: Image, out: dict[str, np.ndarray], surface: np.ndarray, camera: Camera | None = None
+    ) -> list[Found]:
+        """Each piece of furniture found, at working resolution; with the photo's ``camera``, its 3D box where the
+        network has the 3D heads."""
         found = instances(out["surface"], out["category"], out["center"], out["offset"], self.center_threshold)
         if not found:
             return []
@@ -179,20 +191,46 @@ class Eyes:
         for k, item in enumerate(found):
             mask = full == k + 1
             if mask.sum() >= least:
-                result.append((mask, CATEGORIES[item.category], item.score))
+                seen = _seen_box(out, owner == k + 1, camera) if camera is not None else None
+                result.append(Found(mask, CATEGORIES[item.category], item.score, seen))
         return result
 
-    def panoptic(self, image: Image) -> Panoptic:
+    def panoptic(self, image: Image, camera: Camera) -> Panoptic:
         """The room's segments (:meth:`room`) and one segment per piece of furniture, labelled with its
-        category."""
+        category, with its 3D box where the network sees one."""
         out = self.outputs(image)
         surface = self.surfaces(image, out)
         room = self.room(surface)
         segments = list(room.segments)
-        for mask, name, _ in self.objects(image, out, surface):
-            segments.append(Segment(len(segments) + 1, _category(name), name))
-            room.ids[mask] = segments[-1].id
+        for item in self.objects(image, out, surface, camera):
+            segments.append(Segment(len(segments) + 1, _category(item.name), item.name, seen=item.seen))
+            room.ids[item.mask] = segments[-1].id
         return Panoptic(ids=room.ids, segments=segments)
+
+
+class Found(NamedTuple):
+    """A piece of furniture the network found."""
+
+    mask: np.ndarray
+    """(H, W) bool at working resolution."""
+    name: str
+    """Its category (:data:`.labels.CATEGORIES`)."""
+    score: float
+    """Its centre's score."""
+    seen: SeenBox | None
+    """Its 3D box in the photo's camera frame (None: the network has no 3D heads, or no camera was given)."""
+
+
+def _seen_box(out: dict[str, np.ndarray], mask: np.ndarray, camera: Camera) -> SeenBox | None:
+    """The 3D box of the instance on ``mask`` (output resolution) for a photo seen by ``camera``: the network's
+    input is the photo stretched to :data:`INPUT_SIZE`, so its focal is the camera's in input pixels."""
+    if any(name not in out for name in BOX_OUTPUTS):
+        return None
+    fx, fy = camera.fx * INPUT_SIZE[1] / camera.width, camera.fy * INPUT_SIZE[0] / camera.height
+    box = read_box(out, mask, fx, fy)
+    if not (np.all(np.isfinite(box.center)) and box.center[2] > 0):
+        return None
+    return SeenBox(tuple(box.center), tuple(box.size), box.yaw, min(max(box.yaw_confidence, 0.0), 1.0))
 
 
 def _category(name: str) -> str:
@@ -214,7 +252,7 @@ class EyesSegmentation(Eyes):
         return super().unavailable(photo)
 
     def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic:
-        return self.panoptic(image)
+        return self.panoptic(image, camera)
 
 
 class EyesDepth(Eyes):
@@ -234,11 +272,11 @@ class EyesDetector(Eyes):
     def detect(self, image: Image, photo: Path) -> Detections:
         out = self.outputs(image)
         items = []
-        for mask, name, score in self.objects(image, out, self.surfaces(image, out)):
-            box = mask_box(mask)
+        for item in self.objects(image, out, self.surfaces(image, out)):
+            box = mask_box(item.mask)
             assert box is not None  # an instance has pixels
             x0, y0, x1, y1 = (float(v) for v in box)
-            items.append(Detection(name, _category(name), (x0, y0, x1, y1), min(max(score, 0.0), 1.0)))
+            items.append(Detection(item.name, _category(item.name), (x0, y0, x1, y1), min(max(item.score, 0.0), 1.0)))
         return Detections(sorted(items, key=lambda d: -d.score), source=self.describe())
 
 

@@ -62,6 +62,13 @@ class LayoutDepthAndEyesSettings:
         "relative_min_width say where the network's relative depth shapes an object."
     )
     eyes: EyesSettings = setting(doc="The network's settings: depth.eyes's node (set depth.eyes.X).")
+    camera_heights: list[float] = setting(
+        length=2,
+        gt=0,
+        doc="[lowest, highest] camera height (metres) the segmentation's 3D boxes may set: the layout's depth is "
+        "scaled so that the objects' depths match the boxes' (their median ratio), within these; a photo with no "
+        "boxes keeps depth.layout.camera_height_m. Equal values: that height, whatever the boxes.",
+    )
 
 
 @dataclass

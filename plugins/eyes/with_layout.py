@@ -15,17 +15,26 @@ user's boxes still apply. Where one of the network's furniture instances fills a
 behind another, feet below the frame) has none, and is put against the room surface behind it.
 ``depth=layout_eyes`` gives such an object the eyes network's relative depth instead, scaled to the layout's
 on the pixels the layout places (room surfaces and the objects it stood on the floor), never beyond the room.
+
+The layout knows the room's shape in camera heights; ``depth=layout`` assumes the camera's height
+(``camera_height_m``). Furniture has real sizes, and the segmentation's 3D boxes (``segmentation=eyes`` or
+``layout_eyes``) say how far each object is: ``depth=layout_eyes`` takes the camera height at which the layout's
+object depths match the boxes' (their median ratio over the objects), within ``camera_heights``.
 """
 
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from dataclasses import asdict, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from psdr_room_core.method.artifacts import Camera, DepthMap, Detections, Image, Panoptic
 from psdr_room_core.method.objects import OBJECT_CATEGORIES
+from psdr_room_core.method.seen_boxes import near_face_depth
 
 from ..layout.depth import LayoutDepth
 from ..layout.segmentation import LayoutSegmentation
@@ -58,7 +67,7 @@ class LayoutWithEyesSurfaces(_LayoutHelpedByEyes):
         self.eyes = Eyes(**asdict(eyes)) if eyes else Eyes()
 
     def segment(self, image: Image, camera: Camera, detections: Detections, photo: Path) -> Panoptic:
-        seen = self.eyes.panoptic(image)
+        seen = self.eyes.panoptic(image, camera)
         log.info(
             "layout_eyes: the box also fits %s's %s; its %d furniture instance(s) help discovery",
             self.eyes.describe(),
@@ -71,19 +80,54 @@ class LayoutWithEyesSurfaces(_LayoutHelpedByEyes):
 
 class LayoutDepthWithEyes(_LayoutHelpedByEyes):
     """``depth=layout`` whose objects with no floor contact take the eyes network's depth, scaled to the layout's,
-    and whose objects on the floor take its shape behind their contact plane (:func:`~..layout.depth.shaped_by`).
-    Set a member's settings on its own node (``depth.layout.X``, ``depth.eyes.X``)."""
+    whose objects on the floor take its shape behind their contact plane (:func:`~..layout.depth.shaped_by`), and
+    whose scale is set by the segmentation's 3D boxes (:func:`camera_height`) within ``camera_heights``. Set a
+    member's settings on its own node (``depth.layout.X``, ``depth.eyes.X``)."""
 
     eyes: EyesDepth
 
-    def __init__(self, layout: LayoutDepthSettings | None = None, eyes: EyesSettings | None = None) -> None:
+    def __init__(
+        self,
+        layout: LayoutDepthSettings | None = None,
+        eyes: EyesSettings | None = None,
+        *,
+        camera_heights: Sequence[float],
+    ) -> None:
         self.layout = LayoutDepth(**vars(layout)) if layout else LayoutDepth()
         self.eyes = EyesDepth(**asdict(eyes)) if eyes else EyesDepth()
+        low, high = sorted(float(h) for h in camera_heights)
+        self.camera_heights = (low, high)
 
     def estimate(self, image: Image, camera: Camera, panoptic: Panoptic, photo: Path) -> DepthMap:
         relative = self.eyes.estimate(image, camera, panoptic, photo)
         depth = self.layout.estimate(image, camera, panoptic, photo, relative=relative.depth)
-        return replace(depth, source=f"{depth.source}; objects with no floor contact: {relative.source}, scaled to it")
+        assumed = self.layout.settings.camera_height_m
+        height = camera_height(depth.depth, panoptic, assumed, self.camera_heights)
+        source = f"{depth.source}; objects with no floor contact: {relative.source}, scaled to it"
+        if height != assumed:
+            log.info(
+                "layout_eyes: the 3D boxes put the camera %.2f m above the floor (%.2f m assumed)", height, assumed
+            )
+            source += f"; camera {height:.2f} m above the floor by the segmentation's 3D boxes"
+        return replace(depth, depth=(depth.depth * (height / assumed)).astype(np.float32), source=source)
+
+
+def camera_height(depth: np.ndarray, panoptic: Panoptic, assumed: float, heights: tuple[float, float]) -> float:
+    """The camera height (metres) at which ``depth`` (the layout's, for a camera ``assumed`` metres high) agrees
+    with the segments' 3D boxes: ``assumed`` over the median, over the segments with a box and depth, of their
+    median depth over the box's :func:`~psdr_room_core.method.seen_boxes.near_face_depth`, within ``heights``;
+    ``assumed`` where no segment has both."""
+    ratios = []
+    for segment in panoptic.segments:
+        if segment.seen is None:
+            continue
+        seen = depth[(panoptic.ids == segment.id) & (depth > 0)]
+        near = near_face_depth(segment.seen)
+        if seen.size and near > 0:
+            ratios.append(float(np.median(seen)) / near)
+    if not ratios:
+        return assumed
+    return float(np.clip(assumed / float(np.median(ratios)), *heights))
 
 
 if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from psdr_room_core.method.artifacts import ROOM_CATEGORIES, Panoptic
+from psdr_room_core.method.artifacts import ROOM_CATEGORIES, Panoptic, SeenBox
 from psdr_room_core.method.image_boxes import box_iou, mask_box
 from psdr_room_core.method.objects import OBJECT_CATEGORIES
 
@@ -66,20 +66,23 @@ class SeenObjects:
     """(N, 4) each instance's box (x0, y0, x1, y1 pixels)."""
     labels: list[str]
     """Each instance's label."""
+    boxes_3d: list[SeenBox | None]
+    """Each instance's 3D box, where the network gives one."""
     surfaces: np.ndarray | None = None
     """(H, W) boolean: the pixels the network sees as a room surface (wall, floor or ceiling)."""
 
     @classmethod
     def of(cls, panoptic: Panoptic) -> SeenObjects:
         """The object and lamp segments of ``panoptic``, and its room surfaces."""
-        shown = [(panoptic.ids == s.id, s.label) for s in panoptic.segments if s.category in OBJECT_CATEGORIES]
-        shown = [(mask, label) for mask, label in shown if mask.any()]
+        shown = [(panoptic.ids == s.id, s) for s in panoptic.segments if s.category in OBJECT_CATEGORIES]
+        shown = [(mask, segment) for mask, segment in shown if mask.any()]
         boxes = [mask_box(mask) for mask, _ in shown]
         surfaces = np.isin(panoptic.ids, [s.id for s in panoptic.segments if s.category in ROOM_CATEGORIES])
         return cls(
             [m for m, _ in shown],
             np.array(boxes, np.float64).reshape(-1, 4),
-            [label for _, label in shown],
+            [segment.label for _, segment in shown],
+            [segment.seen for _, segment in shown],
             surfaces,
         )
 
@@ -101,6 +104,11 @@ class SeenObjects:
         """The label of the instance filling ``box`` (see :meth:`_filling`), if any."""
         index = self._filling(box, same_iou)
         return None if index is None else self.labels[index]
+
+    def box_3d(self, box: tuple[float, float, float, float], same_iou: float) -> SeenBox | None:
+        """The 3D box of the instance filling ``box`` (see :meth:`_filling`), if any and the network gives one."""
+        index = self._filling(box, same_iou)
+        return None if index is None else self.boxes_3d[index]
 
     def apart(
         self, piece: tuple[float, float, float, float], whole: tuple[float, float, float, float], same_iou: float

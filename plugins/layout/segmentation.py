@@ -72,7 +72,8 @@ class LayoutSegmentation:
         for item in found:
             d = item.detection
             opinion = seen_objects.label(d.box, same_iou) if seen_objects is not None else None
-            segments.append(Segment(len(segments) + 1, d.category, d.label, d.score, d.box, opinion))
+            box_3d = seen_objects.box_3d(d.box, same_iou) if seen_objects is not None else None
+            segments.append(Segment(len(segments) + 1, d.category, d.label, d.score, d.box, opinion, box_3d))
             ids[item.mask] = segments[-1].id
         present = set(np.unique(ids).tolist())
         kept = [s for s in segments if s.id in present]

@@ -33,7 +33,7 @@ from PIL import Image
 
 from psdr_room_core.engine.bounded import JsonLimits, excerpt, load_json
 from psdr_room_core.engine.errors import PsdrRoomError
-from psdr_room_core.method.artifacts import Segment, box4, panoptic_ids
+from psdr_room_core.method.artifacts import SeenBox, Segment, box4, panoptic_ids
 
 from .sidecar_depth import MAX_SIDECAR_PIXELS, SidecarError
 
@@ -303,9 +303,9 @@ def read_coco_panoptic(png: Path, json_path: Path) -> tuple[np.ndarray, list[Seg
 
     The JSON is a single annotation (``segments_info`` + ``categories``) or a full COCO panoptic file
     (``annotations`` + ``categories``; the annotation whose ``file_name`` matches the PNG is used). A
-    segment's label is its ``label`` field if present, else its category name; the ``score``, ``prompt_box`` and
-    ``second_opinion`` :func:`~psdr_room_core.method.artifacts.write_coco_panoptic` writes for an automatic object are read
-    back.
+    segment's label is its ``label`` field if present, else its category name; the ``score``, ``prompt_box``,
+    ``second_opinion`` and ``seen_box`` :func:`~psdr_room_core.method.artifacts.write_coco_panoptic` writes for an
+    automatic object are read back.
     """
     png, json_path = Path(png), Path(json_path)
     if not json_path.is_file():
@@ -376,6 +376,14 @@ def read_coco_panoptic(png: Path, json_path: Path) -> tuple[np.ndarray, list[Seg
                 f"{json_path}: segment {sid} has second_opinion {excerpt(repr(opinion))}; "
                 "give a label (text) or leave it out"
             )
+        seen_box = info.get("seen_box")
+        try:
+            seen_3d = None if seen_box is None else SeenBox.from_json(seen_box)
+        except (ValueError, TypeError) as exc:
+            raise SidecarError(
+                f"{json_path}: segment {sid} has seen_box {excerpt(repr(seen_box))} ({exc}); "
+                "give center, size, yaw and confidence as psdr-room writes them, or leave it out"
+            ) from None
         segments.append(
             Segment(
                 sid,
@@ -384,6 +392,7 @@ def read_coco_panoptic(png: Path, json_path: Path) -> tuple[np.ndarray, list[Seg
                 None if score is None else float(score),
                 None if box is None else box4(box),
                 opinion,
+                seen_3d,
             )
         )
 

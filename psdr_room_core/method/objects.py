@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -16,6 +16,7 @@ import numpy as np
 from .artifacts import Camera, Image, Panoptic, Placement, PointCloud, RoomBox, rotation_y
 from .labels import alternates, meaning
 from .params import SupportParams
+from .seen_boxes import SeenPrior, scene_scale, seen_prior
 from .silhouette import mask_l1, silhouette
 
 OBJECT_CATEGORIES = ("object", "lamp")
@@ -51,13 +52,16 @@ class ObjectQuery:
     photo: np.ndarray | None = None
     """The working image (float RGB, one array shared by all queries): the object in its whole picture, for an
     image network that reads the room around it."""
+    seen: SeenPrior | None = None
+    """The segmenting network's 3D box of the object, in the world at the scene's scale (:mod:`.seen_boxes`)."""
 
 
 def object_queries(
     image: Image, panoptic: Panoptic, cloud: PointCloud, room: RoomBox, min_points: int, min_pixels: int
 ) -> list[ObjectQuery]:
     """A query per object segment with at least ``min_pixels`` pixels and ``min_points`` depth points whose label
-    names something the database holds (:func:`~.labels.meaning`)."""
+    names something the database holds (:func:`~.labels.meaning`), with its segment's 3D box where a network gave
+    one (:func:`~.seen_boxes.seen_prior`, at the scene's scale over all of them)."""
     to_world = np.asarray(room.camera_to_world)
     rgb8 = image.to_uint8()
     scene = cloud.points.astype(np.float64) @ to_world[:3, :3].T + to_world[:3, 3]
@@ -89,7 +93,12 @@ def object_queries(
                 image.rgb,
             )
         )
-    return queries
+    boxes = {s.id: s.seen for s in panoptic.segments if s.seen is not None}
+    scale = scene_scale(boxes, {q.segment_id: q.points for q in queries}, to_world)
+    return [
+        replace(q, seen=seen_prior(boxes[q.segment_id], to_world, scale)) if q.segment_id in boxes else q
+        for q in queries
+    ]
 
 
 def square_crop(rgb8: np.ndarray, mask: np.ndarray, context: float = 0.1) -> np.ndarray:

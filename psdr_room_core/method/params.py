@@ -105,6 +105,11 @@ class PhysicalParams:
         doc="An object showing less than this share of the pixels of its segment it covers alone is hidden: a blob "
         "of no named kind in front of it moves back behind it, else is dropped.",
     )
+    seen_order: float = setting(
+        ge=0,
+        doc="A named object hiding another moves back behind it where the segmenting network's 3D boxes put the "
+        "hidden one nearer by at least this share of its depth (0: never).",
+    )
     weak_score: float = setting(
         ge=0,
         le=1,
@@ -154,6 +159,16 @@ class SearchParams:
         ge=0,
         doc="Error per metre the wall behind such a model is farther than the wall nearest it (with the target's room "
         "box).",
+    )
+    seen_depth_weight: float = setting(
+        ge=0,
+        doc="Error per unit |log| of the ratio of the posed model's centre depth to the segmenting network's 3D box's "
+        "(at the scene's scale), for an object the network boxed (segmentation=eyes or layout_eyes).",
+    )
+    seen_yaw_weight: float = setting(
+        ge=0,
+        doc="Error of a pose turned half round from the network's 3D box, times the network's confidence in its yaw "
+        "((1 - cos) / 2 of the difference).",
     )
 
 

@@ -37,8 +37,11 @@ keeps its place in the picture, and logged), dropping an object only as the last
    sizes and ``keep_iou`` of its silhouette, reaching no farther out of the room, passing no deeper through
    anything, hiding nothing else; a wall or a child holds it in place), else it is dropped where that shows
    the hidden one, in either settling, so that the joint fit refines what it hid (unless a person drew it).
-   Between two named objects nothing changes: which one's depth is wrong the photo does not say, and what
-   stays hidden is reported (``benchmarks/real_photos.py``, column ``hid``).
+   Between two named objects the photo does not say which one's depth is wrong; where the segmenting network
+   boxed both in 3D and its boxes put the hidden one nearer by at least ``seen_order`` of its depth (the near
+   faces' depths, :func:`~.seen_boxes.near_face_depth`), the one in front moves back behind it in the same way
+   (it is not dropped: the network may be wrong). What stays hidden is reported (``benchmarks/real_photos.py``,
+   column ``hid``).
 
 Which of two objects is the stronger (:func:`evidence`): one a person drew, then one the segmentation was sure
 of (no weak guess: its prompt scored at least ``weak_score``), then the one that explains more of the photo, in
@@ -60,6 +63,7 @@ import numpy as np
 from .artifacts import Camera, Panoptic, Placement, RoomBox, rotation_y, vec3
 from .labels import ANY, meaning
 from .params import PhysicalParams
+from .seen_boxes import near_face_depth
 from .silhouette import depth_map, silhouette
 from .sizes import scale_range, size_excess
 from .solids import overlap, solid_of, to_model
@@ -217,8 +221,10 @@ class _Scene:
         pixels: Mapping[int, int],
         params: PhysicalParams,
         ids: np.ndarray | None,
+        seen_depths: Mapping[int, float],
     ) -> None:
         self.objects = {p.segment_id: p for p in placements}
+        self.seen_depths = seen_depths
         self.room, self.camera, self.drawn, self.scores = room, camera, drawn, scores
         self.weak = weak_guesses(scores, params.weak_score)
         self.pixels, self.params = pixels, params
@@ -489,7 +495,7 @@ class _Scene:
             pairs, changed = [], False
             for k in sorted(self.objects, key=self.strength, reverse=True):
                 front = self.hider(k, depths)
-                if front is not None and self.blob_hides(front, k):
+                if front is not None and (self.blob_hides(front, k) or self.seen_behind(front, k)):
                     pairs.append((front, k))
             for front, back in pairs:
                 if front in self.objects and back in self.objects:
@@ -508,9 +514,23 @@ class _Scene:
             and not (_stands_on(blob, hidden) or _stands_on(hidden, blob))
         )
 
+    def seen_behind(self, front: int, back: int) -> bool:
+        """Whether rule 5 acts on named ``front`` hiding named ``back`` because the network's 3D boxes put ``back``
+        nearer by at least ``seen_order`` of its depth, neither standing on the other."""
+        near, far = self.seen_depths.get(back), self.seen_depths.get(front)
+        if self.params.seen_order <= 0 or near is None or far is None:
+            return False
+        hider, hidden = self.objects[front], self.objects[back]
+        return (
+            not (_unknown(hider) or _unknown(hidden))
+            and front not in self.drawn
+            and not (_stands_on(hider, hidden) or _stands_on(hidden, hider))
+            and far > near * (1.0 + self.params.seen_order)
+        )
+
     def show(self, front: int, back: int, depths: dict[int, np.ndarray]) -> bool:
         """Rule 5 for ``back``, where ``front`` still hides it (``depths``: each object's :meth:`depth`, kept up to
-        date) and :meth:`blob_hides` it: ``front`` moved back, else dropped where that shows ``back``. Returns
+        date): ``front`` moved back, else, where :meth:`blob_hides` it, dropped where that shows ``back``. Returns
         whether anything changed."""
         if self.hider(back, depths) != front:
             return False
@@ -524,6 +544,8 @@ class _Scene:
             )
             depths[front] = self.depth(moved)
             return True
+        if not self.blob_hides(front, back):
+            return False
         if self.hider(back, {k: d for k, d in depths.items() if k != front}) is not None:
             return False
         self.drop(
@@ -622,14 +644,16 @@ def settle(
     final: bool = True,
     ids: np.ndarray | None = None,
     scores: Mapping[int, float] | None = None,
+    seen_depths: Mapping[int, float] | None = None,
 ) -> Settled:
     """The objects made physically possible (module docstring), judged in ``camera``'s picture (a small one
     will do); ``drawn``: segment ids a person drew; ``pixels``: each segment's pixel count; ``final``: the last
     settling, which may grow the room box and drop what it cannot part; ``ids``: the segmentation's id map at
     ``camera``'s size, what each pixel shows (rule 5; None: not checked); ``scores``: the prompt scores of the
     segments guessed automatically (those under ``weak_score`` are weak guesses; None, or a segment missing:
-    sure, score 1)."""
-    scene = _Scene(placements, room, camera, drawn, scores or {}, pixels, params, ids)
+    sure, score 1); ``seen_depths``: the near-face depth of each segment the segmenting network boxed in 3D (its
+    scale: only their order counts, rule 5)."""
+    scene = _Scene(placements, room, camera, drawn, scores or {}, pixels, params, ids, seen_depths or {})
     scene.keep_sizes()
     scene.remove_duplicates()
     scene.keep_inside(final)
@@ -676,6 +700,7 @@ def settle_logged(
         final=final,
         ids=panoptic.ids_at(camera.width, camera.height),
         scores=scores,
+        seen_depths={s.id: near_face_depth(s.seen) for s in panoptic.segments if s.seen is not None},
     )
     for note in settled.changed:
         log.info("%s: %s", stage, note)

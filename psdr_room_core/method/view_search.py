@@ -23,11 +23,12 @@ from functools import cached_property
 import cv2
 import numpy as np
 
-from .artifacts import Camera, RoomBox
+from .artifacts import Camera, RoomBox, rotation_y
 from .backs import back_shown, wall_gap
 from .image_boxes import box_iou, mask_box
 from .objects import pose_matrix
 from .params import SearchParams
+from .seen_boxes import SeenPrior
 from .silhouette import MeshCaster, Window, world_to_camera
 from .sizes import SizePrior
 
@@ -65,6 +66,8 @@ class ViewTarget:
     """The prompt box at the search resolution (x0, y0, x1, y1): the visible model should span it."""
     room: RoomBox | None = None
     """The room box the model must stay inside (None: anywhere)."""
+    seen: SeenPrior | None = None
+    """A network's 3D box of the object (None: none): a start of the search and a prior on the pose's depth and yaw."""
 
     # What every pose of every model is measured against: computed once per target, not once per model
     @cached_property
@@ -107,13 +110,14 @@ class ViewTarget:
         max_pixels: int = 0,
         box: tuple[float, float, float, float] | None = None,
         room: RoomBox | None = None,
+        seen: SeenPrior | None = None,
     ) -> ViewTarget:
         """The target of an object with ``mask`` (working-image resolution) and world ``points`` in a scene of
         world ``scene_points`` (every segment's), seen by ``camera`` resized to ``width``, or narrower where
         the mask would have more than ``max_pixels`` pixels (0: no limit; scores are relative, so a cap buys
         speed for big objects at the cost of their fine detail). Pixels of the prompt ``box`` (working-image
         pixels) outside the mask are free: the model may cover them or not. A pose reaching beyond the
-        ``room`` box costs error."""
+        ``room`` box costs error, one far from the ``seen`` box in depth or yaw too."""
         scale = min(int(width), camera.width) / camera.width
         if max_pixels > 0:
             scale = min(scale, math.sqrt(max_pixels / max(int(mask.sum()), 1)))
@@ -140,6 +144,7 @@ class ViewTarget:
             free,
             small_box,
             room,
+            seen,
         )
 
 
@@ -160,7 +165,9 @@ class ViewFit:
     its bounding box reaches beyond the target's room box (+ ``back_weight`` × how far it shows the camera its
     back, :func:`~psdr_room_core.method.backs.back_shown`, + ``wall_weight`` × how much farther than the nearest
     wall the wall behind it is, :func:`~psdr_room_core.method.backs.wall_gap`, for a model that stands with its
-    back to a wall)."""
+    back to a wall) (+ ``seen_depth_weight`` × |log| of its centre's depth over the network's and
+    ``seen_yaw_weight`` × the network's confidence × (1 − cos) / 2 of its yaw from the network's, for a target with a
+    :attr:`ViewTarget.seen` box)."""
     terms: dict[str, float] = field(default_factory=dict)
     """:attr:`error` term by term (:data:`ERROR_TERMS` that apply; they sum to it)."""
 
@@ -173,6 +180,8 @@ ERROR_TERMS = {
     "room": "room_weight × metres the model reaches beyond the room box",
     "back": "back_weight × how far a model that stands with its back to a wall shows the camera its back",
     "wall": "wall_weight × metres farther than the nearest wall the wall behind a model that stands with its back to one is",
+    "seen": "seen_depth_weight × |log depth ratio| + seen_yaw_weight × confidence × (1 − cos yaw difference) / 2 "
+    "to a network's 3D box of the object",
 }
 """The terms of :attr:`ViewFit.error`, by name: what a user reads to see why a model was ranked where it was."""
 
@@ -193,6 +202,7 @@ class _Scorer:
         self.target, self.params, self.prior = target, params, prior
         self.backed = backed and params.back_weight > 0
         self.walled = backed and params.wall_weight > 0 and target.room is not None
+        self.seen_weighted = target.seen is not None and (params.seen_depth_weight > 0 or params.seen_yaw_weight > 0)
         self.caster = caster or MeshCaster(vertices, faces)
         lo, hi = vertices.min(axis=0), vertices.max(axis=0)
         self.corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
@@ -290,6 +300,8 @@ class _Scorer:
             terms["back"] = self.params.back_weight * back_shown(front[:, 0], front[:, 2], towards[:, 0], towards[:, 2])
         if self.walled:
             terms["wall"] = self.params.wall_weight * self.wall_gaps(poses)
+        if self.seen_weighted:
+            terms["seen"] = self.seen_gaps(poses)
         iou = overlap / np.maximum(self.mask_area + visible_area - overlap, 1)
         return terms, iou
 
@@ -311,6 +323,20 @@ class _Scorer:
         front /= np.linalg.norm(front[:, [0, 2]], axis=1, keepdims=True)
         half = np.asarray(room.half_size)
         return wall_gap(front[:, 0], front[:, 2], local[:, 0], local[:, 2], float(half[0]), float(half[2]))
+
+    def seen_gaps(self, poses: list[np.ndarray]) -> np.ndarray:
+        """(K,) each pose's distance from the target's :attr:`~ViewTarget.seen` box, weighted: the log ratio of its
+        box centre's camera depth to the seen one's, and how far (1 − cos) / 2 its yaw turns from the seen one's,
+        by the network's confidence in it."""
+        seen = self.target.seen
+        assert seen is not None
+        middle = self.corners.mean(axis=0)
+        centres = np.array([pose[:3, :3] @ middle + pose[:3, 3] for pose in poses])
+        depth = np.maximum(world_to_camera(centres, self.target.camera_to_world)[:, 2], 1e-3)
+        yaws = np.array([math.atan2(pose[0, 2], pose[2, 2]) for pose in poses])
+        return self.params.seen_depth_weight * np.abs(np.log(depth / seen.depth)) + (
+            self.params.seen_yaw_weight * seen.confidence * (1.0 - np.cos(yaws - seen.yaw)) / 2.0
+        )
 
     def prompt_iou(self, window: Window, visible: np.ndarray) -> float:
         """IoU of the visible model's bounding box with the target's prompt box."""
@@ -357,7 +383,9 @@ class ViewSearch:
         if support_height is not None:
             reach = float(np.percentile(target.points[:, 1], 98)) - support_height
             start_scale = max(start_scale, reach / max(float(np.ptp(vertices[:, 1])), 1e-9))
-        self.hypotheses = sorted(self._moment_matched(median, box_centre, start_scale), key=lambda h: h[0])
+        self.seen_start = self._seen_start(box_centre, np.ptp(vertices, axis=0)) if target.seen is not None else None
+        starts = self._moment_matched(median, box_centre, start_scale)
+        self.hypotheses = sorted(starts + ([self.seen_start] if self.seen_start else []), key=lambda h: h[0])
 
     @property
     def start(self) -> Hypothesis:
@@ -371,6 +399,16 @@ class ViewSearch:
         position = position.copy()
         position[1] = self.support_height
         return position
+
+    def _seen_start(self, box_centre: np.ndarray, extent: np.ndarray) -> Hypothesis:
+        """The network's box as a pose: the mesh's box centre on the seen centre, turned to the seen yaw, scaled to
+        the seen box's volume (held on the support, where there is one)."""
+        seen = self.scorer.target.seen
+        assert seen is not None
+        scale = float(np.prod(seen.size) / max(float(np.prod(np.maximum(extent, 1e-3))), 1e-9)) ** (1.0 / 3.0)
+        position = self.supported(seen.center - rotation_y(seen.yaw) @ (scale * box_centre))
+        error, _ = self.scorer.score(pose_matrix(position, seen.yaw, scale))
+        return error, seen.yaw, position, scale
 
     def _moment_matched(self, median: np.ndarray, box_centre: np.ndarray, start_scale: float) -> list[Hypothesis]:
         """Each rotation moved and scaled ``refine`` times so its visible part has the mask's area, its points
@@ -400,14 +438,17 @@ class ViewSearch:
         return [(error, yaw, p, s) for (error, _), yaw, p, s in zip(scores, yaws, positions, scales)]
 
     def finish(self) -> ViewFit:
-        """The best pose: the best ``explore`` starts refined by a coarse pattern search, the best ``polish`` of
-        those at finer steps, the best also turned by each of ``turns`` and refined."""
+        """The best pose: the best ``explore`` starts (and the network's box, where the target has one) refined by a
+        coarse pattern search, the best ``polish`` of those at finer steps, the best also turned by each of
+        ``turns`` and refined."""
         params, scorer = self.params, self.scorer
         spacing = 2.0 * math.pi / max(params.n_yaw, 1)
         search = _PatternSearch(
             scorer, self.supported, spacing / 2.0, self.size, scorer.target.camera_to_world[:3, 3], params.rounds
         )
-        explored = self.hypotheses[: params.explore] if params.explore else self.hypotheses
+        explored = self.hypotheses[: params.explore] if params.explore else list(self.hypotheses)
+        if self.seen_start is not None and not any(h is self.seen_start for h in explored):
+            explored.append(self.seen_start)
         coarse = sorted((search.run(h, range(params.coarse)) for h in explored), key=lambda h: h[0])
         fine_levels = range(params.coarse, params.coarse + params.halvings)
         fine = [search.run(h, fine_levels) for h in coarse[: params.polish]]

@@ -14,7 +14,7 @@ from psdr_room_core.engine.errors import PsdrRoomError
 
 from ..geometry import TriangleMesh
 from .io import ply_bytes, read_json, read_ply, read_png, write_json, write_png
-from .segmentation import Segment
+from .segmentation import SeenBox, Segment
 
 
 @dataclass
@@ -39,7 +39,10 @@ class PointCloud:
     @classmethod
     def load(cls, directory: Path) -> PointCloud:
         data = read_ply(directory / "points.ply")
-        segments = [Segment(**s) for s in read_json(directory / "segments.json")]
+        segments = [
+            Segment(**{**s, "seen": None if s.get("seen") is None else SeenBox.from_json(s["seen"])})
+            for s in read_json(directory / "segments.json")
+        ]
         points = np.stack([data["x"], data["y"], data["z"]], axis=1).astype(np.float32)
         colors = np.stack([data["red"], data["green"], data["blue"]], axis=1)
         return cls(points=points, colors=colors, segment=data["segment"].astype(np.int32), segments=segments)

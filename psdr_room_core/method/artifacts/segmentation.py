@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -129,6 +130,53 @@ class Detections:
 
 
 @dataclass(frozen=True)
+class SeenBox:
+    """An object's 3D box as a network sees it in the photo's camera frame (OpenCV: x right, y down, z forward;
+    metres at the network's own scale)."""
+
+    center: tuple[float, float, float]
+    """The box's centre (z > 0: in front of the camera)."""
+    size: tuple[float, float, float]
+    """Its size along the object's own axes: width, height, depth (each > 0)."""
+    yaw: float
+    """Radians about world up from the camera's heading to the object's front (0: it faces away from the camera)."""
+    confidence: float
+    """How sure the network is of the yaw, in [0, 1] (the probability of its yaw bin)."""
+
+    def __post_init__(self) -> None:
+        center = tuple(float(v) for v in self.center)
+        size = tuple(float(v) for v in self.size)
+        numbers = (*center, *size, float(self.yaw), float(self.confidence))
+        if len(center) != 3 or len(size) != 3 or not all(math.isfinite(v) for v in numbers):
+            raise ValueError(f"SeenBox needs 3 finite centre and size values, got {self.center!r}, {self.size!r}")
+        if center[2] <= 0 or min(size) <= 0 or not 0.0 <= self.confidence <= 1.0:
+            raise ValueError(
+                f"SeenBox needs a centre in front of the camera (z > 0), a positive size and a confidence in [0, 1], "
+                f"got z={center[2]!r}, size={size!r}, confidence={self.confidence!r}"
+            )
+        object.__setattr__(self, "center", center)
+        object.__setattr__(self, "size", size)
+        object.__setattr__(self, "yaw", float(self.yaw))
+        object.__setattr__(self, "confidence", float(self.confidence))
+
+    def to_json(self) -> dict[str, Any]:
+        return {"center": list(self.center), "size": list(self.size), "yaw": self.yaw, "confidence": self.confidence}
+
+    @classmethod
+    def from_json(cls, data: Any) -> SeenBox:
+        """The box :meth:`to_json` wrote (ValueError or TypeError: it is not one)."""
+        if not isinstance(data, dict) or set(data) != {"center", "size", "yaw", "confidence"}:
+            raise ValueError("a seen_box is an object with center, size, yaw and confidence")
+        center, size = data["center"], data["size"]
+        if not all(isinstance(v, list) and len(v) == 3 for v in (center, size)):
+            raise ValueError("a seen_box's center and size are lists of 3 numbers")
+        values = [*center, *size, data["yaw"], data["confidence"]]
+        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
+            raise ValueError("a seen_box holds numbers only")
+        return cls(tuple(center), tuple(size), data["yaw"], data["confidence"])
+
+
+@dataclass(frozen=True)
 class Segment:
     """One segment of a panoptic segmentation."""
 
@@ -151,6 +199,9 @@ class Segment:
     (``segmentation=layout_eyes``), or a person's name for it (the studio). Where it names one of the label's own
     categories the label is confirmed: its alternates are not searched
     (:func:`~psdr_room_core.method.labels.alternates`). None: nobody else judged."""
+    seen: SeenBox | None = None
+    """The object's 3D box as the network that found it sees it (``segmentation=eyes``, ``layout_eyes`` where one of
+    its instances fills the prompt's box). None: no network's box."""
 
     def __post_init__(self) -> None:
         if self.box is not None:
@@ -216,6 +267,7 @@ def write_coco_panoptic(png: Path, json_path: Path, ids: np.ndarray, segments: l
                 **({} if s.score is None else {"score": float(s.score)}),
                 **({} if s.box is None else {"prompt_box": [float(v) for v in s.box]}),
                 **({} if s.second_opinion is None else {"second_opinion": s.second_opinion}),
+                **({} if s.seen is None else {"seen_box": s.seen.to_json()}),
             }
         )
     write_json(
@@ -275,6 +327,7 @@ class Panoptic:
                     None if s.get("score") is None else float(s["score"]),
                     s.get("prompt_box"),
                     s.get("second_opinion"),
+                    None if s.get("seen_box") is None else SeenBox.from_json(s["seen_box"]),
                 )
                 for s in meta["segments_info"]
             ]

@@ -180,13 +180,15 @@ def _searched_pose(
     size prior of the model's category (``size_prior`` weights): a bed is not posed at twice its size to match
     a depth that may be off. A model that stands with its back to a wall pays ``search.back_weight`` for
     showing the camera its back and ``search.wall_weight`` per metre for backing onto a wall farther than the
-    nearest (:mod:`~psdr_room_core.method.backs`)."""
+    nearest (:mod:`~psdr_room_core.method.backs`). Where the segmenting network boxed the object in 3D
+    (:attr:`~psdr_room_core.method.objects.ObjectQuery.seen`), its box is a start of the search and the
+    ``search.seen_*_weight`` terms hold the pose near its depth and yaw."""
     prior = SizePrior.of(
         category, np.ptp(mesh.vertices, axis=0), settings.size_prior.scale_weight, settings.size_prior.range_weight
     )
     c2w = np.asarray(room.camera_to_world)
     target = ViewTarget.build(
-        camera, c2w, q.mask, q.points, q.scene_points, settings.render_width, box=q.box, room=room
+        camera, c2w, q.mask, q.points, q.scene_points, settings.render_width, box=q.box, room=room, seen=q.seen
     )
     fits = [
         (
