@@ -34,7 +34,7 @@ import numpy as np
 
 from psdr_room_core.method.artifacts import Camera, DepthMap, Detections, Image, Panoptic
 from psdr_room_core.method.objects import OBJECT_CATEGORIES
-from psdr_room_core.method.seen_boxes import near_face_depth
+from psdr_room_core.method.seen_boxes import depth_ratio
 
 from ..layout.depth import LayoutDepth
 from ..layout.segmentation import LayoutSegmentation
@@ -115,19 +115,16 @@ class LayoutDepthWithEyes(_LayoutHelpedByEyes):
 def camera_height(depth: np.ndarray, panoptic: Panoptic, assumed: float, heights: tuple[float, float]) -> float:
     """The camera height (metres) at which ``depth`` (the layout's, for a camera ``assumed`` metres high) agrees
     with the segments' 3D boxes: ``assumed`` over the median, over the segments with a box and depth, of their
-    median depth over the box's :func:`~psdr_room_core.method.seen_boxes.near_face_depth`, within ``heights``;
-    ``assumed`` where no segment has both."""
-    ratios = []
-    for segment in panoptic.segments:
-        if segment.seen is None:
-            continue
-        seen = depth[(panoptic.ids == segment.id) & (depth > 0)]
-        near = near_face_depth(segment.seen)
-        if seen.size and near > 0:
-            ratios.append(float(np.median(seen)) / near)
-    if not ratios:
-        return assumed
-    return float(np.clip(assumed / float(np.median(ratios)), *heights))
+    median depth over the box's near-face depth (:func:`~psdr_room_core.method.seen_boxes.depth_ratio`), within
+    ``heights``; ``assumed`` where no segment has both."""
+    boxes = {s.id: s.seen for s in panoptic.segments if s.seen is not None}
+    depths = {}
+    for segment_id in boxes:
+        seen = depth[(panoptic.ids == segment_id) & (depth > 0)]
+        if seen.size:
+            depths[segment_id] = float(np.median(seen))
+    ratio = depth_ratio(depths, boxes)
+    return assumed if ratio is None else float(np.clip(assumed / ratio, *heights))
 
 
 if TYPE_CHECKING:  # mypy checks each implementation against its capability's protocol

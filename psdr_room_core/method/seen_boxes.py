@@ -52,17 +52,21 @@ def near_face_depth(box: SeenBox) -> float:
     return z - 0.5 * (abs(math.cos(alpha)) * depth + abs(math.sin(alpha)) * width)
 
 
+def depth_ratio(depths: Mapping[int, float], boxes: Mapping[int, SeenBox]) -> float | None:
+    """The median, over the segments with a box and a depth (``depths[segment id]``, of its visible surface), of
+    that depth over the box's :func:`near_face_depth`; None where no segment has both."""
+    ratios = [depths[k] / near_face_depth(box) for k, box in boxes.items() if k in depths and near_face_depth(box) > 0]
+    return float(np.median(ratios)) if ratios else None
+
+
 def scene_scale(boxes: Mapping[int, SeenBox], points: Mapping[int, np.ndarray], camera_to_world: np.ndarray) -> float:
-    """The factor from the network's depths to the scene's: the median over the objects with a box and points (world,
-    ``points[segment id]``) of their points' median camera depth over the box's :func:`near_face_depth` (1: none)."""
-    ratios = []
-    for segment_id, box in boxes.items():
-        seen = points.get(segment_id)
-        near = near_face_depth(box)
-        if seen is None or len(seen) == 0 or near <= 0:
-            continue
-        ratios.append(float(np.median(world_to_camera(seen, camera_to_world)[:, 2])) / near)
-    return float(np.median(ratios)) if ratios else 1.0
+    """The factor from the network's depths to the scene's: the :func:`depth_ratio` of the objects' points (world,
+    ``points[segment id]``, their median camera depth) to their boxes (1: none)."""
+    depths = {
+        k: float(np.median(world_to_camera(seen, camera_to_world)[:, 2])) for k, seen in points.items() if len(seen)
+    }
+    ratio = depth_ratio(depths, boxes)
+    return 1.0 if ratio is None else ratio
 
 
 def seen_prior(box: SeenBox, camera_to_world: np.ndarray, scale: float) -> SeenPrior:
